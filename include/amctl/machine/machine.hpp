@@ -1,0 +1,110 @@
+#pragma once
+// The machine description: everything the planner needs to know about a printer.
+// Units: mm, s, mm/s, mm/s^2 throughout. A Machine is an immutable value; build it from a
+// TOML file, a Klipper printer.cfg or a preset (see loader.hpp), then override fields.
+#include <array>
+#include <map>
+#include <optional>
+#include <string>
+
+namespace amctl::machine {
+
+/// How the printer maps motor positions to the tool position.
+enum class Kinematics { cartesian, corexy };
+
+/// Whose G-code semantics apply. Klipper ignores M201/M203/M205 and takes accel from
+/// M204 S (or min(P, T)); Marlin applies M201-M205 as slicers emit them; RepRapFirmware
+/// reads jerk from M566 (mm/min).
+enum class Firmware { klipper, marlin, reprap };
+
+/// How the speed through a corner between two moves is limited.
+enum class JunctionPolicy {
+  square_corner_velocity,  ///< Klipper: junction deviation derived from square_corner_velocity
+  junction_deviation,      ///< Marlin JD (JUNCTION_DEVIATION_MM), with its small-segment limit
+  classic_jerk             ///< Marlin/RRF classic jerk: max instantaneous per-axis speed change
+};
+
+/// Shape of each acceleration phase.
+enum class VelocityProfile {
+  trapezoid,   ///< constant acceleration (Klipper, Marlin default)
+  scurve7,     ///< seven-segment jerk-limited S-curve (five phases when some vanish)
+  bezier5      ///< Marlin S_CURVE_ACCELERATION: quintic Bezier velocity ramp
+};
+
+enum Axis : int { X = 0, Y = 1, Z = 2, E = 3 };
+
+/// Extruder limits; Klipper [extruder] semantics.
+struct Extruder {
+  double nozzle_diameter_mm = 0.4;
+  double filament_diameter_mm = 1.75;
+  /// Extrude-only (and retract) move limits. Unset = Klipper's defaults derived from
+  /// the toolhead limits times (4 d_nozzle^2) / filament area.
+  std::optional<double> max_extrude_only_velocity_mm_s;
+  std::optional<double> max_extrude_only_accel_mm_s2;
+  double max_extrude_only_distance_mm = 50.0;
+  /// Max instantaneous change of extruder speed at a junction (Klipper).
+  double instantaneous_corner_velocity_mm_s = 1.0;
+  /// Unset = 4 * nozzle_diameter^2 (Klipper's default).
+  std::optional<double> max_extrude_cross_section_mm2;
+};
+
+/// One stepper's drive train: distance per full motor revolution and stepping.
+struct Stepper {
+  double rotation_distance_mm = 40.0;
+  int microsteps = 16;
+  int full_steps_per_rotation = 200;
+  [[nodiscard]] double steps_per_mm() const {
+    return microsteps * full_steps_per_rotation / rotation_distance_mm;
+  }
+};
+
+/// Arc (G2/G3) linearisation.
+struct Arcs {
+  /// Klipper [gcode_arcs] resolution / Marlin MM_PER_ARC_SEGMENT: target chord length.
+  double mm_per_arc_segment = 1.0;
+  /// Marlin MIN_ARC_SEGMENT_MM (0 = Klipper behaviour: no lower clamp).
+  double min_arc_segment_mm = 0.0;
+  /// Marlin MAX_ARC_SEGMENT_MM (0 = no upper clamp).
+  double max_arc_segment_mm = 0.0;
+  /// Marlin ARC_SEGMENTS_PER_SEC (0 = off): caps segments per second of motion.
+  double segments_per_second = 0.0;
+};
+
+struct Machine {
+  std::string name = "default";
+  Firmware firmware = Firmware::klipper;
+  Kinematics kinematics = Kinematics::cartesian;
+  JunctionPolicy junction = JunctionPolicy::square_corner_velocity;
+  VelocityProfile profile = VelocityProfile::trapezoid;
+
+  // --- Toolhead limits (Klipper [printer]) ---
+  double max_velocity_mm_s = 300.0;
+  double max_accel_mm_s2 = 3000.0;
+  double square_corner_velocity_mm_s = 5.0;
+  /// Klipper minimum_cruise_ratio (0 <= r < 1). The older max_accel_to_decel A maps to
+  /// 1 - A / max_accel.
+  double minimum_cruise_ratio = 0.5;
+  double max_z_velocity_mm_s = 0.0;   ///< 0 = same as max_velocity
+  double max_z_accel_mm_s2 = 0.0;     ///< 0 = same as max_accel
+
+  // --- Marlin-style per-axis limits (X, Y, Z, E); used when firmware = marlin/reprap ---
+  std::array<double, 4> max_feedrate_mm_s{500, 500, 12, 120};     ///< M203
+  std::array<double, 4> max_axis_accel_mm_s2{9000, 9000, 500, 10000};  ///< M201
+  double print_accel_mm_s2 = 1250;    ///< M204 P (or S)
+  double retract_accel_mm_s2 = 1250;  ///< M204 R
+  double travel_accel_mm_s2 = 1250;   ///< M204 T
+  std::array<double, 4> jerk_mm_s{8, 8, 0.4, 5};  ///< M205 X Y Z E (classic jerk)
+  double junction_deviation_mm = 0.013;         ///< M205 J
+  double min_feedrate_mm_s = 0.0;               ///< M205 S
+  double min_travel_feedrate_mm_s = 0.0;        ///< M205 T
+  double min_segment_time_s = 0.0;              ///< M205 B (us in G-code; s here)
+
+  /// Jerk for the jerk-limited profiles (scurve7). [mm/s^3]
+  double max_jerk_mm_s3 = 1.0e6;
+
+  Extruder extruder;
+  Arcs arcs;
+  std::map<std::string, Stepper> steppers;  ///< keyed "x", "y", "z", "e"
+};
+
+}  // namespace amctl::machine
