@@ -1,5 +1,6 @@
 // amctl shrink fit | shrink slicing | shrink apply | calibrate-time | estimate-time (process
 // planning, seed 004).
+#include <array>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -14,6 +15,8 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/process/csv.hpp"
+#include "amctl/process/gcode_scale.hpp"
+#include "amctl/process/stl.hpp"
 #include "amctl/process/scale_map.hpp"
 #include "amctl/process/shrinkage.hpp"
 #include "amctl/process/slicing.hpp"
@@ -290,6 +293,188 @@ void register_shrink_slicing(CLI::App& shrink) {
   });
 }
 
+
+// Builds the X/Y/Z maps from an inline spec or from the JSON that `shrink fit --json` prints.
+std::array<pr::AxisMap, 3> load_factors(const std::string& spec) {
+  if (spec.size() > 5 && spec.substr(spec.size() - 5) == ".json") {
+    json j;
+    try {
+      j = json::parse(pr::read_file_bytes(spec));
+    } catch (const json::exception& e) {
+      throw Error(fmt::format("--factors {}: not valid JSON: {}", spec, e.what()));
+    }
+    std::array<pr::AxisMap, 3> maps{};
+    auto one = [&](const json& a) {
+      if (!a.contains("axis")) throw Error(fmt::format("--factors {}: fit without 'axis'", spec));
+      const std::string ax = a["axis"].get<std::string>();
+      const int k = ax == "X" ? 0 : ax == "Y" ? 1 : ax == "Z" ? 2 : -1;
+      if (k < 0) throw Error(fmt::format("--factors {}: unknown axis '{}'", spec, ax));
+      std::vector<double> f, b;
+      if (a.contains("ranges")) {
+        for (std::size_t i = 0; i < a["ranges"].size(); ++i) {
+          f.push_back(a["ranges"][i]["factor"].get<double>());
+          if (i + 1 < a["ranges"].size()) b.push_back(a["ranges"][i]["upper_mm"].get<double>());
+        }
+      } else {
+        f.push_back(a.at("factor").get<double>());
+      }
+      maps[k] = pr::AxisMap(f, b);
+    };
+    if (j.contains("axes")) {
+      for (const auto& a : j["axes"]) one(a);
+    } else {
+      one(j);
+    }
+    return maps;
+  }
+  return pr::parse_factor_spec(spec);
+}
+
+json vec_json(const std::array<double, 3>& v) { return json::array({v[0], v[1], v[2]}); }
+
+void register_shrink_apply(CLI::App& shrink) {
+  auto* cmd = shrink.add_subcommand(
+      "apply", "Scale an STL model or a G-code file by shrinkage factors (atomic output)");
+  struct Opts {
+    std::string model, gcode, factors, origin, out, format;
+    double layer_mm = 0.0;
+    std::optional<double> first_layer_mm;
+    double plane_fraction = 0.5;
+    bool no_scale_e = false;
+    bool json = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* m = cmd->add_option("--model", o->model, "STL model (binary or ASCII)");
+  auto* g = cmd->add_option("--gcode", o->gcode, "sliced G-code");
+  m->excludes(g);
+  cmd->add_option("--factors", o->factors,
+                  "x=F,y=F,z=F1:BREAK:F2... (breaks in mm above the origin) or the JSON of "
+                  "`shrink fit --json`")->required();
+  cmd->add_option("--origin", o->origin,
+                  "x,y,z to scale about (default: XY centre of the part, Z = part bottom for "
+                  "STL and the bed, Z = 0, for G-code)");
+  cmd->add_option("-o,--output", o->out, "output file")->required();
+  cmd->add_option("--format", o->format, "STL output: binary or ascii (default: as read)")
+      ->check(CLI::IsMember({"binary", "ascii"}));
+  cmd->add_option("--layer-mm", o->layer_mm, "layer thickness for the predicted sliced height (STL)");
+  cmd->add_option("--first-layer-mm", o->first_layer_mm, "first layer thickness (default: layer)");
+  cmd->add_option("--plane-fraction", o->plane_fraction, "slice plane position in a layer (0,1]");
+  cmd->add_flag("--no-scale-e", o->no_scale_e, "keep E amounts (G-code)");
+  cmd->add_flag("--json", o->json, "print one JSON report");
+  cmd->callback([o] {
+    if (o->model.empty() == o->gcode.empty()) {
+      throw Error("shrink apply needs exactly one of --model FILE.stl or --gcode FILE.gcode");
+    }
+    pr::ScaleMap map;
+    map.axes = load_factors(o->factors);
+    std::optional<std::array<double, 3>> origin;
+    if (!o->origin.empty()) {
+      const auto v = parse_list(o->origin, "--origin");
+      if (v.size() != 3) throw Error(fmt::format("--origin needs x,y,z, got '{}'", o->origin));
+      origin = std::array<double, 3>{v[0], v[1], v[2]};
+    }
+    json rep;
+    std::array<double, 3> nmin{}, nmax{}, cmin{}, cmax{};
+    if (!o->model.empty()) {
+      const pr::Mesh mesh = pr::read_stl(o->model);
+      pr::require_closed_manifold(mesh, o->model);
+      const auto lo = mesh.min_corner(), hi = mesh.max_corner();
+      map.origin_mm = origin.value_or(std::array<double, 3>{0.5 * (lo[0] + hi[0]),
+                                                            0.5 * (lo[1] + hi[1]), lo[2]});
+      const pr::Mesh scaled = pr::scale_mesh(mesh, map);
+      const auto fmt_out = o->format.empty() ? mesh.format
+                           : o->format == "ascii" ? pr::StlFormat::ascii
+                                                  : pr::StlFormat::binary;
+      pr::write_file_atomic(o->out, pr::serialize_stl(scaled, fmt_out));
+      nmin = lo;
+      nmax = hi;
+      cmin = scaled.min_corner();
+      cmax = scaled.max_corner();
+      const auto check = pr::check_mesh(mesh);
+      rep["triangles"] = mesh.triangles.size();
+      rep["volume_mm3"] = check.volume_mm3;
+      rep["scaled_volume_mm3"] = pr::check_mesh(scaled).volume_mm3;
+      rep["format"] = fmt_out == pr::StlFormat::ascii ? "ascii" : "binary";
+    } else {
+      const std::string text = pr::read_file_bytes(o->gcode);
+      if (!origin) {
+        const auto ex = pr::gcode_extrusion_extent(text, o->gcode);
+        origin = std::array<double, 3>{0.5 * (ex.min_mm[0] + ex.max_mm[0]),
+                                       0.5 * (ex.min_mm[1] + ex.max_mm[1]), 0.0};
+      }
+      map.origin_mm = *origin;
+      pr::GcodeScaleOptions opt;
+      opt.scale_extrusion = !o->no_scale_e;
+      std::string out;
+      const auto r = pr::scale_gcode(text, o->gcode, map, opt, out);
+      pr::write_file_atomic(o->out, out);
+      nmin = r.extrusion_min_mm;
+      nmax = r.extrusion_max_mm;
+      cmin = r.scaled_min_mm;
+      cmax = r.scaled_max_mm;
+      // Heights in G-code are move Z above the bed (the Z origin): the top layer's Z.
+      nmin[2] = cmin[2] = map.origin_mm[2];
+      rep["lines"] = r.lines;
+      rep["moves_rewritten"] = r.moves_rewritten;
+      rep["arcs"] = r.arcs;
+      rep["layers"] = r.layers;
+      rep["max_arc_radius_mismatch_mm"] = r.max_arc_radius_mismatch_mm;
+      rep["filament_mm"] = r.extruded_mm;
+      rep["scaled_filament_mm"] = r.scaled_extruded_mm;
+    }
+    // Predicted printed size: the part shrinks back through the inverse map; in Z the layered
+    // height (whole layers of the compensated part) goes through it.
+    std::array<double, 3> nominal{}, compensated{}, predicted{};
+    for (int a = 0; a < 3; ++a) {
+      nominal[a] = nmax[a] - nmin[a];
+      compensated[a] = cmax[a] - cmin[a];
+      const double o0 = map.origin_mm[a];
+      predicted[a] = map.axes[a].inverse(cmax[a] - o0) - map.axes[a].inverse(cmin[a] - o0);
+    }
+    json jz = nullptr;
+    if (o->layer_mm > 0.0) {
+      pr::SlicingModel sm{o->layer_mm, o->first_layer_mm.value_or(o->layer_mm), o->plane_fraction};
+      const double h = cmax[2] - cmin[2];
+      const long n = sm.layers_for(h);
+      const double sliced = sm.height_of_layers(n);
+      const double bottom = cmin[2] - map.origin_mm[2];
+      const double printed = map.axes[2].inverse(bottom + sliced) - map.axes[2].inverse(bottom);
+      jz = {{"layers", n}, {"sliced_height_mm", sliced}, {"predicted_printed_height_mm", printed},
+            {"nominal_height_mm", nominal[2]}, {"error_mm", printed - nominal[2]}};
+    }
+    rep["input"] = o->model.empty() ? o->gcode : o->model;
+    rep["output"] = o->out;
+    rep["origin_mm"] = vec_json(map.origin_mm);
+    rep["factors"] = json::array();
+    for (int a = 0; a < 3; ++a) {
+      rep["factors"].push_back({{"axis", std::string(1, "XYZ"[a])},
+                                {"factors", map.axes[a].factors()},
+                                {"breaks_mm", map.axes[a].breaks_mm()}});
+    }
+    rep["nominal_size_mm"] = vec_json(nominal);
+    rep["compensated_size_mm"] = vec_json(compensated);
+    rep["predicted_printed_size_mm"] = vec_json(predicted);
+    rep["sliced_z"] = jz;
+    if (o->json) {
+      std::cout << rep.dump(2) << "\n";
+      return;
+    }
+    std::cout << fmt::format("wrote {}\n", o->out);
+    for (int a = 0; a < 3; ++a) {
+      std::cout << fmt::format("  {}: nominal {:.4f} mm -> compensated {:.4f} mm -> predicted "
+                               "printed {:.4f} mm\n",
+                               "XYZ"[a], nominal[a], compensated[a], predicted[a]);
+    }
+    if (!jz.is_null()) {
+      std::cout << fmt::format("  Z layered: {} layers = {:.4f} mm built -> {:.4f} mm printed "
+                               "(error {:+.4f} mm)\n",
+                               jz["layers"].get<long>(), jz["sliced_height_mm"].get<double>(),
+                               jz["predicted_printed_height_mm"].get<double>(),
+                               jz["error_mm"].get<double>());
+    }
+  });
+}
+
 }  // namespace
 
 void register_process(CLI::App& app) {
@@ -297,6 +482,7 @@ void register_process(CLI::App& app) {
   shrink->require_subcommand(1);
   register_shrink_fit(*shrink);
   register_shrink_slicing(*shrink);
+  register_shrink_apply(*shrink);
 }
 
 }  // namespace amctl::cli
