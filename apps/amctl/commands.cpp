@@ -1,5 +1,8 @@
 #include "commands.hpp"
 
 namespace amctl::cli {
-void register_all(CLI::App& app) { register_process(app); }
+void register_all(CLI::App& app) {
+  register_machine(app);
+  register_process(app);
+}
 }  // namespace amctl::cli
