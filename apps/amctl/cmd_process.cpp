@@ -2,7 +2,9 @@
 // planning, seed 004).
 #include <array>
 #include <cmath>
+#include <algorithm>
 #include <iostream>
+#include <map>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -14,7 +16,12 @@
 #include <nlohmann/json.hpp>
 
 #include "amctl/core/error.hpp"
+#include "amctl/process/calibrate.hpp"
 #include "amctl/process/csv.hpp"
+#include "amctl/process/empirical_time.hpp"
+#include "amctl/process/time_calibration.hpp"
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
 #include "amctl/process/gcode_scale.hpp"
 #include "amctl/process/stl.hpp"
 #include "amctl/process/scale_map.hpp"
@@ -475,6 +482,283 @@ void register_shrink_apply(CLI::App& shrink) {
   });
 }
 
+// ---- build time -------------------------------------------------------------------------
+
+json model_json(const pr::EmpiricalTimeModel& m, const pr::ScanOptions& so) {
+  return {{"raster_speed_mm_s", m.raster_speed_mm_s},
+          {"contour_speed_mm_s", m.contour_speed_mm_s},
+          {"link_widths_mm", m.link_widths_mm},
+          {"link_speeds_mm_s", m.link_speeds_mm_s},
+          {"travel_speed_mm_s", m.travel_speed_mm_s},
+          {"layer_change_s", m.layer_change_s},
+          {"retract_s", m.retract_s},
+          {"wipe_s", m.wipe_s},
+          {"fixed_s", m.fixed_s},
+          {"link_length_widths", so.link_length_widths},
+          {"filament_diameter_mm", so.filament_diameter_mm}};
+}
+
+void load_model_json(const std::string& path, pr::EmpiricalTimeModel& m, pr::ScanOptions& so) {
+  json j;
+  try {
+    j = json::parse(pr::read_file_bytes(path));
+    if (j.contains("model")) j = j["model"];
+    m.raster_speed_mm_s = j.value("raster_speed_mm_s", m.raster_speed_mm_s);
+    m.contour_speed_mm_s = j.value("contour_speed_mm_s", m.contour_speed_mm_s);
+    m.link_widths_mm = j.value("link_widths_mm", m.link_widths_mm);
+    m.link_speeds_mm_s = j.value("link_speeds_mm_s", m.link_speeds_mm_s);
+    m.travel_speed_mm_s = j.value("travel_speed_mm_s", m.travel_speed_mm_s);
+    m.layer_change_s = j.value("layer_change_s", m.layer_change_s);
+    m.retract_s = j.value("retract_s", m.retract_s);
+    m.wipe_s = j.value("wipe_s", m.wipe_s);
+    m.fixed_s = j.value("fixed_s", m.fixed_s);
+    so.link_length_widths = j.value("link_length_widths", so.link_length_widths);
+    so.filament_diameter_mm = j.value("filament_diameter_mm", so.filament_diameter_mm);
+  } catch (const json::exception& e) {
+    throw Error(fmt::format("--params {}: {}", path, e.what()));
+  }
+  so.link_widths_mm = m.link_widths_mm;
+  m.validate();
+}
+
+json features_json(const pr::TimeFeatures& f, const pr::EmpiricalTimeModel& m) {
+  const auto names = pr::empirical_parameter_names(m);
+  const auto row = pr::empirical_row(f, m);
+  const auto p = pr::empirical_parameters(m);
+  json terms = json::object();
+  for (std::size_t i = 0; i < names.size(); ++i) terms[names[i]] = row[i] * p[i];
+  return {{"raster_mm", f.raster_mm},     {"contour_mm", f.contour_mm},
+          {"link_mm", f.link_mm},         {"link_mm_by_width", f.link_mm_by_width},
+          {"travel_mm", f.travel_mm},     {"layer_changes", f.layer_changes},
+          {"retracts", f.retracts},       {"wipes", f.wipes},
+          {"time_terms_s", terms}};
+}
+
+void register_estimate_time(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "estimate-time", "Build time of a G-code file: empirical (seed 004) or planner-based");
+  struct Opts {
+    std::string file, mode = "empirical", params, machine;
+    std::vector<std::string> sets;
+    bool json = false;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("file", o->file, "G-code file")->required();
+  cmd->add_option("--mode", o->mode, "empirical or planner")
+      ->check(CLI::IsMember({"empirical", "planner"}));
+  cmd->add_option("--params", o->params,
+                  "empirical parameters (JSON from calibrate-time --mode empirical --save); "
+                  "default: the seed's FDM 2000 speeds");
+  cmd->add_option("--machine", o->machine, "machine preset or file (planner mode)");
+  cmd->add_option("--set", o->sets, "machine override section.key=value (planner mode)");
+  cmd->add_flag("--json", o->json, "print one JSON object");
+  cmd->callback([o] {
+    if (o->mode == "planner") {
+      const auto m = machine::load_machine(o->machine, o->sets);
+      const auto r = plan::estimate_file(o->file, m);
+      if (o->json) {
+        json j{{"file", o->file}, {"mode", "planner"}, {"machine", m.name},
+               {"total_time_s", r.total_time_s}, {"travel_time_s", r.travel_time_s},
+               {"extrude_time_s", r.extrude_time_s}, {"layers", r.layers.size()},
+               {"slicer_estimate_s", r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr)}};
+        std::cout << j.dump(2) << "\n";
+      } else {
+        std::cout << fmt::format("{}: planner ({}) {:.1f} s ({:.2f} min)\n", o->file, m.name,
+                                 r.total_time_s, r.total_time_s / 60);
+      }
+      return;
+    }
+    auto model = pr::EmpiricalTimeModel::fdm2000_seed();
+    pr::ScanOptions so;
+    if (!o->params.empty()) load_model_json(o->params, model, so);
+    so.link_widths_mm = model.link_widths_mm;
+    const auto scan = pr::scan_gcode_file_for_time(o->file, so);
+    const double t = model.estimate_s(scan.total);
+    if (o->json) {
+      json j{{"file", o->file}, {"mode", "empirical"}, {"total_time_s", t},
+             {"model", model_json(model, so)}, {"features", features_json(scan.total, model)},
+             {"layers", scan.layers.size()},
+             {"mean_raster_width_mm", scan.mean_raster_width_mm},
+             {"slicer_estimate_s", scan.slicer_estimate_s ? json(*scan.slicer_estimate_s) : json(nullptr)}};
+      std::cout << j.dump(2) << "\n";
+    } else {
+      std::cout << fmt::format("{}: empirical {:.1f} s ({:.2f} min); raster {:.0f} mm, links "
+                               "{:.0f} mm, contour {:.0f} mm, travel {:.0f} mm, {} layers\n",
+                               o->file, t, t / 60, scan.total.raster_mm, scan.total.link_mm,
+                               scan.total.contour_mm, scan.total.travel_mm, scan.layers.size());
+    }
+  });
+}
+
+void register_calibrate_time(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "calibrate-time",
+      "Fit machine limits (planner) or empirical speeds to measured print durations");
+  struct Opts {
+    std::string file, mode = "planner", machine, fit, save, params;
+    std::vector<std::string> sets, fix;
+    bool keep_limits = false, absolute = false, json = false, separate_contour = false;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("file", o->file,
+                  "CSV: gcode,duration_s[,layer] (paths relative to the CSV)")->required();
+  cmd->add_option("--mode", o->mode, "planner (fit machine limits) or empirical (fit speeds)")
+      ->check(CLI::IsMember({"planner", "empirical"}));
+  cmd->add_option("--machine", o->machine, "machine preset or file to start from");
+  cmd->add_option("--set", o->sets, "machine override section.key=value");
+  cmd->add_option("--fit", o->fit,
+                  "limits to fit, comma separated: accel, scv, jd, jerk, max_velocity "
+                  "(default: accel, the junction limit of the machine, max_velocity)");
+  cmd->add_flag("--keep-file-limits", o->keep_limits,
+                "honour M201/M203/M204/M205/SET_VELOCITY_LIMIT in the files (they would "
+                "override the limits being fitted)");
+  cmd->add_flag("--absolute", o->absolute, "minimise residuals in seconds, not relative ones");
+  cmd->add_option("--params", o->params, "empirical mode: starting parameters (JSON)");
+  cmd->add_option("--fix", o->fix, "empirical mode: hold a parameter, e.g. wipe_s or wipe_s=0.5");
+  cmd->add_flag("--separate-contour", o->separate_contour,
+                "empirical mode: fit a contour speed instead of using the raster speed");
+  cmd->add_option("--save", o->save, "write the calibrated machine (TOML) or parameters (JSON)");
+  cmd->add_flag("--json", o->json, "print one JSON object");
+  cmd->callback([o] {
+    const auto table = pr::CsvTable::read(o->file);
+    const auto timings = pr::read_print_timings(table);
+    std::vector<double> measured;
+    for (const auto& t : timings) measured.push_back(t.duration_s);
+    json j;
+    j["file"] = o->file;
+    j["mode"] = o->mode;
+    if (o->mode == "empirical") {
+      auto model = pr::EmpiricalTimeModel::fdm2000_seed();
+      pr::ScanOptions so;
+      if (!o->params.empty()) load_model_json(o->params, model, so);
+      so.link_widths_mm = model.link_widths_mm;
+      pr::EmpiricalFitOptions fo;
+      fo.contour_equals_raster = !o->separate_contour;
+      const auto names = pr::empirical_parameter_names(model);
+      auto values = pr::empirical_parameters(model);
+      for (const auto& f : o->fix) {
+        const auto eq = f.find('=');
+        const std::string name = f.substr(0, eq);
+        const auto it = std::find(names.begin(), names.end(), name);
+        if (it == names.end()) throw Error(fmt::format("--fix: unknown parameter '{}'", name));
+        if (eq != std::string::npos) {
+          values[static_cast<std::size_t>(it - names.begin())] = parse_list(f.substr(eq + 1), "--fix")[0];
+        }
+        fo.fixed.push_back(name);
+      }
+      model = pr::with_parameters(model, values);
+      std::map<std::string, pr::GcodeTimeScan> scans;
+      std::vector<pr::TimeFeatures> xs;
+      for (const auto& t : timings) {
+        auto it = scans.find(t.gcode_path);
+        if (it == scans.end()) {
+          it = scans.emplace(t.gcode_path, pr::scan_gcode_file_for_time(t.gcode_path, so)).first;
+        }
+        if (!t.layer) {
+          xs.push_back(it->second.total);
+        } else {
+          if (*t.layer >= static_cast<long>(it->second.layers.size())) {
+            throw Error(fmt::format("{}:{}: {} has no layer {}", o->file, t.csv_line,
+                                    t.gcode_path, *t.layer));
+          }
+          xs.push_back(it->second.layers[static_cast<std::size_t>(*t.layer)]);
+        }
+      }
+      const auto fit = pr::fit_empirical(xs, measured, model, fo);
+      j["parameters"] = json::array();
+      for (std::size_t i = 0; i < fit.names.size(); ++i) {
+        j["parameters"].push_back({{"name", fit.names[i]}, {"value", fit.values[i]},
+                                   {"std_error", num(fit.std_errors[i])},
+                                   {"free", static_cast<bool>(fit.free[i])}});
+      }
+      j["not_identified"] = fit.not_identified;
+      j["model"] = model_json(fit.model, so);
+      j["samples"] = json::array();
+      for (std::size_t i = 0; i < timings.size(); ++i) {
+        j["samples"].push_back({{"gcode", timings[i].gcode_path},
+                                {"layer", timings[i].layer ? json(*timings[i].layer) : json(nullptr)},
+                                {"measured_s", measured[i]}, {"predicted_s", fit.predicted_s[i]},
+                                {"residual_s", fit.residual_s[i]}});
+      }
+      j["rms_s"] = fit.rms_s;
+      j["dof"] = fit.dof;
+      if (!o->save.empty()) pr::write_file_atomic(o->save, model_json(fit.model, so).dump(2) + "\n");
+      if (o->json) {
+        std::cout << j.dump(2) << "\n";
+        return;
+      }
+      for (std::size_t i = 0; i < fit.names.size(); ++i) {
+        std::cout << fmt::format("  {:<18} {:12.6g} {}\n", fit.names[i], fit.values[i],
+                                 fit.free[i] ? fmt::format("+- {:.3g}", fit.std_errors[i])
+                                             : std::string("(fixed)"));
+      }
+      std::cout << fmt::format("  speeds: raster {:.2f} mm/s, travel {:.2f} mm/s; rms residual "
+                               "{:.2f} s\n",
+                               fit.model.raster_speed_mm_s, fit.model.travel_speed_mm_s, fit.rms_s);
+      return;
+    }
+    const auto base = machine::load_machine(o->machine, o->sets);
+    const auto names = o->fit.empty() ? pr::default_limits_for(base) : [&] {
+      std::vector<std::string> v;
+      std::stringstream ss(o->fit);
+      std::string tok;
+      while (std::getline(ss, tok, ',')) v.push_back(tok);
+      return v;
+    }();
+    const auto params = pr::limit_parameters(base, names);
+    const auto est = pr::planner_duration_estimator(base, names, timings, o->keep_limits);
+    pr::CalibrationOptions co;
+    co.relative = !o->absolute;
+    const auto r = pr::calibrate_durations(est, measured, params, co);
+    j["machine"] = base.name;
+    j["parameters"] = json::array();
+    for (std::size_t i = 0; i < r.names.size(); ++i) {
+      j["parameters"].push_back({{"name", r.names[i]}, {"start", params[i].initial},
+                                 {"value", r.values[i]}, {"std_error", num(r.std_errors[i])},
+                                 {"ci", {num(r.ci_lo[i]), num(r.ci_hi[i])}},
+                                 {"identifiable", static_cast<bool>(r.identifiable[i])}});
+    }
+    j["correlation"] = r.correlation;
+    j["samples"] = json::array();
+    for (std::size_t i = 0; i < timings.size(); ++i) {
+      j["samples"].push_back({{"gcode", timings[i].gcode_path},
+                              {"layer", timings[i].layer ? json(*timings[i].layer) : json(nullptr)},
+                              {"measured_s", r.measured_s[i]}, {"predicted_s", r.predicted_s[i]},
+                              {"residual_s", r.residual_s[i]},
+                              {"relative_residual", r.relative_residual[i]}});
+    }
+    j["rms_s"] = r.rms_s;
+    j["rms_relative"] = r.rms_relative;
+    j["iterations"] = r.iterations;
+    j["evaluations"] = r.evaluations;
+    j["converged"] = r.converged;
+    j["dof"] = r.dof;
+    if (!o->save.empty()) {
+      auto m = base;
+      for (std::size_t i = 0; i < names.size(); ++i) pr::set_limit(m, names[i], r.values[i]);
+      pr::write_file_atomic(o->save, machine::to_toml(m));
+    }
+    if (o->json) {
+      std::cout << j.dump(2) << "\n";
+      return;
+    }
+    std::cout << fmt::format("calibrated {} from {} timing(s), {} iteration(s){}\n", base.name,
+                             timings.size(), r.iterations, r.converged ? "" : " (not converged)");
+    for (std::size_t i = 0; i < r.names.size(); ++i) {
+      std::cout << fmt::format("  {:<13} {:10.4g}  +- {:<9.3g} 95% CI [{:.4g}, {:.4g}]{}\n",
+                               r.names[i], r.values[i], r.std_errors[i], r.ci_lo[i], r.ci_hi[i],
+                               r.identifiable[i] ? "" : "  (no effect on these prints: not fitted)");
+    }
+    for (std::size_t i = 0; i < timings.size(); ++i) {
+      std::cout << fmt::format("  {:<40} measured {:9.1f} s  planned {:9.1f} s  residual {:+8.2f} s "
+                               "({:+.2f} %)\n",
+                               timings[i].gcode_path + (timings[i].layer ? fmt::format("#{}", *timings[i].layer) : ""),
+                               r.measured_s[i], r.predicted_s[i], r.residual_s[i],
+                               100 * r.relative_residual[i]);
+    }
+  });
+}
+
 }  // namespace
 
 void register_process(CLI::App& app) {
@@ -483,6 +767,8 @@ void register_process(CLI::App& app) {
   register_shrink_fit(*shrink);
   register_shrink_slicing(*shrink);
   register_shrink_apply(*shrink);
+  register_estimate_time(app);
+  register_calibrate_time(app);
 }
 
 }  // namespace amctl::cli
