@@ -83,6 +83,29 @@ CalibrationResult calibrate_durations(const DurationEstimator& estimator,
   double cost = r.squaredNorm();
   double lambda = 1e-3;
   Eigen::MatrixXd J = jacobian(x);
+  // A limit that no move reaches (e.g. a maximum speed above every requested feed) has a zero
+  // derivative, and gradient steps never move it. Such parameters get a coarse geometric
+  // grid search across their bounds first.
+  for (std::size_t j = 0; j < P; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    if (J.col(jj).norm() > 1e-12 * (1.0 + r.norm())) continue;
+    constexpr int kGrid = 24;
+    Eigen::VectorXd best_x = x;
+    for (int g = 0; g <= kGrid; ++g) {
+      Eigen::VectorXd xt = x;
+      xt(jj) = lo(jj) + (hi(jj) - lo(jj)) * g / kGrid;
+      const auto pt = predict(xt);
+      const Eigen::VectorXd rt = residuals(pt);
+      if (rt.squaredNorm() < cost) {
+        cost = rt.squaredNorm();
+        best_x = xt;
+        pred = pt;
+        r = rt;
+      }
+    }
+    x = best_x;
+  }
+  J = jacobian(x);
   std::vector<bool> active(P, true);
   for (int it = 0; it < opt.max_iterations; ++it) {
     res.iterations = it + 1;
