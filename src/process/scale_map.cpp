@@ -121,7 +121,11 @@ std::array<AxisMap, 3> parse_factor_spec(std::string_view spec) {
     for (int a : axes) {
       if (seen[a]) throw Error(fmt::format("--factors: axis {} given twice", "XYZ"[a]));
       seen[a] = true;
-      out[a] = AxisMap(factors, breaks);
+      try {
+        out[a] = AxisMap(factors, breaks);
+      } catch (const Error& e) {
+        throw Error(fmt::format("--factors {}: {}", name, e.what()));
+      }
     }
     if (comma == spec.size()) break;
   }

@@ -1,0 +1,73 @@
+// The CLI interface that acceptance checks use: `amctl shrink fit FILE.csv --json` prints one
+// JSON object with slope/intercept/factor (one range) or a list of ranges. Runs the built
+// binary; expected numbers are scipy's (tests/reference/process_shrink_reference.py).
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace {
+
+struct Run {
+  int status = 0;
+  std::string out;
+};
+
+Run run(const std::string& args) {
+  const std::string cmd = std::string(AMCTL_BINARY_DIR) + "/apps/amctl/amctl " + args + " 2>/dev/null";
+  Run r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+const std::string kTable1 = std::string(AMCTL_SOURCE_DIR) + "/examples/04_shrink_geometry1.csv";
+
+}  // namespace
+
+TEST(Cli, ShrinkFitJsonHasSlopeInterceptAndFactor) {
+  const auto r = run("shrink fit " + kTable1 + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j.at("slope").get<double>(), -0.00309995231236014, 1e-13);
+  EXPECT_NEAR(j.at("intercept").get<double>(), 0.327948993299212, 1e-12);
+  EXPECT_NEAR(j.at("factor").get<double>(), 1.00310959189896, 1e-12);
+}
+
+TEST(Cli, ShrinkFitWithTwoRangesGivesAListOfFits) {
+  const auto r = run("shrink fit " + kTable1 + " --ranges 2 --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j.at("ranges").size(), 2u);
+  for (const auto& rg : j["ranges"]) {
+    const double a = rg.at("slope").get<double>();
+    EXPECT_NEAR(rg.at("factor").get<double>(), 1.0 / (1.0 + a), 1e-15);
+    EXPECT_TRUE(rg.contains("intercept"));
+  }
+}
+
+TEST(Cli, BadInputExitsWithCodeTwoAndWritesNothing) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "amctl_process_cli_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "two.csv") << "nominal_mm,measured_mm\n5,5.1\n10,10.2\n";
+  EXPECT_EQ(run("shrink fit " + (dir / "two.csv").string() + " --json").status, 2);
+  std::ofstream(dir / "bad.stl") << "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\n";
+  const auto out = dir / "out.stl";
+  EXPECT_EQ(run("shrink apply --model " + (dir / "bad.stl").string() + " --factors z=1.01 -o " +
+                out.string()).status,
+            2);
+  EXPECT_FALSE(fs::exists(out));
+  fs::remove_all(dir);
+}
