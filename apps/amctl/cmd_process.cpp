@@ -561,6 +561,10 @@ void register_estimate_time(CLI::App& app) {
                {"total_time_s", r.total_time_s}, {"travel_time_s", r.travel_time_s},
                {"extrude_time_s", r.extrude_time_s}, {"layers", r.layers.size()},
                {"slicer_estimate_s", r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr)}};
+        j["layer_times"] = json::array();
+        for (const auto& l : r.layers) {
+          j["layer_times"].push_back({{"layer", l.layer}, {"z_mm", l.z_mm}, {"time_s", l.time_s}});
+        }
         std::cout << j.dump(2) << "\n";
       } else {
         std::cout << fmt::format("{}: planner ({}) {:.1f} s ({:.2f} min)\n", o->file, m.name,

@@ -302,7 +302,6 @@ EmpiricalFit fit_empirical(const std::vector<TimeFeatures>& samples,
     for (std::size_t j = 0; j < P; ++j) X(i, j) = r[j];
     y(i) = durations[i];
   }
-  const bool tie = opt.contour_equals_raster && free[0];
   if (opt.contour_equals_raster) {
     // Contours run at the raster speed: one pace for both columns.
     if (free[0]) X.col(0) += X.col(1);
@@ -368,7 +367,6 @@ EmpiricalFit fit_empirical(const std::vector<TimeFeatures>& samples,
     values[1] = values[0];
     se[1] = se[0];
   }
-  (void)tie;
   fit.values = values;
   fit.std_errors = se;
   fit.free = free;

@@ -243,6 +243,10 @@ GcodeScaleReport scale_gcode(std::string_view text, const std::string& file, con
     m.pos = end;
   });
   rep.layers = layer_z.size();
+  if (layer_z.empty()) {
+    // Nothing extruded: report empty extents rather than infinities.
+    rep.extrusion_min_mm = rep.extrusion_max_mm = rep.scaled_min_mm = rep.scaled_max_mm = {0, 0, 0};
+  }
   return rep;
 }
 
