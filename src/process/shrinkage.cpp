@@ -41,11 +41,7 @@ std::optional<UnitColumn> find_unit_column(const CsvTable& t, std::string_view p
     const std::string unit = h.substr(prefix.size());
     if (unit.find('_') != std::string::npos) continue;  // e.g. measured_sd_mm: another quantity
     const auto s = unit_to_mm(unit);
-    if (!s) {
-      throw Error(SourceLocation{t.file(), 0, 0},
-                  fmt::format("column '{}': unknown unit '{}' (expected {}mm, {}um or {}in)",
-                              t.header()[i], unit, prefix, prefix, prefix));
-    }
+    if (!s) continue;  // e.g. nominal_id: not a length column
     if (found) {
       throw Error(SourceLocation{t.file(), 0, 0},
                   fmt::format("two columns start with '{}' ('{}' and '{}'); keep one",
@@ -116,7 +112,9 @@ std::vector<ShrinkSample> read_shrink_samples(const CsvTable& t) {
     std::string cols;
     for (const auto& h : t.header()) cols += (cols.empty() ? "" : ", ") + h;
     throw Error(SourceLocation{t.file(), 1, 0},
-                fmt::format("header needs columns nominal_mm and measured_mm (found: {})", cols));
+                fmt::format("header needs columns nominal_mm and measured_mm (or _um, _in in "
+                            "both; found: {})",
+                            cols));
   }
   if (nominal->unit != measured->unit) {
     throw Error(SourceLocation{t.file(), 1, 0},
