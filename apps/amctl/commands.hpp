@@ -7,6 +7,9 @@ namespace amctl::cli {
 // so amctl::Error thrown there reaches main's handler).
 void register_all(CLI::App& app);
 
+/// `amctl estimate` (cmd_estimate.cpp): the main job.
+void register_estimate(CLI::App& app);
+
 /// `amctl machine show|list|keys` (cmd_machine.cpp).
 void register_machine(CLI::App& app);
 }  // namespace amctl::cli

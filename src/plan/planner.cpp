@@ -59,6 +59,10 @@ Planner::Planner(const machine::Machine& m, PlanSink& sink, PlannerOptions optio
   lim_.min_feedrate_mm_s = m.min_feedrate_mm_s;
   lim_.min_travel_feedrate_mm_s = m.min_travel_feedrate_mm_s;
   junction_flush_s_ = kFullFlushTime_s;
+  if (m.block_buffer_size < 0) {
+    throw Error(fmt::format("marlin.block_buffer_size must be >= 0, got {}", m.block_buffer_size));
+  }
+  buffer_size_ = opt_.block_buffer_size.value_or(static_cast<std::size_t>(m.block_buffer_size));
 }
 
 double Planner::klipper_junction_deviation() const {
@@ -391,7 +395,7 @@ void Planner::add_move(Move&& m) {
       ++diag_.forced_flushes;
       flush(true);
     }
-  } else if (opt_.block_buffer_size > 1 && queue_.size() >= opt_.block_buffer_size - 1) {
+  } else if (buffer_size_ > 1 && queue_.size() >= buffer_size_ - 1) {
     // Marlin's ring buffer of BLOCK_BUFFER_SIZE slots holds one less block, the executing
     // one included: the oldest block must start once that many are queued.
     flush_marlin_head();

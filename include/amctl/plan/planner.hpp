@@ -51,8 +51,8 @@ class PlanSink {
 };
 
 struct PlannerOptions {
-  /// Marlin-style block buffer size (Marlin and RepRap policies). 0 = unlimited look-ahead.
-  std::size_t block_buffer_size = 16;
+  /// Overrides Machine::block_buffer_size when set (0 = unlimited look-ahead).
+  std::optional<std::size_t> block_buffer_size;
   /// Upper bound on queued moves for the Klipper policy before a forced lazy flush; it keeps
   /// memory bounded on pathological input without changing results on real files.
   std::size_t max_queue = 1u << 16;
@@ -161,6 +161,7 @@ class Planner final : public gcode::EventSink {
   Limits lim_{};
   std::deque<Move> queue_;
   double junction_flush_s_ = 1.0;
+  std::size_t buffer_size_ = 16;
   double print_time_s_ = 0.0;
   double prev_safe_v_ = 0.0;
   PlannerDiagnostics diag_;
