@@ -40,6 +40,7 @@ struct EstimateArgs {
   bool json = false;
   bool lenient = false;
   bool all_layers = false;
+  bool brief = false;
   std::string m73_out;
   double m73_interval_s = 60.0;
 };
@@ -194,7 +195,14 @@ void run_estimate(const EstimateArgs& a) {
   const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::size_t m73 = 0;
   if (!a.m73_out.empty()) m73 = plan::write_m73(a.file, a.m73_out, r);
-  if (a.json) {
+  if (a.brief) {
+    std::cout << fmt::format("{:<14} {:>12}  ({:.1f} s)", m.name, hms(r.total_time_s), r.total_time_s);
+    if (r.slicer_estimate_s) {
+      std::cout << fmt::format("  slicer {:+.1f} %",
+                               (*r.slicer_estimate_s - r.total_time_s) / r.total_time_s * 100.0);
+    }
+    std::cout << "\n";
+  } else if (a.json) {
     auto j = to_json(r, m, compute_s);
     if (!a.m73_out.empty()) j["m73_written"] = {{"file", a.m73_out}, {"lines", m73}};
     std::cout << j.dump(2) << "\n";
@@ -218,6 +226,7 @@ void register_estimate(CLI::App& app) {
   sub->add_flag("--json", args->json, "Print one JSON object on stdout");
   sub->add_flag("--lenient", args->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->add_flag("--layers", args->all_layers, "List every layer's start and duration");
+  sub->add_flag("--brief", args->brief, "One line: machine, print time, slicer's difference");
   sub->add_option("--write-m73", args->m73_out,
                   "Write the file back with M73 progress/remaining-time lines to this path");
   sub->add_option("--m73-interval", args->m73_interval_s, "Seconds of print time between M73 lines")
