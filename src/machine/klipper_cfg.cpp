@@ -468,8 +468,11 @@ Machine parse_klipper_cfg(std::string_view text, const std::string& source_name)
       std::string_view line = rest.substr(pos, nl == std::string_view::npos ? rest.npos : nl - pos);
       pos = nl == std::string_view::npos ? rest.size() : nl + 1;
       if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      // "#*# " prefix removed; keep line numbering by emitting one line per input line.
-      if (line.rfind("#*# ", 0) == 0) {
+      // "#*# " prefix removed; keep line numbering by emitting one line per input line. The
+      // header's own lines (marker, "DO NOT EDIT ...") are not config.
+      if (line.rfind(kAutosaveMarker, 0) == 0 || line.rfind("#*# DO NOT EDIT", 0) == 0) {
+        // header
+      } else if (line.rfind("#*# ", 0) == 0) {
         autosave += line.substr(4);
       } else if (line.rfind("#*#", 0) != 0 && !trim(line).empty()) {
         // Klipper ignores a corrupted block ("modifications after header") entirely.
