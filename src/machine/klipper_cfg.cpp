@@ -338,9 +338,13 @@ Stepper read_stepper(const Section& s) {
   return st;
 }
 
+// [printer] options of the cartesian/corexy toolhead. The last four are undocumented buffer
+// settings older Klipper accepted (removed in bafb126a); they do not change the motion, so old
+// configs that still carry them are read rather than rejected.
 constexpr std::string_view kPrinterOptions[] = {
-    "kinematics",           "max_velocity",  "max_accel",      "minimum_cruise_ratio",
-    "max_accel_to_decel",   "square_corner_velocity", "max_z_velocity", "max_z_accel"};
+    "kinematics",      "max_velocity",      "max_accel",         "minimum_cruise_ratio",
+    "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
+    "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");

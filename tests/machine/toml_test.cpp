@@ -1,7 +1,9 @@
 // The TOML machine description: schema errors with file:line:col, did-you-mean, defaults,
 // legacy mappings and exact round trips.
 #include <cmath>
+#include <fstream>
 #include <limits>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -172,6 +174,24 @@ TEST(MachineToml, SchemaListsEveryKeyWithItsUnit) {
   EXPECT_EQ(find("marlin", "jerk").type, "[x, y, z, e]");
   EXPECT_EQ(find("stepper_*", "rotation_distance").unit, "mm");
   EXPECT_EQ(find("marlin", "min_segment_time").unit, "s");
+}
+
+}  // namespace
+}  // namespace amctl::machine
+
+namespace amctl::machine {
+namespace {
+
+TEST(MachineDocs, DocsMachineMdDocumentsEveryKey) {
+  std::ifstream in(std::string(AMCTL_SOURCE_DIR) + "/docs/machine.md");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string doc = ss.str();
+  ASSERT_FALSE(doc.empty());
+  for (const auto& k : schema()) {
+    EXPECT_NE(doc.find("| `" + k.key + "` |"), std::string::npos)
+        << k.section << "." << k.key << " has no row in docs/machine.md";
+  }
 }
 
 }  // namespace
