@@ -531,10 +531,12 @@ void apply_override(Machine& m, std::string_view assignment) {
       throw Error(where, fmt::format("unknown key '{}'{}", path,
                                      detail::did_you_mean(parts[1], stepper_key_names())));
     }
-    Stepper& s = m.steppers[name];
+    const auto it = m.steppers.find(name);
+    Stepper s = it == m.steppers.end() ? Stepper{} : it->second;
     double gearing = 1.0;
     assign_stepper(s, gearing, *d, *value, where, label);
     s.rotation_distance_mm /= gearing;
+    m.steppers[name] = s;  // only once the value is known to be good
     return;
   }
   const KeyDef* d = detail::find_key(parts[0], parts[1]);

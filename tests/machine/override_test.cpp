@@ -76,7 +76,9 @@ TEST(Override, ValuesAreTypeAndRangeChecked) {
   EXPECT_EQ(error_of([&] { apply_override(m, "printer.firmware=grbl"); }),
             "--set printer.firmware=grbl: printer.firmware: 'grbl' is not one of klipper, "
             "marlin, reprap");
-  EXPECT_DOUBLE_EQ(m.max_accel_mm_s2, 3000);  // failed overrides leave the machine as it was
+  EXPECT_NE(error_of([&] { apply_override(m, "stepper_y.microsteps=0"); }).find(">= 1"),
+            std::string::npos);
+  EXPECT_EQ(m, Machine{});  // failed overrides leave the machine as it was
 }
 
 TEST(Override, LoadMachineAppliesOverridesInOrderThenValidates) {
