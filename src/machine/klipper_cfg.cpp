@@ -103,7 +103,8 @@ class CfgReader {
 
   /// Parses one file's text. `file` names it in messages and anchors its includes.
   void parse(std::string_view text, const std::string& file) {
-    fs::path key = fs::absolute(fs::path(file)).lexically_normal();
+    std::error_code ec;
+    fs::path key = fs::absolute(fs::path(file), ec).lexically_normal();
     if (!visiting_.insert(key.string()).second) {
       throw Error(SourceLocation{file, 0, 0},
                   fmt::format("recursive include of config file '{}'", file));
@@ -197,14 +198,16 @@ class CfgReader {
       std::error_code ec;
       const fs::path dir = pattern.parent_path().empty() ? fs::path(".") : pattern.parent_path();
       for (const auto& entry : fs::directory_iterator(dir, ec)) {
-        if (entry.is_regular_file() &&
+        std::error_code entry_ec;
+        if (entry.is_regular_file(entry_ec) &&
             glob_match(pattern.filename().string(), entry.path().filename().string())) {
           files.push_back(pattern.parent_path() / entry.path().filename());
         }
       }
       std::sort(files.begin(), files.end());  // Klipper sorts glob results
     } else {
-      if (!fs::is_regular_file(pattern)) {
+      std::error_code ec;
+      if (!fs::is_regular_file(pattern, ec)) {
         throw Error(where, fmt::format("include file '{}' does not exist", pattern.string()));
       }
       files.push_back(pattern);

@@ -1,6 +1,9 @@
 // Klipper printer.cfg: the configparser dialect Klipper reads, Klipper's defaults and checks,
 // macros, includes and the SAVE_CONFIG block. Expected values come from Klipper's
 // Config_Reference.md and klippy/toolhead.py, not from our parser.
+#include <fstream>
+#include <sstream>
+
 #include <gtest/gtest.h>
 
 #include "amctl/machine/effective.hpp"
@@ -280,6 +283,70 @@ TEST(KlipperCfg, FilesWithoutAKnownExtensionAreSniffed) {
   EXPECT_DOUBLE_EQ(load_machine(k).max_accel_mm_s2, 4000);
   const std::string t = dir.write("mymachine", "[printer]\nmax_accel = 1234\n");
   EXPECT_DOUBLE_EQ(load_machine(t).max_accel_mm_s2, 1234);
+}
+
+}  // namespace
+}  // namespace amctl::machine
+
+#include <random>
+
+namespace amctl::machine {
+namespace {
+
+/// Byte-level mutations (flip, delete, duplicate, insert specials) of a valid input; every
+/// result must either load or fail with amctl::Error - nothing else may escape.
+template <class Parse>
+void mutate_and_parse(const std::string& seed_text, Parse parse, unsigned seed) {
+  std::mt19937 rng(seed);
+  const std::string specials = "[]:=#;\n\t \"'\\{}%*?.,-+eEn0123456789";
+  for (int round = 0; round < 600; ++round) {
+    std::string text = seed_text;
+    const int edits = 1 + static_cast<int>(rng() % 6);
+    for (int e = 0; e < edits && !text.empty(); ++e) {
+      const std::size_t at = rng() % text.size();
+      switch (rng() % 4) {
+        case 0: text[at] = specials[rng() % specials.size()]; break;
+        case 1: text.erase(at, 1 + rng() % 8); break;
+        case 2: text.insert(at, text.substr(at, 1 + rng() % 16)); break;
+        default: text.insert(at, 1, static_cast<char>(rng() % 256)); break;
+      }
+    }
+    try {
+      (void)parse(text);
+    } catch (const amctl::Error&) {
+    } catch (const std::exception& ex) {
+      ADD_FAILURE() << "non-amctl exception '" << ex.what() << "' for input:\n" << text;
+      return;
+    }
+  }
+}
+
+TEST(Robustness, MutatedPrinterCfgEitherLoadsOrFailsWithAnAmctlError) {
+  std::ifstream in(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::size_t inc = text.find("[include");
+  ASSERT_NE(inc, std::string::npos);
+  text.erase(inc, text.find('\n', inc) - inc);  // parse the body, not a failing include
+  ASSERT_NO_THROW((void)parse_klipper_cfg(text, "/nonexistent-amctl-dir/printer.cfg"));
+  mutate_and_parse(text, [](const std::string& t) {
+    return parse_klipper_cfg(t, "/nonexistent-amctl-dir/printer.cfg");
+  }, 1234u);
+}
+
+TEST(Robustness, MutatedTomlEitherLoadsOrFailsWithAnAmctlError) {
+  mutate_and_parse(std::string(preset_toml("prusa-mk3s")), [](const std::string& t) {
+    return parse_machine_toml(t, "m.toml");
+  }, 4321u);
+}
+
+TEST(Robustness, MutatedOverridesEitherApplyOrFailWithAnAmctlError) {
+  mutate_and_parse("marlin.max_feedrate.z=12.5", [](const std::string& t) {
+    Machine m;
+    apply_override(m, t);
+    return m;
+  }, 99u);
 }
 
 }  // namespace
