@@ -141,6 +141,7 @@ struct Pending {
   std::optional<double> accel_to_decel;
   bool minimum_cruise_ratio_given = false;
   bool junction_given = false;
+  bool name_given = false;
 };
 
 /// Sets one [section] key from a TOML value. `file` is used for element locations.
@@ -162,6 +163,7 @@ void assign(Machine& m, const KeyDef& d, const toml::node& v, const SourceLocati
         throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
       d.text(m) = *v.value<std::string>();
+      if (d.key == "name") pending.name_given = true;
       return;
     case Kind::firmware:
     case Kind::kinematics:
@@ -402,6 +404,15 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
     }
   }
   finish(m, pending);
+  if (!pending.name_given) {
+    // A file without a name is called after itself ("my-printer.toml" -> "my-printer").
+    const std::size_t slash = source_name.find_last_of("/\\");
+    std::string stem = source_name.substr(slash == std::string::npos ? 0 : slash + 1);
+    if (const std::size_t dot = stem.rfind('.'); dot != std::string::npos && dot > 0) {
+      stem.resize(dot);
+    }
+    if (!stem.empty()) m.name = stem;
+  }
   try {
     validate(m);
   } catch (const Error& e) {
