@@ -103,7 +103,8 @@ class CfgReader {
 
   /// Parses one file's text. `file` names it in messages and anchors its includes.
   void parse(std::string_view text, const std::string& file) {
-    fs::path key = fs::absolute(fs::path(file)).lexically_normal();
+    std::error_code ec;
+    fs::path key = fs::absolute(fs::path(file), ec).lexically_normal();
     if (!visiting_.insert(key.string()).second) {
       throw Error(SourceLocation{file, 0, 0},
                   fmt::format("recursive include of config file '{}'", file));
@@ -197,14 +198,16 @@ class CfgReader {
       std::error_code ec;
       const fs::path dir = pattern.parent_path().empty() ? fs::path(".") : pattern.parent_path();
       for (const auto& entry : fs::directory_iterator(dir, ec)) {
-        if (entry.is_regular_file() &&
+        std::error_code entry_ec;
+        if (entry.is_regular_file(entry_ec) &&
             glob_match(pattern.filename().string(), entry.path().filename().string())) {
           files.push_back(pattern.parent_path() / entry.path().filename());
         }
       }
       std::sort(files.begin(), files.end());  // Klipper sorts glob results
     } else {
-      if (!fs::is_regular_file(pattern)) {
+      std::error_code ec;
+      if (!fs::is_regular_file(pattern, ec)) {
         throw Error(where, fmt::format("include file '{}' does not exist", pattern.string()));
       }
       files.push_back(pattern);
@@ -338,9 +341,13 @@ Stepper read_stepper(const Section& s) {
   return st;
 }
 
+// [printer] options of the cartesian/corexy toolhead. The last four are undocumented buffer
+// settings older Klipper accepted (removed in bafb126a); they do not change the motion, so old
+// configs that still carry them are read rather than rejected.
 constexpr std::string_view kPrinterOptions[] = {
-    "kinematics",           "max_velocity",  "max_accel",      "minimum_cruise_ratio",
-    "max_accel_to_decel",   "square_corner_velocity", "max_z_velocity", "max_z_accel"};
+    "kinematics",      "max_velocity",      "max_accel",         "minimum_cruise_ratio",
+    "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
+    "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
@@ -468,8 +475,11 @@ Machine parse_klipper_cfg(std::string_view text, const std::string& source_name)
       std::string_view line = rest.substr(pos, nl == std::string_view::npos ? rest.npos : nl - pos);
       pos = nl == std::string_view::npos ? rest.size() : nl + 1;
       if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      // "#*# " prefix removed; keep line numbering by emitting one line per input line.
-      if (line.rfind("#*# ", 0) == 0) {
+      // "#*# " prefix removed; keep line numbering by emitting one line per input line. The
+      // header's own lines (marker, "DO NOT EDIT ...") are not config.
+      if (line.rfind(kAutosaveMarker, 0) == 0 || line.rfind("#*# DO NOT EDIT", 0) == 0) {
+        // header
+      } else if (line.rfind("#*# ", 0) == 0) {
         autosave += line.substr(4);
       } else if (line.rfind("#*#", 0) != 0 && !trim(line).empty()) {
         // Klipper ignores a corrupted block ("modifications after header") entirely.
