@@ -6,4 +6,5 @@ namespace amctl::cli {
 // subcommand(s) to `app` with a callback that does the work (callbacks run inside app.parse,
 // so amctl::Error thrown there reaches main's handler).
 void register_all(CLI::App& app);
+void register_thermal(CLI::App& app);
 }  // namespace amctl::cli
