@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "amctl/core/error.hpp"
+#include "amctl/thermal/powder_bed_sim.hpp"
 #include "amctl/thermal/powder_bed_tf.hpp"
 #include "amctl/thermal/robust_margin.hpp"
 #include "commands.hpp"
@@ -111,6 +112,88 @@ void run_margins(const MarginArgs& a) {
   }
 }
 
+struct SlsArgs {
+  std::string config;
+  std::string csv = "sls_trace.csv";
+  bool json_out = false;
+  int layers = -1;
+  std::string anti_windup;
+};
+
+void run_sls(const SlsArgs& a) {
+  thermal::SlsBuildConfig cfg;
+  if (!a.config.empty()) cfg = thermal::load_sls_config(a.config);
+  if (a.layers >= 0) cfg.layers_added = a.layers;
+  if (!a.anti_windup.empty()) {
+    if (a.anti_windup == "none") cfg.anti_windup = thermal::AntiWindup::none;
+    else if (a.anti_windup == "back_calculation") cfg.anti_windup = thermal::AntiWindup::back_calculation;
+    else if (a.anti_windup == "conditional_integration")
+      cfg.anti_windup = thermal::AntiWindup::conditional_integration;
+    else
+      throw Error("--anti-windup '" + a.anti_windup +
+                  "' unknown; expected none, back_calculation or conditional_integration");
+  }
+  if (a.csv.empty()) cfg.csv_every = 0;
+  const auto r = thermal::simulate_sls_build(cfg);
+  if (!a.csv.empty()) {
+    std::FILE* f = std::fopen(a.csv.c_str(), "w");
+    if (!f) throw Error("--csv: cannot open '" + a.csv + "' for writing");
+    std::fprintf(f, "t_s,layers,depth_m,y_c,setpoint_c,flux_w_m2,disturbance_w_m2,integral_w_m2\n");
+    for (const auto& p : r.trace)
+      std::fprintf(f, "%.6f,%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f\n", p.t_s, p.layers, p.depth_m, p.y_c,
+                   p.setpoint_c, p.flux_w_m2, p.disturbance_w_m2, p.integral_w_m2);
+    std::fclose(f);
+  }
+  if (a.json_out) {
+    json j;
+    j["layers_added"] = cfg.layers_added;
+    j["steps"] = r.steps;
+    j["final_nodes"] = r.final_nodes;
+    j["anti_windup"] = thermal::to_string(cfg.anti_windup);
+    j["scheme"] = thermal::to_string(cfg.scheme);
+    j["max_overshoot_k"] = r.max_overshoot_k;
+    j["max_dip_k"] = r.max_dip_k;
+    j["mean_settling_time_s"] = r.mean_settling_time_s;
+    j["max_settling_time_s"] = r.max_settling_time_s;
+    j["unsettled_layers"] = r.unsettled_layers;
+    j["final_abs_error_k"] = r.final_abs_error_k;
+    j["mean_abs_final_error_k"] = r.mean_abs_final_error_k;
+    j["total_effort_j_m2"] = r.total_effort_j_m2;
+    j["rms_flux_w_m2"] = r.rms_flux_w_m2;
+    j["saturated_fraction"] = r.saturated_fraction;
+    j["energy_balance_error_j_m2"] = r.energy_balance_error_j_m2;
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  fmt::print("SLS build: {} layer additions every {:g} s, l0 = {:g} mm, PI kp = {:g} W/(m^2 K), "
+             "Ti = {:g} s, flux [{:g}, {:g}] W/m^2, anti-windup {}, scheme {}\n",
+             cfg.layers_added, cfg.layer_time_s, cfg.layer_thickness_m * 1e3, cfg.kp_w_m2k,
+             cfg.ti_s, cfg.flux_min_w_m2, cfg.flux_max_w_m2, thermal::to_string(cfg.anti_windup),
+             thermal::to_string(cfg.scheme));
+  fmt::print("{:>6} {:>9} {:>8} {:>10} {:>10} {:>9} {:>11} {:>8}\n", "layers", "setpoint",
+             "dip_K", "overshoot", "settle_s", "final_K", "effort_J/m2", "sat_%");
+  const auto& L = r.layers;
+  for (std::size_t i = 0; i < L.size(); ++i) {
+    if (L.size() > 12 && i >= 5 && i + 5 < L.size()) {
+      if (i == 5) fmt::print("{:>6}\n", "...");
+      continue;
+    }
+    const auto& s = L[i];
+    fmt::print("{:>6} {:>9.2f} {:>8.3f} {:>10.3f} {:>10.2f}{} {:>9.4f} {:>11.1f} {:>8.1f}\n",
+               s.layer, s.setpoint_c, s.dip_k, s.overshoot_k, s.settling_time_s,
+               s.settled ? ' ' : '*', s.final_error_k, s.effort_j_m2, 100 * s.saturated_fraction);
+  }
+  fmt::print("summary: max dip {:.3f} K, max overshoot {:.3f} K, settling mean {:.2f} s max {:.2f} s"
+             " ({} layers unsettled), final |e| {:.2e} K (mean over layers {:.2e} K),\n"
+             "         effort {:.4g} J/m^2, rms flux {:.4g} W/m^2, saturated {:.1f} %, "
+             "energy balance error {:.2e} J/m^2, {} steps, {} nodes\n",
+             r.max_dip_k, r.max_overshoot_k, r.mean_settling_time_s, r.max_settling_time_s,
+             r.unsettled_layers, r.final_abs_error_k, r.mean_abs_final_error_k,
+             r.total_effort_j_m2, r.rms_flux_w_m2, 100 * r.saturated_fraction,
+             r.energy_balance_error_j_m2, r.steps, r.final_nodes);
+  if (!a.csv.empty()) fmt::print("trace written to {}\n", a.csv);
+}
+
 }  // namespace
 
 void register_thermal(CLI::App& app) {
@@ -135,6 +218,16 @@ void register_thermal(CLI::App& app) {
   sm->add_option("--bode-csv", margins->bode_csv, "write Bode data of G and G_N to this CSV");
   sm->add_flag("--json", margins->json_out, "print one JSON object");
   sm->callback([margins] { run_margins(*margins); });
+
+  auto sls = std::make_shared<SlsArgs>();
+  auto* sc = th->add_subcommand("sls", "Closed-loop SLS powder-bed build (growing 1D heat equation)");
+  sc->add_option("--config", sls->config, "TOML configuration (default: built-in PA12 values)");
+  sc->add_option("--csv", sls->csv, "trace CSV path ('' for none)")->capture_default_str();
+  sc->add_option("--layers", sls->layers, "override the number of layer additions");
+  sc->add_option("--anti-windup", sls->anti_windup,
+                 "override: none | back_calculation | conditional_integration");
+  sc->add_flag("--json", sls->json_out, "print the summary as one JSON object");
+  sc->callback([sls] { run_sls(*sls); });
 }
 
 }  // namespace amctl::cli

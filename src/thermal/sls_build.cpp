@@ -38,6 +38,10 @@ void SlsBuildConfig::validate() const {
     throw Error("dt_s (" + std::to_string(dt_s) + ") must not exceed layer_time_s (" +
                 std::to_string(layer_time_s) + ")");
   require_positive("settle_band_k", settle_band_k);
+  if (coarsening.enabled) {
+    require_positive("coarsen_below_mm (coarsening min depth)", coarsening.min_depth_m);
+    require_positive("coarsen_grading", coarsening.grading);
+  }
   if (csv_every < 0) throw Error("csv_every must be >= 0, got " + std::to_string(csv_every));
   for (const auto& c : setpoint_changes) {
     if (c.from_layer < 0) throw Error("setpoint change from_layer must be >= 0");
@@ -49,7 +53,7 @@ SlsBuildResult simulate_sls_build(const SlsBuildConfig& cfg) {
   cfg.validate();
   const double h = cfg.layer_thickness_m / cfg.cells_per_layer;
   HeatColumn col(cfg.material, h, cfg.initial_layers * cfg.cells_per_layer, cfg.initial_temp_c,
-                 cfg.scheme);
+                 cfg.scheme, 2, cfg.coarsening);
   // An integer number of steps per layer; dt is shortened to fit.
   const int steps_per_layer = std::max(1, int(std::ceil(cfg.layer_time_s / cfg.dt_s - 1e-9)));
   const double dt = cfg.layer_time_s / steps_per_layer;

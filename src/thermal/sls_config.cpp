@@ -134,18 +134,28 @@ SlsBuildConfig load_sls_config(const std::string& path) {
   las.get("duration_s", c.laser_duration_s);
 
   const Section num(path, root, "numerics",
-                    {"cells_per_layer", "dt_s", "scheme", "settle_band_k", "csv_every"});
+                    {"cells_per_layer", "dt_s", "scheme", "settle_band_k", "csv_every",
+                     "coarsen", "coarsen_below_mm", "coarsen_grading"});
   num.get("cells_per_layer", c.cells_per_layer);
   num.get("dt_s", c.dt_s);
   num.get("settle_band_k", c.settle_band_k);
   num.get("csv_every", c.csv_every);
+  if (const toml::node* n = num.node("coarsen")) {
+    if (auto v = n->value<bool>()) c.coarsening.enabled = *v;
+    else throw Error(where(path, n->source()), "[numerics] coarsen must be true or false");
+  }
+  double below_mm = c.coarsening.min_depth_m * 1e3;
+  num.get("coarsen_below_mm", below_mm);
+  c.coarsening.min_depth_m = below_mm * 1e-3;
+  num.get("coarsen_grading", c.coarsening.grading);
   const std::string sc = num.get_string("scheme", to_string(c.scheme));
-  if (sc == "bdf2") c.scheme = TimeScheme::bdf2;
+  if (sc == "tr_bdf2") c.scheme = TimeScheme::tr_bdf2;
+  else if (sc == "bdf2") c.scheme = TimeScheme::bdf2;
   else if (sc == "crank_nicolson") c.scheme = TimeScheme::crank_nicolson;
   else if (sc == "backward_euler") c.scheme = TimeScheme::backward_euler;
   else
     throw Error(num.loc("scheme"), "[numerics] scheme '" + sc +
-                "' unknown; expected bdf2, crank_nicolson or backward_euler");
+                "' unknown; expected tr_bdf2, bdf2, crank_nicolson or backward_euler");
   try {
     c.validate();
   } catch (const Error& e) {
