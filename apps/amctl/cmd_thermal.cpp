@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "amctl/core/error.hpp"
+#include "amctl/thermal/fdm_heater.hpp"
 #include "amctl/thermal/powder_bed_sim.hpp"
 #include "amctl/thermal/powder_bed_tf.hpp"
 #include "amctl/thermal/robust_margin.hpp"
@@ -194,6 +195,141 @@ void run_sls(const SlsArgs& a) {
   if (!a.csv.empty()) fmt::print("trace written to {}\n", a.csv);
 }
 
+struct HeaterArgs {
+  bool bed = false;
+  double target = -1.0;
+  double noise = 0.0;
+  int cycles = 5;
+  std::string rule;
+  std::string csv;
+  bool json_out = false;
+};
+
+void run_heater(const HeaterArgs& a) {
+  using namespace thermal;
+  const HeaterPlantParams pp = a.bed ? HeaterPlantParams::bed() : HeaterPlantParams::hotend();
+  HeaterPlantParams noisy = pp;
+  require_non_negative("--noise", a.noise);
+  noisy.sensor_noise_k = a.noise;
+  HeaterScenario sc;
+  sc.target_c = a.target > 0 ? a.target : (a.bed ? 60.0 : 210.0);
+  if (!(sc.target_c > pp.ambient_c + 20.0))
+    throw Error("--target must be at least 20 K above ambient (" + std::to_string(pp.ambient_c) + " C)");
+  if (a.bed) {
+    sc.duration_s = 1500.0;
+    sc.fan_on_at_s = 900.0;
+    sc.flow_start_s = 1200.0;
+    sc.flow_end_s = 1500.0;
+    sc.flow_high_mm3_s = 0.0;
+    sc.flow_low_mm3_s = 0.0;
+  }
+  if (a.cycles < 3) throw Error("--cycles must be >= 3, got " + std::to_string(a.cycles));
+  auto parse_rule = [](const std::string& r) {
+    if (r == "classic_zn") return TuningRule::classic_zn;
+    if (r == "some_overshoot") return TuningRule::some_overshoot;
+    if (r == "no_overshoot") return TuningRule::no_overshoot;
+    throw Error("--rule '" + r + "' unknown; expected classic_zn, some_overshoot or no_overshoot");
+  };
+  const TuningRule default_rule = a.bed ? TuningRule::no_overshoot : TuningRule::classic_zn;
+  const TuningRule rule = a.rule.empty() ? default_rule : parse_rule(a.rule);
+
+  AutotuneOptions ao;
+  ao.target_c = sc.target_c;
+  ao.cycles = a.cycles;
+  ao.rule = rule;
+  if (a.bed) ao.timeout_s = 7200.0;
+  const AutotuneResult at = relay_autotune(HeaterPlant(noisy), ao);
+  if (!at.ok) throw Error("relay autotune failed: " + at.message);
+  const PidGains classic = tuning_rule(TuningRule::classic_zn, at.ku, at.tu_s);
+
+  IdentifyOptions io;
+  io.ambient_c = pp.ambient_c;
+  io.target_c = a.bed ? 100.0 : 200.0;
+  io.filament_j_mm3k = pp.filament_j_mm3k;
+  if (a.bed) {
+    io.sample_distance_s = 5.0;
+    io.settle_s = 600.0;
+    io.measure_s = 300.0;
+  }
+  const IdentifyResult id = identify_mpc_model(HeaterPlant(noisy), io);
+
+  std::vector<HeaterRunStats> runs;
+  {
+    PidController pid(at.gains, PidOptions{});
+    runs.push_back(run_heater_scenario(noisy, sc,
+        [&](double t, double y, double, double, double dt) { return pid.update(t, y, dt); },
+        std::string("PID ") + to_string(rule)));
+  }
+  if (rule != TuningRule::classic_zn) {
+    PidController pid(classic, PidOptions{});
+    runs.push_back(run_heater_scenario(noisy, sc,
+        [&](double t, double y, double, double, double dt) { return pid.update(t, y, dt); },
+        "PID classic_zn"));
+  }
+  {
+    MpcController mpc(id.model, MpcOptions{}, pp.ambient_c);
+    runs.push_back(run_heater_scenario(noisy, sc,
+        [&](double t, double y, double f, double q, double dt) { return mpc.update(t, y, f, q, dt); },
+        "MPC identified"));
+  }
+  if (!a.csv.empty()) {
+    std::FILE* f = std::fopen(a.csv.c_str(), "w");
+    if (!f) throw Error("--csv: cannot open '" + a.csv + "' for writing");
+    std::fprintf(f, "t_s");
+    for (const auto& r : runs) std::fprintf(f, ",%s_c,%s_duty", r.controller.c_str(), r.controller.c_str());
+    std::fprintf(f, "\n");
+    for (std::size_t i = 0; i < runs[0].t_s.size(); ++i) {
+      std::fprintf(f, "%.2f", runs[0].t_s[i]);
+      for (const auto& r : runs) std::fprintf(f, ",%.4f,%.4f", r.measured_c[i], r.duty[i]);
+      std::fprintf(f, "\n");
+    }
+    std::fclose(f);
+  }
+  if (a.json_out) {
+    json j;
+    j["heater"] = a.bed ? "bed" : "hotend";
+    j["target_c"] = sc.target_c;
+    j["autotune"] = {{"ku_per_k", at.ku}, {"tu_s", at.tu_s}, {"bias", at.bias}, {"amplitude", at.amplitude},
+                     {"rule", to_string(rule)}, {"kp", at.gains.kp}, {"ki", at.gains.ki}, {"kd", at.gains.kd},
+                     {"marlin_kp", 255 * at.gains.kp}, {"marlin_ki", 255 * at.gains.ki}, {"marlin_kd", 255 * at.gains.kd},
+                     {"duration_s", at.duration_s}};
+    j["identified"] = {{"block_capacity_j_k", id.model.block_capacity_j_k},
+                       {"sensor_responsiveness_1_s", id.model.sensor_responsiveness_1_s},
+                       {"loss_w_k", id.model.loss_w_k}, {"loss_full_fan_w_k", id.model.loss_w_k + id.model.fan_extra_loss_w_k},
+                       {"asymptote_c", id.asymptotic_temp_c}, {"loss_from_curve_w_k", id.loss_from_curve_w_k}};
+    j["true_plant"] = {{"block_capacity_j_k", pp.block_capacity_j_k + pp.core_capacity_j_k},
+                       {"sensor_responsiveness_1_s", 1.0 / pp.sensor_time_constant_s},
+                       {"loss_w_k", pp.loss_w_k}, {"loss_full_fan_w_k", pp.loss_w_k + pp.fan_extra_loss_w_k}};
+    json rs = json::array();
+    for (const auto& r : runs)
+      rs.push_back({{"controller", r.controller}, {"heat_up_time_s", num(r.heat_up_time_s)},
+                    {"overshoot_k", r.overshoot_k}, {"fan_max_dev_k", r.fan_max_dev_k},
+                    {"fan_recovery_s", r.fan_recovery_s}, {"flow_ripple_k", r.flow_ripple_k},
+                    {"flow_rms_k", r.flow_rms_k}, {"energy_j", r.energy_j}});
+    j["runs"] = rs;
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  fmt::print("{} at {:g} C (sensor noise {:g} K)\n", a.bed ? "Heated bed" : "Hotend", sc.target_c, a.noise);
+  fmt::print("relay autotune (M303-like, {} cycles): Ku = {:.4g} duty/K, Tu = {:.4g} s, bias {:.3f}, d {:.3f}\n",
+             at.cycles, at.ku, at.tu_s, at.bias, at.amplitude);
+  fmt::print("  {} gains: kp {:.4g} /K, ki {:.4g} /(K s), kd {:.4g} s/K  (Marlin 0-255 scale: P {:.3g} I {:.3g} D {:.3g})\n",
+             to_string(rule), at.gains.kp, at.gains.ki, at.gains.kd, 255 * at.gains.kp,
+             255 * at.gains.ki, 255 * at.gains.kd);
+  fmt::print("identified model (M306 T-like): C {:.4g} J/K (true {:.4g}+{:.4g}), sensor {:.4g} 1/s (true {:.4g}),"
+             " loss {:.4g} W/K (true {:.4g}), full fan {:.4g} W/K (true {:.4g})\n",
+             id.model.block_capacity_j_k, pp.block_capacity_j_k, pp.core_capacity_j_k,
+             id.model.sensor_responsiveness_1_s, 1.0 / pp.sensor_time_constant_s, id.model.loss_w_k,
+             pp.loss_w_k, id.model.loss_w_k + id.model.fan_extra_loss_w_k,
+             pp.loss_w_k + pp.fan_extra_loss_w_k);
+  fmt::print("{:<22} {:>10} {:>11} {:>11} {:>12} {:>11} {:>9} {:>10}\n", "controller", "heatup_s",
+             "overshoot_K", "fan_dev_K", "fan_recov_s", "ripple_K", "rms_K", "energy_kJ");
+  for (const auto& r : runs)
+    fmt::print("{:<22} {:>10.1f} {:>11.3f} {:>11.3f} {:>12.1f} {:>11.3f} {:>9.3f} {:>10.2f}\n",
+               r.controller, r.heat_up_time_s, r.overshoot_k, r.fan_max_dev_k, r.fan_recovery_s,
+               r.flow_ripple_k, r.flow_rms_k, r.energy_j / 1000.0);
+}
+
 }  // namespace
 
 void register_thermal(CLI::App& app) {
@@ -228,6 +364,21 @@ void register_thermal(CLI::App& app) {
                  "override: none | back_calculation | conditional_integration");
   sc->add_flag("--json", sls->json_out, "print the summary as one JSON object");
   sc->callback([sls] { run_sls(*sls); });
+
+  for (bool bed : {false, true}) {
+    auto ha = std::make_shared<HeaterArgs>();
+    ha->bed = bed;
+    auto* hc = th->add_subcommand(bed ? "bed" : "hotend",
+                                  bed ? "Heated-bed loop: relay autotune (gentle rule) vs MPC"
+                                      : "Hotend loop: relay autotune PID vs identified MPC");
+    hc->add_option("--target", ha->target, "target temperature, C (default 210 hotend, 60 bed)");
+    hc->add_option("--noise", ha->noise, "sensor noise standard deviation, K")->capture_default_str();
+    hc->add_option("--cycles", ha->cycles, "autotune cycles (M303 C)")->capture_default_str();
+    hc->add_option("--rule", ha->rule, "classic_zn | some_overshoot | no_overshoot");
+    hc->add_option("--csv", ha->csv, "write the traces of all controllers to this CSV");
+    hc->add_flag("--json", ha->json_out, "print one JSON object");
+    hc->callback([ha] { run_heater(*ha); });
+  }
 }
 
 }  // namespace amctl::cli
