@@ -57,6 +57,17 @@ inline void advance(std::vector<Run>& runs, const ModePropagator* props, int ter
   }
 }
 
+// A jump dv of the commanded axis velocity (a corner taken at non-zero junction speed)
+// is an impulse of commanded acceleration: the carriage velocity x' stays continuous, so the
+// error rate e' = x' - x_b' jumps by -g dv, i.e. q = e'/w by -g dv / w.
+inline void apply_velocity_jump(std::vector<Run>& runs, double dv0, double dv1) {
+  if (dv0 == 0.0 && dv1 == 0.0) return;
+  for (Run& r : runs) {
+    const double w = 2.0 * std::numbers::pi * r.mode.natural_frequency_hz;
+    r.q -= r.mode.participation * (r.axis == 0 ? dv0 : dv1) / w;
+  }
+}
+
 }  // namespace
 
 SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,
@@ -113,11 +124,27 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     return terms;
   };
 
+  // Commanded velocity of the two simulated axes at t on the piece of `l`.
+  auto axis_velocity = [&](const trajectory::Cursor::Location& l, double t, double (&v)[2]) {
+    const double sv = l.holding ? 0.0 : trajectory::evaluate_piece(*l.piece, t - l.piece_t0_s).v_mm_s;
+    const plan::PlannedMove& mv = moves[l.move_index];
+    v[0] = sv * (row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1]);
+    v[1] = sv * (row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1]);
+  };
+
+  double v_left[2] = {0.0, 0.0};
+  bool have_left = false;
   for (std::size_t k = 0;; ++k) {
     const double t = t0 + static_cast<double>(k) * h;
     const trajectory::Cursor::Location loc = cursor.locate(t);
     const int terms = input_terms(loc, t);
     const plan::PlannedMove& mv = moves[loc.move_index];
+    if (have_left) {  // the last step ended exactly on a piece boundary
+      double vr[2];
+      axis_velocity(loc, t, vr);
+      apply_velocity_jump(runs, vr[0] - v_left[0], vr[1] - v_left[1]);
+      have_left = false;
+    }
 
     // ---- output sample at t
     SimSample s;
@@ -152,6 +179,10 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     if (loc.piece_end_s >= t_next - tol) {
       advance(runs, nullptr, terms, u);
       stats.axis_state_updates += runs.size();
+      if (loc.piece_end_s <= t_next + tol) {
+        axis_velocity(loc, t_next, v_left);
+        have_left = true;
+      }
       continue;
     }
     ++stats.split_steps;
@@ -160,6 +191,10 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     int tm = terms;
     for (int guard = 0; tc < t_next - tol && guard < 64; ++guard) {
       const double end = std::min(lp->piece_end_s, t_next);
+      if (end >= t_next - tol && lp->piece_end_s <= t_next + tol) {
+        axis_velocity(*lp, t_next, v_left);
+        have_left = true;
+      }
       const double dt = end - tc;
       if (dt > 0.0) {
         const int nt = std::max(1, tm);
@@ -169,9 +204,16 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
       }
       tc = end;
       if (tc >= t_next - tol) break;
+      // Left limit of the commanded axis velocities at the boundary, before the cursor
+      // moves on (it may reload its pieces).
+      double vl[2];
+      axis_velocity(*lp, tc, vl);
       const trajectory::Cursor::Location& nl = cursor.locate(tc);
       tm = input_terms(nl, tc);
       lp = &nl;
+      double vr[2];
+      axis_velocity(nl, tc, vr);
+      apply_velocity_jump(runs, vr[0] - vl[0], vr[1] - vl[1]);
     }
   }
   return stats;
