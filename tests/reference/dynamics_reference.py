@@ -93,3 +93,10 @@ def velr(t):
 
 dr, _ = quad(velr, 0, 2 * tjr, points=[tjr], epsabs=1e-14, epsrel=1e-14)
 print(f"scurve reduced ramp T={2 * tjr:.15f} d={dr:.15f} peak_a={jm * tjr:.12f}")
+
+# 4. Seed base case: largest overshoot of x past the corner (x = 10) after the corner.
+sol2 = solve_ivp(rhs, (0, 0.4), [0, 0, 0, 0], method="DOP853", rtol=1e-12, atol=1e-14,
+                 dense_output=True, max_step=1e-3)
+tt = np.linspace(0.12, 0.4, 280001)
+xs = sol2.sol(tt)[0]
+print(f"seed base max overshoot past x=10: {xs.max() - 10:.9f} at t={tt[xs.argmax()]:.6f}")
