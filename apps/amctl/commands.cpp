@@ -1,5 +1,5 @@
 #include "commands.hpp"
 
 namespace amctl::cli {
-void register_all(CLI::App& app) { (void)app; }
+void register_all(CLI::App& app) { register_machine(app); }
 }  // namespace amctl::cli

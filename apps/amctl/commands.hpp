@@ -6,4 +6,7 @@ namespace amctl::cli {
 // subcommand(s) to `app` with a callback that does the work (callbacks run inside app.parse,
 // so amctl::Error thrown there reaches main's handler).
 void register_all(CLI::App& app);
+
+/// `amctl machine show|list|keys` (cmd_machine.cpp).
+void register_machine(CLI::App& app);
 }  // namespace amctl::cli

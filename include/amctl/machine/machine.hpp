@@ -46,6 +46,7 @@ struct Extruder {
   double instantaneous_corner_velocity_mm_s = 1.0;
   /// Unset = 4 * nozzle_diameter^2 (Klipper's default).
   std::optional<double> max_extrude_cross_section_mm2;
+  bool operator==(const Extruder&) const = default;
 };
 
 /// One stepper's drive train: distance per full motor revolution and stepping.
@@ -56,6 +57,7 @@ struct Stepper {
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
+  bool operator==(const Stepper&) const = default;
 };
 
 /// Arc (G2/G3) linearisation.
@@ -68,6 +70,21 @@ struct Arcs {
   double max_arc_segment_mm = 0.0;
   /// Marlin ARC_SEGMENTS_PER_SEC (0 = off): caps segments per second of motion.
   double segments_per_second = 0.0;
+  /// Marlin MIN_CIRCLE_SEGMENTS / Prusa MIN_ARC_SEGMENTS (0 = off): at least this many
+  /// segments per full circle, i.e. segment length <= 2 pi r / n (never below min_arc_segment_mm).
+  int min_circle_segments = 0;
+  bool operator==(const Arcs&) const = default;
+};
+
+/// G10/G11 firmware retraction (Klipper [firmware_retraction], Marlin FWRETRACT / M207 M208).
+/// Defaults are Klipper's.
+struct FirmwareRetraction {
+  double retract_length_mm = 0.0;
+  double retract_speed_mm_s = 20.0;
+  double unretract_extra_length_mm = 0.0;
+  double unretract_speed_mm_s = 10.0;
+  double lift_z_mm = 0.0;  ///< Marlin RETRACT_ZRAISE (M207 Z); Klipper has none
+  bool operator==(const FirmwareRetraction&) const = default;
 };
 
 struct Machine {
@@ -98,13 +115,20 @@ struct Machine {
   double min_feedrate_mm_s = 0.0;               ///< M205 S
   double min_travel_feedrate_mm_s = 0.0;        ///< M205 T
   double min_segment_time_s = 0.0;              ///< M205 B (us in G-code; s here)
+  /// Marlin BLOCK_BUFFER_SIZE: moves the look-ahead can see (bounds how far ahead it plans).
+  int block_buffer_size = 16;
 
   /// Jerk for the jerk-limited profiles (scurve7). [mm/s^3]
   double max_jerk_mm_s3 = 1.0e6;
 
   Extruder extruder;
   Arcs arcs;
-  std::map<std::string, Stepper> steppers;  ///< keyed "x", "y", "z", "e"
+  FirmwareRetraction firmware_retraction;
+  /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis).
+  /// rotation_distance_mm is per motor revolution (any gear_ratio is folded in).
+  std::map<std::string, Stepper> steppers;
+
+  bool operator==(const Machine&) const = default;
 };
 
 }  // namespace amctl::machine

@@ -1,0 +1,110 @@
+#pragma once
+// Turns G-code text into EventSink events: G0/G1, G2/G3 (I/J and R forms), G4, G10/G11,
+// G17-G19, G20/G21, G28, G90/G91, M82/M83, G92, M73, M104/M109/M140/M190/M141/M191,
+// M106/M107, M201/M203/M204/M205, M220/M221, M400, M566, Klipper's SET_VELOCITY_LIMIT,
+// SET_KINEMATIC_POSITION, TEMPERATURE_WAIT, and slicer annotations for layers and features
+// (PrusaSlicer/SuperSlicer, Cura, OrcaSlicer/Bambu, ideaMaker).
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "amctl/gcode/command.hpp"
+#include "amctl/gcode/events.hpp"
+#include "amctl/gcode/parser.hpp"
+
+namespace amctl::gcode {
+
+struct InterpreterOptions {
+  /// Arc linearisation: target chord length [mm], clamps (0 = none), and Marlin's
+  /// ARC_SEGMENTS_PER_SEC (0 = off). Segments = max(1, floor(arc length / chord length)),
+  /// Klipper's [gcode_arcs] rule.
+  double mm_per_arc_segment = 1.0;
+  double min_arc_segment_mm = 0.0;
+  double max_arc_segment_mm = 0.0;
+  double arc_segments_per_second = 0.0;
+  /// Firmware retraction (G10/G11). Klipper's [firmware_retraction] defaults.
+  double retract_length_mm = 0.0;
+  double retract_speed_mm_s = 20.0;
+  double unretract_extra_length_mm = 0.0;
+  double unretract_speed_mm_s = 10.0;
+  /// Treat an unparseable line as an error (default) or count and skip it.
+  bool strict = true;
+};
+
+/// Layer, feature and slicer figures read from comments.
+struct Annotations {
+  std::vector<std::string> feature_names{"unknown"};  ///< index 0 = before any ;TYPE:
+  std::int32_t layer = -1;
+  std::uint16_t feature = 0;
+  std::optional<double> slicer_estimate_s;
+  std::string slicer_name;  ///< "PrusaSlicer", "Cura", ... when recognised
+};
+
+/// One entry per distinct unknown command name: first place seen and how often.
+struct UnknownCommand {
+  std::string name;
+  std::uint64_t first_line = 0;
+  std::uint64_t count = 0;
+};
+
+class Interpreter {
+ public:
+  Interpreter(InterpreterOptions options, std::string source_name);
+
+  /// Feeds one line (1-based `line_no`). Throws amctl::Error "file:line:col: ..." on
+  /// malformed input when options.strict.
+  void feed(std::string_view line, std::uint64_t line_no, EventSink& sink);
+
+  /// Reads a whole file or stream through a bounded buffer, feeding every line.
+  void run(class LineReader& reader, EventSink& sink);
+
+  [[nodiscard]] const Annotations& annotations() const { return notes_; }
+  [[nodiscard]] const std::vector<UnknownCommand>& unknown_commands() const { return unknown_; }
+  /// Commands understood but with no effect on motion time (M117, M84, ...), by name.
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& ignored_commands() const { return ignored_; }
+  [[nodiscard]] std::uint64_t skipped_lines() const { return skipped_lines_; }
+  [[nodiscard]] const std::array<double, 4>& machine_position_mm() const { return pos_; }
+
+ private:
+  void handle_word(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void handle_comment(std::string_view comment, std::uint64_t line_no, EventSink& sink);
+  void do_move(const Params& p, std::uint64_t line_no, EventSink& sink);
+  void do_arc(const Command& cmd, const Params& p, bool clockwise, std::uint64_t line_no,
+              EventSink& sink);
+  void emit_move(const std::array<double, 4>& target, double speed_mm_s, std::uint64_t line_no,
+                 EventSink& sink, bool from_arc, bool from_retract = false);
+  void set_feature(std::string_view name);
+  void note_unknown(std::string_view name, std::uint64_t line_no);
+  void note_ignored(std::string_view name);
+  [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;
+  double number_arg(const Command& cmd, std::string_view key, std::uint64_t line_no,
+                    bool& present) const;
+
+  InterpreterOptions opt_;
+  std::string source_;
+  // Modal state.
+  std::array<double, 4> pos_{};         // machine position X Y Z E
+  std::array<double, 4> gcode_pos_{};   // position as the file sees it (after G92)
+  bool absolute_xyz_ = true;
+  bool absolute_e_ = true;
+  double unit_mm_ = 1.0;                // 25.4 after G20
+  double feed_mm_s_ = 25.0;             // Klipper's initial 1500 mm/min
+  double speed_factor_ = 1.0;           // M220
+  double extrude_factor_ = 1.0;         // M221
+  int arc_plane_ = 17;
+  bool retracted_ = false;
+  Annotations notes_;
+  std::vector<UnknownCommand> unknown_;
+  std::map<std::string, std::uint64_t> ignored_;
+  std::uint64_t skipped_lines_ = 0;
+  Command cmd_;
+  Params params_;
+  ParseIssue issue_;
+};
+
+}  // namespace amctl::gcode

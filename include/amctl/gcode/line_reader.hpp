@@ -1,0 +1,54 @@
+#pragma once
+// Streaming line reader: a fixed-size buffer, so a file of any size is read in bounded
+// memory. Lines longer than the buffer are an error (no real G-code line comes close).
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace amctl::gcode {
+
+class LineReader {
+ public:
+  static constexpr std::size_t kDefaultBufferBytes = 1u << 20;
+
+  /// Opens `path` ("-" reads standard input). Throws amctl::Error if it cannot be opened.
+  explicit LineReader(const std::string& path, std::size_t buffer_bytes = kDefaultBufferBytes);
+  /// Reads from an in-memory text (tests, fuzzing). `name` is used in messages.
+  LineReader(std::string_view text, std::string name);
+  ~LineReader();
+  LineReader(const LineReader&) = delete;
+  LineReader& operator=(const LineReader&) = delete;
+
+  /// Next line without its terminator ('\n'; a preceding '\r' is dropped). Returns false at
+  /// end of input. Throws amctl::Error on a read error or an over-long line. The view stays
+  /// valid until the next call.
+  bool next(std::string_view& line);
+
+  /// 1-based number of the line last returned.
+  [[nodiscard]] std::uint64_t line_number() const { return line_no_; }
+  [[nodiscard]] const std::string& name() const { return name_; }
+  /// Bytes consumed so far (for progress).
+  [[nodiscard]] std::uint64_t bytes_read() const { return bytes_; }
+  /// True if the input did not end with a newline (a possibly truncated file).
+  [[nodiscard]] bool ended_without_newline() const { return no_final_newline_; }
+
+ private:
+  bool refill();
+
+  std::string name_;
+  std::FILE* file_ = nullptr;
+  bool owns_file_ = false;
+  std::vector<char> buf_;
+  std::size_t begin_ = 0;  // start of unconsumed data
+  std::size_t end_ = 0;    // end of valid data
+  bool eof_ = false;
+  bool no_final_newline_ = false;
+  std::string_view memory_;  // in-memory mode when file_ == nullptr
+  std::uint64_t line_no_ = 0;
+  std::uint64_t bytes_ = 0;
+};
+
+}  // namespace amctl::gcode

@@ -1,0 +1,100 @@
+#pragma once
+// The main job: G-code file -> reader -> interpreter -> planner -> print-time report.
+// Streams the file through a bounded buffer; memory grows only with the number of layers,
+// features and distinct unknown commands, never with the number of moves.
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "amctl/gcode/interpreter.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planner.hpp"
+
+namespace amctl::plan {
+
+struct EstimateOptions {
+  PlannerOptions planner;
+  /// Record (line, time) checkpoints every this many seconds of print time (for M73).
+  double checkpoint_interval_s = 0.0;
+  /// Called for every planned move (e.g. to sample trajectories); may be empty.
+  std::function<void(const PlannedMove&)> on_move;
+  /// Treat malformed lines as errors (true) or skip and count them.
+  bool strict = true;
+};
+
+/// Interpreter options implied by a machine (arcs, firmware retraction).
+gcode::InterpreterOptions interpreter_options(const machine::Machine& m);
+
+struct FeatureTime {
+  std::string name;
+  double time_s = 0.0;        ///< all moves tagged with this feature
+  double extrude_time_s = 0.0;
+  double path_mm = 0.0;       ///< XYZ length of extruding moves
+  double filament_mm = 0.0;   ///< E advanced by extruding moves
+  std::uint64_t moves = 0;
+};
+
+struct LayerTime {
+  std::int32_t layer = 0;
+  double start_s = 0.0;
+  double time_s = 0.0;
+  double z_mm = 0.0;          ///< Z of the first extruding move in the layer
+  std::uint64_t first_line = 0;
+};
+
+struct TimedEvent {
+  double at_s = 0.0;
+  std::string what;           ///< e.g. "M109 hotend 215 C (wait)", "G28"
+  std::uint64_t line = 0;
+};
+
+struct Checkpoint {
+  std::uint64_t line = 0;     ///< G-code line of the first move starting at/after time_s
+  double time_s = 0.0;
+};
+
+struct EstimateReport {
+  std::string file;
+  std::string machine_name;
+  double total_time_s = 0.0;       ///< motion + dwells (heater waits and untimed commands apart)
+  double motion_time_s = 0.0;
+  double dwell_time_s = 0.0;
+  double travel_time_s = 0.0;      ///< moves without extrusion
+  double extrude_time_s = 0.0;     ///< moves with positive extrusion
+  double extrude_only_time_s = 0.0;  ///< retract / unretract / prime without XYZ motion
+  double travel_mm = 0.0;
+  double extrude_path_mm = 0.0;
+  double filament_mm = 0.0;        ///< net filament fed (extrusion minus retraction)
+  double filament_volume_mm3 = 0.0;
+  double max_speed_mm_s = 0.0;
+  std::uint64_t moves = 0;
+  std::uint64_t lines = 0;
+  std::uint64_t bytes = 0;
+  bool ended_without_newline = false;
+  std::vector<FeatureTime> features;
+  std::vector<LayerTime> layers;
+  std::vector<TimedEvent> heater_waits;   ///< waits whose duration is not in total_time_s
+  std::vector<TimedEvent> heater_sets;
+  std::vector<TimedEvent> untimed;        ///< homing, probing, pauses: real time not known
+  std::vector<gcode::UnknownCommand> unknown_commands;
+  std::map<std::string, std::uint64_t> ignored_commands;
+  std::optional<double> slicer_estimate_s;
+  std::string slicer_name;
+  std::vector<Checkpoint> checkpoints;
+  PlannerDiagnostics diagnostics;
+  Planner::Limits final_limits{};
+};
+
+/// Estimates a G-code file ("-" = standard input). Throws amctl::Error on bad input with
+/// "file:line:col: ..." in the message.
+EstimateReport estimate_file(const std::string& path, const machine::Machine& machine,
+                             const EstimateOptions& options = {});
+
+/// Same, on text in memory (tests). `name` appears in messages.
+EstimateReport estimate_text(std::string_view gcode, const std::string& name,
+                             const machine::Machine& machine, const EstimateOptions& options = {});
+
+}  // namespace amctl::plan

@@ -1,0 +1,175 @@
+#pragma once
+// The look-ahead velocity planner.
+//
+// Reference behaviour is Klipper's toolhead (klippy/toolhead.py, read for its behaviour):
+//  - each move's cruise speed is the requested speed capped by max_velocity, Z and
+//    extruder limits;
+//  - the speed at a junction is limited by the "approximated centripetal velocity" derived
+//    from square_corner_velocity (junction deviation jd = scv^2 (sqrt2 - 1) / accel), by half
+//    the move length (centripetal limit), by the extruder's instantaneous_corner_velocity and
+//    by what the previous move can reach;
+//  - a second, smoothed pass with the pseudo-acceleration accel (1 - minimum_cruise_ratio)
+//    decides where moves cruise, so short zig-zags do not accelerate to full speed;
+//  - the queue is flushed lazily once 0.15 s of moves are queued (1 s after a full flush),
+//    fully at dwells, M400 and position resets.
+// Marlin's junction deviation (with its small-segment limit) and classic jerk are the other
+// junction policies; Marlin also plans over a finite block buffer (16 moves by default).
+// Derivations: docs/planner.md.
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "amctl/gcode/events.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planned_move.hpp"
+
+namespace amctl::plan {
+
+/// Receives the planner's output in time order.
+class PlanSink {
+ public:
+  virtual ~PlanSink() = default;
+  virtual void on_planned(const PlannedMove& move) = 0;
+  /// A pause with the toolhead at rest (G4), starting at start_time_s.
+  virtual void on_dwell(double start_time_s, double duration_s, std::uint64_t line) {
+    (void)start_time_s; (void)duration_s; (void)line;
+  }
+  /// A heater command taking effect at print time `time_s` (after the moves before it).
+  virtual void on_heater(double time_s, const gcode::HeaterCommand& cmd) { (void)time_s; (void)cmd; }
+  virtual void on_progress(double time_s, const gcode::ProgressMarker& m) { (void)time_s; (void)m; }
+  virtual void on_untimed(double time_s, std::string_view name, std::uint64_t line) {
+    (void)time_s; (void)name; (void)line;
+  }
+  virtual void on_layer_change(double time_s, std::int32_t layer, std::uint64_t line) {
+    (void)time_s; (void)layer; (void)line;
+  }
+  virtual void on_fan(double time_s, double fraction, std::uint64_t line) {
+    (void)time_s; (void)fraction; (void)line;
+  }
+};
+
+struct PlannerOptions {
+  /// Marlin-style block buffer size (Marlin and RepRap policies). 0 = unlimited look-ahead.
+  std::size_t block_buffer_size = 16;
+  /// Upper bound on queued moves for the Klipper policy before a forced lazy flush; it keeps
+  /// memory bounded on pathological input without changing results on real files.
+  std::size_t max_queue = 1u << 16;
+  /// Marlin's MINIMUM_PLANNER_SPEED [mm/s].
+  double minimum_planner_speed_mm_s = 0.05;
+};
+
+/// Count of moves whose request the machine refused or trimmed.
+struct PlannerDiagnostics {
+  std::uint64_t moves = 0;
+  std::uint64_t zero_length_moves = 0;
+  std::uint64_t speed_limited_moves = 0;   ///< requested speed above a limit
+  std::uint64_t extrude_only_moves = 0;
+  std::uint64_t forced_flushes = 0;        ///< max_queue reached (should stay 0)
+  std::uint64_t full_stops = 0;            ///< flushes to zero speed (dwell, M400, ...)
+  std::vector<std::string> warnings;       ///< e.g. over-extrusion (Klipper would refuse)
+};
+
+class Planner final : public gcode::EventSink {
+ public:
+  Planner(const machine::Machine& machine, PlanSink& sink, PlannerOptions options = {});
+
+  // gcode::EventSink
+  void on_move(const gcode::MoveRequest& move) override;
+  void on_dwell(double duration_s, std::uint64_t line) override;
+  void on_wait_moves(std::uint64_t line) override;
+  void on_set_position(const std::array<double, 4>& pos_mm, std::uint64_t line) override;
+  void on_limits(const gcode::LimitsCommand& cmd) override;
+  void on_heater(const gcode::HeaterCommand& cmd) override;
+  void on_fan(double fraction, std::uint64_t line) override;
+  void on_progress(const gcode::ProgressMarker& m) override;
+  void on_layer_change(std::int32_t layer, std::uint64_t line) override;
+  void on_untimed(std::string_view name, std::uint64_t line) override;
+
+  /// Plans and emits every queued move, ending at rest. Call once at end of input.
+  void finish();
+
+  /// Print time reached by the moves emitted so far [s].
+  [[nodiscard]] double print_time_s() const { return print_time_s_; }
+  [[nodiscard]] const PlannerDiagnostics& diagnostics() const { return diag_; }
+
+  /// Current limits (after G-code changes) — useful for reports and tests.
+  struct Limits {
+    double max_velocity_mm_s;
+    double accel_mm_s2;             ///< Klipper toolhead accel / Marlin print accel
+    double travel_accel_mm_s2;      ///< Marlin
+    double retract_accel_mm_s2;     ///< Marlin
+    double square_corner_velocity_mm_s;
+    double minimum_cruise_ratio;
+    std::optional<double> accel_to_decel_mm_s2;  ///< old Klipper setting, when given
+    std::array<double, 4> max_feedrate_mm_s;
+    std::array<double, 4> max_axis_accel_mm_s2;
+    std::array<double, 4> jerk_mm_s;
+    double junction_deviation_mm;
+    double min_feedrate_mm_s;
+    double min_travel_feedrate_mm_s;
+  };
+  [[nodiscard]] const Limits& limits() const { return lim_; }
+
+ private:
+  struct Move {
+    PlannedMove out;           // geometry and identity; speeds/times filled at flush
+    double max_cruise_v2 = 0;
+    double max_start_v2 = 0;
+    double delta_v2 = 0;
+    double max_mcr_start_v2 = 0;
+    double mcr_delta_v2 = 0;
+    double min_move_t = 0;
+    double junction_deviation = 0;  // Klipper jd of the limits in force for this move
+    bool kinematic = true;
+    // Marlin classic jerk bookkeeping
+    std::array<double, 4> axis_v{};  // per-axis velocity at nominal speed
+    double nominal_v = 0;
+    double safe_v = 0;
+    std::uint64_t seq = 0;  // arrival order, for events queued behind this move
+  };
+
+  // A non-motion event that takes effect once every move queued before it has run.
+  struct PendingEvent {
+    enum class Kind : std::uint8_t { heater, fan, progress, layer, untimed } kind = Kind::heater;
+    std::uint64_t after_seq = 0;
+    gcode::HeaterCommand heater{};
+    gcode::ProgressMarker progress{};
+    double fan = 0.0;
+    std::int32_t layer = 0;
+    std::uint64_t line = 0;
+    std::string name;
+  };
+  void post(PendingEvent&& e);
+  void fire(const PendingEvent& e);
+
+  void add_move(Move&& m);
+  void flush(bool lazy);
+  void emit(Move& m, double start_v2, double cruise_v2, double end_v2);
+  void full_stop();
+  void junction_klipper(Move& m, const Move& prev) const;
+  void junction_marlin_jd(Move& m, const Move& prev) const;
+  void junction_classic_jerk(Move& m, const Move& prev);
+  void flush_marlin_head();
+  [[nodiscard]] double klipper_junction_deviation() const;
+  [[nodiscard]] double mcr_pseudo_accel() const;
+
+  machine::Machine machine_;
+  PlanSink& sink_;
+  PlannerOptions opt_;
+  Limits lim_{};
+  std::deque<Move> queue_;
+  double junction_flush_s_ = 1.0;
+  double print_time_s_ = 0.0;
+  double prev_safe_v_ = 0.0;
+  PlannerDiagnostics diag_;
+  // Reusable scratch for flush().
+  struct JunctionInfo { double start_v2; double cruise_v2; bool has_cruise; double next_start_v2; };
+  std::vector<JunctionInfo> scratch_;
+  std::uint64_t warned_overextrusion_ = 0;
+  std::uint64_t next_seq_ = 1;
+  std::deque<PendingEvent> pending_;
+};
+
+}  // namespace amctl::plan

@@ -1,0 +1,504 @@
+// Klipper printer.cfg reader. Reads the file the way klippy/configfile.py does (Python
+// configparser with strict=False, `#` stripped anywhere on a line, `;` comments, indented
+// continuation lines, [include] at its position, the SAVE_CONFIG block whose options apply only
+// where the regular config does not set them) and maps the sections the planner needs onto a
+// Machine with Klipper's defaults and checks (klippy/toolhead.py, kinematics/cartesian.py,
+// kinematics/corexy.py, kinematics/extruder.py, stepper.py, extras/gcode_arcs.py,
+// extras/firmware_retraction.py).
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "amctl/machine/loader.hpp"
+#include "schema.hpp"
+
+namespace amctl::machine {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  return s;
+}
+
+std::string lowercase(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+struct CfgValue {
+  std::string text;
+  SourceLocation where;  ///< where the value starts (the option line)
+};
+
+struct CfgSection {
+  std::string name;
+  SourceLocation where;
+  std::map<std::string, CfgValue> options;  ///< option names lower-cased, like configparser
+};
+
+struct CfgDoc {
+  std::vector<CfgSection> sections;  // in order of first appearance
+
+  CfgSection* find(std::string_view name) {
+    for (CfgSection& s : sections) {
+      if (s.name == name) return &s;
+    }
+    return nullptr;
+  }
+  CfgSection& get_or_add(const std::string& name, const SourceLocation& where) {
+    if (CfgSection* s = find(name)) return *s;
+    sections.push_back({name, where, {}});
+    return sections.back();
+  }
+};
+
+std::string read_file(const fs::path& path, const SourceLocation& where) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(where, fmt::format("cannot open config file '{}'", path.string()));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+bool has_glob_magic(std::string_view s) { return s.find_first_of("*?[") != std::string_view::npos; }
+
+/// fnmatch-style match of `name` against `pattern` with * and ? (no character classes).
+bool glob_match(std::string_view pattern, std::string_view name) {
+  std::size_t p = 0, n = 0, star = std::string_view::npos, mark = 0;
+  while (n < name.size()) {
+    if (p < pattern.size() && (pattern[p] == '?' || pattern[p] == name[n])) {
+      ++p;
+      ++n;
+    } else if (p < pattern.size() && pattern[p] == '*') {
+      star = p++;
+      mark = n;
+    } else if (star != std::string_view::npos) {
+      p = star + 1;
+      n = ++mark;
+    } else {
+      return false;
+    }
+  }
+  while (p < pattern.size() && pattern[p] == '*') ++p;
+  return p == pattern.size();
+}
+
+class CfgReader {
+ public:
+  explicit CfgReader(CfgDoc& doc) : doc_(doc) {}
+
+  /// Parses one file's text. `file` names it in messages and anchors its includes.
+  void parse(std::string_view text, const std::string& file) {
+    fs::path key = fs::absolute(fs::path(file)).lexically_normal();
+    if (!visiting_.insert(key.string()).second) {
+      throw Error(SourceLocation{file, 0, 0},
+                  fmt::format("recursive include of config file '{}'", file));
+    }
+    CfgSection* section = nullptr;
+    std::string option;       // option being continued
+    std::size_t indent = 0;   // indentation of the option line
+    std::uint64_t line_no = 0;
+    std::size_t pos = 0;
+    while (pos <= text.size()) {
+      const std::size_t nl = text.find('\n', pos);
+      std::string_view line = text.substr(pos, nl == std::string_view::npos ? text.npos : nl - pos);
+      pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
+      ++line_no;
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      // Klipper strips everything after '#' before configparser sees the line.
+      if (const std::size_t hash = line.find('#'); hash != std::string_view::npos) {
+        line = line.substr(0, hash);
+      }
+      // [include ...] is recognised only at the start of a line (configfile.py _parse_config).
+      if (!line.empty() && line[0] == '[') {
+        const std::size_t close = line.rfind(']');
+        if (close != std::string_view::npos && close > 1) {
+          const std::string_view header = line.substr(1, close - 1);
+          if (header.rfind("include ", 0) == 0) {
+            include(file, trim(header.substr(8)), SourceLocation{file, line_no, 1});
+            section = nullptr;  // the text after an include starts a new configparser chunk
+            option.clear();
+            continue;
+          }
+        }
+      }
+      // configparser inline comment: ';' preceded by whitespace.
+      for (std::size_t i = 1; i < line.size(); ++i) {
+        if (line[i] == ';' && std::isspace(static_cast<unsigned char>(line[i - 1]))) {
+          line = line.substr(0, i);
+          break;
+        }
+      }
+      const std::string_view stripped = trim(line);
+      if (stripped.empty() || stripped[0] == ';') continue;  // blank or comment line
+      const std::size_t cur_indent = line.find_first_not_of(" \t\f\v");
+      if (section != nullptr && !option.empty() && cur_indent > indent) {
+        CfgValue& v = section->options[option];
+        v.text += '\n';
+        v.text += stripped;
+        continue;
+      }
+      indent = cur_indent;
+      const SourceLocation where{file, line_no, static_cast<std::uint32_t>(cur_indent + 1)};
+      if (stripped[0] == '[') {
+        const std::size_t close = stripped.rfind(']');
+        if (close != std::string_view::npos && close > 1) {
+          section = &doc_.get_or_add(std::string(stripped.substr(1, close - 1)), where);
+          option.clear();
+          continue;
+        }
+      }
+      if (section == nullptr) {
+        throw Error(where, fmt::format("expected a [section] header before '{}'", stripped));
+      }
+      const std::size_t delim = stripped.find_first_of(":=");
+      if (delim == std::string_view::npos || trim(stripped.substr(0, delim)).empty()) {
+        throw Error(where, fmt::format("expected 'option: value' in [{}], got '{}'",
+                                       section->name, stripped));
+      }
+      option = lowercase(trim(stripped.substr(0, delim)));
+      const std::string_view rest = stripped.substr(delim + 1);
+      const std::string_view value = trim(rest);
+      const std::size_t lead = rest.find_first_not_of(" \t");
+      const std::size_t value_col =
+          cur_indent + delim + 1 + (lead == std::string_view::npos ? rest.size() : lead) + 1;
+      section->options[option] =
+          CfgValue{std::string(value), SourceLocation{file, line_no,
+                                                      static_cast<std::uint32_t>(value_col)}};
+    }
+    visiting_.erase(key.string());
+  }
+
+ private:
+  void include(const std::string& from_file, std::string_view spec, const SourceLocation& where) {
+    const fs::path base = fs::path(from_file).parent_path();
+    const fs::path pattern = base / fs::path(std::string(spec));
+    std::vector<fs::path> files;
+    if (has_glob_magic(spec)) {
+      if (has_glob_magic(pattern.parent_path().string())) {
+        throw Error(where, fmt::format("include '{}': wildcards are supported in the file name "
+                                       "only",
+                                       spec));
+      }
+      std::error_code ec;
+      const fs::path dir = pattern.parent_path().empty() ? fs::path(".") : pattern.parent_path();
+      for (const auto& entry : fs::directory_iterator(dir, ec)) {
+        if (entry.is_regular_file() &&
+            glob_match(pattern.filename().string(), entry.path().filename().string())) {
+          files.push_back(pattern.parent_path() / entry.path().filename());
+        }
+      }
+      std::sort(files.begin(), files.end());  // Klipper sorts glob results
+    } else {
+      if (!fs::is_regular_file(pattern)) {
+        throw Error(where, fmt::format("include file '{}' does not exist", pattern.string()));
+      }
+      files.push_back(pattern);
+    }
+    for (const fs::path& f : files) {
+      std::string text = read_file(f, where);
+      parse(text, f.string());
+    }
+  }
+
+  CfgDoc& doc_;
+  std::set<std::string> visiting_;
+};
+
+// ---- typed option access with Klipper's checks (configfile.py ConfigWrapper) ----
+
+struct Limits {
+  std::optional<double> minval = std::nullopt;
+  std::optional<double> maxval = std::nullopt;
+  std::optional<double> above = std::nullopt;
+  std::optional<double> below = std::nullopt;
+};
+
+class Section {
+ public:
+  Section(CfgSection* s, std::string name, SourceLocation fallback)
+      : s_(s), name_(std::move(name)), fallback_(std::move(fallback)) {}
+
+  bool present() const { return s_ != nullptr; }
+  bool has(std::string_view key) const {
+    return s_ != nullptr && s_->options.count(std::string(key)) != 0;
+  }
+  const CfgValue* raw(std::string_view key) const {
+    if (s_ == nullptr) return nullptr;
+    auto it = s_->options.find(std::string(key));
+    return it == s_->options.end() ? nullptr : &it->second;
+  }
+
+  std::optional<double> get_float(std::string_view key, const Limits& lim = {}) const {
+    const CfgValue* v = raw(key);
+    if (v == nullptr) return std::nullopt;
+    const std::string_view text = trim(v->text);
+    double x = 0.0;
+    const char* first = text.data();
+    if (!text.empty() && text.front() == '+') ++first;
+    const auto [ptr, ec] = std::from_chars(first, text.data() + text.size(), x);
+    if (text.empty() || ec != std::errc() || ptr != text.data() + text.size()) {
+      throw Error(v->where, fmt::format("[{}] {}: expected a number, got '{}'", name_, key, text));
+    }
+    if (!std::isfinite(x)) {
+      throw Error(v->where, fmt::format("[{}] {}: must be a finite number, got '{}'", name_, key,
+                                        text));
+    }
+    check(v->where, key, x, lim);
+    return x;
+  }
+  double get_float(std::string_view key, double def, const Limits& lim = {}) const {
+    return get_float(key, lim).value_or(def);
+  }
+  double require_float(std::string_view key, const Limits& lim = {}) const {
+    if (auto x = get_float(key, lim)) return *x;
+    throw missing(key);
+  }
+
+  std::optional<int> get_int(std::string_view key, const Limits& lim = {}) const {
+    const CfgValue* v = raw(key);
+    if (v == nullptr) return std::nullopt;
+    const std::string_view text = trim(v->text);
+    long long x = 0;
+    const char* first = text.data();
+    if (!text.empty() && text.front() == '+') ++first;
+    const auto [ptr, ec] = std::from_chars(first, text.data() + text.size(), x);
+    if (text.empty() || ec != std::errc() || ptr != text.data() + text.size() || x > 1000000000 ||
+        x < -1000000000) {
+      throw Error(v->where, fmt::format("[{}] {}: expected an integer, got '{}'", name_, key, text));
+    }
+    check(v->where, key, static_cast<double>(x), lim);
+    return static_cast<int>(x);
+  }
+  int require_int(std::string_view key, const Limits& lim = {}) const {
+    if (auto x = get_int(key, lim)) return *x;
+    throw missing(key);
+  }
+
+  std::string require_text(std::string_view key) const {
+    if (const CfgValue* v = raw(key)) return std::string(trim(v->text));
+    throw missing(key);
+  }
+
+  const std::string& name() const { return name_; }
+  const CfgSection* section() const { return s_; }
+
+ private:
+  Error missing(std::string_view key) const {
+    return Error(s_ ? s_->where : fallback_,
+                 fmt::format("option '{}' in section [{}] must be specified", key, name_));
+  }
+  void check(const SourceLocation& where, std::string_view key, double x, const Limits& lim) const {
+    auto fail = [&](std::string_view rule, double bound) {
+      return Error(where, fmt::format("[{}] {}: must be {} {}, got {}", name_, key, rule,
+                                      detail::format_number(bound), detail::format_number(x)));
+    };
+    if (lim.minval && x < *lim.minval) throw fail("at least", *lim.minval);
+    if (lim.maxval && x > *lim.maxval) throw fail("at most", *lim.maxval);
+    if (lim.above && x <= *lim.above) throw fail("above", *lim.above);
+    if (lim.below && x >= *lim.below) throw fail("below", *lim.below);
+  }
+
+  CfgSection* s_;
+  std::string name_;
+  SourceLocation fallback_;
+};
+
+/// stepper.py parse_step_distance: rotation_distance (per final gear turn), microsteps,
+/// full_steps_per_rotation (multiple of 4), gear_ratio.
+Stepper read_stepper(const Section& s) {
+  Stepper st;
+  const double rotation = s.require_float("rotation_distance", {.above = 0.0});
+  st.microsteps = s.require_int("microsteps", {.minval = 1});
+  st.full_steps_per_rotation = s.get_int("full_steps_per_rotation", {.minval = 1}).value_or(200);
+  if (st.full_steps_per_rotation % 4 != 0) {
+    throw Error(s.raw("full_steps_per_rotation")->where,
+                fmt::format("[{}] full_steps_per_rotation: must be a multiple of 4, got {}",
+                            s.name(), st.full_steps_per_rotation));
+  }
+  double gearing = 1.0;
+  if (const CfgValue* g = s.raw("gear_ratio")) {
+    gearing = detail::parse_gear_ratio(g->text, g->where, fmt::format("[{}] gear_ratio", s.name()));
+  }
+  st.rotation_distance_mm = rotation / gearing;
+  return st;
+}
+
+constexpr std::string_view kPrinterOptions[] = {
+    "kinematics",           "max_velocity",  "max_accel",      "minimum_cruise_ratio",
+    "max_accel_to_decel",   "square_corner_velocity", "max_z_velocity", "max_z_accel"};
+
+Kinematics read_kinematics(const Section& printer) {
+  const std::string kin = printer.require_text("kinematics");
+  const SourceLocation where = printer.raw("kinematics")->where;
+  if (kin == "cartesian") return Kinematics::cartesian;
+  if (kin == "corexy") return Kinematics::corexy;
+  static constexpr std::string_view kOthers[] = {
+      "corexz", "hybrid_corexy", "hybrid_corexz", "generic_cartesian", "rotary_delta",
+      "delta",  "deltesian",     "polar",         "winch",             "none"};
+  if (std::find(std::begin(kOthers), std::end(kOthers), kin) != std::end(kOthers)) {
+    throw Error(where, fmt::format("[printer] kinematics: '{}' is a Klipper kinematics amctl "
+                                   "does not support yet (supported: cartesian, corexy)",
+                                   kin));
+  }
+  std::vector<std::string> all = {"cartesian", "corexy"};
+  all.insert(all.end(), std::begin(kOthers), std::end(kOthers));
+  throw Error(where, fmt::format("[printer] kinematics: '{}' is not a Klipper kinematics{}", kin,
+                                 detail::did_you_mean(kin, all)));
+}
+
+Machine to_machine(CfgDoc& doc, const std::string& source_name) {
+  const SourceLocation file_loc{source_name, 0, 0};
+  Machine m;
+  m.name = fs::path(source_name).stem().string();
+  if (m.name.empty()) m.name = "printer.cfg";
+  m.firmware = Firmware::klipper;
+  m.junction = JunctionPolicy::square_corner_velocity;
+  m.profile = VelocityProfile::trapezoid;
+
+  CfgSection* printer_section = doc.find("printer");
+  if (printer_section == nullptr) {
+    throw Error(file_loc, "no [printer] section: not a Klipper printer.cfg");
+  }
+  const Section printer(printer_section, "printer", file_loc);
+  m.kinematics = read_kinematics(printer);
+  {
+    std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
+    for (const auto& [key, value] : printer_section->options) {
+      if (std::find(known.begin(), known.end(), key) == known.end()) {
+        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer] for "
+                                             "{} kinematics{}",
+                                             key, to_string(m.kinematics),
+                                             detail::did_you_mean(key, known)));
+      }
+    }
+  }
+  m.max_velocity_mm_s = printer.require_float("max_velocity", {.above = 0.0});
+  m.max_accel_mm_s2 = printer.require_float("max_accel", {.above = 0.0});
+  if (auto mcr = printer.get_float("minimum_cruise_ratio", {.minval = 0.0, .below = 1.0})) {
+    m.minimum_cruise_ratio = *mcr;
+  } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0})) {
+    // Older Klipper (before 2023-12): minimum_cruise_ratio = 1 - min(1, a2d / max_accel).
+    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *a2d / m.max_accel_mm_s2);
+  } else {
+    m.minimum_cruise_ratio = 0.5;
+  }
+  m.square_corner_velocity_mm_s =
+      printer.get_float("square_corner_velocity", 5.0, {.minval = 0.0});
+  // 0 = "same as max_velocity / max_accel", Klipper's default; an explicit value is kept so a
+  // later --set printer.max_velocity does not move it.
+  m.max_z_velocity_mm_s =
+      printer.get_float("max_z_velocity", {.maxval = m.max_velocity_mm_s, .above = 0.0})
+          .value_or(0.0);
+  m.max_z_accel_mm_s2 =
+      printer.get_float("max_z_accel", {.maxval = m.max_accel_mm_s2, .above = 0.0}).value_or(0.0);
+
+  if (CfgSection* es = doc.find("extruder")) {
+    const Section ex(es, "extruder", file_loc);
+    Extruder& e = m.extruder;
+    e.nozzle_diameter_mm = ex.require_float("nozzle_diameter", {.above = 0.0});
+    e.filament_diameter_mm =
+        ex.require_float("filament_diameter", {.minval = e.nozzle_diameter_mm});
+    e.max_extrude_cross_section_mm2 = ex.get_float("max_extrude_cross_section", {.above = 0.0});
+    e.max_extrude_only_velocity_mm_s = ex.get_float("max_extrude_only_velocity", {.above = 0.0});
+    e.max_extrude_only_accel_mm_s2 = ex.get_float("max_extrude_only_accel", {.above = 0.0});
+    e.max_extrude_only_distance_mm =
+        ex.get_float("max_extrude_only_distance", 50.0, {.minval = 0.0});
+    e.instantaneous_corner_velocity_mm_s =
+        ex.get_float("instantaneous_corner_velocity", 1.0, {.minval = 0.0});
+    // extruder.py: a stepper is attached when step_pin, dir_pin or rotation_distance is given.
+    if (ex.has("step_pin") || ex.has("dir_pin") || ex.has("rotation_distance")) {
+      m.steppers["e"] = read_stepper(ex);
+    }
+  }
+  if (CfgSection* as = doc.find("gcode_arcs")) {
+    const Section arcs(as, "gcode_arcs", file_loc);
+    m.arcs.mm_per_arc_segment = arcs.get_float("resolution", 1.0, {.above = 0.0});
+  }
+  if (CfgSection* rs = doc.find("firmware_retraction")) {
+    const Section r(rs, "firmware_retraction", file_loc);
+    FirmwareRetraction& fr = m.firmware_retraction;
+    fr.retract_length_mm = r.get_float("retract_length", 0.0, {.minval = 0.0});
+    fr.retract_speed_mm_s = r.get_float("retract_speed", 20.0, {.minval = 1.0});
+    fr.unretract_extra_length_mm = r.get_float("unretract_extra_length", 0.0, {.minval = 0.0});
+    fr.unretract_speed_mm_s = r.get_float("unretract_speed", 10.0, {.minval = 1.0});
+  }
+  for (CfgSection& s : doc.sections) {
+    if (s.name.rfind("stepper_", 0) != 0) continue;
+    const std::string name = s.name.substr(8);
+    if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_a on other kinematics
+    m.steppers[name] = read_stepper(Section(&s, s.name, file_loc));
+  }
+  return m;
+}
+
+constexpr std::string_view kAutosaveMarker =
+    "#*# <---------------------- SAVE_CONFIG ---------------------->";
+
+}  // namespace
+
+Machine parse_klipper_cfg(std::string_view text, const std::string& source_name) {
+  // Split off the SAVE_CONFIG block (configfile.py _find_autosave_data).
+  std::string_view regular = text;
+  std::string autosave;
+  std::uint64_t autosave_first_line = 0;
+  if (const std::size_t at = text.find(kAutosaveMarker);
+      at != std::string_view::npos && (at == 0 || text[at - 1] == '\n')) {
+    regular = text.substr(0, at);
+    autosave_first_line =
+        static_cast<std::uint64_t>(std::count(regular.begin(), regular.end(), '\n')) + 1;
+    std::string_view rest = text.substr(at);
+    std::size_t pos = 0;
+    while (pos < rest.size()) {
+      const std::size_t nl = rest.find('\n', pos);
+      std::string_view line = rest.substr(pos, nl == std::string_view::npos ? rest.npos : nl - pos);
+      pos = nl == std::string_view::npos ? rest.size() : nl + 1;
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      // "#*# " prefix removed; keep line numbering by emitting one line per input line.
+      if (line.rfind("#*# ", 0) == 0) {
+        autosave += line.substr(4);
+      } else if (line.rfind("#*#", 0) != 0 && !trim(line).empty()) {
+        // Klipper ignores a corrupted block ("modifications after header") entirely.
+        autosave.clear();
+        break;
+      }
+      autosave += '\n';
+    }
+  }
+  CfgDoc doc;
+  CfgReader(doc).parse(regular, source_name);
+  if (!autosave.empty()) {
+    CfgDoc saved;
+    // Blank lines in front keep the line numbers of the SAVE_CONFIG block right.
+    std::string padded(autosave_first_line - 1, '\n');
+    padded += autosave;
+    CfgReader(saved).parse(padded, source_name);
+    for (CfgSection& s : saved.sections) {
+      CfgSection& target = doc.get_or_add(s.name, s.where);
+      for (auto& [key, value] : s.options) target.options.emplace(key, value);  // regular wins
+    }
+  }
+  Machine m = to_machine(doc, source_name);
+  try {
+    validate(m);
+  } catch (const Error& e) {
+    throw Error(SourceLocation{source_name, 0, 0}, e.detail());
+  }
+  return m;
+}
+
+}  // namespace amctl::machine

@@ -1,0 +1,115 @@
+// load_machine(): presets compiled in from configs/*.toml, TOML files, Klipper printer.cfg.
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include "amctl/machine/loader.hpp"
+#include "schema.hpp"
+
+namespace amctl::machine {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string lowercase(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool looks_like_klipper(std::string_view text) {
+  // An INI [printer] header and at least one "key: value" line. TOML never uses ':' between a
+  // bare key and its value, so a file that fails to parse as TOML but has these is a cfg.
+  bool printer = false;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    const std::size_t nl = text.find('\n', pos);
+    std::string_view line = text.substr(pos, nl == std::string_view::npos ? text.npos : nl - pos);
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    const std::size_t first = line.find_first_not_of(" \t");
+    if (first == std::string_view::npos) continue;
+    line.remove_prefix(first);
+    if (line.rfind("[printer]", 0) == 0) printer = true;
+  }
+  return printer;
+}
+
+Machine load_file(const fs::path& path, const std::string& spec) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("cannot read machine file '{}'", spec));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  const std::string ext = lowercase(path.extension().string());
+  if (ext == ".toml") return parse_machine_toml(text, spec);
+  if (ext == ".cfg" || ext == ".conf" || ext == ".ini") return parse_klipper_cfg(text, spec);
+  // No telling extension: TOML if it parses as TOML, else a Klipper config.
+  bool is_toml = true;
+  try {
+    (void)toml::parse(text, spec);
+  } catch (const toml::parse_error&) {
+    is_toml = false;
+  }
+  if (is_toml || !looks_like_klipper(text)) return parse_machine_toml(text, spec);
+  return parse_klipper_cfg(text, spec);
+}
+
+const detail::EmbeddedPreset* find_preset(std::string_view name) {
+  for (const auto& p : detail::embedded_presets()) {
+    if (p.name == name) return &p;
+  }
+  return nullptr;
+}
+
+Error unknown_preset(const std::string& name) {
+  const std::vector<std::string> names = preset_names();
+  return Error(fmt::format("unknown machine '{}'{} (presets: {}; or give the path of a .toml "
+                           "file or a Klipper printer.cfg)",
+                           name, detail::did_you_mean(name, names), fmt::join(names, ", ")));
+}
+
+}  // namespace
+
+std::vector<std::string> preset_names() {
+  std::vector<std::string> out;
+  for (const auto& p : detail::embedded_presets()) out.emplace_back(p.name);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string_view preset_toml(const std::string& name) {
+  const detail::EmbeddedPreset* p = find_preset(name);
+  if (p == nullptr) throw unknown_preset(name);
+  return p->text;
+}
+
+Machine preset(const std::string& name) {
+  const detail::EmbeddedPreset* p = find_preset(name);
+  if (p == nullptr) throw unknown_preset(name);
+  return parse_machine_toml(p->text, fmt::format("configs/{}.toml", name));
+}
+
+Machine load_machine(const std::string& spec) {
+  if (spec.empty()) return preset("default");
+  // A bare name (no directory, no extension) is a preset; anything else is a path.
+  const fs::path path(spec);
+  const bool bare_name = !path.has_parent_path() && !path.has_extension();
+  if (bare_name && find_preset(spec) != nullptr) return preset(spec);
+  std::error_code ec;
+  if (fs::is_regular_file(path, ec)) return load_file(path, spec);
+  if (bare_name) throw unknown_preset(spec);
+  throw Error(fmt::format("machine file '{}' does not exist (presets: {})", spec,
+                          fmt::join(preset_names(), ", ")));
+}
+
+Machine load_machine(const std::string& spec, const std::vector<std::string>& overrides) {
+  Machine m = load_machine(spec);
+  for (const std::string& o : overrides) apply_override(m, o);
+  validate(m);
+  return m;
+}
+
+}  // namespace amctl::machine

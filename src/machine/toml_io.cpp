@@ -1,0 +1,619 @@
+// amctl's TOML machine description: reading (with file:line:col errors and did-you-mean),
+// writing (round-trips exactly), `--set` overrides and validation. All of it is driven by the
+// key table in schema.cpp.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include "amctl/machine/loader.hpp"
+#include "schema.hpp"
+
+namespace amctl::machine {
+namespace {
+
+using detail::Bound;
+using detail::Kind;
+using detail::KeyDef;
+using detail::StepperKeyDef;
+
+SourceLocation location_of(const toml::source_region& r, const std::string& file) {
+  SourceLocation loc;
+  loc.file = file;
+  loc.line = r.begin.line;
+  loc.column = r.begin.column;
+  return loc;
+}
+
+std::string_view type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a floating-point number";
+    case toml::node_type::boolean: return "a boolean";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::table: return "a table";
+    case toml::node_type::date: return "a date";
+    case toml::node_type::time: return "a time";
+    case toml::node_type::date_time: return "a date-time";
+    default: return "nothing";
+  }
+}
+
+std::string unit_suffix(std::string_view unit) {
+  return unit.empty() ? std::string() : fmt::format(" {}", unit);
+}
+
+/// Reads a number from a TOML node (integers are accepted where floats are expected).
+double number_of(const toml::node& v, const SourceLocation& where, std::string_view label,
+                 std::string_view unit) {
+  if (v.is_integer()) return static_cast<double>(*v.value<std::int64_t>());
+  if (v.is_floating_point()) return *v.value<double>();
+  throw Error(where, fmt::format("{}: expected a number{}, got {}", label,
+                                 unit.empty() ? "" : fmt::format(" in {}", unit), type_name(v)));
+}
+
+void check_bound(Bound b, double v, const SourceLocation& where, std::string_view label,
+                 std::string_view unit) {
+  if (!detail::within(b, v)) {
+    throw Error(where, fmt::format("{} must be a finite number {}{}, got {}", label,
+                                   detail::bound_text(b), unit_suffix(unit), v));
+  }
+}
+
+double bounded_number(const toml::node& v, Bound b, const SourceLocation& where,
+                      std::string_view label, std::string_view unit) {
+  const double x = number_of(v, where, label, unit);
+  check_bound(b, x, where, label, unit);
+  return x;
+}
+
+int integer_of(const toml::node& v, Bound b, const SourceLocation& where, std::string_view label) {
+  double x = 0.0;
+  if (v.is_integer()) {
+    x = static_cast<double>(*v.value<std::int64_t>());
+  } else if (v.is_floating_point() && std::isfinite(*v.value<double>()) &&
+             *v.value<double>() == std::floor(*v.value<double>())) {
+    x = *v.value<double>();
+  } else {
+    throw Error(where, fmt::format("{}: expected an integer, got {}", label, type_name(v)));
+  }
+  if (x > 1e9 || x < -1e9) {
+    throw Error(where, fmt::format("{}: integer {} is out of range", label, x));
+  }
+  check_bound(b, x, where, label, "");
+  return static_cast<int>(x);
+}
+
+int enum_of(const toml::node& v, Kind kind, const SourceLocation& where, std::string_view label) {
+  const auto names = detail::enum_names(kind);
+  std::vector<std::string> options(names.begin(), names.end());
+  const std::string listed = fmt::format("{}", fmt::join(options, ", "));
+  if (!v.is_string()) {
+    throw Error(where, fmt::format("{}: expected one of {} (a string), got {}", label, listed,
+                                   type_name(v)));
+  }
+  const std::string text = *v.value<std::string>();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == text) return static_cast<int>(i);
+  }
+  if (kind == Kind::kinematics) {
+    static constexpr std::string_view kKlipperOthers[] = {
+        "corexz", "hybrid_corexy", "hybrid_corexz", "generic_cartesian", "rotary_delta",
+        "delta", "deltesian", "polar", "winch", "none"};
+    for (std::string_view other : kKlipperOthers) {
+      if (other == text) {
+        throw Error(where, fmt::format("{}: '{}' kinematics is not supported by amctl "
+                                       "(supported: {})",
+                                       label, text, listed));
+      }
+    }
+  }
+  throw Error(where, fmt::format("{}: '{}' is not one of {}{}", label, text, listed,
+                                 detail::did_you_mean(text, options)));
+}
+
+std::array<double, 4> axes_of(const toml::node& v, Bound b, const SourceLocation& where,
+                              std::string_view label, std::string_view unit,
+                              const std::string& file) {
+  const toml::array* arr = v.as_array();
+  if (arr == nullptr || arr->size() != 4) {
+    throw Error(where, fmt::format("{}: expected [x, y, z, e] (an array of 4 numbers{}), got {}",
+                                   label, unit.empty() ? "" : fmt::format(" in {}", unit),
+                                   arr ? fmt::format("an array of {}", arr->size())
+                                       : std::string(type_name(v))));
+  }
+  std::array<double, 4> out{};
+  static constexpr const char* kAxis[] = {"x", "y", "z", "e"};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const toml::node& e = *arr->get(i);
+    SourceLocation ew = e.source().begin.line ? location_of(e.source(), file) : where;
+    out[i] = bounded_number(e, b, ew, fmt::format("{}.{}", label, kAxis[i]), unit);
+  }
+  return out;
+}
+
+/// State carried across the keys of one document.
+struct Pending {
+  std::optional<double> accel_to_decel;
+  bool minimum_cruise_ratio_given = false;
+  bool junction_given = false;
+};
+
+/// Sets one [section] key from a TOML value. `file` is used for element locations.
+void assign(Machine& m, const KeyDef& d, const toml::node& v, const SourceLocation& where,
+            const std::string& file, Pending& pending) {
+  const std::string label = fmt::format("{}.{}", d.section, d.key);
+  switch (d.kind) {
+    case Kind::number:
+      d.number(m) = bounded_number(v, d.bound, where, label, d.unit);
+      if (d.key == "minimum_cruise_ratio") pending.minimum_cruise_ratio_given = true;
+      return;
+    case Kind::optional_number:
+      d.optional_number(m) = bounded_number(v, d.bound, where, label, d.unit);
+      return;
+    case Kind::integer: d.integer(m) = integer_of(v, d.bound, where, label); return;
+    case Kind::axes4: d.axes(m) = axes_of(v, d.bound, where, label, d.unit, file); return;
+    case Kind::text:
+      if (!v.is_string()) {
+        throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
+      }
+      d.text(m) = *v.value<std::string>();
+      return;
+    case Kind::firmware:
+    case Kind::kinematics:
+    case Kind::profile:
+      detail::set_enum(m, d.kind, enum_of(v, d.kind, where, label));
+      return;
+    case Kind::junction:
+      detail::set_enum(m, d.kind, enum_of(v, d.kind, where, label));
+      pending.junction_given = true;
+      return;
+    case Kind::accel_to_decel:
+      pending.accel_to_decel = bounded_number(v, d.bound, where, label, d.unit);
+      return;
+    case Kind::gear_ratio: break;
+  }
+  AMCTL_CHECK(false, "unhandled key kind");
+}
+
+/// Sets one [stepper_*] key; gear ratios multiply into `gearing`.
+void assign_stepper(Stepper& s, double& gearing, const StepperKeyDef& d, const toml::node& v,
+                    const SourceLocation& where, const std::string& label) {
+  switch (d.kind) {
+    case Kind::number: d.number(s) = bounded_number(v, d.bound, where, label, d.unit); return;
+    case Kind::integer: d.integer(s) = integer_of(v, d.bound, where, label); return;
+    case Kind::gear_ratio:
+      if (v.is_string()) {
+        gearing = detail::parse_gear_ratio(*v.value<std::string>(), where, label);
+      } else {
+        gearing = bounded_number(v, Bound::positive, where, label, "");
+      }
+      return;
+    default: break;
+  }
+  AMCTL_CHECK(false, "unhandled stepper key kind");
+}
+
+JunctionPolicy default_junction(Firmware f) {
+  switch (f) {
+    case Firmware::klipper: return JunctionPolicy::square_corner_velocity;
+    case Firmware::marlin: return JunctionPolicy::junction_deviation;
+    case Firmware::reprap: return JunctionPolicy::classic_jerk;
+  }
+  return JunctionPolicy::square_corner_velocity;
+}
+
+void finish(Machine& m, const Pending& p) {
+  if (!p.junction_given) m.junction = default_junction(m.firmware);
+  if (p.accel_to_decel && !p.minimum_cruise_ratio_given) {
+    // klippy/toolhead.py (commit 0105aa33): 1 - min(1, max_accel_to_decel / max_accel).
+    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *p.accel_to_decel / m.max_accel_mm_s2);
+  }
+}
+
+std::vector<std::string> section_candidates() {
+  std::vector<std::string> out;
+  for (std::string_view s : detail::machine_sections()) out.emplace_back(s);
+  for (const char* s : {"stepper_x", "stepper_y", "stepper_z", "stepper_e"}) out.emplace_back(s);
+  return out;
+}
+
+std::vector<std::string> keys_of(std::string_view section) {
+  std::vector<std::string> out;
+  for (const KeyDef& d : detail::machine_keys()) {
+    if (d.section == section) out.emplace_back(d.key);
+  }
+  return out;
+}
+
+std::vector<std::string> stepper_key_names() {
+  std::vector<std::string> out;
+  for (const StepperKeyDef& d : detail::stepper_keys()) out.emplace_back(d.key);
+  return out;
+}
+
+/// "unknown key 'x' in [s]; did you mean 'y'?" or "...; 'x' belongs in [marlin]".
+std::string unknown_key_message(std::string_view section, std::string_view key,
+                                std::vector<std::string> candidates) {
+  std::string msg = fmt::format("unknown key '{}' in [{}]", key, section);
+  std::string hint = detail::did_you_mean(key, candidates);
+  if (hint.empty()) {
+    for (const KeyDef& d : detail::machine_keys()) {
+      if (d.key == key && d.section != section) {
+        hint = fmt::format("; '{}' belongs in [{}]", key, d.section);
+        break;
+      }
+    }
+  }
+  if (hint.empty()) hint = fmt::format(" (known keys: {})", fmt::join(candidates, ", "));
+  return msg + hint;
+}
+
+/// Table entries in file order (toml++ keeps tables sorted by key).
+std::vector<std::pair<const toml::key*, const toml::node*>> in_file_order(const toml::table& t) {
+  std::vector<std::pair<const toml::key*, const toml::node*>> out;
+  for (auto&& [k, v] : t) out.emplace_back(&k, &v);
+  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    const auto& ra = a.first->source().begin;
+    const auto& rb = b.first->source().begin;
+    return ra.line != rb.line ? ra.line < rb.line : ra.column < rb.column;
+  });
+  return out;
+}
+
+void check_bounds_for_validate(Machine& m) {
+  for (const KeyDef& d : detail::machine_keys()) {
+    const std::string label = fmt::format("{}.{}", d.section, d.key);
+    const SourceLocation none;
+    switch (d.kind) {
+      case Kind::number: check_bound(d.bound, d.number(m), none, label, d.unit); break;
+      case Kind::optional_number:
+        if (d.optional_number(m)) check_bound(d.bound, *d.optional_number(m), none, label, d.unit);
+        break;
+      case Kind::integer:
+        check_bound(d.bound, d.integer(m), none, label, d.unit);
+        break;
+      case Kind::axes4: {
+        static constexpr const char* kAxis[] = {"x", "y", "z", "e"};
+        for (std::size_t i = 0; i < 4; ++i) {
+          check_bound(d.bound, d.axes(m)[i], none, fmt::format("{}.{}", label, kAxis[i]), d.unit);
+        }
+        break;
+      }
+      default: break;
+    }
+  }
+  for (auto& [name, s] : m.steppers) {
+    if (!detail::valid_stepper_name(name)) {
+      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1", name));
+    }
+    for (const StepperKeyDef& d : detail::stepper_keys()) {
+      const std::string label = fmt::format("stepper_{}.{}", name, d.key);
+      if (d.kind == Kind::number) check_bound(d.bound, d.number(s), {}, label, d.unit);
+      if (d.kind == Kind::integer) check_bound(d.bound, d.integer(s), {}, label, d.unit);
+    }
+  }
+}
+
+void append_toml_string(std::string& out, std::string_view s) {
+  out += '"';
+  for (char c : s) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\t': out += "\\t"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+          out += fmt::format("\\u{:04X}", static_cast<unsigned>(static_cast<unsigned char>(c)));
+        } else {
+          out += c;
+        }
+    }
+  }
+  out += '"';
+}
+
+}  // namespace
+
+std::string_view to_string(Firmware f) {
+  return detail::enum_names(Kind::firmware)[static_cast<std::size_t>(f)];
+}
+std::string_view to_string(Kinematics k) {
+  return detail::enum_names(Kind::kinematics)[static_cast<std::size_t>(k)];
+}
+std::string_view to_string(JunctionPolicy j) {
+  return detail::enum_names(Kind::junction)[static_cast<std::size_t>(j)];
+}
+std::string_view to_string(VelocityProfile p) {
+  return detail::enum_names(Kind::profile)[static_cast<std::size_t>(p)];
+}
+
+Machine parse_machine_toml(std::string_view text, const std::string& source_name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, source_name);
+  } catch (const toml::parse_error& e) {
+    throw Error(location_of(e.source(), source_name),
+                fmt::format("invalid TOML: {}", e.description()));
+  }
+  Machine m;
+  Pending pending;
+  for (const auto& [kp, np] : in_file_order(root)) {
+    const std::string section(kp->str());
+    const SourceLocation section_where = location_of(kp->source(), source_name);
+    const toml::table* table = np->as_table();
+    if (table == nullptr) {
+      throw Error(section_where,
+                  fmt::format("unexpected top-level key '{}': every key belongs in a section "
+                              "such as [printer]{}",
+                              section, detail::did_you_mean(section, section_candidates())));
+    }
+    const bool is_machine_section =
+        std::find(detail::machine_sections().begin(), detail::machine_sections().end(),
+                  section) != detail::machine_sections().end();
+    if (is_machine_section) {
+      const std::vector<std::string> candidates = keys_of(section);
+      for (const auto& [k, v] : in_file_order(*table)) {
+        const std::string key(k->str());
+        const KeyDef* d = detail::find_key(section, key);
+        if (d == nullptr) {
+          throw Error(location_of(k->source(), source_name),
+                      unknown_key_message(section, key, candidates));
+        }
+        assign(m, *d, *v, location_of(v->source(), source_name), source_name, pending);
+      }
+    } else if (section.rfind("stepper_", 0) == 0 &&
+               detail::valid_stepper_name(section.substr(8))) {
+      const std::string name = section.substr(8);
+      Stepper s;
+      double gearing = 1.0;
+      for (const auto& [k, v] : in_file_order(*table)) {
+        const std::string key(k->str());
+        const StepperKeyDef* d = detail::find_stepper_key(key);
+        if (d == nullptr) {
+          throw Error(location_of(k->source(), source_name),
+                      fmt::format("unknown key '{}' in [{}]{}", key, section,
+                                  detail::did_you_mean(key, stepper_key_names())));
+        }
+        assign_stepper(s, gearing, *d, *v, location_of(v->source(), source_name),
+                       fmt::format("{}.{}", section, key));
+      }
+      s.rotation_distance_mm /= gearing;
+      m.steppers[name] = s;
+    } else {
+      std::string hint = detail::did_you_mean(section, section_candidates());
+      if (hint.empty() && section.rfind("stepper_", 0) == 0) {
+        hint = " (stepper sections are stepper_x, stepper_y, stepper_z, stepper_e, optionally "
+               "numbered: stepper_z1)";
+      }
+      if (hint.empty()) {
+        hint = fmt::format(" (sections: {}, stepper_<x|y|z|e>)",
+                           fmt::join(detail::machine_sections(), ", "));
+      }
+      throw Error(section_where, fmt::format("unknown section [{}]{}", section, hint));
+    }
+  }
+  finish(m, pending);
+  try {
+    validate(m);
+  } catch (const Error& e) {
+    throw Error(SourceLocation{source_name, 0, 0}, e.detail());
+  }
+  return m;
+}
+
+std::string to_toml(const Machine& machine) {
+  Machine m = machine;  // the key table's accessors take a mutable Machine
+  std::string out =
+      "# amctl machine description. Units: mm, s, mm/s, mm/s^2; every key is documented in\n"
+      "# docs/machine.md.\n";
+  for (std::string_view section : detail::machine_sections()) {
+    out += fmt::format("\n[{}]\n", section);
+    for (const KeyDef& d : detail::machine_keys()) {
+      if (d.section != section) continue;
+      const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
+      switch (d.kind) {
+        case Kind::number:
+          out += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(m)), unit);
+          break;
+        case Kind::optional_number:
+          if (d.optional_number(m)) {
+            out += fmt::format("{} = {}{}\n", d.key,
+                               detail::format_number(*d.optional_number(m)), unit);
+          } else {
+            out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
+          }
+          break;
+        case Kind::integer:
+          out += fmt::format("{} = {}{}\n", d.key, d.integer(m), unit);
+          break;
+        case Kind::axes4: {
+          const auto& a = d.axes(m);
+          out += fmt::format("{} = [{}, {}, {}, {}]{}  [x, y, z, e]\n", d.key,
+                             detail::format_number(a[0]), detail::format_number(a[1]),
+                             detail::format_number(a[2]), detail::format_number(a[3]),
+                             unit.empty() ? "  #" : unit);
+          break;
+        }
+        case Kind::text:
+          out += fmt::format("{} = ", d.key);
+          append_toml_string(out, d.text(m));
+          out += '\n';
+          break;
+        case Kind::firmware:
+        case Kind::kinematics:
+        case Kind::junction:
+        case Kind::profile:
+          out += fmt::format("{} = \"{}\"\n", d.key,
+                             detail::enum_names(d.kind)[static_cast<std::size_t>(
+                                 detail::get_enum(m, d.kind))]);
+          break;
+        case Kind::accel_to_decel:
+        case Kind::gear_ratio: break;  // read-only aliases
+      }
+    }
+  }
+  for (auto& [name, s] : m.steppers) {
+    out += fmt::format("\n[stepper_{}]\n", name);
+    for (const StepperKeyDef& d : detail::stepper_keys()) {
+      const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
+      if (d.kind == Kind::number) {
+        out += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(s)), unit);
+      } else if (d.kind == Kind::integer) {
+        out += fmt::format("{} = {}{}\n", d.key, d.integer(s), unit);
+      }
+    }
+  }
+  return out;
+}
+
+void apply_override(Machine& m, std::string_view assignment) {
+  const SourceLocation where{"--set", 0, 0};
+  const std::size_t eq = assignment.find('=');
+  auto trim = [](std::string_view s) {
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+    return s;
+  };
+  if (eq == std::string_view::npos) {
+    throw Error(where, fmt::format("'{}': expected section.key=value, e.g. "
+                                   "printer.max_accel=5000",
+                                   assignment));
+  }
+  const std::string path(trim(assignment.substr(0, eq)));
+  const std::string value_text(trim(assignment.substr(eq + 1)));
+  std::vector<std::string> parts;
+  for (std::size_t start = 0;;) {
+    const std::size_t dot = path.find('.', start);
+    parts.push_back(path.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
+    if (dot == std::string::npos) break;
+    start = dot + 1;
+  }
+  if (parts.size() < 2 || parts.size() > 3 || parts[0].empty() || parts[1].empty()) {
+    throw Error(where, fmt::format("'{}': expected section.key=value, e.g. "
+                                   "printer.max_accel=5000",
+                                   assignment));
+  }
+  // All known "section.key" names, for hints.
+  std::vector<std::string> all;
+  for (const KeyDef& d : detail::machine_keys()) all.push_back(fmt::format("{}.{}", d.section, d.key));
+  for (const StepperKeyDef& d : detail::stepper_keys()) all.push_back(fmt::format("stepper_x.{}", d.key));
+  const std::string dotted = parts[0] + "." + parts[1];
+
+  // Parse the value as TOML; bare words become strings.
+  toml::table parsed;
+  bool parsed_ok = true;
+  try {
+    const std::string doc = "v = " + value_text;
+    parsed = toml::parse(std::string_view(doc), std::string_view("--set"));
+  } catch (const toml::parse_error&) {
+    parsed_ok = false;
+  }
+  toml::value<std::string> bare(value_text);
+  const toml::node* value = parsed_ok ? parsed.get("v") : nullptr;
+  if (value == nullptr) value = &bare;
+  const std::string label = path;
+
+  if (parts[0].rfind("stepper_", 0) == 0) {
+    const std::string name = parts[0].substr(8);
+    if (!detail::valid_stepper_name(name) || parts.size() != 2) {
+      throw Error(where, fmt::format("unknown key '{}' (stepper sections are stepper_x, "
+                                     "stepper_y, stepper_z, stepper_e, stepper_z1, ...)",
+                                     path));
+    }
+    const StepperKeyDef* d = detail::find_stepper_key(parts[1]);
+    if (d == nullptr) {
+      throw Error(where, fmt::format("unknown key '{}'{}", path,
+                                     detail::did_you_mean(parts[1], stepper_key_names())));
+    }
+    Stepper& s = m.steppers[name];
+    double gearing = 1.0;
+    assign_stepper(s, gearing, *d, *value, where, label);
+    s.rotation_distance_mm /= gearing;
+    return;
+  }
+  const KeyDef* d = detail::find_key(parts[0], parts[1]);
+  if (d == nullptr) {
+    std::string hint = detail::did_you_mean(dotted, all);
+    if (hint.empty()) {
+      for (const KeyDef& k : detail::machine_keys()) {
+        if (k.key == parts[1]) {
+          hint = fmt::format("; did you mean '{}.{}'?", k.section, k.key);
+          break;
+        }
+      }
+    }
+    throw Error(where, fmt::format("unknown key '{}'{}", dotted, hint));
+  }
+  if (parts.size() == 3) {
+    static constexpr std::string_view kAxis[] = {"x", "y", "z", "e"};
+    const auto it = std::find(std::begin(kAxis), std::end(kAxis), parts[2]);
+    if (d->kind != Kind::axes4 || it == std::end(kAxis)) {
+      throw Error(where, fmt::format("unknown key '{}'{}", path,
+                                     d->kind == Kind::axes4
+                                         ? " (the element must be x, y, z or e)"
+                                         : fmt::format(" ('{}' has no elements)", dotted)));
+    }
+    d->axes(m)[static_cast<std::size_t>(it - std::begin(kAxis))] =
+        bounded_number(*value, d->bound, where, label, d->unit);
+    return;
+  }
+  Pending pending;
+  pending.junction_given = true;  // an override changes only the key it names
+  assign(m, *d, *value, where, "--set", pending);
+  if (pending.accel_to_decel) {
+    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *pending.accel_to_decel / m.max_accel_mm_s2);
+  }
+}
+
+void validate(const Machine& machine) {
+  Machine m = machine;
+  check_bounds_for_validate(m);
+  if (m.extruder.filament_diameter_mm < m.extruder.nozzle_diameter_mm) {
+    throw Error(fmt::format("extruder.filament_diameter ({} mm) must be >= "
+                            "extruder.nozzle_diameter ({} mm)",
+                            m.extruder.filament_diameter_mm, m.extruder.nozzle_diameter_mm));
+  }
+  if (m.arcs.min_arc_segment_mm > 0.0 && m.arcs.max_arc_segment_mm > 0.0 &&
+      m.arcs.min_arc_segment_mm > m.arcs.max_arc_segment_mm) {
+    throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
+                            m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
+  }
+}
+
+std::vector<KeyInfo> schema() {
+  std::vector<KeyInfo> out;
+  for (const KeyDef& d : detail::machine_keys()) {
+    std::string type;
+    switch (d.kind) {
+      case Kind::number:
+      case Kind::accel_to_decel: type = "number"; break;
+      case Kind::optional_number: type = "number (optional)"; break;
+      case Kind::integer: type = "integer"; break;
+      case Kind::axes4: type = "[x, y, z, e]"; break;
+      case Kind::text: type = "text"; break;
+      default: {
+        const auto names = detail::enum_names(d.kind);
+        type = fmt::format("{}", fmt::join(names, " | "));
+      }
+    }
+    out.push_back({std::string(d.section), std::string(d.key), type, std::string(d.unit),
+                   std::string(d.description)});
+  }
+  for (const StepperKeyDef& d : detail::stepper_keys()) {
+    out.push_back({"stepper_*", std::string(d.key),
+                   d.kind == Kind::integer      ? "integer"
+                   : d.kind == Kind::gear_ratio ? "text or number"
+                                                : "number",
+                   std::string(d.unit), std::string(d.description)});
+  }
+  return out;
+}
+
+}  // namespace amctl::machine

@@ -1,0 +1,129 @@
+#include "amctl/gcode/parser.hpp"
+
+#include <gtest/gtest.h>
+
+namespace amctl::gcode {
+namespace {
+
+Command parse(std::string_view line) {
+  Command c;
+  ParseIssue issue;
+  EXPECT_TRUE(parse_line(line, c, issue)) << line << ": " << issue.message;
+  return c;
+}
+
+Params params(std::string_view line) {
+  Command c = parse(line);
+  Params p;
+  ParseIssue issue;
+  EXPECT_TRUE(parse_params(c, p, issue)) << line << ": " << issue.message;
+  return p;
+}
+
+TEST(Parser, ReadsCommandWordAndParametersWithoutSpaces) {
+  Command c = parse("G1X10Y-5.5E.25F1200");
+  EXPECT_TRUE(c.is('G', 1));
+  Params p = params("G1X10Y-5.5E.25F1200");
+  EXPECT_DOUBLE_EQ(p.get('X'), 10.0);
+  EXPECT_DOUBLE_EQ(p.get('Y'), -5.5);
+  EXPECT_DOUBLE_EQ(p.get('E'), 0.25);
+  EXPECT_DOUBLE_EQ(p.get('F'), 1200.0);
+  EXPECT_FALSE(p.has('Z'));
+}
+
+TEST(Parser, AcceptsLowerCaseCommentsAndCarriageReturn) {
+  Params p = params("g1 x+3 (move) y4. ; comment\r");
+  EXPECT_DOUBLE_EQ(p.get('X'), 3.0);
+  EXPECT_DOUBLE_EQ(p.get('Y'), 4.0);
+  Command c = parse("g1 x+3 (move) y4. ; comment\r");
+  EXPECT_EQ(c.comment, " comment\r");
+}
+
+TEST(Parser, ReadsLineNumbersAndVerifiesChecksums) {
+  // Checksum: XOR of every byte before '*'. "N1 G28" -> computed by hand below.
+  const std::string body = "N1 G28";
+  int x = 0;
+  for (char ch : body) x ^= static_cast<unsigned char>(ch);
+  Command c = parse(body + "*" + std::to_string(x));
+  EXPECT_EQ(c.line_number, 1);
+  EXPECT_TRUE(c.is('G', 28));
+  Command bad;
+  ParseIssue issue;
+  EXPECT_FALSE(parse_line(body + "*" + std::to_string(x ^ 1), bad, issue));
+  EXPECT_NE(issue.message.find("checksum"), std::string::npos);
+  EXPECT_EQ(issue.column, 7u);
+}
+
+TEST(Parser, BlankAndCommentOnlyLinesHaveNoCommand) {
+  EXPECT_EQ(parse("").kind, CommandKind::none);
+  EXPECT_EQ(parse("   \t ").kind, CommandKind::none);
+  EXPECT_EQ(parse(";LAYER:3").kind, CommandKind::none);
+  EXPECT_EQ(parse(";LAYER:3").comment, "LAYER:3");
+  EXPECT_EQ(parse("(only a comment)").kind, CommandKind::none);
+}
+
+TEST(Parser, ReadsSubcodesAndKlipperExtendedCommands) {
+  Command c = parse("G29.1 Z0.2");
+  EXPECT_EQ(c.code, 29);
+  EXPECT_EQ(c.subcode, 1);
+  Command k = parse("SET_VELOCITY_LIMIT ACCEL=5000 SQUARE_CORNER_VELOCITY=5.5");
+  EXPECT_EQ(k.kind, CommandKind::extended);
+  EXPECT_EQ(k.name, "SET_VELOCITY_LIMIT");
+  std::string_view v;
+  std::uint32_t col = 0;
+  ASSERT_TRUE(find_extended_arg(k, "square_corner_velocity", v, col));
+  EXPECT_EQ(v, "5.5");
+  EXPECT_EQ(col, 54u);
+  EXPECT_FALSE(find_extended_arg(k, "VELOCITY", v, col));
+}
+
+TEST(Parser, ReportsMalformedNumbersWithTheirColumn) {
+  Command c = parse("G1 X1.2.3");
+  Params p;
+  ParseIssue issue;
+  EXPECT_FALSE(parse_params(c, p, issue));
+  EXPECT_EQ(issue.column, 8u);
+  c = parse("G1 Xabc");
+  EXPECT_FALSE(parse_params(c, p, issue));
+  EXPECT_EQ(issue.column, 5u);
+  EXPECT_NE(issue.message.find("expected a number after 'X'"), std::string::npos) << issue.message;
+  c = parse("G1 X1 #");
+  EXPECT_FALSE(parse_params(c, p, issue));
+  EXPECT_EQ(issue.column, 7u);
+}
+
+TEST(Parser, RejectsNanInfinityAndOverflow) {
+  Params p;
+  ParseIssue issue;
+  for (const char* line : {"G1 Xnan", "G1 Xinf", "G1 X-inf", "G1 X1e400"}) {
+    Command c = parse(line);
+    EXPECT_FALSE(parse_params(c, p, issue)) << line;
+  }
+}
+
+TEST(Parser, RejectsLinesThatAreNotCommands) {
+  Command c;
+  ParseIssue issue;
+  EXPECT_FALSE(parse_line("123 G1", c, issue));
+  EXPECT_EQ(issue.column, 1u);
+  ASSERT_TRUE(parse_line("G1 (unterminated", c, issue));  // arguments are parsed on demand
+  Params p;
+  EXPECT_FALSE(parse_params(c, p, issue));
+  EXPECT_NE(issue.message.find("unterminated"), std::string::npos);
+}
+
+TEST(Parser, ParseNumberHandlesAllDecimalForms) {
+  double v = 0;
+  EXPECT_EQ(parse_number("-.5", v), 3u);
+  EXPECT_DOUBLE_EQ(v, -0.5);
+  EXPECT_EQ(parse_number("+2.5e-3X", v), 7u);
+  EXPECT_DOUBLE_EQ(v, 2.5e-3);
+  EXPECT_EQ(parse_number("7.", v), 2u);
+  EXPECT_DOUBLE_EQ(v, 7.0);
+  EXPECT_EQ(parse_number("nan", v), 0u);
+  EXPECT_EQ(parse_number(".", v), 0u);
+  EXPECT_EQ(parse_number("-", v), 0u);
+}
+
+}  // namespace
+}  // namespace amctl::gcode
