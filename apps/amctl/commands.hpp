@@ -9,4 +9,7 @@ void register_all(CLI::App& app);
 
 /// `amctl machine show|list|keys` (cmd_machine.cpp).
 void register_machine(CLI::App& app);
+
+/// `amctl simulate` and `amctl sweep` (cmd_dynamics.cpp).
+void register_dynamics(CLI::App& app);
 }  // namespace amctl::cli

@@ -117,8 +117,10 @@ void QualityMeter::close_corner() {
   ring_.clear();
 }
 
-void QualityMeter::add(const SimSample& s) {
-  if (s.t_s < opt_.t_begin_s || s.t_s > opt_.t_end_s || moves_.empty()) return;
+double QualityMeter::add(const SimSample& s) {
+  if (s.t_s < opt_.t_begin_s || s.t_s > opt_.t_end_s || moves_.empty()) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   ++rep_.samples;
   const std::size_t mi = std::min(s.move_index, moves_.size() - 1);
   const double lag = std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]);
@@ -147,9 +149,11 @@ void QualityMeter::add(const SimSample& s) {
   // Moves that ended by now: residual vibration, and open the corner window they end in.
   while (next_end_ < moves_.size() && s.t_s >= moves_[next_end_].end_time_s() - 1e-12) {
     const std::size_t i = next_end_++;
-    rep_.per_move[i].residual_vibration_mm = vib;
-    rep_.max_residual_vibration_mm = std::max(rep_.max_residual_vibration_mm, vib);
-    if (i + 1 == moves_.size()) rep_.final_residual_vibration_mm = vib;
+    if (!exact_ends_) {
+      rep_.per_move[i].residual_vibration_mm = vib;
+      rep_.max_residual_vibration_mm = std::max(rep_.max_residual_vibration_mm, vib);
+      if (i + 1 == moves_.size()) rep_.final_residual_vibration_mm = vib;
+    }
     if (corner_angle_[i] >= 0.0) {
       close_corner();
       const Seg si = xy_segment(moves_[i]);
@@ -184,6 +188,16 @@ void QualityMeter::add(const SimSample& s) {
     ring_.push_back(RingSample{cx * corner_.dout[0] + cy * corner_.dout[1], s.t_s,
                                (sx - cx) * nx + (sy - cy) * ny});
   }
+  return d;
+}
+
+void QualityMeter::on_move_end(std::size_t i, double t_s, const std::array<double, 2>& v) {
+  if (i >= moves_.size() || t_s < opt_.t_begin_s || t_s > opt_.t_end_s) return;
+  exact_ends_ = true;
+  const double vib = std::hypot(v[0], v[1]);
+  rep_.per_move[i].residual_vibration_mm = vib;
+  rep_.max_residual_vibration_mm = std::max(rep_.max_residual_vibration_mm, vib);
+  if (i + 1 == moves_.size()) rep_.final_residual_vibration_mm = vib;
 }
 
 QualityReport QualityMeter::finish() {

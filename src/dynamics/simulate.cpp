@@ -72,7 +72,7 @@ inline void apply_velocity_jump(std::vector<Run>& runs, double dv0, double dv1) 
 
 SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,
                          const AxisModel& m1, const SimulationOptions& opt,
-                         const SampleSink& sink) {
+                         const SampleSink& sink, const MoveEndSink& move_end) {
   require_above_nyquist(opt.sample_rate_hz, {&m0, &m1});
   SimulationStats stats;
   if (moves.empty()) return stats;
@@ -134,6 +134,28 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
 
   double v_left[2] = {0.0, 0.0};
   bool have_left = false;
+  // Free-vibration amplitude per axis for the current state and input u (terms used).
+  auto vibration = [&](int terms) {
+    double vib2[2] = {0.0, 0.0};
+    for (const Run& r : runs) {
+      double pe = 0.0, pq = 0.0;
+      for (int j = 0; j < terms; ++j) {
+        pe += r.step.pi[0][j] * u[r.axis][j];
+        pq += r.step.pi[1][j] * u[r.axis][j];
+      }
+      vib2[r.axis] += (r.e - pe) * (r.e - pe) + (r.q - pq) * (r.q - pq);
+    }
+    return std::array<double, 2>{std::sqrt(vib2[0]), std::sqrt(vib2[1])};
+  };
+  // Reports every move that has ended by the location `l` at time t.
+  std::size_t next_end = 0;
+  auto report_ends = [&](const trajectory::Cursor::Location& l, double t, int terms) {
+    if (!move_end) return;
+    const std::size_t done = l.holding && t >= moves[l.move_index].start_time_s ? l.move_index + 1 : l.move_index;
+    if (next_end >= done) return;
+    const auto vib = vibration(terms);
+    while (next_end < done) move_end(next_end++, t, vib);
+  };
   for (std::size_t k = 0;; ++k) {
     const double t = t0 + static_cast<double>(k) * h;
     const trajectory::Cursor::Location loc = cursor.locate(t);
@@ -144,6 +166,7 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
       axis_velocity(loc, t, vr);
       apply_velocity_jump(runs, vr[0] - v_left[0], vr[1] - v_left[1]);
       have_left = false;
+      report_ends(loc, t, terms);
     }
 
     // ---- output sample at t
@@ -153,24 +176,19 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     s.holding = loc.holding;
     for (int i = 0; i < 3; ++i) s.cmd_mm[static_cast<std::size_t>(i)] = mv.start_mm[static_cast<std::size_t>(i)] + mv.axes_r[static_cast<std::size_t>(i)] * d[0];
     s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};
-    double err[2] = {0.0, 0.0}, vib2[2] = {0.0, 0.0};
-    for (const Run& r : runs) {
-      err[r.axis] += r.e;
-      double pe = 0.0, pq = 0.0;
-      for (int j = 0; j < terms; ++j) {
-        pe += r.step.pi[0][j] * u[r.axis][j];
-        pq += r.step.pi[1][j] * u[r.axis][j];
-      }
-      vib2[r.axis] += (r.e - pe) * (r.e - pe) + (r.q - pq) * (r.q - pq);
-    }
+    double err[2] = {0.0, 0.0};
+    for (const Run& r : runs) err[r.axis] += r.e;
     const double c0 = row0[0] * s.cmd_mm[0] + row0[1] * s.cmd_mm[1];
     const double c1 = row1[0] * s.cmd_mm[0] + row1[1] * s.cmd_mm[1];
     const auto xy = trajectory::from_motor(kin, c0 + err[0], c1 + err[1]);
     s.sim_mm = {xy[0], xy[1]};
-    s.vibration_mm = {std::sqrt(vib2[0]), std::sqrt(vib2[1])};
+    s.vibration_mm = vibration(terms);
     sink(s);
     ++stats.samples;
-    if (k >= n_steps) break;
+    if (k >= n_steps) {
+      report_ends(loc, t, terms);
+      break;
+    }
 
     // ---- advance to t + h
     const double t_next = t0 + static_cast<double>(k + 1) * h;
@@ -214,6 +232,7 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
       double vr[2];
       axis_velocity(nl, tc, vr);
       apply_velocity_jump(runs, vr[0] - vl[0], vr[1] - vl[1]);
+      report_ends(nl, tc, tm);
     }
   }
   return stats;

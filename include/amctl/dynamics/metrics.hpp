@@ -12,8 +12,9 @@
 //  ringing         after a corner, the deviation (sim - cmd).n_out across the outgoing wall;
 //                  wavelength = commanded path distance between successive maxima (what a
 //                  ringing tower shows), amplitude = half the first peak-to-trough swing.
-//  residual        the free-vibration amplitude (SimSample::vibration_mm, vector norm over X
-//  vibration       and Y) at the first sample at or after each move's end.
+//  residual        the free-vibration amplitude (vector norm over X and Y) just after each
+//  vibration       move's end, exact when fed through on_move_end(), else at the first sample
+//                  at or after the end.
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -101,7 +102,10 @@ struct QualityReport {
 class QualityMeter {
  public:
   QualityMeter(std::span<const plan::PlannedMove> moves, MetricsOptions options);
-  void add(const SimSample& s);
+  /// Adds one sample; returns its contour error [mm] (NaN when outside the time range).
+  double add(const SimSample& s);
+  /// Exact free-vibration amplitude just after move `i` ends (simulate()'s MoveEndSink).
+  void on_move_end(std::size_t i, double t_s, const std::array<double, 2>& vibration_mm);
   /// Closes open corner windows and aggregates. Call once after the last sample.
   [[nodiscard]] QualityReport finish();
 
@@ -121,6 +125,7 @@ class QualityMeter {
   std::vector<double> corner_angle_;   // per move: turn angle to the next XY move, or < 0
   std::vector<std::size_t> next_xy_;   // per move: the next move with XY motion
   std::size_t next_end_ = 0;           // first move whose end has not been passed
+  bool exact_ends_ = false;            // on_move_end() has been called
   double sum_sq_ = 0.0, sum_sq_print_ = 0.0;
   std::uint64_t n_print_ = 0;
   double last_vib_ = 0.0;

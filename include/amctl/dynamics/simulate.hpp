@@ -54,6 +54,10 @@ struct SimulationStats {
 };
 
 using SampleSink = std::function<void(const SimSample&)>;
+/// Called at the exact end time of every move (also between output samples) with the free
+/// vibration amplitude of each axis just after the end (right limit: the next piece's input).
+using MoveEndSink = std::function<void(std::size_t move_index, double t_s,
+                                       const std::array<double, 2>& vibration_mm)>;
 
 /// Simulates the moves (time-ordered) from the first move's start, the nozzle at rest on
 /// the commanded path, and passes every sample at t0 + k / sample_rate_hz to `sink`.
@@ -61,6 +65,6 @@ using SampleSink = std::function<void(const SimSample&)>;
 /// Throws amctl::Error for a sample rate at or below the Nyquist limit or <= 0.
 SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& model_0,
                          const AxisModel& model_1, const SimulationOptions& options,
-                         const SampleSink& sink);
+                         const SampleSink& sink, const MoveEndSink& move_end = nullptr);
 
 }  // namespace amctl::dynamics
