@@ -384,13 +384,16 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
   const Section printer(printer_section, "printer", file_loc);
   m.kinematics = read_kinematics(printer);
   {
+    // Klipper rejects any other [printer] option. amctl rejects the ones that look like a typo
+    // of a known option (a misspelt square_corner_velocity would otherwise silently become
+    // the default) and ignores the rest, so configs of Klipper forks with extra options load.
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
     for (const auto& [key, value] : printer_section->options) {
-      if (std::find(known.begin(), known.end(), key) == known.end()) {
-        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer] for "
-                                             "{} kinematics{}",
-                                             key, to_string(m.kinematics),
-                                             detail::did_you_mean(key, known)));
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      if (auto near = detail::closest(key, known)) {
+        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer]; did "
+                                             "you mean '{}'?",
+                                             key, *near));
       }
     }
   }
