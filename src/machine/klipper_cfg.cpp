@@ -404,7 +404,8 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     m.minimum_cruise_ratio = *mcr;
   } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0})) {
     // Older Klipper (before 2023-12): minimum_cruise_ratio = 1 - min(1, a2d / max_accel).
-    m.minimum_cruise_ratio = minimum_cruise_ratio_from_accel_to_decel(*a2d, m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*a2d, m.max_accel_mm_s2);
   } else {
     m.minimum_cruise_ratio = 0.5;
   }
