@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -384,13 +385,16 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
   const Section printer(printer_section, "printer", file_loc);
   m.kinematics = read_kinematics(printer);
   {
+    // Klipper rejects any other [printer] option. amctl rejects the ones that look like a typo
+    // of a known option (a misspelt square_corner_velocity would otherwise silently become
+    // the default) and ignores the rest, so configs of Klipper forks with extra options load.
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
     for (const auto& [key, value] : printer_section->options) {
-      if (std::find(known.begin(), known.end(), key) == known.end()) {
-        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer] for "
-                                             "{} kinematics{}",
-                                             key, to_string(m.kinematics),
-                                             detail::did_you_mean(key, known)));
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      if (auto near = detail::closest(key, known)) {
+        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer]; did "
+                                             "you mean '{}'?",
+                                             key, *near));
       }
     }
   }
@@ -400,7 +404,8 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     m.minimum_cruise_ratio = *mcr;
   } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0})) {
     // Older Klipper (before 2023-12): minimum_cruise_ratio = 1 - min(1, a2d / max_accel).
-    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *a2d / m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*a2d, m.max_accel_mm_s2);
   } else {
     m.minimum_cruise_ratio = 0.5;
   }

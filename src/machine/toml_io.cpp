@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -213,7 +214,8 @@ void finish(Machine& m, const Pending& p) {
   if (!p.junction_given) m.junction = default_junction(m.firmware);
   if (p.accel_to_decel && !p.minimum_cruise_ratio_given) {
     // klippy/toolhead.py (commit 0105aa33): 1 - min(1, max_accel_to_decel / max_accel).
-    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *p.accel_to_decel / m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*p.accel_to_decel, m.max_accel_mm_s2);
   }
 }
 
@@ -580,7 +582,8 @@ void apply_override(Machine& m, std::string_view assignment) {
   pending.junction_given = true;  // an override changes only the key it names
   assign(m, *d, *value, where, "--set", pending);
   if (pending.accel_to_decel) {
-    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *pending.accel_to_decel / m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*pending.accel_to_decel, m.max_accel_mm_s2);
   }
 }
 

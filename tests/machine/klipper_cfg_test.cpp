@@ -86,10 +86,12 @@ TEST(KlipperCfg, RequiredOptionsAreNamed) {
             "printer.cfg: no [printer] section: not a Klipper printer.cfg");
 }
 
-TEST(KlipperCfg, UnknownPrinterOptionIsAnErrorWithASuggestion) {
-  EXPECT_EQ(cfg_error(kMinimal + "max_acel: 5000\n"),
-            "printer.cfg:5:11: option 'max_acel' is not valid in section [printer] for cartesian "
-            "kinematics; did you mean 'max_accel'?");
+TEST(KlipperCfg, MisspeltPrinterOptionIsAnErrorWithASuggestion) {
+  EXPECT_EQ(cfg_error(kMinimal + "square_corner_velocty: 8\n"),
+            "printer.cfg:5:24: option 'square_corner_velocty' is not valid in section [printer]; "
+            "did you mean 'square_corner_velocity'?");
+  // Options that are not near any known one (e.g. from Klipper forks) are ignored.
+  EXPECT_DOUBLE_EQ(cfg(kMinimal + "some_fork_feature: 1\n").max_accel_mm_s2, 4000);
 }
 
 TEST(KlipperCfg, OtherKinematicsAreReportedAsUnsupported) {
