@@ -1,0 +1,56 @@
+#include "amctl/dynamics/discretize.hpp"
+
+#include <fmt/format.h>
+#include <unsupported/Eigen/MatrixFunctions>
+
+#include "amctl/core/error.hpp"
+
+namespace amctl::dynamics {
+
+namespace {
+void check(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double h) {
+  require_positive("step_s", h);
+  if (A.rows() != A.cols() || B.rows() != A.rows()) {
+    throw Error(fmt::format("state-space sizes do not match: A is {}x{}, B is {}x{}", A.rows(),
+                            A.cols(), B.rows(), B.cols()));
+  }
+}
+}  // namespace
+
+Discretization discretize_zoh(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double h) {
+  check(A, B, h);
+  const PolynomialDiscretization p = discretize_polynomial(A, B, 1, h);
+  return Discretization{h, p.Phi, p.Psi, Eigen::MatrixXd()};
+}
+
+Discretization discretize_foh(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double h) {
+  check(A, B, h);
+  // u(s) = u_k + s (u_{k+1} - u_k) / h: derivative vector [u_k, (u_{k+1}-u_k)/h].
+  const PolynomialDiscretization p = discretize_polynomial(A, B, 2, h);
+  const auto m = B.cols();
+  return Discretization{h, p.Phi, p.Psi.leftCols(m), p.Psi.middleCols(m, m) / h};
+}
+
+PolynomialDiscretization discretize_polynomial(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                               int terms, double h) {
+  check(A, B, h);
+  if (terms < 1) throw Error(fmt::format("terms must be >= 1, got {}", terms));
+  const auto n = A.rows(), m = B.cols();
+  const auto N = n + terms * m;
+  // [x; w_0; ...; w_{d}]' = [[A, B, 0 ...], [0, 0, I, 0..], ..., [0 ... 0]] [x; w]
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(N, N);
+  M.topLeftCorner(n, n) = A;
+  M.block(0, n, n, m) = B;
+  for (int j = 0; j + 1 < terms; ++j) {
+    M.block(n + j * m, n + (j + 1) * m, m, m) = Eigen::MatrixXd::Identity(m, m);
+  }
+  const Eigen::MatrixXd E = (M * h).exp();
+  PolynomialDiscretization out;
+  out.step_s = h;
+  out.terms = terms;
+  out.Phi = E.topLeftCorner(n, n);
+  out.Psi = E.topRightCorner(n, terms * m);
+  return out;
+}
+
+}  // namespace amctl::dynamics

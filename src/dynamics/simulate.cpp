@@ -1,0 +1,241 @@
+#include "amctl/dynamics/simulate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/dynamics/propagator.hpp"
+#include "amctl/trajectory/kinematics.hpp"
+#include "amctl/trajectory/trajectory.hpp"
+
+namespace amctl::dynamics {
+
+namespace {
+
+struct Run {
+  int axis = 0;
+  Mode mode;
+  ModePropagator step;  // for the full output step h
+  double e = 0.0;       // modal deflection [mm]
+  double q = 0.0;       // deflection rate / w [mm]
+};
+
+double auto_settle_s(const AxisModel& a, const AxisModel& b) {
+  double slowest = std::numeric_limits<double>::infinity();
+  bool any = false;
+  for (const AxisModel* m : {&a, &b}) {
+    for (const Mode& mode : m->modes()) {
+      any = true;
+      slowest = std::min(slowest, mode.damping_ratio * 2.0 * std::numbers::pi *
+                                      mode.natural_frequency_hz);
+    }
+  }
+  if (!any) return 0.0;
+  if (slowest <= 0.0) return 1.0;
+  return std::clamp(5.0 / slowest, 0.05, 1.0);
+}
+
+// Advances every run over tau with the input derivatives u[axis][j].
+inline void advance(std::vector<Run>& runs, const ModePropagator* props, int terms,
+                    const double (&u)[2][kMaxInputTerms]) {
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    Run& run = runs[r];
+    const ModePropagator& p = props ? props[r] : run.step;
+    double e = p.phi[0][0] * run.e + p.phi[0][1] * run.q;
+    double q = p.phi[1][0] * run.e + p.phi[1][1] * run.q;
+    const double* ua = u[run.axis];
+    for (int j = 0; j < terms; ++j) {
+      e += p.psi[0][j] * ua[j];
+      q += p.psi[1][j] * ua[j];
+    }
+    run.e = e;
+    run.q = q;
+  }
+}
+
+// A jump dv of the commanded axis velocity (a corner taken at non-zero junction speed)
+// is an impulse of commanded acceleration: the carriage velocity x' stays continuous, so the
+// error rate e' = x' - x_b' jumps by -g dv, i.e. q = e'/w by -g dv / w.
+inline void apply_velocity_jump(std::vector<Run>& runs, double dv0, double dv1) {
+  if (dv0 == 0.0 && dv1 == 0.0) return;
+  for (Run& r : runs) {
+    const double w = 2.0 * std::numbers::pi * r.mode.natural_frequency_hz;
+    r.q -= r.mode.participation * (r.axis == 0 ? dv0 : dv1) / w;
+  }
+}
+
+}  // namespace
+
+SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,
+                         const AxisModel& m1, const SimulationOptions& opt,
+                         const SampleSink& sink, const MoveEndSink& move_end) {
+  require_above_nyquist(opt.sample_rate_hz, {&m0, &m1});
+  SimulationStats stats;
+  if (moves.empty()) return stats;
+  const double h = 1.0 / opt.sample_rate_hz;
+  const double settle = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
+  require_finite("settle_s", settle);
+
+  std::vector<Run> runs;
+  for (int axis = 0; axis < 2; ++axis) {
+    for (const Mode& mode : (axis == 0 ? m0 : m1).modes()) {
+      Run r;
+      r.axis = axis;
+      r.mode = mode;
+      r.step = mode_propagator(mode, h, kMaxInputTerms);
+      runs.push_back(r);
+    }
+  }
+  std::vector<ModePropagator> sub(runs.size());
+
+  const machine::Kinematics kin = opt.motor_space ? opt.kinematics : machine::Kinematics::cartesian;
+  const auto row0 = trajectory::motor_row(kin, 0);
+  const auto row1 = trajectory::motor_row(kin, 1);
+
+  const double t0 = moves.front().start_time_s;
+  double motion_end = t0;
+  for (const auto& m : moves) motion_end = std::max(motion_end, m.end_time_s());
+  const double t_final = motion_end + settle;
+  const auto n_steps = static_cast<std::size_t>(std::ceil((t_final - t0) / h - 1e-9));
+  stats.start_time_s = t0;
+  stats.motion_end_time_s = motion_end;
+  stats.end_time_s = t0 + static_cast<double>(n_steps) * h;
+
+  trajectory::Cursor cursor(moves);
+  std::array<double, plan::kMaxPieceDegree + 1> d{};
+  double u[2][kMaxInputTerms] = {};
+
+  // Fills u (input derivatives per axis) for the location just found; returns the terms.
+  auto input_terms = [&](const trajectory::Cursor::Location& loc, double t) -> int {
+    cursor.path_derivatives(t, d);
+    const plan::PlannedMove& mv = moves[loc.move_index];
+    const double g0 = row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1];
+    const double g1 = row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1];
+    const int terms = loc.holding ? 0 : std::max(0, loc.piece->degree - 1);
+    for (int j = 0; j < kMaxInputTerms; ++j) {
+      const double dj = j < terms ? d[static_cast<std::size_t>(j + 2)] : 0.0;
+      u[0][j] = g0 * dj;
+      u[1][j] = g1 * dj;
+    }
+    return terms;
+  };
+
+  // Commanded velocity of the two simulated axes at t on the piece of `l`.
+  auto axis_velocity = [&](const trajectory::Cursor::Location& l, double t, double (&v)[2]) {
+    const double sv = l.holding ? 0.0 : trajectory::evaluate_piece(*l.piece, t - l.piece_t0_s).v_mm_s;
+    const plan::PlannedMove& mv = moves[l.move_index];
+    v[0] = sv * (row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1]);
+    v[1] = sv * (row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1]);
+  };
+
+  double v_left[2] = {0.0, 0.0};
+  bool have_left = false;
+  // Free-vibration amplitude per axis for the current state and input u (terms used).
+  auto vibration = [&](int terms) {
+    double vib2[2] = {0.0, 0.0};
+    for (const Run& r : runs) {
+      double pe = 0.0, pq = 0.0;
+      for (int j = 0; j < terms; ++j) {
+        pe += r.step.pi[0][j] * u[r.axis][j];
+        pq += r.step.pi[1][j] * u[r.axis][j];
+      }
+      vib2[r.axis] += (r.e - pe) * (r.e - pe) + (r.q - pq) * (r.q - pq);
+    }
+    return std::array<double, 2>{std::sqrt(vib2[0]), std::sqrt(vib2[1])};
+  };
+  // Reports every move that has ended by the location `l` at time t.
+  std::size_t next_end = 0;
+  auto report_ends = [&](const trajectory::Cursor::Location& l, double t, int terms) {
+    if (!move_end) return;
+    const std::size_t done = l.holding && t >= moves[l.move_index].start_time_s ? l.move_index + 1 : l.move_index;
+    if (next_end >= done) return;
+    const auto vib = vibration(terms);
+    while (next_end < done) move_end(next_end++, t, vib);
+  };
+  for (std::size_t k = 0;; ++k) {
+    const double t = t0 + static_cast<double>(k) * h;
+    const trajectory::Cursor::Location loc = cursor.locate(t);
+    const int terms = input_terms(loc, t);
+    const plan::PlannedMove& mv = moves[loc.move_index];
+    if (have_left) {  // the last step ended exactly on a piece boundary
+      double vr[2];
+      axis_velocity(loc, t, vr);
+      apply_velocity_jump(runs, vr[0] - v_left[0], vr[1] - v_left[1]);
+      have_left = false;
+      report_ends(loc, t, terms);
+    }
+
+    // ---- output sample at t
+    SimSample s;
+    s.t_s = t;
+    s.move_index = loc.move_index;
+    s.holding = loc.holding;
+    for (int i = 0; i < 3; ++i) s.cmd_mm[static_cast<std::size_t>(i)] = mv.start_mm[static_cast<std::size_t>(i)] + mv.axes_r[static_cast<std::size_t>(i)] * d[0];
+    s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};
+    double err[2] = {0.0, 0.0};
+    for (const Run& r : runs) err[r.axis] += r.e;
+    const double c0 = row0[0] * s.cmd_mm[0] + row0[1] * s.cmd_mm[1];
+    const double c1 = row1[0] * s.cmd_mm[0] + row1[1] * s.cmd_mm[1];
+    const auto xy = trajectory::from_motor(kin, c0 + err[0], c1 + err[1]);
+    s.sim_mm = {xy[0], xy[1]};
+    s.vibration_mm = vibration(terms);
+    sink(s);
+    ++stats.samples;
+    if (k >= n_steps) {
+      report_ends(loc, t, terms);
+      break;
+    }
+
+    // ---- advance to t + h
+    const double t_next = t0 + static_cast<double>(k + 1) * h;
+    const double tol = 1e-12 * std::max(1.0, std::abs(t_next));
+    if (runs.empty()) continue;
+    if (loc.piece_end_s >= t_next - tol) {
+      advance(runs, nullptr, terms, u);
+      stats.axis_state_updates += runs.size();
+      if (loc.piece_end_s <= t_next + tol) {
+        axis_velocity(loc, t_next, v_left);
+        have_left = true;
+      }
+      continue;
+    }
+    ++stats.split_steps;
+    double tc = t;
+    const trajectory::Cursor::Location* lp = &loc;
+    int tm = terms;
+    for (int guard = 0; tc < t_next - tol && guard < 64; ++guard) {
+      const double end = std::min(lp->piece_end_s, t_next);
+      if (end >= t_next - tol && lp->piece_end_s <= t_next + tol) {
+        axis_velocity(*lp, t_next, v_left);
+        have_left = true;
+      }
+      const double dt = end - tc;
+      if (dt > 0.0) {
+        const int nt = std::max(1, tm);
+        for (std::size_t r = 0; r < runs.size(); ++r) sub[r] = mode_propagator(runs[r].mode, dt, nt);
+        advance(runs, sub.data(), tm, u);
+        stats.axis_state_updates += runs.size();
+      }
+      tc = end;
+      if (tc >= t_next - tol) break;
+      // Left limit of the commanded axis velocities at the boundary, before the cursor
+      // moves on (it may reload its pieces).
+      double vl[2];
+      axis_velocity(*lp, tc, vl);
+      const trajectory::Cursor::Location& nl = cursor.locate(tc);
+      tm = input_terms(nl, tc);
+      lp = &nl;
+      double vr[2];
+      axis_velocity(nl, tc, vr);
+      apply_velocity_jump(runs, vr[0] - vl[0], vr[1] - vl[1]);
+      report_ends(nl, tc, tm);
+    }
+  }
+  return stats;
+}
+
+}  // namespace amctl::dynamics

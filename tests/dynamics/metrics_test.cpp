@@ -1,0 +1,112 @@
+#include "amctl/dynamics/metrics.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "amctl/trajectory/build.hpp"
+
+namespace amctl::dynamics {
+namespace {
+
+using VP = plan::VelocityProfile;
+using trajectory::MoveSpec;
+
+QualityReport measure(const std::vector<plan::PlannedMove>& moves, const AxisModel& m,
+                      double rate, MetricsOptions mo = {}) {
+  QualityMeter meter(moves, mo);
+  SimulationOptions o;
+  o.sample_rate_hz = rate;
+  (void)simulate(moves, m, m, o, [&](const SimSample& s) { meter.add(s); });
+  return meter.finish();
+}
+
+TEST(Metrics, LagAlongAStraightLineIsNotContourError) {
+  const std::vector<MoveSpec> specs{{{100, 0, 0, 0}, 150.0, 0.0, 7}};
+  const auto moves = trajectory::chain_moves({0, 0, 0, 0}, specs, 3000.0, VP::trapezoid);
+  const AxisModel m = AxisModel::belt(25.0, 0.1);
+  // Until 10 ms before the stop: after that the nozzle runs past the line's end, which is a
+  // real contour error (distance beyond the end point), not a lag.
+  MetricsOptions mo;
+  mo.t_end_s = moves[0].end_time_s() - 0.01;
+  QualityMeter meter(moves, mo);
+  double max_lag = 0.0;
+  SimulationOptions o;
+  (void)simulate(moves, m, m, o, [&](const SimSample& s) {
+    max_lag = std::max(max_lag, std::abs(s.sim_mm[0] - s.cmd_mm[0]));
+    meter.add(s);
+  });
+  const QualityReport r = meter.finish();
+  EXPECT_GT(max_lag, 0.05);
+  EXPECT_LT(r.max_contour_error_mm, 1e-12);
+}
+
+TEST(Metrics, SeedCornerOvershootMatchesScipyAndBoundsContourError) {
+  // tests/reference/dynamics_reference.py: max x past the corner = 0.463612915 mm.
+  const std::vector<MoveSpec> specs{{{10, 0, 0, 0}, 100.0, 0.0, 1}, {{10, 10, 0, 0}, 100.0, 0.0, 2}};
+  const auto moves = trajectory::chain_moves({0, 0, 0, 0}, specs, 5000.0, VP::trapezoid);
+  const QualityReport r = measure(moves, AxisModel::belt_rad_s(100.0, 0.5), 20000.0);
+  ASSERT_EQ(r.corners.size(), 1u);
+  EXPECT_NEAR(r.corners[0].overshoot_mm, 0.463612915, 2e-6);  // sampled max at 20 kHz
+  EXPECT_NEAR(r.corners[0].angle_deg, 90.0, 1e-9);
+  EXPECT_EQ(r.corners[0].line, 1u);
+  // the worst contour error is the overshoot past the corner (distance to the Y segment)
+  EXPECT_NEAR(r.max_contour_error_mm, 0.463612915, 1e-4);
+  ASSERT_FALSE(r.worst.empty());
+  EXPECT_GT(r.rms_contour_error_mm, 0.0);
+  EXPECT_LT(r.rms_contour_error_mm, r.max_contour_error_mm);
+  EXPECT_NEAR(r.motion_time_s, 0.24, 1e-12);
+}
+
+TEST(Metrics, RingingWavelengthIsSpeedTimesDampedPeriod) {
+  // 90-degree corner at 50 mm/s constant speed: the velocity jump rings at wd; the outgoing
+  // wall shows a wavelength of v * 2 pi / wd.
+  const double f = 40.0, z = 0.05, v = 50.0;
+  std::vector<plan::PlannedMove> moves;
+  moves.push_back(trajectory::timed_move({0, 0, 0, 0}, MoveSpec{{20, 0, 0, 0}, v, v, 3}, v, 0.0,
+                                         5000.0, VP::trapezoid, 0.0));
+  moves.push_back(trajectory::timed_move({20, 0, 0, 0}, MoveSpec{{20, 30, 0, 0}, v, v, 4}, v,
+                                         moves[0].end_time_s(), 5000.0, VP::trapezoid, 0.0));
+  const QualityReport r = measure(moves, AxisModel::belt(f, z), 20000.0);
+  ASSERT_EQ(r.corners.size(), 1u);
+  const double w = 2 * std::numbers::pi * f, wd = w * std::sqrt(1 - z * z);
+  EXPECT_NEAR(r.corners[0].ringing_wavelength_mm, v * 2 * std::numbers::pi / wd, 0.005);
+  EXPECT_NEAR(r.corners[0].ringing_period_s, 2 * std::numbers::pi / wd, 1e-4);
+  // x error after the jump: e_x = (v/wd) e^{-s t} sin(wd t), s = z w; across the outgoing wall
+  // the deviation is -e_x: first maximum where tan(wd t) = wd/s on the negative lobe, the
+  // next minimum half a period later; amplitude = half that swing.
+  const double sg = z * w, t1 = (std::atan(wd / sg) + std::numbers::pi) / wd;
+  const double t2 = t1 + std::numbers::pi / wd;
+  const double amp = 0.5 * v / wd *
+                     (std::exp(-sg * t1) * std::abs(std::sin(wd * t1)) +
+                      std::exp(-sg * t2) * std::abs(std::sin(wd * t2)));
+  EXPECT_NEAR(r.corners[0].ringing_amplitude_mm, amp, 0.01 * amp);
+  EXPECT_NEAR(r.ringing_wavelength_mm, r.corners[0].ringing_wavelength_mm, 1e-12);
+}
+
+TEST(Metrics, GroupsPerLayerAndFeatureAndListsWorstLines) {
+  std::vector<MoveSpec> specs;
+  for (int i = 0; i < 8; ++i) {
+    const double x = (i % 2 == 0) ? 20.0 : 0.0;
+    specs.push_back(MoveSpec{{x, 0.5 * (i + 1), 0, static_cast<double>(i + 1)}, 120.0, 0.0,
+                             static_cast<std::uint64_t>(10 + i), i / 4,
+                             static_cast<std::uint16_t>(i % 2)});
+  }
+  const auto moves = trajectory::chain_moves({0, 0, 0, 0}, specs, 4000.0, VP::trapezoid);
+  MetricsOptions mo;
+  mo.worst_count = 3;
+  const QualityReport r = measure(moves, AxisModel::belt(30.0, 0.1), 2000.0, mo);
+  EXPECT_EQ(r.per_layer.size(), 2u);
+  EXPECT_EQ(r.per_feature.size(), 2u);
+  ASSERT_EQ(r.worst.size(), 3u);
+  EXPECT_GE(r.worst[0].contour_error_mm, r.worst[1].contour_error_mm);
+  EXPECT_GE(r.worst[0].line, 10u);
+  double mx = 0.0;
+  for (const auto& [layer, g] : r.per_layer) mx = std::max(mx, g.max_contour_error_mm);
+  EXPECT_DOUBLE_EQ(mx, r.max_contour_error_mm);
+  EXPECT_GT(r.max_contour_error_printing_mm, 0.0);
+}
+
+}  // namespace
+}  // namespace amctl::dynamics
