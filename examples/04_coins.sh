@@ -24,7 +24,7 @@ echo "gcode,duration_s" > "$WORK/planner_times.csv"
 echo "gcode,duration_s" > "$WORK/small_coins.csv"
 for d in 25 50 100; do
   for a in 0 45 90 135; do
-    t=$("$AMCTL" estimate-time "$WORK/coin${d}_a$a.gcode" --mode planner --machine $MACHINE --json |
+    t=$("$AMCTL" estimate "$WORK/coin${d}_a$a.gcode" --machine $MACHINE --json |
         /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["total_time_s"])')
     echo "coin${d}_a$a.gcode,$t" >> "$WORK/planner_times.csv"
     if [ "$d" != 100 ]; then echo "coin${d}_a$a.gcode,$t" >> "$WORK/small_coins.csv"; fi
@@ -43,8 +43,8 @@ for d in 25 50 100; do
   for a in 0 45 90 135; do
     g="$WORK/coin${d}_a$a.gcode"
     p=$(grep "^coin${d}_a$a.gcode," "$WORK/planner_times.csv" | cut -d, -f2)
-    "$AMCTL" estimate-time "$g" --json > "$WORK/seed.json"
-    "$AMCTL" estimate-time "$g" --params "$WORK/empirical_fit.json" --json > "$WORK/fit.json"
+    "$AMCTL" estimate "$g" --mode empirical --json > "$WORK/seed.json"
+    "$AMCTL" estimate "$g" --mode empirical --params "$WORK/empirical_fit.json" --json > "$WORK/fit.json"
     /usr/bin/python3 - "$d" "$a" "$p" "$WORK/seed.json" "$WORK/fit.json" >> "$WORK/table4.csv" <<'PY'
 import json, sys
 d, a, p, seed, fit = sys.argv[1:]
@@ -60,7 +60,7 @@ echo "gcode,duration_s" > "$WORK/timed_prints.csv"
 i=0
 for d in 25 50 100; do
   for a in 0 45 90 135; do
-    t=$("$AMCTL" estimate-time "$WORK/coin${d}_a$a.gcode" --mode planner --machine $MACHINE \
+    t=$("$AMCTL" estimate "$WORK/coin${d}_a$a.gcode" --machine $MACHINE \
           --set marlin.print_accel=900 --set marlin.travel_accel=900 --set marlin.retract_accel=900 \
           --set 'marlin.jerk=[6,6,0.4,1.5]' --json |
         /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["total_time_s"])')

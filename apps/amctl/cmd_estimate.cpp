@@ -43,6 +43,8 @@ struct EstimateArgs {
   bool brief = false;
   std::string m73_out;
   double m73_interval_s = 60.0;
+  std::string mode = "planner";  ///< or "empirical" (seed 004 estimator, cmd_process.cpp)
+  std::string params;            ///< empirical parameters (JSON)
 };
 
 nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
@@ -231,7 +233,19 @@ void register_estimate(CLI::App& app) {
                   "Write the file back with M73 progress/remaining-time lines to this path");
   sub->add_option("--m73-interval", args->m73_interval_s, "Seconds of print time between M73 lines")
       ->default_val(60.0);
-  sub->callback([args] { run_estimate(*args); });
+  sub->add_option("--mode", args->mode,
+                  "planner (default) or empirical: the seed-004 average-speed model")
+      ->check(CLI::IsMember({"planner", "empirical"}));
+  sub->add_option("--params", args->params,
+                  "Empirical parameters (JSON from `calibrate-time --mode empirical --save`); "
+                  "default: the seed's FDM 2000 speeds");
+  sub->callback([args] {
+    if (args->mode == "empirical") {
+      run_empirical_estimate(args->file, args->params, args->json);
+      return;
+    }
+    run_estimate(*args);
+  });
 }
 
 }  // namespace amctl::cli

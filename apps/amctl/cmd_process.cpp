@@ -1,5 +1,5 @@
-// amctl shrink fit | shrink slicing | shrink apply | calibrate-time | estimate-time (process
-// planning, seed 004).
+// amctl shrink fit | shrink slicing | shrink apply | calibrate-time, and the empirical mode of
+// `amctl estimate` (process planning, seed 004).
 #include <array>
 #include <cmath>
 #include <algorithm>
@@ -28,6 +28,7 @@
 #include "amctl/process/shrinkage.hpp"
 #include "amctl/process/slicing.hpp"
 #include "commands.hpp"
+#include "machine_cli.hpp"
 
 namespace amctl::cli {
 namespace {
@@ -534,73 +535,14 @@ json features_json(const pr::TimeFeatures& f, const pr::EmpiricalTimeModel& m) {
           {"time_terms_s", terms}};
 }
 
-void register_estimate_time(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "estimate-time", "Build time of a G-code file: empirical (seed 004) or planner-based");
-  struct Opts {
-    std::string file, mode = "empirical", params, machine;
-    std::vector<std::string> sets;
-    bool json = false;
-  };
-  auto o = std::make_shared<Opts>();
-  cmd->add_option("file", o->file, "G-code file")->required();
-  cmd->add_option("--mode", o->mode, "empirical or planner")
-      ->check(CLI::IsMember({"empirical", "planner"}));
-  cmd->add_option("--params", o->params,
-                  "empirical parameters (JSON from calibrate-time --mode empirical --save); "
-                  "default: the seed's FDM 2000 speeds");
-  cmd->add_option("--machine", o->machine, "machine preset or file (planner mode)");
-  cmd->add_option("--set", o->sets, "machine override section.key=value (planner mode)");
-  cmd->add_flag("--json", o->json, "print one JSON object");
-  cmd->callback([o] {
-    if (o->mode == "planner") {
-      const auto m = machine::load_machine(o->machine, o->sets);
-      const auto r = plan::estimate_file(o->file, m);
-      if (o->json) {
-        json j{{"file", o->file}, {"mode", "planner"}, {"machine", m.name},
-               {"total_time_s", r.total_time_s}, {"travel_time_s", r.travel_time_s},
-               {"extrude_time_s", r.extrude_time_s}, {"layers", r.layers.size()},
-               {"slicer_estimate_s", r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr)}};
-        j["layer_times"] = json::array();
-        for (const auto& l : r.layers) {
-          j["layer_times"].push_back({{"layer", l.layer}, {"z_mm", l.z_mm}, {"time_s", l.time_s}});
-        }
-        std::cout << j.dump(2) << "\n";
-      } else {
-        std::cout << fmt::format("{}: planner ({}) {:.1f} s ({:.2f} min)\n", o->file, m.name,
-                                 r.total_time_s, r.total_time_s / 60);
-      }
-      return;
-    }
-    auto model = pr::EmpiricalTimeModel::fdm2000_seed();
-    pr::ScanOptions so;
-    if (!o->params.empty()) load_model_json(o->params, model, so);
-    so.link_widths_mm = model.link_widths_mm;
-    const auto scan = pr::scan_gcode_file_for_time(o->file, so);
-    const double t = model.estimate_s(scan.total);
-    if (o->json) {
-      json j{{"file", o->file}, {"mode", "empirical"}, {"total_time_s", t},
-             {"model", model_json(model, so)}, {"features", features_json(scan.total, model)},
-             {"layers", scan.layers.size()},
-             {"mean_raster_width_mm", scan.mean_raster_width_mm},
-             {"slicer_estimate_s", scan.slicer_estimate_s ? json(*scan.slicer_estimate_s) : json(nullptr)}};
-      std::cout << j.dump(2) << "\n";
-    } else {
-      std::cout << fmt::format("{}: empirical {:.1f} s ({:.2f} min); raster {:.0f} mm, links "
-                               "{:.0f} mm, contour {:.0f} mm, travel {:.0f} mm, {} layers\n",
-                               o->file, t, t / 60, scan.total.raster_mm, scan.total.link_mm,
-                               scan.total.contour_mm, scan.total.travel_mm, scan.layers.size());
-    }
-  });
-}
-
 void register_calibrate_time(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "calibrate-time",
       "Fit machine limits (planner) or empirical speeds to measured print durations");
   struct Opts {
-    std::string file, mode = "planner", machine, fit, save, params;
-    std::vector<std::string> sets, fix;
+    std::string file, mode = "planner", fit, save, params;
+    std::vector<std::string> fix;
+    MachineOptions machine;
     bool keep_limits = false, absolute = false, json = false, separate_contour = false;
   };
   auto o = std::make_shared<Opts>();
@@ -608,8 +550,7 @@ void register_calibrate_time(CLI::App& app) {
                   "CSV: gcode,duration_s[,layer] (paths relative to the CSV)")->required();
   cmd->add_option("--mode", o->mode, "planner (fit machine limits) or empirical (fit speeds)")
       ->check(CLI::IsMember({"planner", "empirical"}));
-  cmd->add_option("--machine", o->machine, "machine preset or file to start from");
-  cmd->add_option("--set", o->sets, "machine override section.key=value");
+  add_machine_options(*cmd, o->machine);
   cmd->add_option("--fit", o->fit,
                   "limits to fit, comma separated: accel, scv, jd, jerk, max_velocity "
                   "(default: accel, the junction limit of the machine, max_velocity)");
@@ -701,7 +642,7 @@ void register_calibrate_time(CLI::App& app) {
                                fit.model.raster_speed_mm_s, fit.model.travel_speed_mm_s, fit.rms_s);
       return;
     }
-    const auto base = machine::load_machine(o->machine, o->sets);
+    const auto base = resolve_machine(o->machine);
     const auto names = o->fit.empty() ? pr::default_limits_for(base) : [&] {
       std::vector<std::string> v;
       std::stringstream ss(o->fit);
@@ -765,13 +706,34 @@ void register_calibrate_time(CLI::App& app) {
 
 }  // namespace
 
+void run_empirical_estimate(const std::string& file, const std::string& params_json, bool as_json) {
+  auto model = pr::EmpiricalTimeModel::fdm2000_seed();
+  pr::ScanOptions so;
+  if (!params_json.empty()) load_model_json(params_json, model, so);
+  so.link_widths_mm = model.link_widths_mm;
+  const auto scan = pr::scan_gcode_file_for_time(file, so);
+  const double t = model.estimate_s(scan.total);
+  if (as_json) {
+    json j{{"file", file}, {"mode", "empirical"}, {"total_time_s", t},
+           {"model", model_json(model, so)}, {"features", features_json(scan.total, model)},
+           {"layers", scan.layers.size()},
+           {"mean_raster_width_mm", scan.mean_raster_width_mm},
+           {"slicer_estimate_s", scan.slicer_estimate_s ? json(*scan.slicer_estimate_s) : json(nullptr)}};
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  std::cout << fmt::format("{}: empirical {:.1f} s ({:.2f} min); raster {:.0f} mm, links {:.0f} mm, "
+                           "contour {:.0f} mm, travel {:.0f} mm, {} layers\n",
+                           file, t, t / 60, scan.total.raster_mm, scan.total.link_mm,
+                           scan.total.contour_mm, scan.total.travel_mm, scan.layers.size());
+}
+
 void register_process(CLI::App& app) {
   auto* shrink = app.add_subcommand("shrink", "Shrinkage compensation from measured test parts");
   shrink->require_subcommand(1);
   register_shrink_fit(*shrink);
   register_shrink_slicing(*shrink);
   register_shrink_apply(*shrink);
-  register_estimate_time(app);
   register_calibrate_time(app);
 }
 

@@ -1,4 +1,6 @@
 #pragma once
+#include <string>
+
 #include <CLI/CLI.hpp>
 
 namespace amctl::cli {
@@ -15,6 +17,10 @@ void register_dynamics(CLI::App& app);
 void register_thermal(CLI::App& app);
 /// `amctl shrink ...`, `amctl calibrate-time` (cmd_process.cpp).
 void register_process(CLI::App& app);
+
+/// `amctl estimate FILE --mode empirical [--params fitted.json]`: the seed-004 empirical
+/// estimator (cmd_process.cpp), called from cmd_estimate.cpp.
+void run_empirical_estimate(const std::string& file, const std::string& params_json, bool as_json);
 /// `amctl machine show|list|keys` (cmd_machine.cpp).
 void register_machine(CLI::App& app);
 }  // namespace amctl::cli
