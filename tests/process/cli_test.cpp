@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -69,5 +70,36 @@ TEST(Cli, BadInputExitsWithCodeTwoAndWritesNothing) {
                 out.string()).status,
             2);
   EXPECT_FALSE(fs::exists(out));
+  fs::remove_all(dir);
+}
+
+TEST(Cli, EstimateHasAnEmpiricalModeAndCalibrateTimeReportsEveryFile) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "amctl_process_cli_time_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // Ten infill rasters from x = 0 to 50 stepping 5 mm in y: the first is 50 mm, the other
+  // nine are diagonals of hypot(50, 5) mm; all are far longer than a link (3 widths).
+  std::string g = "G90\nM83\nG1 Z0.2 F600\n;TYPE:Solid infill\n";
+  for (int i = 0; i < 10; ++i) {
+    g += "G1 X" + std::string(i % 2 ? "0" : "50") + " Y" + std::to_string(5.0 * i) + " E2 F3000\n";
+  }
+  std::ofstream(dir / "a.gcode") << g;
+  auto r = run("estimate " + (dir / "a.gcode").string() + " --mode empirical --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  auto j = nlohmann::json::parse(r.out);
+  const double raster = j["features"]["raster_mm"].get<double>();
+  EXPECT_NEAR(raster, 50.0 + 9.0 * std::hypot(50.0, 5.0), 1e-9);
+  EXPECT_NEAR(j["features"]["time_terms_s"]["raster_pace"].get<double>(), raster / 24.34, 1e-9);
+
+  std::ofstream(dir / "prints.csv") << "gcode,duration_s\na.gcode,30\na.gcode,32\n";
+  r = run("calibrate-time " + (dir / "prints.csv").string() + " --fit accel --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["samples"].size(), 2u);
+  EXPECT_TRUE(j["parameters"][0].contains("std_error"));
+  // Fewer prints than parameters: exit code 2.
+  std::ofstream(dir / "one.csv") << "gcode,duration_s\na.gcode,30\n";
+  EXPECT_EQ(run("calibrate-time " + (dir / "one.csv").string() + " --fit accel,scv").status, 2);
   fs::remove_all(dir);
 }
