@@ -62,6 +62,13 @@ void run_margins(const MarginArgs& a) {
     j["diffusivity_m2_s"] = alpha2;
     j["integrator_residue"] = g.residue(0);
     j["first_modal_pole_rad_s"] = g.pole(1);
+    json poles = json::array(), zeros = json::array();
+    for (int k = 0; k <= std::max(3, a.modes); ++k) poles.push_back(g.pole(k));
+    for (int k = 0; k <= std::max(2, a.modes - 1); ++k) zeros.push_back(g.zero(k));
+    j["poles_rad_s"] = poles;
+    j["zeros_rad_s"] = zeros;
+    j["modal_residues"] = {g.residue(0), g.residue(1)};
+    j["high_frequency_ceiling_1_over_kp"] = 1.0 / a.kp;
     j["margin_on_GN"] = num(margin_gn);
     j["margin_on_G"] = num(margin_g);
     j["margin_on_GN_hamiltonian"] = num(r.margin_on_gn_hamiltonian);
