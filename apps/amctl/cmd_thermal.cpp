@@ -84,6 +84,7 @@ void run_margins(const MarginArgs& a) {
     j["closed_loop_stable_G"] = r.stable_gm;
     j["closed_loop_max_pole_real_GN"] = r.max_pole_real_gn;
     j["closed_loop_max_pole_real_G"] = r.max_pole_real_gm;
+    j["closed_loop_rhp_poles_G_nyquist"] = r.nyquist_rhp_poles_g;
     j["theorem2_lower_bound"] = r.theorem2_lower_bound;
     j["theorem2_holds"] = r.theorem2_holds;
     j["beta"] = r.beta;
@@ -102,8 +103,10 @@ void run_margins(const MarginArgs& a) {
                margin_g, r.margin_on_g_hamiltonian, r.hamiltonian_modes_for_g);
     fmt::print("  Theorem 2: eps_a - delta = {:.6e} <= margin on G: {}\n", r.theorem2_lower_bound,
                r.theorem2_holds ? "yes" : "NO");
-    fmt::print("  closed loop stable: G_N {} (max Re {:.4g}), G_M {} (max Re {:.4g})\n",
-               r.stable_gn, r.max_pole_real_gn, r.stable_gm, r.max_pole_real_gm);
+    fmt::print("  closed loop stable: G_N {} (max Re {:.4g}), G_M {} (max Re {:.4g}); exact G: {} RHP"
+               " poles by the Nyquist argument\n",
+               r.stable_gn, r.max_pole_real_gn, r.stable_gm, r.max_pole_real_gm,
+               r.nyquist_rhp_poles_g);
     fmt::print("  best achievable margin (Hankel, beta = {:.4g}): {:.6e}\n", r.beta,
                r.hankel_best_margin);
   }

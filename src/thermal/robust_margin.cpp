@@ -196,6 +196,10 @@ MarginReport compute_margins(const PowderBedTf& g, const PiController& pi, int m
   if (!r.stable_gn) r.margin_on_gn_sweep = 0.0;
   if (!r.stable_gm) r.margin_on_g_sweep = 0.0;
 
+  r.nyquist_rhp_poles_g = nyquist_closed_loop_rhp_poles(
+      [&](cd s) { return g.eval(s) * pi.eval(s); }, 0, 1e-9, 1e12);
+  if (r.nyquist_rhp_poles_g != 0) r.margin_on_g_sweep = 0.0;
+
   r.theorem2_lower_bound = r.margin_on_gn_sweep - r.hinf_g_minus_gn;
   r.theorem2_holds = r.hinf_g_minus_gn < r.margin_on_gn_sweep &&
                      r.margin_on_g_sweep >= r.theorem2_lower_bound * (1.0 - 1e-9);

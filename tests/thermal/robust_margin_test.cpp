@@ -95,3 +95,28 @@ TEST(RobustMargin, RejectsUnrealisablePi) {
     EXPECT_NE(std::string(e.what()).find("Ti"), std::string::npos);
   }
 }
+
+TEST(RobustMargin, NyquistCountFindsTheUnstablePolesOfAThirdOrderLoop) {
+  // L = K/(s + 1)^3: stable for K < 8; for K = 27 the roots of (s + 1)^3 + 27 are
+  // s = -1 - 3 (cube roots of unity): -4 and 0.5 +/- 2.598j, two in the right half plane.
+  auto loop = [](double k) {
+    return [k](std::complex<double> s) { return k / ((s + 1.0) * (s + 1.0) * (s + 1.0)); };
+  };
+  EXPECT_EQ(nyquist_closed_loop_rhp_poles(loop(4.0)), 0);
+  EXPECT_EQ(nyquist_closed_loop_rhp_poles(loop(27.0)), 2);
+  // An open-loop unstable plant 1/(s - 1) with gain 2 is stabilised: Z = N + P = -1 + 1 = 0.
+  auto unstable = [](std::complex<double> s) { return 2.0 / (s - 1.0); };
+  EXPECT_EQ(nyquist_closed_loop_rhp_poles(unstable, 1), 0);
+}
+
+TEST(RobustMargin, PaperPiStabilisesTheExactIrrationalPlant) {
+  const auto r = compute_margins(PowderBedTf(kPa12, 1e-4), kPaperPi, 1);
+  EXPECT_EQ(r.nyquist_rhp_poles_g, 0);
+  // With a pure delay of 100 s the same PI no longer stabilises G (phase lag at the 0.055 rad/s
+  // crossover is 5.5 rad): the count must become positive.
+  const PowderBedTf g(kPa12, 1e-4);
+  auto delayed = [&](std::complex<double> s) {
+    return g.eval(s) * kPaperPi.eval(s) * std::exp(-100.0 * s);
+  };
+  EXPECT_GT(nyquist_closed_loop_rhp_poles(delayed, 0, 1e-9, 1e3), 0);
+}

@@ -64,6 +64,16 @@ PeakResult sweep_peak(F&& f, const SweepOptions& opt);
 /// A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
 [[nodiscard]] double hinf_norm_hamiltonian(const StateSpace& sys, double rel_tol = 1e-9);
 
+/// Number of closed-loop poles of 1/(1 + L) in the closed right half plane by the argument
+/// principle (Nyquist): the winding of 1 + L(s) along the D-contour (the imaginary axis from
+/// -j R to j R, indented to the right around s = 0 with radius eps, closed by the arc of radius
+/// R), tracked with adaptive subdivision so no phase step exceeds 0.3 rad. `open_loop_rhp_poles`
+/// is P, the poles of L strictly inside the indented contour. Works for irrational L such as
+/// the exact G C. Returns Z = N_clockwise + P.
+template <class F>
+int nyquist_closed_loop_rhp_poles(F&& loop, int open_loop_rhp_poles = 0, double eps = 1e-9,
+                                  double big_r = 1e12);
+
 /// Everything the sls-margins command reports.
 struct MarginReport {
   double length_m = 0.0;
@@ -86,6 +96,7 @@ struct MarginReport {
   double max_pole_real_gm = 0.0;
   bool stable_gn = false;
   bool stable_gm = false;
+  int nyquist_rhp_poles_g = -1;  ///< closed-loop RHP poles of the exact G loop (argument principle)
   // Theorem 2: eps_a - delta (with delta = ||G - G_N||_inf) must not exceed the margin on G.
   double theorem2_lower_bound = 0.0;
   bool theorem2_holds = false;
