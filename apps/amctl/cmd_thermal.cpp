@@ -86,6 +86,7 @@ void run_margins(const MarginArgs& a) {
     j["closed_loop_max_pole_real_G"] = r.max_pole_real_gm;
     j["closed_loop_rhp_poles_G_nyquist"] = r.nyquist_rhp_poles_g;
     j["theorem2_lower_bound"] = r.theorem2_lower_bound;
+    j["theorem2_applicable"] = r.theorem2_applicable;
     j["theorem2_holds"] = r.theorem2_holds;
     j["beta"] = r.beta;
     j["hankel_best_margin"] = r.hankel_best_margin;
@@ -101,8 +102,12 @@ void run_margins(const MarginArgs& a) {
                a.modes, margin_gn, r.margin_on_gn_hamiltonian);
     fmt::print("  margin on G           {:.6e}  sweep | {:.6e} Hamiltonian on G_{}+D (paper: 0.78)\n",
                margin_g, r.margin_on_g_hamiltonian, r.hamiltonian_modes_for_g);
-    fmt::print("  Theorem 2: eps_a - delta = {:.6e} <= margin on G: {}\n", r.theorem2_lower_bound,
-               r.theorem2_holds ? "yes" : "NO");
+    if (r.theorem2_applicable)
+      fmt::print("  Theorem 2: eps_a - delta = {:.6e} <= margin on G: {}\n", r.theorem2_lower_bound,
+                 r.theorem2_holds ? "yes" : "NO");
+    else
+      fmt::print("  Theorem 2: not applicable, delta = {:.6e} >= eps_a = {:.6e}\n",
+                 r.hinf_g_minus_gn, margin_gn);
     fmt::print("  closed loop stable: G_N {} (max Re {:.4g}), G_M {} (max Re {:.4g}); exact G: {} RHP"
                " poles by the Nyquist argument\n",
                r.stable_gn, r.max_pole_real_gn, r.stable_gm, r.max_pole_real_gm,

@@ -201,7 +201,8 @@ MarginReport compute_margins(const PowderBedTf& g, const PiController& pi, int m
   if (r.nyquist_rhp_poles_g != 0) r.margin_on_g_sweep = 0.0;
 
   r.theorem2_lower_bound = r.margin_on_gn_sweep - r.hinf_g_minus_gn;
-  r.theorem2_holds = r.hinf_g_minus_gn < r.margin_on_gn_sweep &&
+  r.theorem2_applicable = r.hinf_g_minus_gn < r.margin_on_gn_sweep;
+  r.theorem2_holds = r.theorem2_applicable &&
                      r.margin_on_g_sweep >= r.theorem2_lower_bound * (1.0 - 1e-9);
   return r;
 }

@@ -50,6 +50,16 @@ TEST(RobustMargin, TheoremTwoLowerBoundHoldsForSeveralTruncations) {
   }
 }
 
+TEST(RobustMargin, TheoremTwoIsNotApplicableWhenTheTruncationErrorExceedsTheMargin) {
+  // 1000 layers: delta_1 = 2 l/(k0 pi^2)(pi^2/6 - 1) = 0.0467 > eps_a = 1.65e-4 (scipy-free:
+  // the closed form of the tail), so the theorem says nothing.
+  const auto r = compute_margins(PowderBedTf(kPa12, 0.1), kPaperPi, 1, -0.01, 20);
+  EXPECT_NEAR(r.hinf_g_minus_gn, 2 * 0.1 / (0.28 * M_PI * M_PI) * (M_PI * M_PI / 6 - 1), 1e-12);
+  EXPECT_FALSE(r.theorem2_applicable);
+  EXPECT_FALSE(r.theorem2_holds);
+  EXPECT_EQ(r.nyquist_rhp_poles_g, 0);
+}
+
 TEST(RobustMargin, MarginCannotExceedOneOverKp) {
   // |C S| -> kp as w -> inf because G -> 0, so 1/kp is a ceiling for every plant and l.
   const PiController pi{0.3, 2.0};

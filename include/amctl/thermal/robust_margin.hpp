@@ -99,7 +99,8 @@ struct MarginReport {
   int nyquist_rhp_poles_g = -1;  ///< closed-loop RHP poles of the exact G loop (argument principle)
   // Theorem 2: eps_a - delta (with delta = ||G - G_N||_inf) must not exceed the margin on G.
   double theorem2_lower_bound = 0.0;
-  bool theorem2_holds = false;
+  bool theorem2_applicable = false;  ///< delta < eps_a, the hypothesis of Theorem 2
+  bool theorem2_holds = false;       ///< applicable and margin on G >= eps_a - delta
   // Best achievable margin (Glover): Hankel singular value of (G_u^beta)~, r0/(2|beta|).
   double beta = 0.0;
   double hankel_best_margin = 0.0;
