@@ -212,6 +212,7 @@ void run_sls(const SlsArgs& a) {
 
 struct HeaterArgs {
   bool bed = false;
+  double power_w = -1, capacity_j_k = -1, loss_w_k = -1, fan_loss_w_k = -1, sensor_tau_s = -1;
   double target = -1.0;
   double noise = 0.0;
   int cycles = 5;
@@ -222,7 +223,13 @@ struct HeaterArgs {
 
 void run_heater(const HeaterArgs& a) {
   using namespace thermal;
-  const HeaterPlantParams pp = a.bed ? HeaterPlantParams::bed() : HeaterPlantParams::hotend();
+  HeaterPlantParams pp = a.bed ? HeaterPlantParams::bed() : HeaterPlantParams::hotend();
+  if (a.power_w != -1) pp.heater_power_w = a.power_w;
+  if (a.capacity_j_k != -1) pp.block_capacity_j_k = a.capacity_j_k;
+  if (a.loss_w_k != -1) pp.loss_w_k = a.loss_w_k;
+  if (a.fan_loss_w_k != -1) pp.fan_extra_loss_w_k = a.fan_loss_w_k;
+  if (a.sensor_tau_s != -1) pp.sensor_time_constant_s = a.sensor_tau_s;
+  pp.validate();
   HeaterPlantParams noisy = pp;
   require_non_negative("--noise", a.noise);
   noisy.sensor_noise_k = a.noise;
@@ -391,6 +398,11 @@ void register_thermal(CLI::App& app) {
     hc->add_option("--cycles", ha->cycles, "autotune cycles (M303 C)")->capture_default_str();
     hc->add_option("--rule", ha->rule, "classic_zn | some_overshoot | no_overshoot");
     hc->add_option("--csv", ha->csv, "write the traces of all controllers to this CSV");
+    hc->add_option("--power-w", ha->power_w, "plant heater power, W");
+    hc->add_option("--capacity-j-k", ha->capacity_j_k, "plant block heat capacity, J/K");
+    hc->add_option("--loss-w-k", ha->loss_w_k, "plant loss to ambient with the fan off, W/K");
+    hc->add_option("--fan-loss-w-k", ha->fan_loss_w_k, "plant extra loss at 100 % fan, W/K");
+    hc->add_option("--sensor-tau-s", ha->sensor_tau_s, "plant sensor time constant, s");
     hc->add_flag("--json", ha->json_out, "print one JSON object");
     hc->callback([ha] { run_heater(*ha); });
   }
