@@ -100,7 +100,7 @@ void run_margins(const MarginArgs& a) {
                a.modes, r.hinf_g_minus_gn, r.bound_tail, r.bound_printed_13);
     fmt::print("  margin on G_{}         {:.6e}  sweep | {:.6e} Hamiltonian  (paper: 3.3)\n",
                a.modes, margin_gn, r.margin_on_gn_hamiltonian);
-    fmt::print("  margin on G           {:.6e}  sweep | {:.6e} Hamiltonian on G_{}+D (paper: 0.78)\n",
+    fmt::print("  margin on G           {:.6e}  sweep | {:.6e} Hamiltonian on G_{}+tail pole (paper: 0.78)\n",
                margin_g, r.margin_on_g_hamiltonian, r.hamiltonian_modes_for_g);
     if (r.theorem2_applicable)
       fmt::print("  Theorem 2: eps_a - delta = {:.6e} <= margin on G: {}\n", r.theorem2_lower_bound,

@@ -60,6 +60,22 @@ TEST(RobustMargin, TheoremTwoIsNotApplicableWhenTheTruncationErrorExceedsTheMarg
   EXPECT_EQ(r.nyquist_rhp_poles_g, 0);
 }
 
+TEST(RobustMargin, BothWaysAgreeOnADeepBedWithManyModes) {
+  // 100 layers: the modal poles come down to the loop crossover; the Hamiltonian on G_60 plus
+  // the one-pole tail must still match the sweep of the exact G (and the sweep of its own
+  // state-space realisation).
+  const PowderBedTf g(kPa12, 10e-3);
+  const auto r = compute_margins(g, kPaperPi, 1, -0.01, 60);
+  EXPECT_NEAR(r.margin_on_g_hamiltonian, r.margin_on_g_sweep, 1e-7 * r.margin_on_g_sweep);
+  EXPECT_NEAR(r.margin_on_gn_hamiltonian, r.margin_on_gn_sweep, 1e-8 * r.margin_on_gn_sweep);
+  const auto t = control_sensitivity(modal_realization(g, 60, TailModel::one_pole), kPaperPi);
+  SweepOptions o;
+  o.w_min_rad_s = 1e-6;
+  o.w_max_rad_s = 1e6;
+  const auto pk = sweep_peak([&](std::complex<double> s) { return t.eval(s); }, o);
+  EXPECT_NEAR(1.0 / pk.peak, r.margin_on_g_sweep, 1e-8 * r.margin_on_g_sweep);
+}
+
 TEST(RobustMargin, MarginCannotExceedOneOverKp) {
   // |C S| -> kp as w -> inf because G -> 0, so 1/kp is a ceiling for every plant and l.
   const PiController pi{0.3, 2.0};

@@ -29,11 +29,18 @@ struct StateSpace {
   [[nodiscard]] std::complex<double> eval(std::complex<double> s) const;
 };
 
-/// Modal realisation of G_N (diagonal A = poles, B = 1, C = residues); with
-/// `static_correction` the feedthrough D = (G - G_N)(0) is added, which matches G exactly at
-/// s = 0 (residualisation of the truncated modes).
+/// How the modes beyond N are represented in a modal realisation.
+enum class TailModel {
+  none,         ///< G_N itself
+  static_gain,  ///< D = (G - G_N)(0): exact at s = 0, error ~ |s| T2 (residualisation)
+  one_pole,     ///< a/(s + b) matching the tail's value T0 and slope -T2 at s = 0: error ~ |s|^2
+};
+
+/// Modal realisation of G_N (diagonal A = poles, B = 1, C = residues), plus the tail model.
+/// T0 = sum_{k>N} r_k/|p_k|, T2 = sum_{k>N} r_k/p_k^2; the one-pole tail has b = T0/T2 (a mean
+/// of the omitted |p_k|, so >= |p_{N+1}|) and a = T0 b.
 [[nodiscard]] StateSpace modal_realization(const PowderBedTf& g, int modes,
-                                           bool static_correction = false);
+                                           TailModel tail = TailModel::none);
 
 /// Closed loop from reference w to control u, T = C (1 + G C)^-1, for a plant in state space
 /// (any D with 1 + kp D != 0) under the PI controller.
