@@ -91,7 +91,7 @@ void run_margins(const MarginArgs& a) {
     j["beta"] = r.beta;
     j["hankel_best_margin"] = r.hankel_best_margin;
     j["paper_claims"] = {{"margin_on_G1", 3.3}, {"margin_on_G", 0.78}};
-    j["units"] = "margins and norms in K m^2 s/W (units of G); kp W/(m^2 K); Ti s";
+    j["units"] = "margins and norms in K m^2/W (units of G); residues K m^2/(W s); kp W/(m^2 K); Ti s";
     std::cout << j.dump(2) << "\n";
   } else {
     fmt::print("SLS powder bed, l = {:.4g} mm, a^2 = {:.5g} m^2/s, PI kp = {:.4g}, Ti = {:.4g} s\n",
