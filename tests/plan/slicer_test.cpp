@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "amctl/machine/loader.hpp"
@@ -29,7 +31,8 @@ class SlicedByPrusaSlicer : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     if (std::system("command -v prusa-slicer > /dev/null 2>&1") != 0) return;
-    dir_ = fs::path(::testing::TempDir()) / "amctl_slicer_test";
+    // One directory per process: CTest runs each test of this suite as its own process.
+    dir_ = fs::path(::testing::TempDir()) / ("amctl_slicer_test_" + std::to_string(::getpid()));
     fs::create_directories(dir_);
     const std::string models = "python3 " + (kSource / "examples/models/make_models.py").string() +
                                " " + dir_.string();
