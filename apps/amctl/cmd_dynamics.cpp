@@ -162,6 +162,7 @@ void do_simulate(const SimulateArgs& a) {
   so.sample_rate_hz = a.rate_hz;
   so.kinematics = mach.kinematics;
   so.motor_space = a.motor_space;
+  so.vibration_per_sample = !a.csv.empty();
   dy::MetricsOptions mo;
   mo.worst_count = a.worst;
   mo.corner_window_s = a.corner_window_s;

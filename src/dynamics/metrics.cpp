@@ -15,15 +15,16 @@ struct Seg {
 Seg xy_segment(const plan::PlannedMove& m) {
   const double ax = m.start_mm[0], ay = m.start_mm[1];
   const double bx = ax + m.axes_r[0] * m.distance_mm, by = ay + m.axes_r[1] * m.distance_mm;
-  return {ax, ay, bx, by, std::hypot(bx - ax, by - ay)};
+  return {ax, ay, bx, by, std::sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay))};
 }
 
-double point_segment_distance(const Seg& s, double x, double y) {
+double point_segment_distance2(const Seg& s, double x, double y) {
   const double dx = s.bx - s.ax, dy = s.by - s.ay;
   const double l2 = dx * dx + dy * dy;
   double u = 0.0;
   if (l2 > 0.0) u = std::clamp(((x - s.ax) * dx + (y - s.ay) * dy) / l2, 0.0, 1.0);
-  return std::hypot(x - (s.ax + u * dx), y - (s.ay + u * dy));
+  const double ex = x - (s.ax + u * dx), ey = y - (s.ay + u * dy);
+  return ex * ex + ey * ey;  // squared
 }
 
 void accumulate(GroupMetrics& g, const MoveMetrics& m) {
@@ -44,23 +45,23 @@ double distance_to_path(std::span<const plan::PlannedMove> moves, std::size_t ce
   if (moves.empty()) return 0.0;
   center = std::min(center, moves.size() - 1);
   Seg s = xy_segment(moves[center]);
-  double best = point_segment_distance(s, x, y);
+  double best = point_segment_distance2(s, x, y);
   constexpr std::size_t kMaxMoves = 64;
   double along = 0.0;
   for (std::size_t k = 1; k <= kMaxMoves && k <= center; ++k) {
     const Seg sk = xy_segment(moves[center - k]);
-    best = std::min(best, point_segment_distance(sk, x, y));
+    best = std::min(best, point_segment_distance2(sk, x, y));
     along += sk.len;
     if (along > radius) break;
   }
   along = 0.0;
   for (std::size_t k = 1; k <= kMaxMoves && center + k < moves.size(); ++k) {
     const Seg sk = xy_segment(moves[center + k]);
-    best = std::min(best, point_segment_distance(sk, x, y));
+    best = std::min(best, point_segment_distance2(sk, x, y));
     along += sk.len;
     if (along > radius) break;
   }
-  return best;
+  return std::sqrt(best);
 }
 
 QualityMeter::QualityMeter(std::span<const plan::PlannedMove> moves, MetricsOptions options)
@@ -123,8 +124,9 @@ double QualityMeter::add(const SimSample& s) {
   }
   ++rep_.samples;
   const std::size_t mi = std::min(s.move_index, moves_.size() - 1);
-  const double lag = std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]);
-  const double d = distance_to_path(moves_, mi, s.sim_mm[0], s.sim_mm[1], 2.0 * lag + 0.5);
+  const double lx = s.sim_mm[0] - s.cmd_mm[0], ly = s.sim_mm[1] - s.cmd_mm[1];
+  const double lag = std::sqrt(lx * lx + ly * ly);
+  const double d = distance_to_path(moves_, mi, s.sim_mm[0], s.sim_mm[1], 2.0 * lag + 0.05);
   MoveMetrics& mm = rep_.per_move[mi];
   if (d > mm.max_contour_error_mm || mm.samples == 0) {
     mm.max_contour_error_mm = std::max(mm.max_contour_error_mm, d);

@@ -111,7 +111,7 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
 
   // Fills u (input derivatives per axis) for the location just found; returns the terms.
   auto input_terms = [&](const trajectory::Cursor::Location& loc, double t) -> int {
-    cursor.path_derivatives(t, d);
+    trajectory::Cursor::path_derivatives(loc, t, d);
     const plan::PlannedMove& mv = moves[loc.move_index];
     const double g0 = row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1];
     const double g1 = row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1];
@@ -182,7 +182,7 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     const double c1 = row1[0] * s.cmd_mm[0] + row1[1] * s.cmd_mm[1];
     const auto xy = trajectory::from_motor(kin, c0 + err[0], c1 + err[1]);
     s.sim_mm = {xy[0], xy[1]};
-    s.vibration_mm = vibration(terms);
+    if (opt.vibration_per_sample) s.vibration_mm = vibration(terms);
     sink(s);
     ++stats.samples;
     if (k >= n_steps) {
@@ -216,7 +216,13 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
       const double dt = end - tc;
       if (dt > 0.0) {
         const int nt = std::max(1, tm);
-        for (std::size_t r = 0; r < runs.size(); ++r) sub[r] = mode_propagator(runs[r].mode, dt, nt);
+        for (std::size_t r = 0; r < runs.size(); ++r) {
+          const Mode& md = runs[r].mode;
+          const bool same = r > 0 && md.natural_frequency_hz == runs[r - 1].mode.natural_frequency_hz &&
+                            md.damping_ratio == runs[r - 1].mode.damping_ratio &&
+                            md.participation == runs[r - 1].mode.participation;
+          sub[r] = same ? sub[r - 1] : mode_propagator(md, dt, nt);
+        }
         advance(runs, sub.data(), tm, u);
         stats.axis_state_updates += runs.size();
       }

@@ -3,7 +3,7 @@
 //
 //  contour error   distance from the simulated nozzle (X, Y) to the commanded path, the
 //                  polyline of the moves' XY segments near the current move (within an
-//                  along-path radius of 2 |sim - cmd| + 0.5 mm, at most 64 moves either side),
+//                  along-path radius of 2 |sim - cmd| + 0.05 mm, at most 64 moves either side),
 //                  so a lag along a straight line does not count, a cut corner does.
 //  corner          a junction whose XY direction turns by more than corner_angle_deg.
 //  overshoot       after a corner at P with incoming direction d_in: the largest

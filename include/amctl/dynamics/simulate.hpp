@@ -29,6 +29,8 @@ struct SimulationOptions {
   machine::Kinematics kinematics = machine::Kinematics::cartesian;
   /// false: the two models act on X and Y (seed 000). true: on the motors (corexy A, B).
   bool motor_space = false;
+  /// Fill SimSample::vibration_mm on every sample (costs two square roots per sample).
+  bool vibration_per_sample = false;
 };
 
 /// One output sample.
@@ -37,7 +39,8 @@ struct SimSample {
   std::array<double, 3> cmd_mm{};       ///< commanded X, Y, Z
   std::array<double, 2> cmd_vel_mm_s{};  ///< commanded X, Y velocity
   std::array<double, 2> sim_mm{};       ///< simulated nozzle X, Y
-  /// Amplitude of the free (transient) vibration of each axis: the state minus the
+  /// Amplitude of the free (transient) vibration of each axis (only when
+  /// SimulationOptions::vibration_per_sample; else 0): the state minus the
   /// particular response to the current polynomial input, sqrt(sum_i e_i^2 + (e_i'/w_i)^2).
   std::array<double, 2> vibration_mm{};
   std::size_t move_index = 0;           ///< move whose geometry applies at t
