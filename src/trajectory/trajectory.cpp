@@ -39,8 +39,19 @@ void check_duration(const PlannedMove& m, const char* what, double stored, doubl
 std::size_t append_ramp(const PlannedMove& m, double v0, double v1, double s0,
                         std::array<PathPiece, 7>& out, std::size_t n, double stored_t,
                         const char* what) {
-  if (v0 == v1) {
-    check_duration(m, what, stored_t, 0.0);
+  // A speed change within round-off of the speeds (planners leave ~1e-13 mm/s steps) is
+  // no ramp: its duration is ~1e-16 s, and a Bezier ramp that short would have jerk ~1e20.
+  // It becomes a constant-speed piece of the stored duration at the mean speed.
+  if (std::abs(v1 - v0) <= 1e-9 * std::max({1.0, v0, v1})) {
+    if (stored_t > 1e-6) check_duration(m, what, stored_t, 0.0);
+    if (stored_t > 0.0) {
+      PathPiece c;
+      c.duration_s = stored_t;
+      c.degree = 1;
+      c.c[0] = s0;
+      c.c[1] = 0.5 * (v0 + v1);
+      out[n++] = c;
+    }
     return n;
   }
   const plan::Ramp r = plan::make_ramp(m.profile, v0, v1, m.accel_mm_s2, m.jerk_mm_s3);
