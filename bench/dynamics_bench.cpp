@@ -131,3 +131,25 @@ void BM_CursorEvaluate(benchmark::State& state) {
 BENCHMARK(BM_CursorEvaluate)->Unit(benchmark::kMillisecond);
 
 }  // namespace
+
+namespace {
+
+// The bounded-memory path `amctl simulate` uses: moves pushed one by one, metrics folded.
+void BM_StreamingTwoHourPrintWithMetrics(benchmark::State& state) {
+  const auto& moves = two_hour_print();
+  const dynamics::AxisModel m = dynamics::AxisModel::belt(40.0, 0.1);
+  dynamics::SimulationOptions o;
+  o.sample_rate_hz = 1000.0;
+  dynamics::MetricsOptions mo;
+  mo.keep_per_move = false;
+  for (auto _ : state) {
+    dynamics::StreamingSimulation s(m, m, o, mo);
+    for (const auto& mv : moves) s.push(mv);
+    const auto r = s.finish();
+    benchmark::DoNotOptimize(r.max_contour_error_mm);
+    state.counters["window_moves"] = static_cast<double>(s.max_window_moves());
+  }
+}
+BENCHMARK(BM_StreamingTwoHourPrintWithMetrics)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace
