@@ -2,7 +2,10 @@
 
 namespace amctl::cli {
 void register_all(CLI::App& app) {
-  register_machine(app);
+  register_estimate(app);
   register_dynamics(app);
+  register_thermal(app);
+  register_process(app);
+  register_machine(app);
 }
 }  // namespace amctl::cli

@@ -7,9 +7,14 @@ namespace amctl::cli {
 // so amctl::Error thrown there reaches main's handler).
 void register_all(CLI::App& app);
 
+/// `amctl estimate` (cmd_estimate.cpp): the main job.
+void register_estimate(CLI::App& app);
+/// `amctl simulate`, `amctl sweep` (cmd_dynamics.cpp).
+void register_dynamics(CLI::App& app);
+/// `amctl thermal ...` (cmd_thermal.cpp).
+void register_thermal(CLI::App& app);
+/// `amctl shrink ...`, `amctl calibrate-time` (cmd_process.cpp).
+void register_process(CLI::App& app);
 /// `amctl machine show|list|keys` (cmd_machine.cpp).
 void register_machine(CLI::App& app);
-
-/// `amctl simulate` and `amctl sweep` (cmd_dynamics.cpp).
-void register_dynamics(CLI::App& app);
 }  // namespace amctl::cli

@@ -370,6 +370,13 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
       case 400:
         sink.on_wait_moves(line_no);
         return;
+      case 18:
+      case 84:
+        // Motors off: the firmware finishes every move first (and Klipper dwells).
+        if (opt_.motor_off_dwell_s > 0.0) sink.on_dwell(opt_.motor_off_dwell_s, line_no);
+        else sink.on_wait_moves(line_no);
+        note_ignored(cmd.name);
+        return;
       case 220: {
         const Params& p = params();
         double s = p.get_or('S', 100.0);

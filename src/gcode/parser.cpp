@@ -45,6 +45,36 @@ std::size_t parse_number(std::string_view text, double& value) {
   if (i >= text.size() || !(is_digit(text[i]) || (text[i] == '.' && i + 1 < text.size() && is_digit(text[i + 1])))) {
     return 0;
   }
+  // Fast path (Clinger): at most 15 significant digits and no exponent. The mantissa and
+  // 10^k are exact doubles, so one IEEE division gives the correctly rounded value, the same
+  // as from_chars.
+  {
+    static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                        1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+    std::uint64_t mant = 0;
+    int digits = 0, frac = 0;
+    std::size_t k = i;
+    while (k < text.size() && is_digit(text[k])) {
+      mant = mant * 10 + static_cast<std::uint64_t>(text[k] - '0');
+      if (mant != 0) ++digits;
+      ++k;
+    }
+    if (k < text.size() && text[k] == '.') {
+      ++k;
+      while (k < text.size() && is_digit(text[k])) {
+        mant = mant * 10 + static_cast<std::uint64_t>(text[k] - '0');
+        if (mant != 0) ++digits;
+        ++frac;
+        ++k;
+      }
+    }
+    const bool exponent = k < text.size() && (text[k] == 'e' || text[k] == 'E');
+    if (!exponent && digits <= 15 && frac <= 15) {
+      const double v = static_cast<double>(mant) / kPow10[frac];
+      value = negative ? -v : v;
+      return k;
+    }
+  }
   double v = 0.0;
   auto [ptr, ec] = std::from_chars(text.data() + i, text.data() + text.size(), v);
   if (ec == std::errc::result_out_of_range) {

@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -103,7 +104,8 @@ class CfgReader {
 
   /// Parses one file's text. `file` names it in messages and anchors its includes.
   void parse(std::string_view text, const std::string& file) {
-    fs::path key = fs::absolute(fs::path(file)).lexically_normal();
+    std::error_code ec;
+    fs::path key = fs::absolute(fs::path(file), ec).lexically_normal();
     if (!visiting_.insert(key.string()).second) {
       throw Error(SourceLocation{file, 0, 0},
                   fmt::format("recursive include of config file '{}'", file));
@@ -197,14 +199,16 @@ class CfgReader {
       std::error_code ec;
       const fs::path dir = pattern.parent_path().empty() ? fs::path(".") : pattern.parent_path();
       for (const auto& entry : fs::directory_iterator(dir, ec)) {
-        if (entry.is_regular_file() &&
+        std::error_code entry_ec;
+        if (entry.is_regular_file(entry_ec) &&
             glob_match(pattern.filename().string(), entry.path().filename().string())) {
           files.push_back(pattern.parent_path() / entry.path().filename());
         }
       }
       std::sort(files.begin(), files.end());  // Klipper sorts glob results
     } else {
-      if (!fs::is_regular_file(pattern)) {
+      std::error_code ec;
+      if (!fs::is_regular_file(pattern, ec)) {
         throw Error(where, fmt::format("include file '{}' does not exist", pattern.string()));
       }
       files.push_back(pattern);
@@ -338,9 +342,13 @@ Stepper read_stepper(const Section& s) {
   return st;
 }
 
+// [printer] options of the cartesian/corexy toolhead. The last four are undocumented buffer
+// settings older Klipper accepted (removed in bafb126a); they do not change the motion, so old
+// configs that still carry them are read rather than rejected.
 constexpr std::string_view kPrinterOptions[] = {
-    "kinematics",           "max_velocity",  "max_accel",      "minimum_cruise_ratio",
-    "max_accel_to_decel",   "square_corner_velocity", "max_z_velocity", "max_z_accel"};
+    "kinematics",      "max_velocity",      "max_accel",         "minimum_cruise_ratio",
+    "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
+    "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
@@ -377,13 +385,16 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
   const Section printer(printer_section, "printer", file_loc);
   m.kinematics = read_kinematics(printer);
   {
+    // Klipper rejects any other [printer] option. amctl rejects the ones that look like a typo
+    // of a known option (a misspelt square_corner_velocity would otherwise silently become
+    // the default) and ignores the rest, so configs of Klipper forks with extra options load.
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
     for (const auto& [key, value] : printer_section->options) {
-      if (std::find(known.begin(), known.end(), key) == known.end()) {
-        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer] for "
-                                             "{} kinematics{}",
-                                             key, to_string(m.kinematics),
-                                             detail::did_you_mean(key, known)));
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      if (auto near = detail::closest(key, known)) {
+        throw Error(value.where, fmt::format("option '{}' is not valid in section [printer]; did "
+                                             "you mean '{}'?",
+                                             key, *near));
       }
     }
   }
@@ -393,7 +404,8 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     m.minimum_cruise_ratio = *mcr;
   } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0})) {
     // Older Klipper (before 2023-12): minimum_cruise_ratio = 1 - min(1, a2d / max_accel).
-    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *a2d / m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*a2d, m.max_accel_mm_s2);
   } else {
     m.minimum_cruise_ratio = 0.5;
   }
@@ -468,8 +480,11 @@ Machine parse_klipper_cfg(std::string_view text, const std::string& source_name)
       std::string_view line = rest.substr(pos, nl == std::string_view::npos ? rest.npos : nl - pos);
       pos = nl == std::string_view::npos ? rest.size() : nl + 1;
       if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      // "#*# " prefix removed; keep line numbering by emitting one line per input line.
-      if (line.rfind("#*# ", 0) == 0) {
+      // "#*# " prefix removed; keep line numbering by emitting one line per input line. The
+      // header's own lines (marker, "DO NOT EDIT ...") are not config.
+      if (line.rfind(kAutosaveMarker, 0) == 0 || line.rfind("#*# DO NOT EDIT", 0) == 0) {
+        // header
+      } else if (line.rfind("#*# ", 0) == 0) {
         autosave += line.substr(4);
       } else if (line.rfind("#*#", 0) != 0 && !trim(line).empty()) {
         // Klipper ignores a corrupted block ("modifications after header") entirely.

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -141,6 +142,7 @@ struct Pending {
   std::optional<double> accel_to_decel;
   bool minimum_cruise_ratio_given = false;
   bool junction_given = false;
+  bool name_given = false;
 };
 
 /// Sets one [section] key from a TOML value. `file` is used for element locations.
@@ -162,6 +164,7 @@ void assign(Machine& m, const KeyDef& d, const toml::node& v, const SourceLocati
         throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
       d.text(m) = *v.value<std::string>();
+      if (d.key == "name") pending.name_given = true;
       return;
     case Kind::firmware:
     case Kind::kinematics:
@@ -211,7 +214,8 @@ void finish(Machine& m, const Pending& p) {
   if (!p.junction_given) m.junction = default_junction(m.firmware);
   if (p.accel_to_decel && !p.minimum_cruise_ratio_given) {
     // klippy/toolhead.py (commit 0105aa33): 1 - min(1, max_accel_to_decel / max_accel).
-    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *p.accel_to_decel / m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*p.accel_to_decel, m.max_accel_mm_s2);
   }
 }
 
@@ -240,15 +244,14 @@ std::vector<std::string> stepper_key_names() {
 std::string unknown_key_message(std::string_view section, std::string_view key,
                                 std::vector<std::string> candidates) {
   std::string msg = fmt::format("unknown key '{}' in [{}]", key, section);
-  std::string hint = detail::did_you_mean(key, candidates);
-  if (hint.empty()) {
-    for (const KeyDef& d : detail::machine_keys()) {
-      if (d.key == key && d.section != section) {
-        hint = fmt::format("; '{}' belongs in [{}]", key, d.section);
-        break;
-      }
+  std::string hint;
+  for (const KeyDef& d : detail::machine_keys()) {
+    if (d.key == key && d.section != section) {
+      hint = fmt::format("; '{}' belongs in [{}]", key, d.section);
+      break;
     }
   }
+  if (hint.empty()) hint = detail::did_you_mean(key, candidates);
   if (hint.empty()) hint = fmt::format(" (known keys: {})", fmt::join(candidates, ", "));
   return msg + hint;
 }
@@ -396,10 +399,22 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
         hint = fmt::format(" (sections: {}, stepper_<x|y|z|e>)",
                            fmt::join(detail::machine_sections(), ", "));
       }
+      if (auto c = detail::closest(section, section_candidates())) {
+        hint = fmt::format("; did you mean [{}]?", *c);
+      }
       throw Error(section_where, fmt::format("unknown section [{}]{}", section, hint));
     }
   }
   finish(m, pending);
+  if (!pending.name_given) {
+    // A file without a name is called after itself ("my-printer.toml" -> "my-printer").
+    const std::size_t slash = source_name.find_last_of("/\\");
+    std::string stem = source_name.substr(slash == std::string::npos ? 0 : slash + 1);
+    if (const std::size_t dot = stem.rfind('.'); dot != std::string::npos && dot > 0) {
+      stem.resize(dot);
+    }
+    if (!stem.empty()) m.name = stem;
+  }
   try {
     validate(m);
   } catch (const Error& e) {
@@ -474,7 +489,8 @@ std::string to_toml(const Machine& machine) {
 }
 
 void apply_override(Machine& m, std::string_view assignment) {
-  const SourceLocation where{"--set", 0, 0};
+  // Messages read "--set printer.max_accel=abc: printer.max_accel: expected a number ...".
+  const SourceLocation where{fmt::format("--set {}", assignment), 0, 0};
   const std::size_t eq = assignment.find('=');
   auto trim = [](std::string_view s) {
     while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
@@ -482,9 +498,7 @@ void apply_override(Machine& m, std::string_view assignment) {
     return s;
   };
   if (eq == std::string_view::npos) {
-    throw Error(where, fmt::format("'{}': expected section.key=value, e.g. "
-                                   "printer.max_accel=5000",
-                                   assignment));
+    throw Error(where, "expected section.key=value, e.g. printer.max_accel=5000");
   }
   const std::string path(trim(assignment.substr(0, eq)));
   const std::string value_text(trim(assignment.substr(eq + 1)));
@@ -496,9 +510,7 @@ void apply_override(Machine& m, std::string_view assignment) {
     start = dot + 1;
   }
   if (parts.size() < 2 || parts.size() > 3 || parts[0].empty() || parts[1].empty()) {
-    throw Error(where, fmt::format("'{}': expected section.key=value, e.g. "
-                                   "printer.max_accel=5000",
-                                   assignment));
+    throw Error(where, "expected section.key=value, e.g. printer.max_accel=5000");
   }
   // All known "section.key" names, for hints.
   std::vector<std::string> all;
@@ -532,23 +544,25 @@ void apply_override(Machine& m, std::string_view assignment) {
       throw Error(where, fmt::format("unknown key '{}'{}", path,
                                      detail::did_you_mean(parts[1], stepper_key_names())));
     }
-    Stepper& s = m.steppers[name];
+    const auto it = m.steppers.find(name);
+    Stepper s = it == m.steppers.end() ? Stepper{} : it->second;
     double gearing = 1.0;
     assign_stepper(s, gearing, *d, *value, where, label);
     s.rotation_distance_mm /= gearing;
+    m.steppers[name] = s;  // only once the value is known to be good
     return;
   }
   const KeyDef* d = detail::find_key(parts[0], parts[1]);
   if (d == nullptr) {
-    std::string hint = detail::did_you_mean(dotted, all);
-    if (hint.empty()) {
-      for (const KeyDef& k : detail::machine_keys()) {
-        if (k.key == parts[1]) {
-          hint = fmt::format("; did you mean '{}.{}'?", k.section, k.key);
-          break;
-        }
+    // The key spelled right in another section is the likeliest meaning; then a near miss.
+    std::string hint;
+    for (const KeyDef& k : detail::machine_keys()) {
+      if (k.key == parts[1]) {
+        hint = fmt::format("; did you mean '{}.{}'?", k.section, k.key);
+        break;
       }
     }
+    if (hint.empty()) hint = detail::did_you_mean(dotted, all);
     throw Error(where, fmt::format("unknown key '{}'{}", dotted, hint));
   }
   if (parts.size() == 3) {
@@ -568,7 +582,8 @@ void apply_override(Machine& m, std::string_view assignment) {
   pending.junction_given = true;  // an override changes only the key it names
   assign(m, *d, *value, where, "--set", pending);
   if (pending.accel_to_decel) {
-    m.minimum_cruise_ratio = 1.0 - std::min(1.0, *pending.accel_to_decel / m.max_accel_mm_s2);
+    m.minimum_cruise_ratio =
+        minimum_cruise_ratio_from_accel_to_decel(*pending.accel_to_decel, m.max_accel_mm_s2);
   }
 }
 

@@ -59,6 +59,10 @@ Planner::Planner(const machine::Machine& m, PlanSink& sink, PlannerOptions optio
   lim_.min_feedrate_mm_s = m.min_feedrate_mm_s;
   lim_.min_travel_feedrate_mm_s = m.min_travel_feedrate_mm_s;
   junction_flush_s_ = kFullFlushTime_s;
+  if (m.block_buffer_size < 0) {
+    throw Error(fmt::format("marlin.block_buffer_size must be >= 0, got {}", m.block_buffer_size));
+  }
+  buffer_size_ = opt_.block_buffer_size.value_or(static_cast<std::size_t>(m.block_buffer_size));
 }
 
 double Planner::klipper_junction_deviation() const {
@@ -137,7 +141,13 @@ void Planner::on_limits(const gcode::LimitsCommand& c) {
 }
 
 void Planner::on_move(const gcode::MoveRequest& r) {
-  Move m;
+  if (!(r.speed_mm_s > 0.0) || !std::isfinite(r.speed_mm_s)) {
+    throw Error(SourceLocation{"", r.line, 0},
+                fmt::format("move speed must be > 0 mm/s, got {}", r.speed_mm_s));
+  }
+  // Built in place at the back of the queue (no copy of the large Move); dropped again if
+  // it turns out to be zero-length.
+  Move& m = queue_.emplace_back();
   PlannedMove& o = m.out;
   o.start_mm = r.start_mm;
   o.line = r.line;
@@ -146,10 +156,6 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   o.profile = machine_.profile;
   std::array<double, 4> d{};
   for (std::size_t i = 0; i < 4; ++i) d[i] = r.end_mm[i] - r.start_mm[i];
-  if (!(r.speed_mm_s > 0.0) || !std::isfinite(r.speed_mm_s)) {
-    throw Error(SourceLocation{"", r.line, 0},
-                fmt::format("move speed must be > 0 mm/s, got {}", r.speed_mm_s));
-  }
   double move_d = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   const bool klipper = machine_.firmware == Firmware::klipper;
   double velocity = r.speed_mm_s;
@@ -159,6 +165,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
     move_d = std::fabs(d[3]);
     if (move_d == 0.0) {
       ++diag_.zero_length_moves;
+      queue_.pop_back();
       return;
     }
     o.extrude_only = true;
@@ -243,7 +250,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   for (std::size_t i = 0; i < 4; ++i) m.axis_v[i] = velocity * o.axes_r[i];
   m.seq = next_seq_++;
   ++diag_.moves;
-  add_move(std::move(m));
+  add_queued_move();
 }
 
 void Planner::junction_klipper(Move& m, const Move& prev) const {
@@ -368,10 +375,11 @@ void Planner::junction_classic_jerk(Move& m, const Move& prev) {
   m.max_mcr_start_v2 = v2;
 }
 
-void Planner::add_move(Move&& m) {
+void Planner::add_queued_move() {
   const bool klipper = machine_.firmware == Firmware::klipper;
-  if (!queue_.empty()) {
-    Move& prev = queue_.back();
+  Move& m = queue_.back();
+  if (queue_.size() > 1) {
+    Move& prev = queue_[queue_.size() - 2];
     switch (machine_.junction) {
       case JunctionPolicy::square_corner_velocity: junction_klipper(m, prev); break;
       case JunctionPolicy::junction_deviation: junction_marlin_jd(m, prev); break;
@@ -381,7 +389,6 @@ void Planner::add_move(Move&& m) {
     // From rest Marlin may jump straight to the "safe speed" that the jerk allows.
     junction_classic_jerk(m, Move{});
   }
-  queue_.push_back(std::move(m));
   if (klipper) {
     if (queue_.size() == 1) return;
     junction_flush_s_ -= queue_.back().min_move_t;
@@ -391,7 +398,7 @@ void Planner::add_move(Move&& m) {
       ++diag_.forced_flushes;
       flush(true);
     }
-  } else if (opt_.block_buffer_size > 1 && queue_.size() >= opt_.block_buffer_size - 1) {
+  } else if (buffer_size_ > 1 && queue_.size() >= buffer_size_ - 1) {
     // Marlin's ring buffer of BLOCK_BUFFER_SIZE slots holds one less block, the executing
     // one included: the oldest block must start once that many are queued.
     flush_marlin_head();
@@ -469,7 +476,7 @@ void Planner::flush(bool lazy) {
     emit(queue_[k], std::min(ji.start_v2, cruise_v2), cruise_v2, std::min(ji.next_start_v2, cruise_v2));
     prev_cruise_v2 = cruise_v2;
   }
-  queue_.erase(queue_.begin(), queue_.begin() + static_cast<std::ptrdiff_t>(flush_count));
+  queue_.pop_front(flush_count);
 }
 
 void Planner::flush_marlin_head() {

@@ -1,5 +1,9 @@
 #include "amctl/gcode/parser.hpp"
 
+#include <charconv>
+#include <random>
+#include <string>
+
 #include <gtest/gtest.h>
 
 namespace amctl::gcode {
@@ -123,6 +127,26 @@ TEST(Parser, ParseNumberHandlesAllDecimalForms) {
   EXPECT_EQ(parse_number("nan", v), 0u);
   EXPECT_EQ(parse_number(".", v), 0u);
   EXPECT_EQ(parse_number("-", v), 0u);
+}
+
+TEST(Parser, FastNumberPathAgreesWithFromCharsBitForBit) {
+  std::mt19937_64 rng(12345);  // seeded: the same cases every run
+  for (int n = 0; n < 200000; ++n) {
+    const int int_digits = static_cast<int>(rng() % 6);
+    const int frac_digits = static_cast<int>(rng() % 8);
+    std::string s = (rng() % 2) ? "-" : "";
+    for (int k = 0; k < int_digits; ++k) s += static_cast<char>('0' + rng() % 10);
+    if (int_digits == 0) s += "0";
+    if (frac_digits > 0) {
+      s += ".";
+      for (int k = 0; k < frac_digits; ++k) s += static_cast<char>('0' + rng() % 10);
+    }
+    double fast = 0, ref = 0;
+    ASSERT_EQ(parse_number(s, fast), s.size()) << s;
+    std::from_chars(s.data() + (s[0] == '-'), s.data() + s.size(), ref);
+    if (s[0] == '-') ref = -ref;
+    ASSERT_EQ(fast, ref) << s;
+  }
 }
 
 }  // namespace

@@ -31,6 +31,9 @@ struct InterpreterOptions {
   double retract_speed_mm_s = 20.0;
   double unretract_extra_length_mm = 0.0;
   double unretract_speed_mm_s = 10.0;
+  /// Pause when motors are switched off (M84/M18): Klipper dwells 2 x 0.1 s; Marlin only
+  /// waits for the moves to finish (0).
+  double motor_off_dwell_s = 0.0;
   /// Treat an unparseable line as an error (default) or count and skip it.
   bool strict = true;
 };

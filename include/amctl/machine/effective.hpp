@@ -2,6 +2,7 @@
 // Limits that a Machine leaves implicit ("0 = same as max_velocity", unset extruder limits)
 // resolved the way Klipper resolves them at config time (klippy/kinematics/*.py,
 // klippy/kinematics/extruder.py, klippy/toolhead.py).
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -45,6 +46,15 @@ inline double klipper_junction_deviation_mm(double square_corner_velocity_mm_s,
                                             double accel_mm_s2) {
   return square_corner_velocity_mm_s * square_corner_velocity_mm_s * (std::numbers::sqrt2 - 1.0) /
          accel_mm_s2;
+}
+
+/// Klipper's mapping of the legacy max_accel_to_decel (config) / ACCEL_TO_DECEL
+/// (SET_VELOCITY_LIMIT) onto minimum_cruise_ratio: 1 - min(1, accel_to_decel / accel)
+/// (klippy/toolhead.py, commit 0105aa33). `accel_mm_s2` is the accel in effect (the command's
+/// ACCEL if it gives one).
+inline double minimum_cruise_ratio_from_accel_to_decel(double accel_to_decel_mm_s2,
+                                                       double accel_mm_s2) {
+  return 1.0 - std::min(1.0, accel_to_decel_mm_s2 / accel_mm_s2);
 }
 
 }  // namespace amctl::machine

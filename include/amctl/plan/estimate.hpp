@@ -98,3 +98,15 @@ EstimateReport estimate_text(std::string_view gcode, const std::string& name,
                              const machine::Machine& machine, const EstimateOptions& options = {});
 
 }  // namespace amctl::plan
+
+namespace amctl::plan {
+
+/// Writes `input_path` to `output_path` with firmware progress lines "M73 P<percent>
+/// R<minutes remaining>" inserted before the moves that start at each checkpoint of
+/// `report` (estimate with options.checkpoint_interval_s > 0), and "M73 P100 R0" at the end.
+/// Existing M73 lines are dropped. Writes to a temporary file renamed into place, so a failure
+/// never leaves a half-written output. Returns the number of M73 lines written.
+std::size_t write_m73(const std::string& input_path, const std::string& output_path,
+                      const EstimateReport& report);
+
+}  // namespace amctl::plan

@@ -51,8 +51,8 @@ class PlanSink {
 };
 
 struct PlannerOptions {
-  /// Marlin-style block buffer size (Marlin and RepRap policies). 0 = unlimited look-ahead.
-  std::size_t block_buffer_size = 16;
+  /// Overrides Machine::block_buffer_size when set (0 = unlimited look-ahead).
+  std::optional<std::size_t> block_buffer_size;
   /// Upper bound on queued moves for the Klipper policy before a forced lazy flush; it keeps
   /// memory bounded on pathological input without changing results on real files.
   std::size_t max_queue = 1u << 16;
@@ -142,9 +142,35 @@ class Planner final : public gcode::EventSink {
     std::string name;
   };
   void post(PendingEvent&& e);
+
+  /// FIFO over a vector: O(1) pops from the front without deque's per-block allocations.
+  class MoveQueue {
+   public:
+    [[nodiscard]] std::size_t size() const { return buf_.size() - head_; }
+    [[nodiscard]] bool empty() const { return size() == 0; }
+    Move& operator[](std::size_t i) { return buf_[head_ + i]; }
+    Move& front() { return buf_[head_]; }
+    Move& back() { return buf_.back(); }
+    Move& emplace_back() { return buf_.emplace_back(); }
+    void pop_back() { buf_.pop_back(); }
+    void pop_front(std::size_t n = 1) {
+      head_ += n;
+      if (head_ == buf_.size()) {
+        buf_.clear();
+        head_ = 0;
+      } else if (head_ >= 4096 && 2 * head_ >= buf_.size()) {
+        buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(head_));
+        head_ = 0;
+      }
+    }
+
+   private:
+    std::vector<Move> buf_;
+    std::size_t head_ = 0;
+  };
   void fire(const PendingEvent& e);
 
-  void add_move(Move&& m);
+  void add_queued_move();
   void flush(bool lazy);
   void emit(Move& m, double start_v2, double cruise_v2, double end_v2);
   void full_stop();
@@ -159,8 +185,9 @@ class Planner final : public gcode::EventSink {
   PlanSink& sink_;
   PlannerOptions opt_;
   Limits lim_{};
-  std::deque<Move> queue_;
+  MoveQueue queue_;
   double junction_flush_s_ = 1.0;
+  std::size_t buffer_size_ = 16;
   double print_time_s_ = 0.0;
   double prev_safe_v_ = 0.0;
   PlannerDiagnostics diag_;

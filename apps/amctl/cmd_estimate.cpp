@@ -1,0 +1,237 @@
+// `amctl estimate`: the main job. G-code in, firmware-grade print time out.
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "amctl/core/error.hpp"
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
+#include "commands.hpp"
+
+namespace amctl::cli {
+namespace {
+
+std::string hms(double s) {
+  if (!std::isfinite(s)) return "-";
+  const auto total = static_cast<long long>(std::llround(s));
+  const long long h = total / 3600, m = (total % 3600) / 60, sec = total % 60;
+  if (h > 0) return fmt::format("{}h {:02}m {:02}s", h, m, sec);
+  if (m > 0) return fmt::format("{}m {:02}s", m, sec);
+  return fmt::format("{:.2f}s", s);
+}
+
+std::string explain_unknown(const std::string& name) {
+  if (!name.empty() && (name[0] == 'G' || name[0] == 'M') && name.size() > 1 &&
+      std::isdigit(static_cast<unsigned char>(name[1]))) {
+    return "not a command amctl models; skipped (no motion assumed)";
+  }
+  return "not a built-in command (a printer macro?); skipped, its time is not counted";
+}
+
+struct EstimateArgs {
+  std::string file;
+  std::string machine;
+  std::vector<std::string> overrides;
+  bool json = false;
+  bool lenient = false;
+  bool all_layers = false;
+  bool brief = false;
+  std::string m73_out;
+  double m73_interval_s = 60.0;
+};
+
+nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
+                       double compute_s) {
+  using nlohmann::json;
+  json j;
+  j["file"] = r.file;
+  j["machine"] = {{"name", m.name},
+                  {"firmware", std::string(machine::to_string(m.firmware))},
+                  {"kinematics", std::string(machine::to_string(m.kinematics))},
+                  {"junction", std::string(machine::to_string(m.junction))}};
+  j["total_time_s"] = r.total_time_s;
+  j["motion_time_s"] = r.motion_time_s;
+  j["dwell_time_s"] = r.dwell_time_s;
+  j["extrude_time_s"] = r.extrude_time_s;
+  j["travel_time_s"] = r.travel_time_s;
+  j["extrude_only_time_s"] = r.extrude_only_time_s;
+  j["extrude_path_mm"] = r.extrude_path_mm;
+  j["travel_mm"] = r.travel_mm;
+  j["filament_mm"] = r.filament_mm;
+  j["filament_volume_mm3"] = r.filament_volume_mm3;
+  j["max_speed_mm_s"] = r.max_speed_mm_s;
+  j["moves"] = r.moves;
+  j["lines"] = r.lines;
+  j["bytes"] = r.bytes;
+  j["slicer"] = r.slicer_name;
+  j["slicer_estimate_s"] = r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr);
+  if (r.slicer_estimate_s && r.total_time_s > 0) {
+    j["slicer_vs_amctl_ratio"] = *r.slicer_estimate_s / r.total_time_s;
+  }
+  json feats = json::array();
+  for (const auto& f : r.features) {
+    feats.push_back({{"name", f.name}, {"time_s", f.time_s}, {"extrude_time_s", f.extrude_time_s},
+                     {"path_mm", f.path_mm}, {"filament_mm", f.filament_mm}, {"moves", f.moves}});
+  }
+  j["features"] = feats;
+  json layers = json::array();
+  for (const auto& l : r.layers) {
+    layers.push_back({{"layer", l.layer}, {"start_s", l.start_s}, {"time_s", l.time_s},
+                      {"z_mm", l.z_mm}, {"line", l.first_line}});
+  }
+  j["layers"] = layers;
+  auto events = [](const std::vector<plan::TimedEvent>& v) {
+    json a = json::array();
+    for (const auto& e : v) a.push_back({{"at_s", e.at_s}, {"what", e.what}, {"line", e.line}});
+    return a;
+  };
+  j["heater_waits"] = events(r.heater_waits);
+  j["heater_sets"] = events(r.heater_sets);
+  j["untimed_commands"] = events(r.untimed);
+  json unk = json::array();
+  for (const auto& u : r.unknown_commands) {
+    unk.push_back({{"name", u.name}, {"first_line", u.first_line}, {"count", u.count},
+                   {"explanation", explain_unknown(u.name)}});
+  }
+  j["unknown_commands"] = unk;
+  j["ignored_commands"] = r.ignored_commands;
+  j["warnings"] = r.diagnostics.warnings;
+  if (r.ended_without_newline) {
+    j["warnings"].push_back("the file does not end with a newline: it may be truncated");
+  }
+  j["planner"] = {{"full_stops", r.diagnostics.full_stops},
+                  {"speed_limited_moves", r.diagnostics.speed_limited_moves},
+                  {"extrude_only_moves", r.diagnostics.extrude_only_moves},
+                  {"zero_length_moves", r.diagnostics.zero_length_moves}};
+  j["compute_time_s"] = compute_s;
+  return j;
+}
+
+void print_human(const plan::EstimateReport& r, const machine::Machine& m, double compute_s,
+                 bool all_layers) {
+  auto& o = std::cout;
+  o << fmt::format("amctl estimate: {}\n", r.file);
+  o << fmt::format("  machine          {} ({}, {}, junction: {})\n", m.name,
+                   machine::to_string(m.firmware), machine::to_string(m.kinematics),
+                   machine::to_string(m.junction));
+  o << fmt::format("  print time       {:>12}  ({:.1f} s: motion {:.1f} s + dwells {:.1f} s)\n",
+                   hms(r.total_time_s), r.total_time_s, r.motion_time_s, r.dwell_time_s);
+  if (r.slicer_estimate_s) {
+    const double d = (*r.slicer_estimate_s - r.total_time_s) / r.total_time_s * 100.0;
+    o << fmt::format("  slicer's own     {:>12}  ({}; {:+.1f} % against amctl)\n",
+                     hms(*r.slicer_estimate_s), r.slicer_name.empty() ? "slicer" : r.slicer_name, d);
+  }
+  o << fmt::format("  extruding        {:>12}  over {:.1f} m of path\n", hms(r.extrude_time_s),
+                   r.extrude_path_mm / 1000.0);
+  o << fmt::format("  travel           {:>12}  over {:.1f} m\n", hms(r.travel_time_s), r.travel_mm / 1000.0);
+  o << fmt::format("  retract/prime    {:>12}\n", hms(r.extrude_only_time_s));
+  o << fmt::format("  filament         {:.2f} m, {:.2f} cm^3\n", r.filament_mm / 1000.0,
+                   r.filament_volume_mm3 / 1000.0);
+  o << fmt::format("  moves            {} from {} lines; top speed {:.0f} mm/s; {} full stops\n",
+                   r.moves, r.lines, r.max_speed_mm_s, r.diagnostics.full_stops);
+  if (!r.heater_waits.empty()) {
+    o << "  heater waits (not in the print time):\n";
+    for (const auto& e : r.heater_waits) {
+      o << fmt::format("    at {:>10}  {}  (line {})\n", hms(e.at_s), e.what, e.line);
+    }
+  }
+  if (!r.untimed.empty()) {
+    o << "  untimed commands (real duration unknown, not in the print time):\n";
+    for (std::size_t i = 0; i < r.untimed.size() && i < 10; ++i) {
+      o << fmt::format("    at {:>10}  {}  (line {})\n", hms(r.untimed[i].at_s), r.untimed[i].what,
+                       r.untimed[i].line);
+    }
+  }
+  if (!r.features.empty()) {
+    o << "  by feature:\n";
+    for (const auto& f : r.features) {
+      o << fmt::format("    {:<28} {:>12} {:5.1f} %  {:8.2f} m filament\n", f.name, hms(f.time_s),
+                       r.total_time_s > 0 ? 100.0 * f.time_s / r.total_time_s : 0.0,
+                       f.filament_mm / 1000.0);
+    }
+  }
+  if (!r.layers.empty()) {
+    double lo = 1e300, hi = 0;
+    std::size_t ilo = 0, ihi = 0;
+    for (std::size_t i = 0; i < r.layers.size(); ++i) {
+      if (r.layers[i].time_s < lo) { lo = r.layers[i].time_s; ilo = i; }
+      if (r.layers[i].time_s > hi) { hi = r.layers[i].time_s; ihi = i; }
+    }
+    o << fmt::format("  layers           {}: fastest #{} {:.1f} s, slowest #{} {:.1f} s, mean {:.1f} s\n",
+                     r.layers.size(), r.layers[ilo].layer, lo, r.layers[ihi].layer, hi,
+                     r.total_time_s / static_cast<double>(r.layers.size()));
+    if (all_layers) {
+      for (const auto& l : r.layers) {
+        o << fmt::format("    layer {:4}  z {:7.3f} mm  starts {:>10}  takes {:8.2f} s  (line {})\n",
+                         l.layer, l.z_mm, hms(l.start_s), l.time_s, l.first_line);
+      }
+    }
+  }
+  for (const auto& u : r.unknown_commands) {
+    o << fmt::format("  unknown command  {} (line {}, {}x): {}\n", u.name, u.first_line, u.count,
+                     explain_unknown(u.name));
+  }
+  for (const auto& w : r.diagnostics.warnings) o << "  warning: " << w << "\n";
+  if (r.ended_without_newline) o << "  warning: the file does not end with a newline: it may be truncated\n";
+  o << fmt::format("  computed in {:.3f} s ({:.1f} M moves/s)\n", compute_s,
+                   compute_s > 0 ? static_cast<double>(r.moves) / compute_s / 1e6 : 0.0);
+}
+
+void run_estimate(const EstimateArgs& a) {
+  const machine::Machine m = machine::load_machine(a.machine, a.overrides);
+  plan::EstimateOptions opt;
+  opt.strict = !a.lenient;
+  if (!a.m73_out.empty()) {
+    require_positive("--m73-interval", a.m73_interval_s);
+    opt.checkpoint_interval_s = a.m73_interval_s;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const plan::EstimateReport r = plan::estimate_file(a.file, m, opt);
+  const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::size_t m73 = 0;
+  if (!a.m73_out.empty()) m73 = plan::write_m73(a.file, a.m73_out, r);
+  if (a.brief) {
+    std::cout << fmt::format("{:<14} {:>12}  ({:.1f} s)", m.name, hms(r.total_time_s), r.total_time_s);
+    if (r.slicer_estimate_s) {
+      std::cout << fmt::format("  slicer {:+.1f} %",
+                               (*r.slicer_estimate_s - r.total_time_s) / r.total_time_s * 100.0);
+    }
+    std::cout << "\n";
+  } else if (a.json) {
+    auto j = to_json(r, m, compute_s);
+    if (!a.m73_out.empty()) j["m73_written"] = {{"file", a.m73_out}, {"lines", m73}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    print_human(r, m, compute_s, a.all_layers);
+    if (!a.m73_out.empty()) std::cout << fmt::format("  wrote {} with {} M73 lines\n", a.m73_out, m73);
+  }
+}
+
+}  // namespace
+
+void register_estimate(CLI::App& app) {
+  auto args = std::make_shared<EstimateArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "estimate", "Plan every move as the firmware does and report the print time");
+  sub->add_option("file", args->file, "G-code file ('-' reads standard input)")->required();
+  sub->add_option("--machine,-m", args->machine,
+                  "Preset name, machine .toml, or Klipper printer.cfg (default: the 'default' preset)");
+  sub->add_option("--set", args->overrides,
+                  "Override a machine key, e.g. --set printer.max_accel=5000 (repeatable; see docs/machine.md)");
+  sub->add_flag("--json", args->json, "Print one JSON object on stdout");
+  sub->add_flag("--lenient", args->lenient, "Skip malformed lines (counted) instead of stopping");
+  sub->add_flag("--layers", args->all_layers, "List every layer's start and duration");
+  sub->add_flag("--brief", args->brief, "One line: machine, print time, slicer's difference");
+  sub->add_option("--write-m73", args->m73_out,
+                  "Write the file back with M73 progress/remaining-time lines to this path");
+  sub->add_option("--m73-interval", args->m73_interval_s, "Seconds of print time between M73 lines")
+      ->default_val(60.0);
+  sub->callback([args] { run_estimate(*args); });
+}
+
+}  // namespace amctl::cli

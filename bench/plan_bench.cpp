@@ -1,0 +1,91 @@
+// Throughput of the main job: parse + interpret + plan + report, in moves per second.
+// Issue target: >= 5 M moves/s on one core, and faster than `gzip -1` on the same file
+// (compare with: scripts/bench_estimate.sh).
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "amctl/gcode/interpreter.hpp"
+#include "amctl/gcode/line_reader.hpp"
+#include "amctl/plan/estimate.hpp"
+
+namespace {
+
+/// Slicer-like G-code: layers of circular perimeters (short chords, relative E) joined by
+/// travels, the shape of real perimeter-heavy files. `moves` extrusion moves in all.
+std::string synthetic_gcode(std::size_t moves) {
+  std::string g = "M83\nG1 F3000\n";
+  g.reserve(moves * 34);
+  std::size_t n = 0;
+  int layer = 0;
+  while (n < moves) {
+    g += fmt::format(";LAYER_CHANGE\n;Z:{:.2f}\nG1 Z{:.2f} F600\n;TYPE:Perimeter\n", 0.2 * (layer + 1),
+                     0.2 * (layer + 1));
+    for (int ring = 0; ring < 10 && n < moves; ++ring) {
+      const double r = 5.0 + 2.0 * ring;
+      g += fmt::format("G1 X{:.3f} Y100.000 F9000\nG1 F2700\n", 100.0 + r);
+      for (int k = 1; k <= 120 && n < moves; ++k, ++n) {
+        const double a = 2.0 * std::numbers::pi * k / 120.0;
+        g += fmt::format("G1 X{:.3f} Y{:.3f} E{:.5f}\n", 100.0 + r * std::cos(a),
+                         100.0 + r * std::sin(a), 0.0335 * r * 2.0 * std::numbers::pi / 120.0);
+      }
+    }
+    ++layer;
+  }
+  return g;
+}
+
+void BM_EstimateKlipper(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  amctl::machine::Machine m;  // Klipper, square_corner_velocity junctions
+  std::uint64_t moves = 0;
+  for (auto _ : state) {
+    auto r = amctl::plan::estimate_text(g, "bench", m);
+    moves = r.moves;
+    benchmark::DoNotOptimize(r.total_time_s);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+}
+BENCHMARK(BM_EstimateKlipper)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
+
+void BM_EstimateMarlinJunctionDeviation(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  amctl::machine::Machine m;
+  m.firmware = amctl::machine::Firmware::marlin;
+  m.junction = amctl::machine::JunctionPolicy::junction_deviation;
+  std::uint64_t moves = 0;
+  for (auto _ : state) {
+    auto r = amctl::plan::estimate_text(g, "bench", m);
+    moves = r.moves;
+    benchmark::DoNotOptimize(r.total_time_s);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+}
+BENCHMARK(BM_EstimateMarlinJunctionDeviation)->Arg(1 << 18)->Unit(benchmark::kMillisecond);
+
+/// Parsing and interpreting alone (no planning).
+void BM_InterpretOnly(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  struct Count : amctl::gcode::EventSink {
+    std::uint64_t n = 0;
+    void on_move(const amctl::gcode::MoveRequest&) override { ++n; }
+  };
+  std::uint64_t moves = 0;
+  for (auto _ : state) {
+    Count c;
+    amctl::gcode::Interpreter in({}, "bench");
+    amctl::gcode::LineReader reader(g, "bench");
+    in.run(reader, c);
+    moves = c.n;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+}
+BENCHMARK(BM_InterpretOnly)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
+
+}  // namespace

@@ -1,0 +1,216 @@
+#pragma once
+// FDM hotend and heated-bed temperature loops: a lumped plant in the structure of Marlin's
+// MPC model, a PID with anti-windup, relay autotune in the manner of M303, and a model-based
+// (MPC-like) controller whose model is identified from a heat-up curve as M306 T does.
+// Our own implementation; Marlin's behaviour was read for reference (docs/thermal.md).
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace amctl::thermal {
+
+/// The "true" simulated heater: a heater core coupled to the block (the extra node the MPC
+/// model does not have, so the identified model is not the plant), the block losing heat to
+/// ambient through a coefficient that grows linearly with the part-cooling fan, a filament
+/// flow heat load, and a first-order sensor lag.
+struct HeaterPlantParams {
+  double heater_power_w = 40.0;
+  double core_capacity_j_k = 1.5;       ///< cartridge core; 0 removes the node
+  double core_to_block_w_k = 2.0;
+  double block_capacity_j_k = 16.7;
+  double ambient_c = 25.0;
+  double loss_w_k = 0.068;              ///< to ambient, fan off
+  double fan_extra_loss_w_k = 0.097 - 0.068;  ///< added at 100 % fan
+  double filament_j_mm3k = 2.2e-3;      ///< rho c of the filament (PLA ~ 1.24e-3 g/mm^3 * 1.8 J/(g K))
+  double sensor_time_constant_s = 1.0 / 0.22;
+  double sensor_noise_k = 0.0;          ///< standard deviation of added white noise
+  std::uint32_t noise_seed = 1;
+
+  void validate() const;  ///< throws amctl::Error naming the bad field
+  /// A 40 W E3D-V6-like hotend (block values close to Marlin's MPC defaults).
+  [[nodiscard]] static HeaterPlantParams hotend();
+  /// A 24 V 220 W 235 x 235 mm aluminium bed.
+  [[nodiscard]] static HeaterPlantParams bed();
+};
+
+/// Plant state and integrator (RK4 on a fixed internal step).
+class HeaterPlant {
+ public:
+  explicit HeaterPlant(const HeaterPlantParams& p);
+  /// Advance by dt with duty in [0, 1], fan in [0, 1], volumetric flow in mm^3/s.
+  void step(double dt_s, double duty, double fan, double flow_mm3_s);
+  /// Sensor reading (lagged, with noise if configured).
+  [[nodiscard]] double measured_c();
+  [[nodiscard]] double block_c() const { return x_[1]; }
+  [[nodiscard]] double sensor_c() const { return x_[2]; }
+  [[nodiscard]] const HeaterPlantParams& params() const { return p_; }
+
+ private:
+  void deriv(const double* x, double duty, double fan, double flow, double* dx) const;
+  HeaterPlantParams p_;
+  double x_[3];  // core, block, sensor
+  std::uint64_t rng_;
+};
+
+enum class PidAntiWindup { clamp_integral, conditional_integration, back_calculation };
+
+/// Gains on duty fraction: u = kp e + ki int(e) - kd d(y_filtered)/dt, u in [0, 1].
+struct PidGains {
+  double kp = 0.05;   ///< 1/K
+  double ki = 0.005;  ///< 1/(K s)
+  double kd = 0.2;    ///< s/K
+};
+
+struct PidOptions {
+  PidAntiWindup anti_windup = PidAntiWindup::conditional_integration;
+  double derivative_filter_s = 1.0;  ///< first-order filter on the measured temperature
+  double functional_range_k = 10.0;  ///< |e| beyond this: full on / off (Marlin PID_FUNCTIONAL_RANGE); <= 0 disables
+  double tracking_time_s = 5.0;      ///< back-calculation Tt
+};
+
+/// Discrete PID (derivative on measurement) with saturation and anti-windup.
+class PidController {
+ public:
+  PidController(const PidGains& g, const PidOptions& o);
+  double update(double target_c, double measured_c, double dt_s);
+  void reset();
+
+ private:
+  PidGains g_;
+  PidOptions o_;
+  double integral_ = 0.0, y_filt_ = 0.0, y_filt_prev_ = 0.0;
+  bool first_ = true;
+};
+
+enum class TuningRule { classic_zn, some_overshoot, no_overshoot };
+
+/// Result of a relay autotune.
+struct AutotuneResult {
+  bool ok = false;
+  std::string message;
+  double ku = 0.0;  ///< ultimate gain, duty per K
+  double tu_s = 0.0;
+  double bias = 0.0, amplitude = 0.0;  ///< last relay bias and half swing (duty)
+  double t_max_c = 0.0, t_min_c = 0.0;
+  int cycles = 0;
+  PidGains gains;
+  double duration_s = 0.0;
+};
+
+struct AutotuneOptions {
+  double target_c = 210.0;
+  int cycles = 5;  ///< M303 C
+  double fan = 0.0;
+  TuningRule rule = TuningRule::classic_zn;
+  double lockout_s = 5.0;   ///< minimum time between relay switches (M303 waits 5 s)
+  double max_overshoot_k = 30.0;
+  double timeout_s = 1200.0;
+  double dt_s = 0.1;
+};
+
+/// Relay autotune like M303: a relay around the target with bias/amplitude adaptation after
+/// each cycle; Ku = 4 d/(pi a) from the describing function, Tu the relay period.
+[[nodiscard]] AutotuneResult relay_autotune(HeaterPlant plant, const AutotuneOptions& o);
+/// The gain rule from (Ku, Tu).
+[[nodiscard]] PidGains tuning_rule(TuningRule r, double ku, double tu_s);
+
+/// Model used by the MPC-like controller (the four/five numbers of M306).
+struct MpcModel {
+  double heater_power_w = 40.0;
+  double block_capacity_j_k = 16.7;
+  double sensor_responsiveness_1_s = 0.22;
+  double loss_w_k = 0.068;
+  double fan_extra_loss_w_k = 0.029;
+  double filament_j_mm3k = 2.2e-3;
+};
+
+struct MpcOptions {
+  double horizon_s = 2.0;          ///< plan to reach the target in this time (Marlin: 2 s)
+  double smoothing = 0.5;          ///< share of the sensor residual applied per update
+  double ambient_gain = 1.0;       ///< share of the residual that updates the ambient estimate
+  double steady_state_k_s = 0.5;   ///< |block rate| below this counts as steady
+  double min_ambient_change_k_s = 1.0;
+};
+
+/// Model-based controller in the manner of Marlin's MPC: a block/sensor model run in
+/// parallel, corrected by the residual, the ambient estimate adapted near steady state (the
+/// integral action), and power = C (target - block)/horizon + losses(fan, flow) at the
+/// modelled block temperature.
+class MpcController {
+ public:
+  MpcController(const MpcModel& m, const MpcOptions& o, double ambient_c);
+  /// Duty for the next period; fan and flow are known to the firmware (feedforward).
+  double update(double target_c, double measured_c, double fan, double flow_mm3_s, double dt_s);
+  [[nodiscard]] double modelled_block_c() const { return block_; }
+  [[nodiscard]] double ambient_estimate_c() const { return ambient_; }
+
+ private:
+  MpcModel m_;
+  MpcOptions o_;
+  double block_, sensor_, ambient_;
+  double last_duty_ = 0.0;
+  bool first_ = true;
+};
+
+struct IdentifyOptions {
+  double ambient_c = 25.0;
+  double target_c = 200.0;       ///< heat at full power until the sensor reaches this
+  double sample_distance_s = 1.0;
+  double settle_s = 60.0;        ///< hold time before measuring the loss power
+  double measure_s = 60.0;
+  double dt_s = 0.1;
+  double filament_j_mm3k = 2.2e-3;  ///< not measured by M306 (user-provided H)
+};
+
+struct IdentifyResult {
+  MpcModel model;
+  double asymptotic_temp_c = 0.0;
+  double block_responsiveness_1_s = 0.0;
+  double loss_from_curve_w_k = 0.0;   ///< P/(asymptote - ambient) from the heat-up fit
+  std::vector<double> sample_times_s, sample_temps_c;
+};
+
+/// M306 T-like identification on the plant: full-power heat-up with three equally spaced
+/// samples (asymptote and time constant), sensor responsiveness from the apparent lag, then
+/// loss measured from the holding power at the target with the fan off and at 100 %.
+[[nodiscard]] IdentifyResult identify_mpc_model(HeaterPlant plant, const IdentifyOptions& o);
+
+/// Scenario for the comparison on one simulated heater.
+struct HeaterScenario {
+  double target_c = 210.0;
+  double duration_s = 360.0;
+  double fan_on_at_s = 180.0;          ///< fan 0 -> 100 %
+  double flow_start_s = 260.0;         ///< flow square wave starts
+  double flow_high_mm3_s = 15.0;
+  double flow_low_mm3_s = 2.0;
+  double flow_half_period_s = 5.0;
+  double flow_end_s = 320.0;
+  double dt_s = 0.1;
+  double band_k = 0.2;                 ///< recovery band
+};
+
+struct HeaterRunStats {
+  std::string controller;
+  double heat_up_time_s = 0.0;     ///< first time within 1 K below the target
+  double overshoot_k = 0.0;        ///< max(T) - target before the fan step
+  double fan_max_dev_k = 0.0;      ///< largest |e| after the fan step, before the flow
+  double fan_recovery_s = 0.0;     ///< time after the fan step until |e| stays in the band
+  double flow_ripple_k = 0.0;      ///< peak-to-peak of the (noise-free) sensor temperature
+  double flow_rms_k = 0.0;
+  double energy_j = 0.0;
+  std::vector<double> t_s, measured_c, duty;  ///< trace (every step)
+};
+
+using HeaterController = std::function<double(double target, double measured, double fan,
+                                              double flow, double dt)>;
+
+/// Runs a scenario with a controller callback on a fresh plant.
+[[nodiscard]] HeaterRunStats run_heater_scenario(const HeaterPlantParams& plant,
+                                                 const HeaterScenario& sc,
+                                                 const HeaterController& ctl,
+                                                 const std::string& name);
+
+[[nodiscard]] const char* to_string(TuningRule r);
+
+}  // namespace amctl::thermal

@@ -1,0 +1,109 @@
+#pragma once
+// Robustness of a PI loop around the powder bed G(s) against additive uncertainty
+// G + Delta, ||Delta||_inf < eps (seed 002, section 4): the margin is 1/||C (1 + G C)^-1||_inf
+// when the nominal loop is stable (Vidyasagar / Glover; Curtain & Zwart Lemma 9.3.12).
+#include <complex>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "amctl/thermal/powder_bed_tf.hpp"
+
+namespace amctl::thermal {
+
+/// C(s) = kp (Ti s + 1)/(Ti s), kp in W/(m^2 K), Ti in s.
+struct PiController {
+  double kp = 0.3;
+  double ti_s = 0.5;
+  /// Throws amctl::Error naming kp or Ti unless both are finite and > 0.
+  void validate() const;
+  [[nodiscard]] std::complex<double> eval(std::complex<double> s) const;
+};
+
+/// A real SISO state-space system x' = A x + B u, y = C x + D u.
+struct StateSpace {
+  Eigen::MatrixXd a;
+  Eigen::VectorXd b;
+  Eigen::RowVectorXd c;
+  double d = 0.0;
+  [[nodiscard]] std::complex<double> eval(std::complex<double> s) const;
+};
+
+/// Modal realisation of G_N (diagonal A = poles, B = 1, C = residues); with
+/// `static_correction` the feedthrough D = (G - G_N)(0) is added, which matches G exactly at
+/// s = 0 (residualisation of the truncated modes).
+[[nodiscard]] StateSpace modal_realization(const PowderBedTf& g, int modes,
+                                           bool static_correction = false);
+
+/// Closed loop from reference w to control u, T = C (1 + G C)^-1, for a plant in state space
+/// (any D with 1 + kp D != 0) under the PI controller.
+[[nodiscard]] StateSpace control_sensitivity(const StateSpace& plant, const PiController& pi);
+
+/// Result of a frequency-domain peak search.
+struct PeakResult {
+  double peak = 0.0;         ///< sup |T(j w)| found
+  double omega_rad_s = 0.0;  ///< where (inf if the sup is the limit w -> inf)
+  int evaluations = 0;
+};
+
+/// Options for the grid-plus-refinement peak search.
+struct SweepOptions {
+  double w_min_rad_s = 1e-8;
+  double w_max_rad_s = 1e10;
+  int points_per_decade = 200;
+  double rel_tol = 1e-12;  ///< golden-section tolerance in log w
+};
+
+/// sup_w |f(j w)| for f given by a callable, by a dense log grid and golden-section refinement
+/// around every local maximum of the grid; also compares with f at the grid ends.
+template <class F>
+PeakResult sweep_peak(F&& f, const SweepOptions& opt);
+
+/// H-infinity norm of a stable state-space system by bisection on the imaginary-axis
+/// eigenvalues of the Hamiltonian (Boyd, Balakrishnan & Kabamba 1989). Throws InternalError if
+/// A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
+[[nodiscard]] double hinf_norm_hamiltonian(const StateSpace& sys, double rel_tol = 1e-9);
+
+/// Everything the sls-margins command reports.
+struct MarginReport {
+  double length_m = 0.0;
+  int modes = 0;
+  // ||G - G_N||_inf: numerical sweep, a-priori bound (tail sum), the paper's printed (13).
+  double hinf_g_minus_gn = 0.0;
+  double hinf_g_minus_gn_omega = 0.0;
+  double bound_tail = 0.0;
+  double bound_printed_13 = 0.0;
+  // Margins 1/||C S||_inf.
+  double margin_on_gn_sweep = 0.0;        ///< sweep of the rational G_N loop
+  double margin_on_gn_hamiltonian = 0.0;  ///< Hamiltonian bisection of the same loop
+  double margin_on_g_sweep = 0.0;         ///< sweep of the exact irrational G
+  double margin_on_g_hamiltonian = 0.0;   ///< Hamiltonian on G_M + static correction, M large
+  int hamiltonian_modes_for_g = 0;
+  double peak_omega_gn = 0.0;
+  double peak_omega_g = 0.0;
+  // Stability of the loops: largest real part of the closed-loop poles (G_N and G_M).
+  double max_pole_real_gn = 0.0;
+  double max_pole_real_gm = 0.0;
+  bool stable_gn = false;
+  bool stable_gm = false;
+  // Theorem 2: eps_a - delta (with delta = ||G - G_N||_inf) must not exceed the margin on G.
+  double theorem2_lower_bound = 0.0;
+  bool theorem2_holds = false;
+  // Best achievable margin (Glover): Hankel singular value of (G_u^beta)~, r0/(2|beta|).
+  double beta = 0.0;
+  double hankel_best_margin = 0.0;
+};
+
+/// Best achievable additive-uncertainty margin with closed-loop poles left of Re s = beta < 0:
+/// the Hankel singular value of the anti-stable part of G(s + beta), r0/(2|beta|).
+[[nodiscard]] double hankel_best_margin(const PowderBedTf& g, double beta);
+
+/// All the figures above. `beta` (< 0) sets the stability margin for the Hankel value;
+/// `hamiltonian_modes` the truncation used for the second evaluation of the margin on G.
+[[nodiscard]] MarginReport compute_margins(const PowderBedTf& g, const PiController& pi,
+                                           int modes, double beta = -0.01,
+                                           int hamiltonian_modes = 60);
+
+}  // namespace amctl::thermal
+
+#include "amctl/thermal/detail/sweep_peak.ipp"

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The main job on the bundled example: a part sliced by PrusaSlicer for a Klipper printer,
+# planned move by move as Klipper's look-ahead would, then the same file on other printers.
+set -euo pipefail
+build=${1:-build/release}
+amctl="$build/apps/amctl/amctl"
+gcode=examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode
+
+echo "== amctl estimate $gcode --machine configs/klipper-voron-v0.cfg"
+"$amctl" estimate "$gcode" --machine configs/klipper-voron-v0.cfg
+echo
+echo "== the same G-code on other printers (presets in configs/)"
+for m in configs/klipper-voron-v0.cfg voron24 prusa-mk3s ender3; do
+  "$amctl" estimate "$gcode" --machine "$m" --brief
+done
+echo
+echo "== what-if: the Voron with square_corner_velocity 0 (the thesis' full stop at every corner)"
+"$amctl" estimate "$gcode" --machine configs/klipper-voron-v0.cfg --set printer.square_corner_velocity=0 --brief

@@ -1,0 +1,62 @@
+// amctl against Klipper's own batch mode (klippy.py -i FILE -o /dev/null -d klipper.dict),
+// run beside amctl on this project's machines; how: tests/reference/klipper/README.md.
+// Inputs and printer.cfg files are in tests/reference/klipper/, Klipper's motion times in
+// klipper_times.json ("motion_s": with batch mode's buffer-runout flushes switched off, as a
+// real printer fed in time never runs out; "motion_stock_s": unmodified batch mode).
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
+
+namespace amctl::plan {
+namespace {
+
+const std::string kDir = std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/";
+
+nlohmann::json klipper_times() {
+  std::ifstream in(kDir + "klipper_times.json");
+  return nlohmann::json::parse(in);
+}
+
+class KlipperReference : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(KlipperReference, SyntheticFilesMatchKlipperToAMicrosecond) {
+  const auto times = klipper_times();
+  for (const char* cfg : {"v0_corexy", "ender3_cartesian"}) {
+    const auto m = machine::load_machine(kDir + cfg + ".cfg");
+    const std::string name = GetParam();
+    const auto r = estimate_file(kDir + name + ".gcode", m);
+    const double klipper_s = times.at(std::string(cfg) + "/" + name).at("motion_s").get<double>();
+    EXPECT_NEAR(r.total_time_s, klipper_s, 1e-6) << cfg << " " << name;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, KlipperReference,
+                         ::testing::Values("syn_xy_pair", "syn_square", "syn_circle1000",
+                                           "syn_dwell", "syn_velocity_limit", "syn_m220_m221",
+                                           "syn_arcs"));
+
+TEST(KlipperReference, CorpusBenchiesMatchKlipperWithinAHundredthOfAPercent) {
+  const std::filesystem::path corpus = std::filesystem::path(AMCTL_SOURCE_DIR) / "../shared/corpus/gcode";
+  if (!std::filesystem::exists(corpus)) GTEST_SKIP() << "no ../shared/corpus beside the clone";
+  const auto times = klipper_times();
+  for (const char* cfg : {"v0_corexy", "ender3_cartesian"}) {
+    const auto m = machine::load_machine(kDir + cfg + ".cfg");
+    for (const char* f : {"benchy_cura-5.3", "benchy_ideamaker-4.2",
+                          "benchy_prusaslicer-2.6_cr10spro", "benchy_superslicer-2.3_klipper-v0"}) {
+      const auto r = estimate_file((corpus / (std::string(f) + ".gcode")).string(), m);
+      const double k = times.at(std::string(cfg) + "/" + f).at("motion_s").get<double>();
+      // Klipper's run started from a homed (50, 50, 1) and skipped the file's own G28 move
+      // to the start point: allow 1 s of set-up motion on top of 0.01 %.
+      EXPECT_NEAR(r.total_time_s, k, 1.0 + 1e-4 * k) << cfg << " " << f;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace amctl::plan

@@ -1,0 +1,102 @@
+#!/usr/bin/python3
+"""Cross-check amctl's printer.cfg reader against Klipper's own config reader.
+
+For every Klipper config given, reads it with klippy/configfile.py (Klipper's code, loaded from
+a Klipper checkout; nothing of it is copied here), derives the values Klipper would use for
+[printer], [extruder] and [stepper_*] from Klipper's documented defaults, and compares them
+with `amctl machine show FILE --json`. Files whose kinematics amctl does not support must be
+rejected with a message saying so.
+
+usage: klipper_cfg_crosscheck.py KLIPPER_CHECKOUT/klippy AMCTL_BINARY CFG...
+prints one line per file and a summary; exit status 1 on any mismatch.
+"""
+import json
+import math
+import subprocess
+import sys
+
+sys.path.insert(0, sys.argv[1])
+import configfile  # noqa: E402  (Klipper's reader)
+
+amctl = sys.argv[2]
+files = sys.argv[3:]
+bad = 0
+checked = 0
+unsupported = 0
+
+
+def close(a, b):
+    return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
+
+
+for fn in files:
+    reader = configfile.ConfigFileReader()
+    fc = reader.build_fileconfig_with_includes(reader.read_config_file(fn), fn)
+    if not fc.has_section('printer'):
+        continue
+    kin = fc.get('printer', 'kinematics')
+    res = subprocess.run([amctl, 'machine', 'show', fn, '--json'], capture_output=True, text=True)
+    if kin not in ('cartesian', 'corexy'):
+        ok = res.returncode != 0 and 'does not support' in res.stderr
+        unsupported += 1
+        if not ok:
+            bad += 1
+            print(f'MISMATCH {fn}: {kin} not rejected: {res.stderr.strip()}')
+        continue
+    if res.returncode != 0:
+        bad += 1
+        print(f'MISMATCH {fn}: amctl failed: {res.stderr.strip()}')
+        continue
+    got = json.loads(res.stdout)
+    g = lambda sec, key, default: fc.getfloat(sec, key) if fc.has_option(sec, key) else default
+    mv = g('printer', 'max_velocity', None)
+    ma = g('printer', 'max_accel', None)
+    exp = {
+        ('printer', 'max_velocity'): mv,
+        ('printer', 'max_accel'): ma,
+        ('printer', 'square_corner_velocity'): g('printer', 'square_corner_velocity', 5.0),
+        ('effective', 'max_z_velocity'): g('printer', 'max_z_velocity', mv),
+        ('effective', 'max_z_accel'): g('printer', 'max_z_accel', ma),
+    }
+    if fc.has_option('printer', 'minimum_cruise_ratio'):
+        exp[('printer', 'minimum_cruise_ratio')] = fc.getfloat('printer', 'minimum_cruise_ratio')
+    elif fc.has_option('printer', 'max_accel_to_decel'):
+        a2d = fc.getfloat('printer', 'max_accel_to_decel')
+        exp[('printer', 'minimum_cruise_ratio')] = 1.0 - min(1.0, a2d / ma)
+    else:
+        exp[('printer', 'minimum_cruise_ratio')] = 0.5
+    if fc.has_section('extruder'):
+        nd = fc.getfloat('extruder', 'nozzle_diameter')
+        fd = fc.getfloat('extruder', 'filament_diameter')
+        area = math.pi * (fd * .5) ** 2
+        ratio = 4. * nd ** 2 / area
+        exp[('extruder', 'nozzle_diameter')] = nd
+        exp[('effective', 'max_extrude_only_velocity')] = g('extruder', 'max_extrude_only_velocity', mv * ratio)
+        exp[('effective', 'max_extrude_only_accel')] = g('extruder', 'max_extrude_only_accel', ma * ratio)
+        exp[('effective', 'max_extrude_cross_section')] = g('extruder', 'max_extrude_cross_section', 4. * nd ** 2)
+    for sec in fc.sections():
+        if sec.startswith('stepper_') and sec[8:] in ('x', 'y', 'z') or sec == 'extruder':
+            if not fc.has_option(sec, 'rotation_distance'):
+                continue
+            name = 'e' if sec == 'extruder' else sec[8:]
+            rd = fc.getfloat(sec, 'rotation_distance')
+            full = fc.getint(sec, 'full_steps_per_rotation') if fc.has_option(sec, 'full_steps_per_rotation') else 200
+            gear = 1.0
+            if fc.has_option(sec, 'gear_ratio'):
+                for pair in fc.get(sec, 'gear_ratio').split(','):
+                    a, b = pair.split(':')
+                    gear *= float(a) / float(b)
+            steps_per_mm = full * fc.getint(sec, 'microsteps') * gear / rd
+            exp[('steppers', name)] = steps_per_mm
+    mism = []
+    for (sec, key), want in exp.items():
+        have = got[sec][key]['steps_per_mm'] if sec == 'steppers' else got[sec][key]
+        if not close(have, want):
+            mism.append(f'{sec}.{key}: amctl {have} klipper {want}')
+    checked += 1
+    if mism:
+        bad += 1
+        print(f'MISMATCH {fn}: ' + '; '.join(mism))
+print(f'{checked} cartesian/corexy configs compared, {unsupported} other kinematics rejected, '
+      f'{bad} mismatches')
+sys.exit(1 if bad else 0)
