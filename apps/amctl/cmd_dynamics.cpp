@@ -24,6 +24,7 @@
 #include "amctl/trajectory/retime.hpp"
 #include "amctl/trajectory/sampling.hpp"
 #include "commands.hpp"
+#include "machine_cli.hpp"
 
 namespace amctl::cli {
 namespace {
@@ -128,8 +129,7 @@ plan::VelocityProfile parse_profile(const std::string& s) {
 // ------------------------------------------------------------------------------ simulate
 struct SimulateArgs {
   std::string file;
-  std::string machine;
-  std::vector<std::string> set;
+  MachineOptions machine;
   ModelFlags model;
   double rate_hz = 1000.0;
   std::optional<double> csv_rate_hz;
@@ -145,7 +145,7 @@ struct SimulateArgs {
 };
 
 void do_simulate(const SimulateArgs& a) {
-  const machine::Machine mach = machine::load_machine(a.machine, a.set);
+  const machine::Machine mach = resolve_machine(a.machine);
   const dy::AxisModel mx = build_model(a.model, false), my = build_model(a.model, true);
   dy::SimulationOptions so;
   so.sample_rate_hz = a.rate_hz;
@@ -179,7 +179,7 @@ void do_simulate(const SimulateArgs& a) {
     }
     csv.open(a.csv);
     if (!csv) throw Error(fmt::format("cannot write CSV file '{}'", a.csv));
-    csv << "t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,move\n";
+    csv << "t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,line\n";
   }
   std::size_t k = 0;
   auto row = [&](const dy::SimSample& s, double e) {
@@ -187,7 +187,7 @@ void do_simulate(const SimulateArgs& a) {
     if (k++ % decim != 0 || std::isnan(e)) return;
     csv << fmt::format("{:.6f},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6g},{:.6g},{}\n", s.t_s,
                        s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2], s.sim_mm[0], s.sim_mm[1], e,
-                       std::hypot(s.vibration_mm[0], s.vibration_mm[1]), s.move_index);
+                       std::hypot(s.vibration_mm[0], s.vibration_mm[1]), s.line);
   };
 
   const auto t_start = std::chrono::steady_clock::now();
@@ -202,18 +202,22 @@ void do_simulate(const SimulateArgs& a) {
     fig.motion_time_s = m.end_time_s() - first_start;
     stream.push(m);
   };
-  std::vector<plan::PlannedMove> all;  // only when re-timing (needs a backward pass)
+  // The planner times every move as a trapezoid; an S-curve machine profile (or --profile)
+  // is applied by re-timing, which needs the whole plan (backward pass).
+  std::string profile = a.profile;
+  if (profile.empty() && mach.profile == machine::VelocityProfile::scurve7) profile = "scurve7";
+  std::vector<plan::PlannedMove> all;  // only when re-timing
   plan::EstimateOptions eo;
   eo.on_move = [&](const plan::PlannedMove& m) {
-    if (a.profile.empty()) {
+    if (profile.empty()) {
       feed(m);
     } else {
       all.push_back(m);
     }
   };
   const plan::EstimateReport est = plan::estimate_file(a.file, mach, eo);
-  if (!a.profile.empty()) {
-    all = trajectory::retime(all, parse_profile(a.profile), a.jerk.value_or(mach.max_jerk_mm_s3));
+  if (!profile.empty()) {
+    all = trajectory::retime(all, parse_profile(profile), a.jerk.value_or(mach.max_jerk_mm_s3));
     const auto f = trajectory::profile_figures(all);
     for (const auto& m : all) feed(m);
     fig = f;
@@ -234,7 +238,7 @@ void do_simulate(const SimulateArgs& a) {
   json j = report_json(rep, names);
   j["file"] = a.file;
   j["machine"] = mach.name;
-  j["profile"] = a.profile.empty() ? std::string(machine::to_string(mach.profile)) : a.profile;
+  j["profile"] = profile.empty() ? std::string(machine::to_string(mach.profile)) : profile;
   j["model"] = {{"x", {{"natural_frequency_hz", mx.modes()[0].natural_frequency_hz},
                        {"damping_ratio", mx.modes()[0].damping_ratio}}},
                 {"y", {{"natural_frequency_hz", my.modes()[0].natural_frequency_hz},
@@ -246,7 +250,7 @@ void do_simulate(const SimulateArgs& a) {
   j["simulated_time_s"] = stream.stats().end_time_s - stream.stats().start_time_s;
   j["axis_state_updates"] = stream.stats().axis_state_updates;
   j["compute_time_s"] = compute_s;
-  if (!a.profile.empty()) {
+  if (!profile.empty()) {
     j["peak_accel_mm_s2"] = fig.peak_accel_mm_s2;
     j["peak_jerk_mm_s3"] = fig.peak_jerk_mm_s3;
   }
@@ -349,8 +353,7 @@ void register_dynamics(CLI::App& app) {
   auto a = std::make_shared<SimulateArgs>();
   CLI::App* sim = app.add_subcommand("simulate", "Simulate the nozzle through the belt dynamics and measure print quality");
   sim->add_option("file", a->file, "G-code file")->required();
-  sim->add_option("--machine", a->machine, "machine: preset name, .toml or Klipper printer.cfg");
-  sim->add_option("--set", a->set, "override a machine key: section.key=value");
+  add_machine_options(*sim, a->machine);
   sim->add_option("--natural-frequency-hz", a->model.f_hz, "belt natural frequency of X and Y [Hz]");
   sim->add_option("--damping-ratio", a->model.zeta, "belt damping ratio of X and Y (default 0.1)");
   sim->add_option("--natural-frequency-y-hz", a->model.f_hz_y, "Y natural frequency if different [Hz]");

@@ -189,6 +189,7 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
     SimSample s;
     s.t_s = t;
     s.move_index = base + loc.move_index;
+    s.line = mv.line;
     s.holding = loc.holding;
     for (int i = 0; i < 3; ++i) s.cmd_mm[static_cast<std::size_t>(i)] = mv.start_mm[static_cast<std::size_t>(i)] + mv.axes_r[static_cast<std::size_t>(i)] * d[0];
     s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};

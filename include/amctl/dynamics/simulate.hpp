@@ -11,6 +11,7 @@
 // Each mode block is 2x2 and independent, so the cost is O(modes) per axis and step.
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <span>
@@ -48,6 +49,7 @@ struct SimSample {
   /// constant acceleration; during jerk-limited ramps it also contains the ramp's lag term.
   std::array<double, 2> vibration_mm{};
   std::size_t move_index = 0;           ///< move whose geometry applies at t
+  std::uint64_t line = 0;               ///< its G-code line
   bool holding = false;                 ///< commanded tool at rest (gap, before, after)
 };
 
