@@ -37,9 +37,38 @@ json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 struct ModelFlags {
   std::optional<double> f_hz, zeta, mass_kg, stiffness, damping;
   std::optional<double> f_hz_y, zeta_y;
+  std::vector<std::string> modes;  ///< "f_hz,zeta[,participation]" for both axes
 };
 
+dy::Mode parse_mode(const std::string& text) {
+  std::vector<double> v;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t comma = text.find(',', pos);
+    const std::string part = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size()) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw Error(fmt::format("--mode '{}': expected f_hz,damping_ratio[,participation]", text));
+    }
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  if (v.size() < 2 || v.size() > 3) {
+    throw Error(fmt::format("--mode '{}': expected f_hz,damping_ratio[,participation]", text));
+  }
+  return dy::Mode{v[0], v[1], v.size() == 3 ? v[2] : 1.0};
+}
+
 dy::AxisModel build_model(const ModelFlags& m, bool y_axis) {
+  if (!m.modes.empty()) {
+    if (m.f_hz || m.mass_kg) throw Error("--mode replaces the belt flags; give one or the other");
+    std::vector<dy::Mode> modes;
+    for (const auto& t : m.modes) modes.push_back(parse_mode(t));
+    return dy::AxisModel::from_modes(std::move(modes));
+  }
   const auto f = y_axis && m.f_hz_y ? m.f_hz_y : m.f_hz;
   const auto z = y_axis && m.zeta_y ? m.zeta_y : m.zeta;
   if (m.mass_kg || m.stiffness) {
@@ -239,10 +268,15 @@ void do_simulate(const SimulateArgs& a) {
   j["file"] = a.file;
   j["machine"] = mach.name;
   j["profile"] = profile.empty() ? std::string(machine::to_string(mach.profile)) : profile;
-  j["model"] = {{"x", {{"natural_frequency_hz", mx.modes()[0].natural_frequency_hz},
-                       {"damping_ratio", mx.modes()[0].damping_ratio}}},
-                {"y", {{"natural_frequency_hz", my.modes()[0].natural_frequency_hz},
-                       {"damping_ratio", my.modes()[0].damping_ratio}}},
+  auto modes_json = [](const dy::AxisModel& m) {
+    json arr = json::array();
+    for (const auto& md : m.modes()) {
+      arr.push_back({{"natural_frequency_hz", md.natural_frequency_hz},
+                     {"damping_ratio", md.damping_ratio}, {"participation", md.participation}});
+    }
+    return arr;
+  };
+  j["model"] = {{"x", modes_json(mx)}, {"y", modes_json(my)},
                 {"space", a.motor_space ? "motor" : "cartesian"}};
   j["sample_rate_hz"] = a.rate_hz;
   j["moves"] = n_moves;
@@ -361,6 +395,8 @@ void register_dynamics(CLI::App& app) {
   sim->add_option("--mass-kg", a->model.mass_kg, "moving mass [kg] (instead of the frequency)");
   sim->add_option("--stiffness-n-per-m", a->model.stiffness, "belt stiffness [N/m]");
   sim->add_option("--damping-n-s-per-m", a->model.damping, "belt damping [N s/m]");
+  sim->add_option("--mode", a->model.modes,
+                  "a vibration mode 'f_hz,damping_ratio[,participation]' of X and Y (repeatable; replaces the belt flags)");
   sim->add_option("--sample-rate-hz", a->rate_hz, "simulation output rate [Hz] (default 1000)");
   sim->add_option("--csv", a->csv, "write commanded and simulated path to this CSV file");
   sim->add_option("--csv-rate-hz", a->csv_rate_hz, "CSV row rate [Hz]; must divide the sample rate");
