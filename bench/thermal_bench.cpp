@@ -50,3 +50,35 @@ static void BM_SlsMarginsPaperPi(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_SlsMarginsPaperPi)->Unit(benchmark::kMillisecond);
+
+#include "amctl/thermal/fdm_heater.hpp"
+
+static void BM_HotendScenarioMpc(benchmark::State& state) {
+  const HeaterPlantParams p = HeaterPlantParams::hotend();
+  const MpcModel m{};
+  const HeaterScenario sc{};
+  for (auto _ : state) {
+    MpcController mpc(m, MpcOptions{}, p.ambient_c);
+    auto r = run_heater_scenario(p, sc,
+        [&](double t, double y, double f, double q, double dt) { return mpc.update(t, y, f, q, dt); },
+        "mpc");
+    benchmark::DoNotOptimize(r.flow_ripple_k);
+  }
+}
+BENCHMARK(BM_HotendScenarioMpc)->Unit(benchmark::kMillisecond);
+
+static void BM_RelayAutotuneHotend(benchmark::State& state) {
+  for (auto _ : state) {
+    auto r = relay_autotune(HeaterPlant(HeaterPlantParams::hotend()), AutotuneOptions{});
+    benchmark::DoNotOptimize(r.ku);
+  }
+}
+BENCHMARK(BM_RelayAutotuneHotend)->Unit(benchmark::kMillisecond);
+
+static void BM_IdentifyMpcModel(benchmark::State& state) {
+  for (auto _ : state) {
+    auto r = identify_mpc_model(HeaterPlant(HeaterPlantParams::hotend()), IdentifyOptions{});
+    benchmark::DoNotOptimize(r.model.block_capacity_j_k);
+  }
+}
+BENCHMARK(BM_IdentifyMpcModel)->Unit(benchmark::kMillisecond);

@@ -108,6 +108,7 @@ nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
                   {"speed_limited_moves", r.diagnostics.speed_limited_moves},
                   {"extrude_only_moves", r.diagnostics.extrude_only_moves},
                   {"zero_length_moves", r.diagnostics.zero_length_moves}};
+  j["skipped_lines"] = r.skipped_lines;
   j["compute_time_s"] = compute_s;
   return j;
 }
@@ -177,7 +178,6 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
                      explain_unknown(u.name));
   }
   for (const auto& w : r.diagnostics.warnings) o << "  warning: " << w << "\n";
-  if (r.ended_without_newline) o << "  warning: the file does not end with a newline: it may be truncated\n";
   o << fmt::format("  computed in {:.3f} s ({:.1f} M moves/s)\n", compute_s,
                    compute_s > 0 ? static_cast<double>(r.moves) / compute_s / 1e6 : 0.0);
 }
@@ -193,6 +193,13 @@ void run_estimate(const EstimateArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   const plan::EstimateReport r = plan::estimate_file(a.file, m, opt);
   const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (r.ended_without_newline) {
+    std::cerr << fmt::format("amctl: warning: {}:{}: the file does not end with a newline; it may be truncated\n",
+                             r.file, r.lines);
+  }
+  if (r.skipped_lines > 0) {
+    std::cerr << fmt::format("amctl: warning: {}: {} malformed lines skipped (--lenient)\n", r.file, r.skipped_lines);
+  }
   std::size_t m73 = 0;
   if (!a.m73_out.empty()) m73 = plan::write_m73(a.file, a.m73_out, r);
   if (a.brief) {

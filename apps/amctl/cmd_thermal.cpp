@@ -62,6 +62,13 @@ void run_margins(const MarginArgs& a) {
     j["diffusivity_m2_s"] = alpha2;
     j["integrator_residue"] = g.residue(0);
     j["first_modal_pole_rad_s"] = g.pole(1);
+    json poles = json::array(), zeros = json::array();
+    for (int k = 0; k <= std::max(3, a.modes); ++k) poles.push_back(g.pole(k));
+    for (int k = 0; k <= std::max(2, a.modes - 1); ++k) zeros.push_back(g.zero(k));
+    j["poles_rad_s"] = poles;
+    j["zeros_rad_s"] = zeros;
+    j["modal_residues"] = {g.residue(0), g.residue(1)};
+    j["high_frequency_ceiling_1_over_kp"] = 1.0 / a.kp;
     j["margin_on_GN"] = num(margin_gn);
     j["margin_on_G"] = num(margin_g);
     j["margin_on_GN_hamiltonian"] = num(r.margin_on_gn_hamiltonian);
@@ -77,12 +84,14 @@ void run_margins(const MarginArgs& a) {
     j["closed_loop_stable_G"] = r.stable_gm;
     j["closed_loop_max_pole_real_GN"] = r.max_pole_real_gn;
     j["closed_loop_max_pole_real_G"] = r.max_pole_real_gm;
+    j["closed_loop_rhp_poles_G_nyquist"] = r.nyquist_rhp_poles_g;
     j["theorem2_lower_bound"] = r.theorem2_lower_bound;
+    j["theorem2_applicable"] = r.theorem2_applicable;
     j["theorem2_holds"] = r.theorem2_holds;
     j["beta"] = r.beta;
     j["hankel_best_margin"] = r.hankel_best_margin;
     j["paper_claims"] = {{"margin_on_G1", 3.3}, {"margin_on_G", 0.78}};
-    j["units"] = "margins and norms in K m^2 s/W (units of G); kp W/(m^2 K); Ti s";
+    j["units"] = "margins and norms in K m^2/W (units of G); residues K m^2/(W s); kp W/(m^2 K); Ti s";
     std::cout << j.dump(2) << "\n";
   } else {
     fmt::print("SLS powder bed, l = {:.4g} mm, a^2 = {:.5g} m^2/s, PI kp = {:.4g}, Ti = {:.4g} s\n",
@@ -91,12 +100,18 @@ void run_margins(const MarginArgs& a) {
                a.modes, r.hinf_g_minus_gn, r.bound_tail, r.bound_printed_13);
     fmt::print("  margin on G_{}         {:.6e}  sweep | {:.6e} Hamiltonian  (paper: 3.3)\n",
                a.modes, margin_gn, r.margin_on_gn_hamiltonian);
-    fmt::print("  margin on G           {:.6e}  sweep | {:.6e} Hamiltonian on G_{}+D (paper: 0.78)\n",
+    fmt::print("  margin on G           {:.6e}  sweep | {:.6e} Hamiltonian on G_{}+tail pole (paper: 0.78)\n",
                margin_g, r.margin_on_g_hamiltonian, r.hamiltonian_modes_for_g);
-    fmt::print("  Theorem 2: eps_a - delta = {:.6e} <= margin on G: {}\n", r.theorem2_lower_bound,
-               r.theorem2_holds ? "yes" : "NO");
-    fmt::print("  closed loop stable: G_N {} (max Re {:.4g}), G_M {} (max Re {:.4g})\n",
-               r.stable_gn, r.max_pole_real_gn, r.stable_gm, r.max_pole_real_gm);
+    if (r.theorem2_applicable)
+      fmt::print("  Theorem 2: eps_a - delta = {:.6e} <= margin on G: {}\n", r.theorem2_lower_bound,
+                 r.theorem2_holds ? "yes" : "NO");
+    else
+      fmt::print("  Theorem 2: not applicable, delta = {:.6e} >= eps_a = {:.6e}\n",
+                 r.hinf_g_minus_gn, margin_gn);
+    fmt::print("  closed loop stable: G_N {} (max Re {:.4g}), G_M {} (max Re {:.4g}); exact G: {} RHP"
+               " poles by the Nyquist argument\n",
+               r.stable_gn, r.max_pole_real_gn, r.stable_gm, r.max_pole_real_gm,
+               r.nyquist_rhp_poles_g);
     fmt::print("  best achievable margin (Hankel, beta = {:.4g}): {:.6e}\n", r.beta,
                r.hankel_best_margin);
   }
@@ -197,6 +212,7 @@ void run_sls(const SlsArgs& a) {
 
 struct HeaterArgs {
   bool bed = false;
+  double power_w = -1, capacity_j_k = -1, loss_w_k = -1, fan_loss_w_k = -1, sensor_tau_s = -1;
   double target = -1.0;
   double noise = 0.0;
   int cycles = 5;
@@ -207,7 +223,13 @@ struct HeaterArgs {
 
 void run_heater(const HeaterArgs& a) {
   using namespace thermal;
-  const HeaterPlantParams pp = a.bed ? HeaterPlantParams::bed() : HeaterPlantParams::hotend();
+  HeaterPlantParams pp = a.bed ? HeaterPlantParams::bed() : HeaterPlantParams::hotend();
+  if (a.power_w != -1) pp.heater_power_w = a.power_w;
+  if (a.capacity_j_k != -1) pp.block_capacity_j_k = a.capacity_j_k;
+  if (a.loss_w_k != -1) pp.loss_w_k = a.loss_w_k;
+  if (a.fan_loss_w_k != -1) pp.fan_extra_loss_w_k = a.fan_loss_w_k;
+  if (a.sensor_tau_s != -1) pp.sensor_time_constant_s = a.sensor_tau_s;
+  pp.validate();
   HeaterPlantParams noisy = pp;
   require_non_negative("--noise", a.noise);
   noisy.sensor_noise_k = a.noise;
@@ -376,6 +398,11 @@ void register_thermal(CLI::App& app) {
     hc->add_option("--cycles", ha->cycles, "autotune cycles (M303 C)")->capture_default_str();
     hc->add_option("--rule", ha->rule, "classic_zn | some_overshoot | no_overshoot");
     hc->add_option("--csv", ha->csv, "write the traces of all controllers to this CSV");
+    hc->add_option("--power-w", ha->power_w, "plant heater power, W");
+    hc->add_option("--capacity-j-k", ha->capacity_j_k, "plant block heat capacity, J/K");
+    hc->add_option("--loss-w-k", ha->loss_w_k, "plant loss to ambient with the fan off, W/K");
+    hc->add_option("--fan-loss-w-k", ha->fan_loss_w_k, "plant extra loss at 100 % fan, W/K");
+    hc->add_option("--sensor-tau-s", ha->sensor_tau_s, "plant sensor time constant, s");
     hc->add_flag("--json", ha->json_out, "print one JSON object");
     hc->callback([ha] { run_heater(*ha); });
   }

@@ -594,6 +594,7 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
 }
 
 void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sink) {
+  require_numbers(p, line_no);
   if (p.has('F')) {
     double f = p.get('F');
     if (!(f > 0.0)) {
@@ -628,6 +629,17 @@ void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sin
   emit_move(target, feed_mm_s_ * speed_factor_, line_no, sink, false);
 }
 
+void Interpreter::require_numbers(const Params& p, std::uint64_t line_no) const {
+  // A bare letter ("G1 X", a file cut after "E") has no meaning in a move.
+  if (p.bare == 0) return;
+  for (int i = 0; i < 26; ++i) {
+    if ((p.bare >> i) & 1u) {
+      fail(line_no, p.column[static_cast<std::size_t>(i)] + 1,
+           fmt::format("expected a number after '{}' (is the file truncated?)", static_cast<char>('A' + i)));
+    }
+  }
+}
+
 void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm_s,
                             std::uint64_t line_no, EventSink& sink, bool from_arc,
                             bool from_retract) {
@@ -647,9 +659,8 @@ void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm
 
 void Interpreter::do_arc(const Command& cmd, const Params& p, bool clockwise,
                          std::uint64_t line_no, EventSink& sink) {
-  if (!absolute_xyz_) {
-    // Klipper refuses relative arcs; Marlin allows them. Accept: targets are relative.
-  }
+  require_numbers(p, line_no);
+  // Klipper refuses relative arcs; Marlin allows them: targets are then relative.
   if (p.has('F')) {
     double f = p.get('F');
     if (!(f > 0.0)) fail(line_no, p.column['F' - 'A'], fmt::format("feedrate F must be > 0 mm/min, got {}", f));

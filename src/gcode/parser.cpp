@@ -198,6 +198,7 @@ bool parse_line(std::string_view line, Command& out, ParseIssue& issue) {
 
 bool parse_params(const Command& cmd, Params& out, ParseIssue& issue) {
   out.present = 0;
+  out.bare = 0;
   issue = ParseIssue{};
   std::string_view a = cmd.args;
   const std::size_t base = cmd.args_column - 1;
@@ -225,13 +226,16 @@ bool parse_params(const Command& cmd, Params& out, ParseIssue& issue) {
     const char l = upper(c);
     const std::size_t letter_pos = i;
     ++i;
+    const std::size_t after_letter = i;
     while (i < n && (a[i] == ' ' || a[i] == '\t')) ++i;
     double v = 0.0;
     std::size_t used = parse_number(a.substr(i), v);
     if (used == 0) {
-      // A bare letter (e.g. "G28 X") means "flag present" with value 0, as firmware treats it.
-      if (i >= n || is_space(a[i]) || a[i] == '(') {
+      // A bare letter ("G28 X Y") means "flag present" with value 0, as firmware treats it;
+      // a letter glued to a non-number ("Xnan") is an error.
+      if (i >= n || a[i] == '(' || (i > after_letter && is_alpha(a[i]))) {
         v = 0.0;
+        out.bare |= 1u << static_cast<unsigned>(l - 'A');
       } else {
         return set_issue(issue, base + i,
                          fmt::format("expected a number after '{}', found '{}'", l,

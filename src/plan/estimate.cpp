@@ -133,6 +133,7 @@ EstimateReport run(gcode::LineReader& reader, const machine::Machine& machine,
   r.lines = reader.line_number();
   r.bytes = reader.bytes_read();
   r.ended_without_newline = reader.ended_without_newline();
+  r.skipped_lines = interp.skipped_lines();
   r.filament_volume_mm3 = r.filament_mm * area;
   const auto& names = interp.annotations().feature_names;
   r.features.resize(std::max(r.features.size(), names.size()));

@@ -78,6 +78,7 @@ cd PowderBedTf::eval_regular(cd s) const {
 
 double PowderBedTf::pole(int k) const {
   AMCTL_CHECK(k >= 0, "pole index must be >= 0");
+  if (k == 0) return 0.0;
   const double c = double(k) * kPi * a_ / length_m_;
   return -c * c;
 }

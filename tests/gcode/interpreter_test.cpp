@@ -152,6 +152,8 @@ TEST(Interpreter, BadInputNamesFileLineColumn) {
   EXPECT_THROW(run("SET_VELOCITY_LIMIT ACCEL=-1\n"), Error);
   EXPECT_THROW(run("M204 S-100\n"), Error);
   EXPECT_THROW(run("G2 X1 Y1\n"), Error);  // no centre
+  EXPECT_THROW(run("G1 X10 F600\nG1 Y10 E"), Error);  // cut off after a letter
+  EXPECT_NO_THROW(run("G28 X Y\n"));                  // bare letters are flags for G28
 }
 
 TEST(Interpreter, LenientModeCountsSkippedLines) {

@@ -41,7 +41,7 @@ INSTANTIATE_TEST_SUITE_P(Files, KlipperReference,
                                            "syn_dwell", "syn_velocity_limit", "syn_m220_m221",
                                            "syn_arcs"));
 
-TEST(KlipperReference, CorpusBenchiesMatchKlipperWithinAHundredthOfAPercent) {
+TEST(KlipperReference, CorpusBenchiesMatchKlipperWithinATenthOfASecond) {
   const std::filesystem::path corpus = std::filesystem::path(AMCTL_SOURCE_DIR) / "../shared/corpus/gcode";
   if (!std::filesystem::exists(corpus)) GTEST_SKIP() << "no ../shared/corpus beside the clone";
   const auto times = klipper_times();
@@ -51,9 +51,9 @@ TEST(KlipperReference, CorpusBenchiesMatchKlipperWithinAHundredthOfAPercent) {
                           "benchy_prusaslicer-2.6_cr10spro", "benchy_superslicer-2.3_klipper-v0"}) {
       const auto r = estimate_file((corpus / (std::string(f) + ".gcode")).string(), m);
       const double k = times.at(std::string(cfg) + "/" + f).at("motion_s").get<double>();
-      // Klipper's run started from a homed (50, 50, 1) and skipped the file's own G28 move
-      // to the start point: allow 1 s of set-up motion on top of 0.01 %.
-      EXPECT_NEAR(r.total_time_s, k, 1.0 + 1e-4 * k) << cfg << " " << f;
+      // Measured: equal to the millisecond except the PrusaSlicer file (+0.02 s): amctl stops
+      // for its G29 (bed probing), which Klipper does not know and skips.
+      EXPECT_NEAR(r.total_time_s, k, 0.1) << cfg << " " << f;
     }
   }
 }

@@ -50,6 +50,32 @@ TEST(RobustMargin, TheoremTwoLowerBoundHoldsForSeveralTruncations) {
   }
 }
 
+TEST(RobustMargin, TheoremTwoIsNotApplicableWhenTheTruncationErrorExceedsTheMargin) {
+  // 1000 layers: delta_1 = 2 l/(k0 pi^2)(pi^2/6 - 1) = 0.0467 > eps_a = 1.65e-4 (scipy-free:
+  // the closed form of the tail), so the theorem says nothing.
+  const auto r = compute_margins(PowderBedTf(kPa12, 0.1), kPaperPi, 1, -0.01, 20);
+  EXPECT_NEAR(r.hinf_g_minus_gn, 2 * 0.1 / (0.28 * M_PI * M_PI) * (M_PI * M_PI / 6 - 1), 1e-12);
+  EXPECT_FALSE(r.theorem2_applicable);
+  EXPECT_FALSE(r.theorem2_holds);
+  EXPECT_EQ(r.nyquist_rhp_poles_g, 0);
+}
+
+TEST(RobustMargin, BothWaysAgreeOnADeepBedWithManyModes) {
+  // 100 layers: the modal poles come down to the loop crossover; the Hamiltonian on G_60 plus
+  // the one-pole tail must still match the sweep of the exact G (and the sweep of its own
+  // state-space realisation).
+  const PowderBedTf g(kPa12, 10e-3);
+  const auto r = compute_margins(g, kPaperPi, 1, -0.01, 60);
+  EXPECT_NEAR(r.margin_on_g_hamiltonian, r.margin_on_g_sweep, 1e-7 * r.margin_on_g_sweep);
+  EXPECT_NEAR(r.margin_on_gn_hamiltonian, r.margin_on_gn_sweep, 1e-8 * r.margin_on_gn_sweep);
+  const auto t = control_sensitivity(modal_realization(g, 60, TailModel::one_pole), kPaperPi);
+  SweepOptions o;
+  o.w_min_rad_s = 1e-6;
+  o.w_max_rad_s = 1e6;
+  const auto pk = sweep_peak([&](std::complex<double> s) { return t.eval(s); }, o);
+  EXPECT_NEAR(1.0 / pk.peak, r.margin_on_g_sweep, 1e-8 * r.margin_on_g_sweep);
+}
+
 TEST(RobustMargin, MarginCannotExceedOneOverKp) {
   // |C S| -> kp as w -> inf because G -> 0, so 1/kp is a ceiling for every plant and l.
   const PiController pi{0.3, 2.0};
@@ -94,4 +120,29 @@ TEST(RobustMargin, RejectsUnrealisablePi) {
   } catch (const amctl::Error& e) {
     EXPECT_NE(std::string(e.what()).find("Ti"), std::string::npos);
   }
+}
+
+TEST(RobustMargin, NyquistCountFindsTheUnstablePolesOfAThirdOrderLoop) {
+  // L = K/(s + 1)^3: stable for K < 8; for K = 27 the roots of (s + 1)^3 + 27 are
+  // s = -1 - 3 (cube roots of unity): -4 and 0.5 +/- 2.598j, two in the right half plane.
+  auto loop = [](double k) {
+    return [k](std::complex<double> s) { return k / ((s + 1.0) * (s + 1.0) * (s + 1.0)); };
+  };
+  EXPECT_EQ(nyquist_closed_loop_rhp_poles(loop(4.0)), 0);
+  EXPECT_EQ(nyquist_closed_loop_rhp_poles(loop(27.0)), 2);
+  // An open-loop unstable plant 1/(s - 1) with gain 2 is stabilised: Z = N + P = -1 + 1 = 0.
+  auto unstable = [](std::complex<double> s) { return 2.0 / (s - 1.0); };
+  EXPECT_EQ(nyquist_closed_loop_rhp_poles(unstable, 1), 0);
+}
+
+TEST(RobustMargin, PaperPiStabilisesTheExactIrrationalPlant) {
+  const auto r = compute_margins(PowderBedTf(kPa12, 1e-4), kPaperPi, 1);
+  EXPECT_EQ(r.nyquist_rhp_poles_g, 0);
+  // With a pure delay of 100 s the same PI no longer stabilises G (phase lag at the 0.055 rad/s
+  // crossover is 5.5 rad): the count must become positive.
+  const PowderBedTf g(kPa12, 1e-4);
+  auto delayed = [&](std::complex<double> s) {
+    return g.eval(s) * kPaperPi.eval(s) * std::exp(-100.0 * s);
+  };
+  EXPECT_GT(nyquist_closed_loop_rhp_poles(delayed, 0, 1e-9, 1e3), 0);
 }

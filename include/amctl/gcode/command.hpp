@@ -39,6 +39,7 @@ struct Params {
   std::array<double, 26> value{};
   std::array<std::uint32_t, 26> column{};  ///< 1-based column of the letter
   std::uint32_t present = 0;               ///< bit i set if letter 'A'+i was given
+  std::uint32_t bare = 0;                  ///< bit i set if the letter had no number ("G28 X")
 
   [[nodiscard]] bool has(char l) const { return (present >> (l - 'A')) & 1u; }
   [[nodiscard]] double get(char l) const { return value[static_cast<std::size_t>(l - 'A')]; }

@@ -82,6 +82,7 @@ class Interpreter {
   void emit_move(const std::array<double, 4>& target, double speed_mm_s, std::uint64_t line_no,
                  EventSink& sink, bool from_arc, bool from_retract = false);
   void set_feature(std::string_view name);
+  void require_numbers(const Params& p, std::uint64_t line_no) const;
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;

@@ -74,6 +74,7 @@ struct EstimateReport {
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   bool ended_without_newline = false;
+  std::uint64_t skipped_lines = 0;        ///< malformed lines skipped in lenient mode
   std::vector<FeatureTime> features;
   std::vector<LayerTime> layers;
   std::vector<TimedEvent> heater_waits;   ///< waits whose duration is not in total_time_s

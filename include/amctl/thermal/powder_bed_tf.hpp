@@ -5,7 +5,7 @@
 //   G(s) = a cosh(sqrt(s) l/a) / (k0 sqrt(s) sinh(sqrt(s) l/a))             (paper eq. 7)
 //        = r0/s + sum_k r_k/(s - p_k),   r0 = a^2/(k0 l),  r_k = 2 a^2/(k0 l),
 //          p_k = -(k pi a/l)^2                                          (corrected eq. 10)
-// Units: s in rad/s, G in K m^2 s/W (i.e. K per W/m^2 per second of Laplace variable).
+// Units: s in 1/s, G in K m^2/W (kelvin per W/m^2); residues in K m^2/(W s).
 // See docs/thermal.md for the derivation and where the printed equations differ.
 #include <complex>
 #include <vector>
@@ -31,7 +31,7 @@ struct PowderMaterial {
 /// One point of a Bode plot.
 struct BodePoint {
   double omega_rad_s = 0.0;
-  double magnitude = 0.0;  ///< |G(j omega)| in K m^2 s / W
+  double magnitude = 0.0;  ///< |G(j omega)| in K m^2/W
   double magnitude_db = 0.0;
   double phase_deg = 0.0;  ///< unwrapped along the grid
 };

@@ -29,11 +29,18 @@ struct StateSpace {
   [[nodiscard]] std::complex<double> eval(std::complex<double> s) const;
 };
 
-/// Modal realisation of G_N (diagonal A = poles, B = 1, C = residues); with
-/// `static_correction` the feedthrough D = (G - G_N)(0) is added, which matches G exactly at
-/// s = 0 (residualisation of the truncated modes).
+/// How the modes beyond N are represented in a modal realisation.
+enum class TailModel {
+  none,         ///< G_N itself
+  static_gain,  ///< D = (G - G_N)(0): exact at s = 0, error ~ |s| T2 (residualisation)
+  one_pole,     ///< a/(s + b) matching the tail's value T0 and slope -T2 at s = 0: error ~ |s|^2
+};
+
+/// Modal realisation of G_N (diagonal A = poles, B = 1, C = residues), plus the tail model.
+/// T0 = sum_{k>N} r_k/|p_k|, T2 = sum_{k>N} r_k/p_k^2; the one-pole tail has b = T0/T2 (a mean
+/// of the omitted |p_k|, so >= |p_{N+1}|) and a = T0 b.
 [[nodiscard]] StateSpace modal_realization(const PowderBedTf& g, int modes,
-                                           bool static_correction = false);
+                                           TailModel tail = TailModel::none);
 
 /// Closed loop from reference w to control u, T = C (1 + G C)^-1, for a plant in state space
 /// (any D with 1 + kp D != 0) under the PI controller.
@@ -64,6 +71,16 @@ PeakResult sweep_peak(F&& f, const SweepOptions& opt);
 /// A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
 [[nodiscard]] double hinf_norm_hamiltonian(const StateSpace& sys, double rel_tol = 1e-9);
 
+/// Number of closed-loop poles of 1/(1 + L) in the closed right half plane by the argument
+/// principle (Nyquist): the winding of 1 + L(s) along the D-contour (the imaginary axis from
+/// -j R to j R, indented to the right around s = 0 with radius eps, closed by the arc of radius
+/// R), tracked with adaptive subdivision so no phase step exceeds 0.3 rad. `open_loop_rhp_poles`
+/// is P, the poles of L strictly inside the indented contour. Works for irrational L such as
+/// the exact G C. Returns Z = N_clockwise + P.
+template <class F>
+int nyquist_closed_loop_rhp_poles(F&& loop, int open_loop_rhp_poles = 0, double eps = 1e-9,
+                                  double big_r = 1e12);
+
 /// Everything the sls-margins command reports.
 struct MarginReport {
   double length_m = 0.0;
@@ -86,9 +103,11 @@ struct MarginReport {
   double max_pole_real_gm = 0.0;
   bool stable_gn = false;
   bool stable_gm = false;
+  int nyquist_rhp_poles_g = -1;  ///< closed-loop RHP poles of the exact G loop (argument principle)
   // Theorem 2: eps_a - delta (with delta = ||G - G_N||_inf) must not exceed the margin on G.
   double theorem2_lower_bound = 0.0;
-  bool theorem2_holds = false;
+  bool theorem2_applicable = false;  ///< delta < eps_a, the hypothesis of Theorem 2
+  bool theorem2_holds = false;       ///< applicable and margin on G >= eps_a - delta
   // Best achievable margin (Glover): Hankel singular value of (G_u^beta)~, r0/(2|beta|).
   double beta = 0.0;
   double hankel_best_margin = 0.0;
