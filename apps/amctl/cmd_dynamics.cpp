@@ -24,6 +24,7 @@
 #include "amctl/trajectory/retime.hpp"
 #include "amctl/trajectory/sampling.hpp"
 #include "commands.hpp"
+#include "machine_cli.hpp"
 
 namespace amctl::cli {
 namespace {
@@ -36,9 +37,38 @@ json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 struct ModelFlags {
   std::optional<double> f_hz, zeta, mass_kg, stiffness, damping;
   std::optional<double> f_hz_y, zeta_y;
+  std::vector<std::string> modes;  ///< "f_hz,zeta[,participation]" for both axes
 };
 
+dy::Mode parse_mode(const std::string& text) {
+  std::vector<double> v;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t comma = text.find(',', pos);
+    const std::string part = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size()) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw Error(fmt::format("--mode '{}': expected f_hz,damping_ratio[,participation]", text));
+    }
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  if (v.size() < 2 || v.size() > 3) {
+    throw Error(fmt::format("--mode '{}': expected f_hz,damping_ratio[,participation]", text));
+  }
+  return dy::Mode{v[0], v[1], v.size() == 3 ? v[2] : 1.0};
+}
+
 dy::AxisModel build_model(const ModelFlags& m, bool y_axis) {
+  if (!m.modes.empty()) {
+    if (m.f_hz || m.mass_kg) throw Error("--mode replaces the belt flags; give one or the other");
+    std::vector<dy::Mode> modes;
+    for (const auto& t : m.modes) modes.push_back(parse_mode(t));
+    return dy::AxisModel::from_modes(std::move(modes));
+  }
   const auto f = y_axis && m.f_hz_y ? m.f_hz_y : m.f_hz;
   const auto z = y_axis && m.zeta_y ? m.zeta_y : m.zeta;
   if (m.mass_kg || m.stiffness) {
@@ -85,7 +115,16 @@ json report_json(const dy::QualityReport& r, const std::vector<std::string>& fea
   j["final_residual_vibration_mm"] = r.final_residual_vibration_mm;
   j["ringing_wavelength_mm"] = num(r.ringing_wavelength_mm);
   j["ringing_amplitude_mm"] = r.ringing_amplitude_mm;
-  j["corners"] = r.corners.size();
+  j["corners"] = r.corner_count;
+  json corners = json::array();
+  for (const auto& c : r.corners) {
+    corners.push_back({{"line", c.line}, {"angle_deg", c.angle_deg},
+                       {"junction_speed_mm_s", c.junction_speed_mm_s},
+                       {"overshoot_mm", c.overshoot_mm},
+                       {"ringing_wavelength_mm", num(c.ringing_wavelength_mm)},
+                       {"ringing_amplitude_mm", c.ringing_amplitude_mm}});
+  }
+  j["worst_corners"] = corners;
   json worst = json::array();
   for (const auto& w : r.worst) {
     worst.push_back({{"line", w.line}, {"layer", w.layer}, {"feature", w.feature < feature_names.size() ? json(feature_names[w.feature]) : json(w.feature)},
@@ -119,8 +158,7 @@ plan::VelocityProfile parse_profile(const std::string& s) {
 // ------------------------------------------------------------------------------ simulate
 struct SimulateArgs {
   std::string file;
-  std::string machine;
-  std::vector<std::string> set;
+  MachineOptions machine;
   ModelFlags model;
   double rate_hz = 1000.0;
   std::optional<double> csv_rate_hz;
@@ -136,53 +174,27 @@ struct SimulateArgs {
 };
 
 void do_simulate(const SimulateArgs& a) {
-  const machine::Machine mach = machine::load_machine(a.machine, a.set);
-  std::vector<plan::PlannedMove> moves;
-  plan::EstimateOptions eo;
-  eo.on_move = [&](const plan::PlannedMove& m) { moves.push_back(m); };
-  const plan::EstimateReport est = plan::estimate_file(a.file, mach, eo);
-  if (!a.profile.empty()) {
-    moves = trajectory::retime(moves, parse_profile(a.profile), a.jerk.value_or(mach.max_jerk_mm_s3));
-  }
-  if (moves.empty()) throw Error(fmt::format("{}: no moves to simulate", a.file));
-  // Feature names: estimate drops features without moves, keeping the order of the rest.
-  std::vector<std::string> names;
-  {
-    std::set<std::uint16_t> used;
-    for (const auto& m : moves) used.insert(m.feature);
-    std::size_t k = 0;
-    for (std::uint16_t f : used) {
-      if (names.size() <= f) names.resize(f + 1u);
-      names[f] = k < est.features.size() ? est.features[k].name : fmt::format("{}", f);
-      ++k;
-    }
-  }
+  const machine::Machine mach = resolve_machine(a.machine);
   const dy::AxisModel mx = build_model(a.model, false), my = build_model(a.model, true);
   dy::SimulationOptions so;
   so.sample_rate_hz = a.rate_hz;
   so.kinematics = mach.kinematics;
   so.motor_space = a.motor_space;
+  so.vibration_per_sample = !a.csv.empty();
+  dy::require_above_nyquist(a.rate_hz, {&mx, &my});
   dy::MetricsOptions mo;
   mo.worst_count = a.worst;
   mo.corner_window_s = a.corner_window_s;
+  mo.keep_per_move = false;  // bounded memory
   if (a.t_begin) mo.t_begin_s = *a.t_begin;
   if (a.t_end) mo.t_end_s = *a.t_end;
-  if (a.layer_begin || a.layer_end) {
-    const int l0 = a.layer_begin.value_or(std::numeric_limits<int>::min());
-    const int l1 = a.layer_end.value_or(std::numeric_limits<int>::max());
-    double tb = std::numeric_limits<double>::infinity(), te = -tb;
-    for (const auto& m : moves) {
-      if (m.layer >= l0 && m.layer <= l1) {
-        tb = std::min(tb, m.start_time_s);
-        te = std::max(te, m.end_time_s());
-      }
-    }
-    if (!(te >= tb)) throw Error(fmt::format("empty range: no moves in layers {}..{}", l0, l1));
-    mo.t_begin_s = std::max(mo.t_begin_s, tb);
-    mo.t_end_s = std::min(mo.t_end_s, te);
-  }
+  if (a.layer_begin) mo.layer_begin = *a.layer_begin;
+  if (a.layer_end) mo.layer_end = *a.layer_end;
   if (mo.t_end_s < mo.t_begin_s) {
     throw Error(fmt::format("empty range: --t-end {} is before --t-begin {}", mo.t_end_s, mo.t_begin_s));
+  }
+  if (mo.layer_end < mo.layer_begin) {
+    throw Error(fmt::format("empty range: --layer-end {} is before --layer-begin {}", mo.layer_end, mo.layer_begin));
   }
   std::ofstream csv;
   std::size_t decim = 1;
@@ -204,46 +216,98 @@ void do_simulate(const SimulateArgs& a) {
     if (k++ % decim != 0 || std::isnan(e)) return;
     csv << fmt::format("{:.6f},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6g},{:.6g},{}\n", s.t_s,
                        s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2], s.sim_mm[0], s.sim_mm[1], e,
-                       std::hypot(s.vibration_mm[0], s.vibration_mm[1]), moves[s.move_index].line);
+                       std::hypot(s.vibration_mm[0], s.vibration_mm[1]), s.line);
   };
-  const SimRun r = run_simulation(moves, mx, my, so, mo, row);
-  json j = report_json(r.report, names);
+
+  const auto t_start = std::chrono::steady_clock::now();
+  dy::StreamingSimulation stream(mx, my, so, mo, row);
+  std::set<std::uint16_t> used_features;
+  std::size_t n_moves = 0;
+  trajectory::ProfileFigures fig;
+  double first_start = 0.0;
+  auto feed = [&](const plan::PlannedMove& m) {
+    if (n_moves++ == 0) first_start = m.start_time_s;
+    used_features.insert(m.feature);
+    fig.motion_time_s = m.end_time_s() - first_start;
+    stream.push(m);
+  };
+  // The planner times every move as a trapezoid; an S-curve machine profile (or --profile)
+  // is applied by re-timing, which needs the whole plan (backward pass).
+  std::string profile = a.profile;
+  if (profile.empty() && mach.profile == machine::VelocityProfile::scurve7) profile = "scurve7";
+  std::vector<plan::PlannedMove> all;  // only when re-timing
+  plan::EstimateOptions eo;
+  eo.on_move = [&](const plan::PlannedMove& m) {
+    if (profile.empty()) {
+      feed(m);
+    } else {
+      all.push_back(m);
+    }
+  };
+  const plan::EstimateReport est = plan::estimate_file(a.file, mach, eo);
+  if (!profile.empty()) {
+    all = trajectory::retime(all, parse_profile(profile), a.jerk.value_or(mach.max_jerk_mm_s3));
+    const auto f = trajectory::profile_figures(all);
+    for (const auto& m : all) feed(m);
+    fig = f;
+  }
+  if (n_moves == 0) throw Error(fmt::format("{}: no moves to simulate", a.file));
+  const dy::QualityReport rep = stream.finish();
+  const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  // Feature names: estimate drops features without moves, keeping the order of the rest.
+  std::vector<std::string> names;
+  {
+    std::size_t i = 0;
+    for (std::uint16_t f : used_features) {
+      if (names.size() <= f) names.resize(f + 1u);
+      names[f] = i < est.features.size() ? est.features[i].name : fmt::format("{}", f);
+      ++i;
+    }
+  }
+  json j = report_json(rep, names);
   j["file"] = a.file;
   j["machine"] = mach.name;
-  j["profile"] = a.profile.empty() ? std::string(machine::to_string(mach.profile)) : a.profile;
-  j["model"] = {{"x", {{"natural_frequency_hz", mx.modes()[0].natural_frequency_hz},
-                       {"damping_ratio", mx.modes()[0].damping_ratio}}},
-                {"y", {{"natural_frequency_hz", my.modes()[0].natural_frequency_hz},
-                       {"damping_ratio", my.modes()[0].damping_ratio}}},
+  j["profile"] = profile.empty() ? std::string(machine::to_string(mach.profile)) : profile;
+  auto modes_json = [](const dy::AxisModel& m) {
+    json arr = json::array();
+    for (const auto& md : m.modes()) {
+      arr.push_back({{"natural_frequency_hz", md.natural_frequency_hz},
+                     {"damping_ratio", md.damping_ratio}, {"participation", md.participation}});
+    }
+    return arr;
+  };
+  j["model"] = {{"x", modes_json(mx)}, {"y", modes_json(my)},
                 {"space", a.motor_space ? "motor" : "cartesian"}};
   j["sample_rate_hz"] = a.rate_hz;
-  j["moves"] = moves.size();
-  j["simulated_time_s"] = r.stats.end_time_s - r.stats.start_time_s;
-  j["axis_state_updates"] = r.stats.axis_state_updates;
-  j["compute_time_s"] = r.compute_s;
-  const auto fig = trajectory::profile_figures(moves);
-  j["peak_accel_mm_s2"] = fig.peak_accel_mm_s2;
-  j["peak_jerk_mm_s3"] = fig.peak_jerk_mm_s3;
+  j["moves"] = n_moves;
+  j["max_window_moves"] = stream.max_window_moves();
+  j["simulated_time_s"] = stream.stats().end_time_s - stream.stats().start_time_s;
+  j["axis_state_updates"] = stream.stats().axis_state_updates;
+  j["compute_time_s"] = compute_s;
+  if (!profile.empty()) {
+    j["peak_accel_mm_s2"] = fig.peak_accel_mm_s2;
+    j["peak_jerk_mm_s3"] = fig.peak_jerk_mm_s3;
+  }
   if (a.json_out) {
     std::cout << j.dump(2) << "\n";
     return;
   }
-  std::cout << fmt::format("{}: {} moves, motion {:.3f} s, profile {}\n", a.file, moves.size(),
-                           r.report.motion_time_s, j["profile"].get<std::string>());
+  std::cout << fmt::format("{}: {} moves, motion {:.3f} s, profile {}\n", a.file, n_moves,
+                           rep.motion_time_s, j["profile"].get<std::string>());
   std::cout << fmt::format("contour error: max {:.4f} mm, RMS {:.4f} mm (printing: max {:.4f}, RMS {:.4f})\n",
-                           r.report.max_contour_error_mm, r.report.rms_contour_error_mm,
-                           r.report.max_contour_error_printing_mm, r.report.rms_contour_error_printing_mm);
+                           rep.max_contour_error_mm, rep.rms_contour_error_mm,
+                           rep.max_contour_error_printing_mm, rep.rms_contour_error_printing_mm);
   std::cout << fmt::format("corners {}: max overshoot {:.4f} mm; ringing wavelength {:.3f} mm, amplitude {:.4f} mm\n",
-                           r.report.corners.size(), r.report.max_corner_overshoot_mm,
-                           r.report.ringing_wavelength_mm, r.report.ringing_amplitude_mm);
+                           rep.corner_count, rep.max_corner_overshoot_mm, rep.ringing_wavelength_mm,
+                           rep.ringing_amplitude_mm);
   std::cout << fmt::format("residual vibration: max {:.4f} mm, at the end {:.4g} mm\n",
-                           r.report.max_residual_vibration_mm, r.report.final_residual_vibration_mm);
+                           rep.max_residual_vibration_mm, rep.final_residual_vibration_mm);
   std::cout << "worst places:\n";
-  for (const auto& w : r.report.worst) {
+  for (const auto& w : rep.worst) {
     std::cout << fmt::format("  line {:>8}  layer {:>4}  t {:9.3f} s  ({:8.3f}, {:8.3f})  {:.4f} mm\n",
                              w.line, w.layer, w.t_s, w.x_mm, w.y_mm, w.contour_error_mm);
   }
-  std::cout << fmt::format("simulated {} samples in {:.3f} s\n", r.report.samples, r.compute_s);
+  std::cout << fmt::format("simulated {} samples in {:.3f} s (plan included)\n", rep.samples, compute_s);
 }
 
 // ------------------------------------------------------------------------------ sweep
@@ -323,8 +387,7 @@ void register_dynamics(CLI::App& app) {
   auto a = std::make_shared<SimulateArgs>();
   CLI::App* sim = app.add_subcommand("simulate", "Simulate the nozzle through the belt dynamics and measure print quality");
   sim->add_option("file", a->file, "G-code file")->required();
-  sim->add_option("--machine", a->machine, "machine: preset name, .toml or Klipper printer.cfg");
-  sim->add_option("--set", a->set, "override a machine key: section.key=value");
+  add_machine_options(*sim, a->machine);
   sim->add_option("--natural-frequency-hz", a->model.f_hz, "belt natural frequency of X and Y [Hz]");
   sim->add_option("--damping-ratio", a->model.zeta, "belt damping ratio of X and Y (default 0.1)");
   sim->add_option("--natural-frequency-y-hz", a->model.f_hz_y, "Y natural frequency if different [Hz]");
@@ -332,6 +395,8 @@ void register_dynamics(CLI::App& app) {
   sim->add_option("--mass-kg", a->model.mass_kg, "moving mass [kg] (instead of the frequency)");
   sim->add_option("--stiffness-n-per-m", a->model.stiffness, "belt stiffness [N/m]");
   sim->add_option("--damping-n-s-per-m", a->model.damping, "belt damping [N s/m]");
+  sim->add_option("--mode", a->model.modes,
+                  "a vibration mode 'f_hz,damping_ratio[,participation]' of X and Y (repeatable; replaces the belt flags)");
   sim->add_option("--sample-rate-hz", a->rate_hz, "simulation output rate [Hz] (default 1000)");
   sim->add_option("--csv", a->csv, "write commanded and simulated path to this CSV file");
   sim->add_option("--csv-rate-hz", a->csv_rate_hz, "CSV row rate [Hz]; must divide the sample rate");

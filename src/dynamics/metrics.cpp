@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "amctl/core/error.hpp"
+
 namespace amctl::dynamics {
 
 namespace {
@@ -15,15 +17,16 @@ struct Seg {
 Seg xy_segment(const plan::PlannedMove& m) {
   const double ax = m.start_mm[0], ay = m.start_mm[1];
   const double bx = ax + m.axes_r[0] * m.distance_mm, by = ay + m.axes_r[1] * m.distance_mm;
-  return {ax, ay, bx, by, std::hypot(bx - ax, by - ay)};
+  return {ax, ay, bx, by, std::sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay))};
 }
 
-double point_segment_distance(const Seg& s, double x, double y) {
+double point_segment_distance2(const Seg& s, double x, double y) {
   const double dx = s.bx - s.ax, dy = s.by - s.ay;
   const double l2 = dx * dx + dy * dy;
   double u = 0.0;
   if (l2 > 0.0) u = std::clamp(((x - s.ax) * dx + (y - s.ay) * dy) / l2, 0.0, 1.0);
-  return std::hypot(x - (s.ax + u * dx), y - (s.ay + u * dy));
+  const double ex = x - (s.ax + u * dx), ey = y - (s.ay + u * dy);
+  return ex * ex + ey * ey;  // squared
 }
 
 void accumulate(GroupMetrics& g, const MoveMetrics& m) {
@@ -44,66 +47,117 @@ double distance_to_path(std::span<const plan::PlannedMove> moves, std::size_t ce
   if (moves.empty()) return 0.0;
   center = std::min(center, moves.size() - 1);
   Seg s = xy_segment(moves[center]);
-  double best = point_segment_distance(s, x, y);
+  double best = point_segment_distance2(s, x, y);
   constexpr std::size_t kMaxMoves = 64;
   double along = 0.0;
   for (std::size_t k = 1; k <= kMaxMoves && k <= center; ++k) {
     const Seg sk = xy_segment(moves[center - k]);
-    best = std::min(best, point_segment_distance(sk, x, y));
+    best = std::min(best, point_segment_distance2(sk, x, y));
     along += sk.len;
     if (along > radius) break;
   }
   along = 0.0;
   for (std::size_t k = 1; k <= kMaxMoves && center + k < moves.size(); ++k) {
     const Seg sk = xy_segment(moves[center + k]);
-    best = std::min(best, point_segment_distance(sk, x, y));
+    best = std::min(best, point_segment_distance2(sk, x, y));
     along += sk.len;
     if (along > radius) break;
   }
-  return best;
+  return std::sqrt(best);
 }
 
+QualityMeter::QualityMeter(MetricsOptions options) : opt_(options) { ring_.reserve(1024); }
+
 QualityMeter::QualityMeter(std::span<const plan::PlannedMove> moves, MetricsOptions options)
-    : moves_(moves), opt_(options) {
-  const std::size_t n = moves.size();
-  rep_.per_move.resize(n);
-  corner_angle_.assign(n, -1.0);
-  next_xy_.assign(n, n);
-  std::size_t next = n;
-  for (std::size_t i = n; i-- > 0;) {
-    next_xy_[i] = next;
-    const Seg si = xy_segment(moves[i]);
-    if (si.len > 1e-9) {
-      if (next < n) {
-        const Seg sj = xy_segment(moves[next]);
-        const double c = ((si.bx - si.ax) * (sj.bx - sj.ax) + (si.by - si.ay) * (sj.by - sj.ay)) /
-                         (si.len * sj.len);
-        const double ang = std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
-        if (ang > opt_.corner_angle_deg) corner_angle_[i] = ang;
-      }
-      next = i;
+    : QualityMeter(options) {
+  set_window(moves, 0);
+}
+
+void QualityMeter::set_window(std::span<const plan::PlannedMove> window, std::size_t base) {
+  win_ = window;
+  base_ = base;
+  if (window.empty()) return;
+  if (!have_start_) {
+    have_start_ = true;
+    first_start_s_ = window.front().start_time_s;
+    last_end_s_ = first_start_s_;
+  }
+  for (const auto& m : window) last_end_s_ = std::max(last_end_s_, m.end_time_s());
+}
+
+const plan::PlannedMove& QualityMeter::move(std::size_t g) const {
+  AMCTL_CHECK(g >= base_ && g - base_ < win_.size(), "move index outside the metrics window");
+  return win_[g - base_];
+}
+
+QualityMeter::OpenMove& QualityMeter::open(std::size_t g) {
+  if (open_.empty()) open_base_ = std::max(open_base_, g);
+  AMCTL_CHECK(g >= open_base_, "per-move record already folded");
+  while (open_base_ + open_.size() <= g) {
+    const std::size_t i = open_base_ + open_.size();
+    OpenMove o;
+    if (i >= base_ && i - base_ < win_.size()) {
+      const plan::PlannedMove& m = win_[i - base_];
+      o.line = m.line;
+      o.layer = m.layer;
+      o.feature = m.feature;
     }
+    open_.push_back(o);
   }
-  if (n > 0) {
-    double end = moves.front().start_time_s;
-    for (const auto& m : moves) end = std::max(end, m.end_time_s());
-    rep_.motion_time_s = end - moves.front().start_time_s;
+  return open_[g - open_base_];
+}
+
+void QualityMeter::finalize_before(std::size_t g) {
+  while (!open_.empty() && open_base_ < g) {
+    const OpenMove& o = open_.front();
+    const std::size_t i = open_base_;
+    if (o.m.samples > 0) {
+      accumulate(rep_.per_layer[o.layer], o.m);
+      accumulate(rep_.per_feature[o.feature], o.m);
+      const WorstPlace w{o.line, i, o.layer, o.feature, o.m.worst_t_s, o.m.worst_x_mm,
+                         o.m.worst_y_mm, o.m.max_contour_error_mm};
+      auto less_bad = [](const WorstPlace& a, const WorstPlace& b) {
+        return a.contour_error_mm > b.contour_error_mm;  // min-heap on the error
+      };
+      if (opt_.worst_count > 0) {
+        if (worst_heap_.size() < opt_.worst_count) {
+          worst_heap_.push_back(w);
+          std::push_heap(worst_heap_.begin(), worst_heap_.end(), less_bad);
+        } else if (w.contour_error_mm > worst_heap_.front().contour_error_mm) {
+          std::pop_heap(worst_heap_.begin(), worst_heap_.end(), less_bad);
+          worst_heap_.back() = w;
+          std::push_heap(worst_heap_.begin(), worst_heap_.end(), less_bad);
+        }
+      }
+    }
+    if (opt_.keep_per_move) {
+      if (rep_.per_move.size() <= i) rep_.per_move.resize(i + 1);
+      rep_.per_move[i] = o.m;
+    }
+    open_.pop_front();
+    ++open_base_;
   }
-  ring_.reserve(1024);
+  if (open_.empty()) open_base_ = std::max(open_base_, g);
+}
+
+bool QualityMeter::in_range(const SimSample& s) const {
+  if (s.t_s < opt_.t_begin_s || s.t_s > opt_.t_end_s) return false;
+  const std::int32_t layer = move(s.move_index).layer;
+  return layer >= opt_.layer_begin && layer <= opt_.layer_end;
 }
 
 void QualityMeter::close_corner() {
   if (!corner_open_) return;
   corner_open_ = false;
   // Local maxima of the deviation across the outgoing wall.
-  std::vector<std::size_t> maxima;
-  for (std::size_t k = 1; k + 1 < ring_.size(); ++k) {
+  std::size_t a = 0, b = 0, found = 0;
+  for (std::size_t k = 1; k + 1 < ring_.size() && found < 2; ++k) {
     if (ring_[k].dev_mm > ring_[k - 1].dev_mm && ring_[k].dev_mm >= ring_[k + 1].dev_mm) {
-      maxima.push_back(k);
+      (found == 0 ? a : b) = k;
+      ++found;
     }
   }
-  if (maxima.size() >= 2) {
-    const std::size_t a = maxima[0], b = maxima[1];
+  if (found == 2) {
     double lo = ring_[a].dev_mm;
     for (std::size_t k = a; k <= b; ++k) lo = std::min(lo, ring_[k].dev_mm);
     const double amp = 0.5 * (ring_[a].dev_mm - lo);
@@ -113,32 +167,86 @@ void QualityMeter::close_corner() {
       corner_res_.ringing_period_s = ring_[b].t_s - ring_[a].t_s;
     }
   }
-  rep_.corners.push_back(corner_res_);
+  ++rep_.corner_count;
+  if (opt_.keep_per_move) {
+    rep_.corners.push_back(corner_res_);
+  } else {
+    // keep the worst_count corners by overshoot; wavelengths into the histogram
+    if (std::isfinite(corner_res_.ringing_wavelength_mm)) {
+      const auto bin = static_cast<std::size_t>(std::max(0.0, corner_res_.ringing_wavelength_mm) / 0.001);
+      if (wavelength_hist_.size() <= bin) wavelength_hist_.resize(std::min<std::size_t>(bin + 1, 1000000));
+      ++wavelength_hist_[std::min<std::size_t>(bin, wavelength_hist_.size() - 1)];
+    }
+    rep_.ringing_amplitude_mm = std::max(rep_.ringing_amplitude_mm, corner_res_.ringing_amplitude_mm);
+    auto by_overshoot = [](const CornerResult& a, const CornerResult& b) {
+      return a.overshoot_mm > b.overshoot_mm;
+    };
+    if (rep_.corners.size() < opt_.worst_count) {
+      rep_.corners.push_back(corner_res_);
+      std::push_heap(rep_.corners.begin(), rep_.corners.end(), by_overshoot);
+    } else if (!rep_.corners.empty() && corner_res_.overshoot_mm > rep_.corners.front().overshoot_mm) {
+      std::pop_heap(rep_.corners.begin(), rep_.corners.end(), by_overshoot);
+      rep_.corners.back() = corner_res_;
+      std::push_heap(rep_.corners.begin(), rep_.corners.end(), by_overshoot);
+    }
+  }
   ring_.clear();
 }
 
-double QualityMeter::add(const SimSample& s) {
-  if (s.t_s < opt_.t_begin_s || s.t_s > opt_.t_end_s || moves_.empty()) {
-    return std::numeric_limits<double>::quiet_NaN();
+void QualityMeter::open_corner_after(std::size_t i, double) {
+  const plan::PlannedMove& mi = move(i);
+  const Seg si = xy_segment(mi);
+  if (si.len <= 1e-9) return;
+  const std::size_t end = base_ + win_.size();
+  for (std::size_t j = i + 1; j < end && j <= i + 64; ++j) {
+    const Seg sj = xy_segment(win_[j - base_]);
+    if (sj.len <= 1e-9) continue;
+    const double c = ((si.bx - si.ax) * (sj.bx - sj.ax) + (si.by - si.ay) * (sj.by - sj.ay)) /
+                     (si.len * sj.len);
+    const double ang = std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
+    if (ang <= opt_.corner_angle_deg) return;
+    close_corner();
+    corner_ = Corner{};
+    corner_.angle_deg = ang;
+    corner_.p[0] = si.bx;
+    corner_.p[1] = si.by;
+    corner_.din[0] = (si.bx - si.ax) / si.len;
+    corner_.din[1] = (si.by - si.ay) / si.len;
+    corner_.dout[0] = (sj.bx - sj.ax) / sj.len;
+    corner_.dout[1] = (sj.by - sj.ay) / sj.len;
+    corner_res_ = CornerResult{};
+    corner_res_.move_index = i;
+    corner_res_.line = mi.line;
+    corner_res_.angle_deg = ang;
+    corner_res_.junction_speed_mm_s = mi.end_v_mm_s;
+    corner_open_ = true;
+    corner_t0_ = mi.end_time_s();
+    return;
   }
+}
+
+double QualityMeter::add(const SimSample& s) {
+  if (win_.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t g = s.move_index;
+  finalize_before(g);
+  next_end_ = std::max(next_end_, base_);
+  if (!in_range(s)) return std::numeric_limits<double>::quiet_NaN();
   ++rep_.samples;
-  const std::size_t mi = std::min(s.move_index, moves_.size() - 1);
-  const double lag = std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]);
-  const double d = distance_to_path(moves_, mi, s.sim_mm[0], s.sim_mm[1], 2.0 * lag + 0.5);
-  MoveMetrics& mm = rep_.per_move[mi];
-  if (d > mm.max_contour_error_mm || mm.samples == 0) {
+  const double lx = s.sim_mm[0] - s.cmd_mm[0], ly = s.sim_mm[1] - s.cmd_mm[1];
+  const double lag = std::sqrt(lx * lx + ly * ly);
+  const double d = distance_to_path(win_, g - base_, s.sim_mm[0], s.sim_mm[1], 2.0 * lag + 0.05);
+  MoveMetrics& mm = open(g).m;
+  if (d >= mm.max_contour_error_mm || mm.samples == 0) {
     mm.max_contour_error_mm = std::max(mm.max_contour_error_mm, d);
-    if (d >= mm.max_contour_error_mm) {
-      mm.worst_t_s = s.t_s;
-      mm.worst_x_mm = s.sim_mm[0];
-      mm.worst_y_mm = s.sim_mm[1];
-    }
+    mm.worst_t_s = s.t_s;
+    mm.worst_x_mm = s.sim_mm[0];
+    mm.worst_y_mm = s.sim_mm[1];
   }
   mm.sum_sq_contour_error_mm2 += d * d;
   ++mm.samples;
   rep_.max_contour_error_mm = std::max(rep_.max_contour_error_mm, d);
   sum_sq_ += d * d;
-  if (!s.holding && moves_[mi].is_extruding()) {
+  if (!s.holding && move(g).is_extruding()) {
     rep_.max_contour_error_printing_mm = std::max(rep_.max_contour_error_printing_mm, d);
     sum_sq_print_ += d * d;
     ++n_print_;
@@ -146,35 +254,16 @@ double QualityMeter::add(const SimSample& s) {
   const double vib = std::hypot(s.vibration_mm[0], s.vibration_mm[1]);
   last_vib_ = vib;
 
-  // Moves that ended by now: residual vibration, and open the corner window they end in.
-  while (next_end_ < moves_.size() && s.t_s >= moves_[next_end_].end_time_s() - 1e-12) {
+  // Moves that ended by now: residual vibration (unless fed exactly), corners they end in.
+  const std::size_t end = base_ + win_.size();
+  while (next_end_ < end && s.t_s >= win_[next_end_ - base_].end_time_s() - 1e-12) {
     const std::size_t i = next_end_++;
-    if (!exact_ends_) {
-      rep_.per_move[i].residual_vibration_mm = vib;
+    if (!exact_ends_ && i >= open_base_) {
+      open(i).m.residual_vibration_mm = vib;
       rep_.max_residual_vibration_mm = std::max(rep_.max_residual_vibration_mm, vib);
-      if (i + 1 == moves_.size()) rep_.final_residual_vibration_mm = vib;
+      rep_.final_residual_vibration_mm = vib;
     }
-    if (corner_angle_[i] >= 0.0) {
-      close_corner();
-      const Seg si = xy_segment(moves_[i]);
-      const Seg sj = xy_segment(moves_[next_xy_[i]]);
-      corner_ = Corner{};
-      corner_.angle_deg = corner_angle_[i];
-      corner_.p[0] = si.bx;
-      corner_.p[1] = si.by;
-      corner_.din[0] = (si.bx - si.ax) / si.len;
-      corner_.din[1] = (si.by - si.ay) / si.len;
-      corner_.dout[0] = (sj.bx - sj.ax) / sj.len;
-      corner_.dout[1] = (sj.by - sj.ay) / sj.len;
-      corner_res_ = CornerResult{};
-      corner_res_.move_index = i;
-      corner_res_.line = moves_[i].line;
-      corner_res_.angle_deg = corner_angle_[i];
-      corner_res_.junction_speed_mm_s = moves_[i].end_v_mm_s;
-      corner_open_ = true;
-      corner_move_ = i;
-      corner_t0_ = moves_[i].end_time_s();
-    }
+    open_corner_after(i, vib);
   }
   if (corner_open_ && s.t_s > corner_t0_ + opt_.corner_window_s) close_corner();
   if (corner_open_) {
@@ -192,53 +281,86 @@ double QualityMeter::add(const SimSample& s) {
 }
 
 void QualityMeter::on_move_end(std::size_t i, double t_s, const std::array<double, 2>& v) {
-  if (i >= moves_.size() || t_s < opt_.t_begin_s || t_s > opt_.t_end_s) return;
+  if (i < base_ || i - base_ >= win_.size() || t_s < opt_.t_begin_s || t_s > opt_.t_end_s) return;
+  const std::int32_t layer = win_[i - base_].layer;
+  if (layer < opt_.layer_begin || layer > opt_.layer_end || i < open_base_) return;
   exact_ends_ = true;
   const double vib = std::hypot(v[0], v[1]);
-  rep_.per_move[i].residual_vibration_mm = vib;
+  open(i).m.residual_vibration_mm = vib;
   rep_.max_residual_vibration_mm = std::max(rep_.max_residual_vibration_mm, vib);
-  if (i + 1 == moves_.size()) rep_.final_residual_vibration_mm = vib;
+  rep_.final_residual_vibration_mm = vib;
 }
 
 QualityReport QualityMeter::finish() {
   close_corner();
+  finalize_before(std::numeric_limits<std::size_t>::max());
+  rep_.motion_time_s = have_start_ ? last_end_s_ - first_start_s_ : 0.0;
   rep_.rms_contour_error_mm = rep_.samples ? std::sqrt(sum_sq_ / static_cast<double>(rep_.samples)) : 0.0;
   rep_.rms_contour_error_printing_mm = n_print_ ? std::sqrt(sum_sq_print_ / static_cast<double>(n_print_)) : 0.0;
-  for (std::size_t i = 0; i < moves_.size(); ++i) {
-    const MoveMetrics& m = rep_.per_move[i];
-    if (m.samples == 0) continue;
-    accumulate(rep_.per_layer[moves_[i].layer], m);
-    accumulate(rep_.per_feature[moves_[i].feature], m);
-  }
   for (auto& [k, g] : rep_.per_layer) finalise(g);
   for (auto& [k, g] : rep_.per_feature) finalise(g);
-  std::vector<std::size_t> idx;
-  for (std::size_t i = 0; i < moves_.size(); ++i) {
-    if (rep_.per_move[i].samples > 0) idx.push_back(i);
-  }
-  const std::size_t k = std::min(opt_.worst_count, idx.size());
-  std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(k), idx.end(),
-                    [&](std::size_t a, std::size_t b) {
-                      return rep_.per_move[a].max_contour_error_mm > rep_.per_move[b].max_contour_error_mm;
-                    });
-  for (std::size_t i = 0; i < k; ++i) {
-    const std::size_t mi = idx[i];
-    const MoveMetrics& m = rep_.per_move[mi];
-    rep_.worst.push_back(WorstPlace{moves_[mi].line, mi, moves_[mi].layer, moves_[mi].feature,
-                                    m.worst_t_s, m.worst_x_mm, m.worst_y_mm,
-                                    m.max_contour_error_mm});
-  }
+  rep_.worst = worst_heap_;
+  std::sort(rep_.worst.begin(), rep_.worst.end(), [](const WorstPlace& a, const WorstPlace& b) {
+    return a.contour_error_mm > b.contour_error_mm;
+  });
   std::vector<double> wl;
   for (const CornerResult& c : rep_.corners) {
     if (std::isfinite(c.ringing_wavelength_mm)) wl.push_back(c.ringing_wavelength_mm);
     rep_.ringing_amplitude_mm = std::max(rep_.ringing_amplitude_mm, c.ringing_amplitude_mm);
   }
-  if (!wl.empty()) {
+  if (!opt_.keep_per_move) {
+    std::sort(rep_.corners.begin(), rep_.corners.end(), [](const CornerResult& a, const CornerResult& b) {
+      return a.overshoot_mm > b.overshoot_mm;
+    });
+    std::uint64_t total = 0, acc = 0;
+    for (auto c : wavelength_hist_) total += c;
+    for (std::size_t b = 0; b < wavelength_hist_.size() && total > 0; ++b) {
+      acc += wavelength_hist_[b];
+      if (2 * acc > total) {
+        rep_.ringing_wavelength_mm = (static_cast<double>(b) + 0.5) * 0.001;
+        break;
+      }
+    }
+  } else if (!wl.empty()) {
     std::nth_element(wl.begin(), wl.begin() + static_cast<std::ptrdiff_t>(wl.size() / 2), wl.end());
     rep_.ringing_wavelength_mm = wl[wl.size() / 2];
   }
-  if (rep_.final_residual_vibration_mm == 0.0) rep_.final_residual_vibration_mm = last_vib_;
+  if (!exact_ends_ && rep_.final_residual_vibration_mm == 0.0) rep_.final_residual_vibration_mm = last_vib_;
   return std::move(rep_);
+}
+
+// ---------------------------------------------------------------------------------------
+StreamingSimulation::StreamingSimulation(const AxisModel& m0, const AxisModel& m1,
+                                         const SimulationOptions& so, MetricsOptions mo,
+                                         RowSink rows, std::size_t window_moves)
+    : sim_(m0, m1, so), meter_(mo), rows_(std::move(rows)), window_(std::max<std::size_t>(window_moves, 80)) {
+  buf_.reserve(3 * window_ + 1);
+}
+
+void StreamingSimulation::run(double t_stop, bool final) {
+  meter_.set_window(buf_, base_);
+  sim_.advance(
+      buf_, base_, t_stop, final,
+      [&](const SimSample& s) {
+        const double e = meter_.add(s);
+        if (rows_) rows_(s, e);
+      },
+      [&](std::size_t i, double t, const std::array<double, 2>& v) { meter_.on_move_end(i, t, v); });
+}
+
+void StreamingSimulation::push(const plan::PlannedMove& m) {
+  buf_.push_back(m);
+  max_buffer_ = std::max(max_buffer_, buf_.size());
+  if (buf_.size() < 3 * window_) return;
+  run(buf_[buf_.size() - window_].start_time_s, false);
+  const std::size_t drop = buf_.size() - 2 * window_;
+  buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(drop));
+  base_ += drop;
+}
+
+QualityReport StreamingSimulation::finish() {
+  run(std::numeric_limits<double>::infinity(), true);
+  return meter_.finish();
 }
 
 }  // namespace amctl::dynamics

@@ -49,11 +49,17 @@ ModePropagator mode_propagator(const Mode& mode, double tau, int terms) {
   const double norm1 = std::max(std::abs(Z.c), std::abs(Z.b) + std::abs(Z.d));
   if (norm1 <= 2.0) {
     // Series for phi_K, K = terms, then phi_k = Z phi_{k+1} + I/k! downwards.
-    constexpr int kSeries = 30;
+    // Truncate where the next term norm1^M / (M + K)! falls below 1e-18 of the first.
+    constexpr int kMaxSeries = 30;
     const int K = terms;
-    double fact[kSeries + kMaxInputTerms + 2];
+    double fact[kMaxSeries + kMaxInputTerms + 2];
     fact[0] = 1.0;
-    for (int i = 1; i < kSeries + kMaxInputTerms + 2; ++i) fact[i] = fact[i - 1] * i;
+    for (int i = 1; i < kMaxSeries + kMaxInputTerms + 2; ++i) fact[i] = fact[i - 1] * i;
+    // Terms m of phi_K relative to its first: norm1^m K! / (m + K)!; stop below 1e-17.
+    int kSeries = 1;
+    for (double rel = norm1 / (K + 1); kSeries < kMaxSeries && rel > 1e-17; ++kSeries) {
+      rel *= norm1 / (kSeries + K + 1);
+    }
     M2 P{1.0 / fact[kSeries + K], 0.0, 0.0, 1.0 / fact[kSeries + K]};
     for (int m = kSeries - 1; m >= 0; --m) {
       P = mul(Z, P);

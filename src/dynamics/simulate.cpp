@@ -14,15 +14,16 @@
 
 namespace amctl::dynamics {
 
-namespace {
-
-struct Run {
+struct Simulator::Run {
   int axis = 0;
   Mode mode;
   ModePropagator step;  // for the full output step h
   double e = 0.0;       // modal deflection [mm]
   double q = 0.0;       // deflection rate / w [mm]
 };
+
+namespace {
+using Run = Simulator::Run;
 
 double auto_settle_s(const AxisModel& a, const AxisModel& b) {
   double slowest = std::numeric_limits<double>::infinity();
@@ -40,7 +41,7 @@ double auto_settle_s(const AxisModel& a, const AxisModel& b) {
 }
 
 // Advances every run over tau with the input derivatives u[axis][j].
-inline void advance(std::vector<Run>& runs, const ModePropagator* props, int terms,
+inline void advance_runs(std::vector<Run>& runs, const ModePropagator* props, int terms,
                     const double (&u)[2][kMaxInputTerms]) {
   for (std::size_t r = 0; r < runs.size(); ++r) {
     Run& run = runs[r];
@@ -70,48 +71,57 @@ inline void apply_velocity_jump(std::vector<Run>& runs, double dv0, double dv1) 
 
 }  // namespace
 
-SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,
-                         const AxisModel& m1, const SimulationOptions& opt,
-                         const SampleSink& sink, const MoveEndSink& move_end) {
+Simulator::Simulator(const AxisModel& m0, const AxisModel& m1, const SimulationOptions& opt)
+    : opt_(opt) {
   require_above_nyquist(opt.sample_rate_hz, {&m0, &m1});
-  SimulationStats stats;
-  if (moves.empty()) return stats;
-  const double h = 1.0 / opt.sample_rate_hz;
-  const double settle = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
-  require_finite("settle_s", settle);
-
-  std::vector<Run> runs;
+  h_ = 1.0 / opt.sample_rate_hz;
+  settle_ = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
+  require_finite("settle_s", settle_);
   for (int axis = 0; axis < 2; ++axis) {
     for (const Mode& mode : (axis == 0 ? m0 : m1).modes()) {
       Run r;
       r.axis = axis;
       r.mode = mode;
-      r.step = mode_propagator(mode, h, kMaxInputTerms);
-      runs.push_back(r);
+      r.step = mode_propagator(mode, h_, kMaxInputTerms);
+      runs_.push_back(r);
     }
   }
-  std::vector<ModePropagator> sub(runs.size());
+  sub_.resize(runs_.size());
+}
+
+Simulator::~Simulator() = default;
+
+void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t base,
+                        double t_stop, bool final, const SampleSink& sink,
+                        const MoveEndSink& move_end) {
+  if (moves.empty()) return;
+  const SimulationOptions& opt = opt_;
+  const double h = h_;
+  std::vector<Run>& runs = runs_;
+  std::vector<ModePropagator>& sub = sub_;
+  SimulationStats& stats = stats_;
+  if (!started_) {
+    started_ = true;
+    t0_ = moves.front().start_time_s;
+    motion_end_ = t0_;
+    stats.start_time_s = t0_;
+  }
+  for (const auto& m : moves) motion_end_ = std::max(motion_end_, m.end_time_s());
+  const double t0 = t0_;
+  const double t_final = motion_end_ + settle_;
+  const auto n_steps = static_cast<std::size_t>(std::ceil((t_final - t0) / h - 1e-9));
+  stats.motion_end_time_s = motion_end_;
 
   const machine::Kinematics kin = opt.motor_space ? opt.kinematics : machine::Kinematics::cartesian;
   const auto row0 = trajectory::motor_row(kin, 0);
   const auto row1 = trajectory::motor_row(kin, 1);
-
-  const double t0 = moves.front().start_time_s;
-  double motion_end = t0;
-  for (const auto& m : moves) motion_end = std::max(motion_end, m.end_time_s());
-  const double t_final = motion_end + settle;
-  const auto n_steps = static_cast<std::size_t>(std::ceil((t_final - t0) / h - 1e-9));
-  stats.start_time_s = t0;
-  stats.motion_end_time_s = motion_end;
-  stats.end_time_s = t0 + static_cast<double>(n_steps) * h;
-
   trajectory::Cursor cursor(moves);
   std::array<double, plan::kMaxPieceDegree + 1> d{};
   double u[2][kMaxInputTerms] = {};
 
   // Fills u (input derivatives per axis) for the location just found; returns the terms.
   auto input_terms = [&](const trajectory::Cursor::Location& loc, double t) -> int {
-    cursor.path_derivatives(t, d);
+    trajectory::Cursor::path_derivatives(loc, t, d);
     const plan::PlannedMove& mv = moves[loc.move_index];
     const double g0 = row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1];
     const double g1 = row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1];
@@ -132,32 +142,38 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     v[1] = sv * (row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1]);
   };
 
-  double v_left[2] = {0.0, 0.0};
-  bool have_left = false;
+  double (&v_left)[2] = v_left_;
+  bool& have_left = have_left_;
   // Free-vibration amplitude per axis for the current state and input u (terms used).
+  // Only the acceleration term of the particular solution is used: the higher terms are
+  // exact for long pieces but blow up for the very short, very steep ramps planners emit
+  // (a Bezier ramp of 1e-4 mm/s has d^4a/dt^4 ~ 1e30), where "free vibration" means nothing.
   auto vibration = [&](int terms) {
     double vib2[2] = {0.0, 0.0};
     for (const Run& r : runs) {
       double pe = 0.0, pq = 0.0;
-      for (int j = 0; j < terms; ++j) {
-        pe += r.step.pi[0][j] * u[r.axis][j];
-        pq += r.step.pi[1][j] * u[r.axis][j];
+      if (terms > 0) {
+        pe = r.step.pi[0][0] * u[r.axis][0];
+        pq = r.step.pi[1][0] * u[r.axis][0];
       }
       vib2[r.axis] += (r.e - pe) * (r.e - pe) + (r.q - pq) * (r.q - pq);
     }
     return std::array<double, 2>{std::sqrt(vib2[0]), std::sqrt(vib2[1])};
   };
   // Reports every move that has ended by the location `l` at time t.
-  std::size_t next_end = 0;
+  std::size_t& next_end = next_end_;
   auto report_ends = [&](const trajectory::Cursor::Location& l, double t, int terms) {
     if (!move_end) return;
-    const std::size_t done = l.holding && t >= moves[l.move_index].start_time_s ? l.move_index + 1 : l.move_index;
+    const std::size_t done =
+        base + (l.holding && t >= moves[l.move_index].start_time_s ? l.move_index + 1 : l.move_index);
     if (next_end >= done) return;
     const auto vib = vibration(terms);
     while (next_end < done) move_end(next_end++, t, vib);
   };
-  for (std::size_t k = 0;; ++k) {
+  for (std::size_t& k = k_;; ++k) {
     const double t = t0 + static_cast<double>(k) * h;
+    if (!final && t >= t_stop) break;
+    if (final && k > n_steps) break;
     const trajectory::Cursor::Location loc = cursor.locate(t);
     const int terms = input_terms(loc, t);
     const plan::PlannedMove& mv = moves[loc.move_index];
@@ -172,7 +188,8 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     // ---- output sample at t
     SimSample s;
     s.t_s = t;
-    s.move_index = loc.move_index;
+    s.move_index = base + loc.move_index;
+    s.line = mv.line;
     s.holding = loc.holding;
     for (int i = 0; i < 3; ++i) s.cmd_mm[static_cast<std::size_t>(i)] = mv.start_mm[static_cast<std::size_t>(i)] + mv.axes_r[static_cast<std::size_t>(i)] * d[0];
     s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};
@@ -182,11 +199,13 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     const double c1 = row1[0] * s.cmd_mm[0] + row1[1] * s.cmd_mm[1];
     const auto xy = trajectory::from_motor(kin, c0 + err[0], c1 + err[1]);
     s.sim_mm = {xy[0], xy[1]};
-    s.vibration_mm = vibration(terms);
+    if (opt.vibration_per_sample) s.vibration_mm = vibration(terms);
     sink(s);
     ++stats.samples;
-    if (k >= n_steps) {
+    if (final && k >= n_steps) {
       report_ends(loc, t, terms);
+      stats.end_time_s = t;
+      ++k;
       break;
     }
 
@@ -195,7 +214,7 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
     const double tol = 1e-12 * std::max(1.0, std::abs(t_next));
     if (runs.empty()) continue;
     if (loc.piece_end_s >= t_next - tol) {
-      advance(runs, nullptr, terms, u);
+      advance_runs(runs, nullptr, terms, u);
       stats.axis_state_updates += runs.size();
       if (loc.piece_end_s <= t_next + tol) {
         axis_velocity(loc, t_next, v_left);
@@ -216,8 +235,14 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
       const double dt = end - tc;
       if (dt > 0.0) {
         const int nt = std::max(1, tm);
-        for (std::size_t r = 0; r < runs.size(); ++r) sub[r] = mode_propagator(runs[r].mode, dt, nt);
-        advance(runs, sub.data(), tm, u);
+        for (std::size_t r = 0; r < runs.size(); ++r) {
+          const Mode& md = runs[r].mode;
+          const bool same = r > 0 && md.natural_frequency_hz == runs[r - 1].mode.natural_frequency_hz &&
+                            md.damping_ratio == runs[r - 1].mode.damping_ratio &&
+                            md.participation == runs[r - 1].mode.participation;
+          sub[r] = same ? sub[r - 1] : mode_propagator(md, dt, nt);
+        }
+        advance_runs(runs, sub.data(), tm, u);
         stats.axis_state_updates += runs.size();
       }
       tc = end;
@@ -235,7 +260,14 @@ SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisMod
       report_ends(nl, tc, tm);
     }
   }
-  return stats;
+}
+
+SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,
+                         const AxisModel& m1, const SimulationOptions& opt,
+                         const SampleSink& sink, const MoveEndSink& move_end) {
+  Simulator sim(m0, m1, opt);
+  sim.advance(moves, 0, std::numeric_limits<double>::infinity(), true, sink, move_end);
+  return sim.stats();
 }
 
 }  // namespace amctl::dynamics

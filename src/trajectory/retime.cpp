@@ -55,7 +55,7 @@ ProfileFigures profile_figures(const std::vector<plan::PlannedMove>& moves) {
     if (m.accel_mm_s2 <= 0.0) continue;
     for (const auto& [a, b] : {std::pair{m.start_v_mm_s, m.cruise_v_mm_s},
                                std::pair{m.cruise_v_mm_s, m.end_v_mm_s}}) {
-      if (a == b) continue;
+      if (std::abs(a - b) <= 1e-9 * std::max({1.0, a, b})) continue;
       const plan::Ramp r = plan::make_ramp(m.profile, a, b, m.accel_mm_s2, m.jerk_mm_s3);
       f.peak_accel_mm_s2 = std::max(f.peak_accel_mm_s2, r.peak_accel_mm_s2);
       f.peak_jerk_mm_s3 = std::max(f.peak_jerk_mm_s3, r.peak_jerk_mm_s3);

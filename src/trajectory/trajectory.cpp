@@ -39,8 +39,19 @@ void check_duration(const PlannedMove& m, const char* what, double stored, doubl
 std::size_t append_ramp(const PlannedMove& m, double v0, double v1, double s0,
                         std::array<PathPiece, 7>& out, std::size_t n, double stored_t,
                         const char* what) {
-  if (v0 == v1) {
-    check_duration(m, what, stored_t, 0.0);
+  // A speed change within round-off of the speeds (planners leave ~1e-13 mm/s steps) is
+  // no ramp: its duration is ~1e-16 s, and a Bezier ramp that short would have jerk ~1e20.
+  // It becomes a constant-speed piece of the stored duration at the mean speed.
+  if (std::abs(v1 - v0) <= 1e-9 * std::max({1.0, v0, v1})) {
+    if (stored_t > 1e-6) check_duration(m, what, stored_t, 0.0);
+    if (stored_t > 0.0) {
+      PathPiece c;
+      c.duration_s = stored_t;
+      c.degree = 1;
+      c.c[0] = s0;
+      c.c[1] = 0.5 * (v0 + v1);
+      out[n++] = c;
+    }
     return n;
   }
   const plan::Ramp r = plan::make_ramp(m.profile, v0, v1, m.accel_mm_s2, m.jerk_mm_s3);
@@ -83,6 +94,7 @@ void Cursor::load_move(std::size_t i) {
   piece_count_ = move_pieces(moves_[i], pieces_);
   loaded_move_ = i;
   piece_i_ = 0;
+  piece_start_ = moves_[i].start_time_s;
 }
 
 const Cursor::Location& Cursor::locate(double t) {
@@ -95,8 +107,13 @@ const Cursor::Location& Cursor::locate(double t) {
   if (t < last_t_) {  // not monotone: restart from the beginning
     next_move_ = 0;
     loaded_move_ = static_cast<std::size_t>(-1);
+    loc_valid_ = false;
+  } else if (loc_valid_ && t < loc_.piece_end_s) {
+    last_t_ = t;
+    return loc_;  // still inside the piece found last time
   }
   last_t_ = t;
+  loc_valid_ = true;
   while (next_move_ < moves_.size() && moves_[next_move_].start_time_s <= t) ++next_move_;
   const double inf = std::numeric_limits<double>::infinity();
   if (next_move_ == 0) {  // before the first move: hold at its start
@@ -106,14 +123,13 @@ const Cursor::Location& Cursor::locate(double t) {
   }
   const std::size_t m = next_move_ - 1;
   load_move(m);
-  double t0 = moves_[m].start_time_s;
   // Advance within the move (pieces are visited in order for monotone t).
-  double start = t0;
-  for (std::size_t i = 0; i < piece_i_; ++i) start += pieces_[i].duration_s;
+  double start = piece_start_;
   while (piece_i_ < piece_count_ && t >= start + pieces_[piece_i_].duration_s) {
     start += pieces_[piece_i_].duration_s;
     ++piece_i_;
   }
+  piece_start_ = start;
   const double next_start = next_move_ < moves_.size() ? moves_[next_move_].start_time_s : inf;
   if (piece_i_ < piece_count_) {
     const double end = std::min(start + pieces_[piece_i_].duration_s, next_start);
@@ -143,7 +159,11 @@ AxisState Cursor::evaluate(double t) {
 }
 
 void Cursor::path_derivatives(double t, std::array<double, plan::kMaxPieceDegree + 1>& d) {
-  const Location& l = locate(t);
+  path_derivatives(locate(t), t, d);
+}
+
+void Cursor::path_derivatives(const Location& l, double t,
+                              std::array<double, plan::kMaxPieceDegree + 1>& d) {
   d.fill(0.0);
   if (l.holding) {
     d[0] = l.piece->c[0];
@@ -151,6 +171,14 @@ void Cursor::path_derivatives(double t, std::array<double, plan::kMaxPieceDegree
   }
   const PathPiece& p = *l.piece;
   const double tau = t - l.piece_t0_s;
+  if (p.degree <= 3) {  // trapezoid, cruise and scurve7 pieces: direct form
+    const double c1 = p.c[1], c2 = p.c[2], c3 = p.degree == 3 ? p.c[3] : 0.0;
+    d[0] = p.c[0] + tau * (c1 + tau * (c2 + tau * c3));
+    d[1] = c1 + tau * (2.0 * c2 + tau * 3.0 * c3);
+    d[2] = 2.0 * c2 + 6.0 * c3 * tau;
+    d[3] = 6.0 * c3;
+    return;
+  }
   // d[k] = sum_{m >= k} c_m m!/(m-k)! tau^(m-k)  (Taylor shift by repeated synthetic division)
   std::array<double, plan::kMaxPieceDegree + 1> c = p.c;
   const int n = p.degree;

@@ -110,3 +110,69 @@ TEST(Metrics, GroupsPerLayerAndFeatureAndListsWorstLines) {
 
 }  // namespace
 }  // namespace amctl::dynamics
+
+namespace amctl::dynamics {
+namespace {
+
+std::vector<plan::PlannedMove> zigzag(int n) {
+  std::vector<MoveSpec> specs;
+  for (int i = 0; i < n; ++i) {
+    const double x = (i % 2 == 0) ? 12.0 + (i % 7) : 1.0 + (i % 3);
+    specs.push_back(MoveSpec{{x, 0.3 * (i + 1), 0.2 * (i / 50), 0.05 * (i + 1)}, 150.0,
+                             (i % 5 == 0) ? 0.0 : 4.0, static_cast<std::uint64_t>(100 + i), i / 50,
+                             static_cast<std::uint16_t>(i % 3)});
+  }
+  return trajectory::chain_moves({0, 0, 0, 0}, specs, 6000.0, VP::trapezoid);
+}
+
+TEST(StreamingSimulation, SmallWindowsGiveTheSameReportAsTheWholePlan) {
+  const auto moves = zigzag(600);
+  const AxisModel m = AxisModel::belt(35.0, 0.08);
+  SimulationOptions so;
+  so.sample_rate_hz = 2000.0;
+  MetricsOptions mo;
+  mo.worst_count = 5;
+  QualityMeter whole(moves, mo);
+  (void)simulate(moves, m, m, so, [&](const SimSample& s) { whole.add(s); },
+                 [&](std::size_t i, double t, const std::array<double, 2>& v) { whole.on_move_end(i, t, v); });
+  const QualityReport a = whole.finish();
+
+  mo.keep_per_move = false;
+  StreamingSimulation stream(m, m, so, mo, nullptr, 80);
+  for (const auto& mv : moves) stream.push(mv);
+  const QualityReport b = stream.finish();
+  EXPECT_LE(stream.max_window_moves(), 240u);
+
+  EXPECT_EQ(a.samples, b.samples);
+  EXPECT_DOUBLE_EQ(a.max_contour_error_mm, b.max_contour_error_mm);
+  EXPECT_NEAR(a.rms_contour_error_mm, b.rms_contour_error_mm, 1e-15);
+  EXPECT_DOUBLE_EQ(a.max_residual_vibration_mm, b.max_residual_vibration_mm);
+  EXPECT_DOUBLE_EQ(a.final_residual_vibration_mm, b.final_residual_vibration_mm);
+  EXPECT_DOUBLE_EQ(a.max_corner_overshoot_mm, b.max_corner_overshoot_mm);
+  EXPECT_EQ(a.corners.size(), b.corner_count);
+  EXPECT_EQ(b.corners.size(), 5u);
+  ASSERT_EQ(a.worst.size(), b.worst.size());
+  for (std::size_t i = 0; i < a.worst.size(); ++i) EXPECT_EQ(a.worst[i].line, b.worst[i].line);
+  ASSERT_EQ(a.per_layer.size(), b.per_layer.size());
+  for (const auto& [layer, g] : a.per_layer) {
+    EXPECT_DOUBLE_EQ(g.max_contour_error_mm, b.per_layer.at(layer).max_contour_error_mm);
+    EXPECT_EQ(g.samples, b.per_layer.at(layer).samples);
+  }
+  EXPECT_NEAR(a.ringing_wavelength_mm, b.ringing_wavelength_mm, 0.001);
+  EXPECT_EQ(a.per_move.size(), moves.size());
+  EXPECT_TRUE(b.per_move.empty());
+}
+
+TEST(Metrics, LayerRangeCountsOnlyItsMoves) {
+  const auto moves = zigzag(200);
+  MetricsOptions mo;
+  mo.layer_begin = 1;
+  mo.layer_end = 2;
+  const QualityReport r = measure(moves, AxisModel::belt(35.0, 0.08), 1000.0, mo);
+  ASSERT_FALSE(r.per_layer.empty());
+  EXPECT_EQ(r.per_layer.begin()->first, 1);
+  EXPECT_EQ(r.per_layer.rbegin()->first, 2);
+}
+
+}  // namespace
+}  // namespace amctl::dynamics

@@ -153,6 +153,7 @@ TEST(Simulate, ResidualVibrationAmplitudeDecaysAtTheModalRate) {
   const double f = 20.0, z = 0.05, w = 2 * std::numbers::pi * f;
   SimulationOptions o;
   o.settle_s = 0.5;
+  o.vibration_per_sample = true;
   const auto s = run(moves, AxisModel::belt(f, z), AxisModel::belt(f, z), 1000.0, o);
   const auto k0 = static_cast<std::size_t>(std::lround(0.3 * 1000)), k1 = k0 + 200;
   // amplitude sqrt(e^2 + (e'/w)^2) decays by e^{-zw dt} up to an O(z) ripple

@@ -140,3 +140,54 @@ TEST(Sampling, UniformGridRejectsEmptyRange) {
 
 }  // namespace
 }  // namespace amctl::trajectory
+
+#include "amctl/trajectory/retime.hpp"
+
+namespace amctl::trajectory {
+namespace {
+
+TEST(Retime, ProfilesKeepPathAndBezierKeepsTimeWhileSCurveTakesLonger) {
+  std::vector<MoveSpec> specs;
+  for (int i = 0; i < 40; ++i) {
+    const double len = 0.4 + 0.37 * (i % 9);
+    const double ang = 0.3 * i;
+    specs.push_back(MoveSpec{{10 + len * std::cos(ang) * (i + 1) / 10.0, 10 + len * std::sin(ang) * (i + 1) / 10.0, 0, 0},
+                             120.0, (i % 4 == 0) ? 0.0 : 8.0, static_cast<std::uint64_t>(i + 1)});
+  }
+  // chain with feasible junctions: limit each end speed to what the trapezoid can reach
+  std::vector<plan::PlannedMove> moves;
+  std::array<double, 4> at{10, 10, 0, 0};
+  double t = 0, v = 0;
+  for (MoveSpec s : specs) {
+    double d = 0;
+    for (int k = 0; k < 3; ++k) d += (s.to_mm[k] - at[k]) * (s.to_mm[k] - at[k]);
+    d = std::sqrt(d);
+    s.end_v_mm_s = std::clamp(s.end_v_mm_s, std::sqrt(std::max(0.0, v * v - 2 * 3000.0 * d)),
+                              std::sqrt(v * v + 2 * 3000.0 * d));
+    moves.push_back(timed_move(at, s, v, t, 3000.0, VP::trapezoid, 0.0));
+    at = s.to_mm;
+    t = moves.back().end_time_s();
+    v = moves.back().end_v_mm_s;
+  }
+  const auto trap = profile_figures(moves);
+  const auto bez = retime(moves, VP::bezier5, 0.0);
+  const auto sc = retime(moves, VP::scurve7, 5.0e4);
+  EXPECT_NEAR(profile_figures(bez).motion_time_s, trap.motion_time_s, 1e-9);
+  EXPECT_NEAR(profile_figures(bez).peak_accel_mm_s2, 1.875 * 3000.0, 1e-6);
+  EXPECT_GT(profile_figures(sc).motion_time_s, trap.motion_time_s);
+  EXPECT_LE(profile_figures(sc).peak_accel_mm_s2, 3000.0 + 1e-9);
+  EXPECT_DOUBLE_EQ(profile_figures(sc).peak_jerk_mm_s3, 5.0e4);
+  // every re-timed move is self-consistent and ends where the next starts, in space and time
+  for (const auto* plan : {&bez, &sc}) {
+    const Trajectory tr(*plan);
+    for (std::size_t i = 0; i + 1 < plan->size(); ++i) {
+      EXPECT_NEAR((*plan)[i].end_time_s(), (*plan)[i + 1].start_time_s, 1e-12);
+      const AxisState e = tr.evaluate((*plan)[i + 1].start_time_s - 1e-12);
+      EXPECT_NEAR(e.pos_mm[0], (*plan)[i + 1].start_mm[0], 1e-6);
+      EXPECT_NEAR(e.pos_mm[1], (*plan)[i + 1].start_mm[1], 1e-6);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace amctl::trajectory

@@ -3,7 +3,7 @@
 //
 //  contour error   distance from the simulated nozzle (X, Y) to the commanded path, the
 //                  polyline of the moves' XY segments near the current move (within an
-//                  along-path radius of 2 |sim - cmd| + 0.5 mm, at most 64 moves either side),
+//                  along-path radius of 2 |sim - cmd| + 0.05 mm, at most 64 moves either side),
 //                  so a lag along a straight line does not count, a cut corner does.
 //  corner          a junction whose XY direction turns by more than corner_angle_deg.
 //  overshoot       after a corner at P with incoming direction d_in: the largest
@@ -15,7 +15,10 @@
 //  residual        the free-vibration amplitude (vector norm over X and Y) just after each
 //  vibration       move's end, exact when fed through on_move_end(), else at the first sample
 //                  at or after the end.
+#include <array>
 #include <cstdint>
+#include <deque>
+#include <functional>
 #include <limits>
 #include <map>
 #include <span>
@@ -34,6 +37,13 @@ struct MetricsOptions {
   /// Only samples with t in [t_begin_s, t_end_s] count.
   double t_begin_s = -std::numeric_limits<double>::infinity();
   double t_end_s = std::numeric_limits<double>::infinity();
+  /// Only samples whose move lies in layers [layer_begin, layer_end] count.
+  std::int32_t layer_begin = std::numeric_limits<std::int32_t>::min();
+  std::int32_t layer_end = std::numeric_limits<std::int32_t>::max();
+  /// Keep QualityReport::per_move (one record per move). Off for bounded-memory streaming:
+  /// moves are then folded into the per-layer/per-feature groups and the worst list as soon
+  /// as their samples are over.
+  bool keep_per_move = true;
 };
 
 struct MoveMetrics {
@@ -86,11 +96,14 @@ struct QualityReport {
   double final_residual_vibration_mm = 0.0;    ///< at the end of the last move
   double ringing_wavelength_mm = std::numeric_limits<double>::quiet_NaN();  ///< median
   double ringing_amplitude_mm = 0.0;                                        ///< max
-  std::vector<MoveMetrics> per_move;
+  std::vector<MoveMetrics> per_move;  ///< empty unless MetricsOptions::keep_per_move
   std::map<std::int32_t, GroupMetrics> per_layer;
   std::map<std::uint16_t, GroupMetrics> per_feature;
   std::vector<WorstPlace> worst;
+  /// Every corner, or with keep_per_move = false only the worst_count by overshoot (the
+  /// median ringing wavelength then comes from a 0.001 mm histogram).
   std::vector<CornerResult> corners;
+  std::uint64_t corner_count = 0;
 };
 
 /// Distance [mm] from (x, y) to the XY polyline of the moves around move `center`, searching
@@ -101,8 +114,15 @@ struct QualityReport {
 
 class QualityMeter {
  public:
+  /// Streaming use: call set_window() before the samples of each window.
+  explicit QualityMeter(MetricsOptions options);
+  /// Whole plan at once (window = all moves).
   QualityMeter(std::span<const plan::PlannedMove> moves, MetricsOptions options);
-  /// Adds one sample; returns its contour error [mm] (NaN when outside the time range).
+  /// The moves with global indices base .. base + size - 1. Must cover the moves of the
+  /// coming samples plus the neighbours the contour search and corner detection look at
+  /// (64 moves either side); moves before `base` must be finished.
+  void set_window(std::span<const plan::PlannedMove> window, std::size_t base);
+  /// Adds one sample; returns its contour error [mm] (NaN when outside the range).
   double add(const SimSample& s);
   /// Exact free-vibration amplitude just after move `i` ends (simulate()'s MoveEndSink).
   void on_move_end(std::size_t i, double t_s, const std::array<double, 2>& vibration_mm);
@@ -117,13 +137,28 @@ class QualityMeter {
   struct RingSample {
     double sigma_mm, t_s, dev_mm;
   };
+  struct OpenMove {
+    MoveMetrics m;
+    std::uint64_t line = 0;
+    std::int32_t layer = -1;
+    std::uint16_t feature = 0;
+  };
+  [[nodiscard]] const plan::PlannedMove& move(std::size_t global) const;
+  OpenMove& open(std::size_t global);
+  void finalize_before(std::size_t global);
+  void open_corner_after(std::size_t global, double vib_unused);
   void close_corner();
+  [[nodiscard]] bool in_range(const SimSample& s) const;
 
-  std::span<const plan::PlannedMove> moves_;
   MetricsOptions opt_;
   QualityReport rep_;
-  std::vector<double> corner_angle_;   // per move: turn angle to the next XY move, or < 0
-  std::vector<std::size_t> next_xy_;   // per move: the next move with XY motion
+  std::span<const plan::PlannedMove> win_;
+  std::size_t base_ = 0;
+  bool have_start_ = false;
+  double first_start_s_ = 0.0, last_end_s_ = 0.0;
+  std::deque<OpenMove> open_;          // per-move records not yet folded, from open_base_
+  std::size_t open_base_ = 0;
+  std::vector<WorstPlace> worst_heap_; // min-heap on contour error, size <= worst_count
   std::size_t next_end_ = 0;           // first move whose end has not been passed
   bool exact_ends_ = false;            // on_move_end() has been called
   double sum_sq_ = 0.0, sum_sq_print_ = 0.0;
@@ -131,11 +166,38 @@ class QualityMeter {
   double last_vib_ = 0.0;
   // active corner window
   bool corner_open_ = false;
-  std::size_t corner_move_ = 0;
   double corner_t0_ = 0.0;
   Corner corner_;
   CornerResult corner_res_;
   std::vector<RingSample> ring_;
+  std::vector<std::uint32_t> wavelength_hist_;  // 0.001 mm bins, when !keep_per_move
+};
+
+/// Simulation and metrics of a move stream in bounded memory: moves are pushed one by one
+/// (e.g. from the planner's callback); a window of 3 x window_moves moves is kept, and every
+/// time it fills the simulation advances to the start of the move window_moves from its end.
+class StreamingSimulation {
+ public:
+  /// Called for every sample with its contour error (NaN outside the measured range).
+  using RowSink = std::function<void(const SimSample&, double contour_error_mm)>;
+  StreamingSimulation(const AxisModel& model_0, const AxisModel& model_1,
+                      const SimulationOptions& sim_options, MetricsOptions metrics_options,
+                      RowSink rows = nullptr, std::size_t window_moves = 256);
+  void push(const plan::PlannedMove& move);
+  /// Simulates the rest (through the settle time) and returns the report.
+  [[nodiscard]] QualityReport finish();
+  [[nodiscard]] const SimulationStats& stats() const { return sim_.stats(); }
+  [[nodiscard]] std::size_t max_window_moves() const { return max_buffer_; }
+
+ private:
+  void run(double t_stop, bool final);
+  Simulator sim_;
+  QualityMeter meter_;
+  RowSink rows_;
+  std::size_t window_;
+  std::vector<plan::PlannedMove> buf_;
+  std::size_t base_ = 0;
+  std::size_t max_buffer_ = 0;
 };
 
 }  // namespace amctl::dynamics

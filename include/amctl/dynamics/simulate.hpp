@@ -11,11 +11,14 @@
 // Each mode block is 2x2 and independent, so the cost is O(modes) per axis and step.
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <span>
+#include <vector>
 
 #include "amctl/dynamics/model.hpp"
+#include "amctl/dynamics/propagator.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
 
@@ -29,6 +32,8 @@ struct SimulationOptions {
   machine::Kinematics kinematics = machine::Kinematics::cartesian;
   /// false: the two models act on X and Y (seed 000). true: on the motors (corexy A, B).
   bool motor_space = false;
+  /// Fill SimSample::vibration_mm on every sample (costs two square roots per sample).
+  bool vibration_per_sample = false;
 };
 
 /// One output sample.
@@ -37,10 +42,14 @@ struct SimSample {
   std::array<double, 3> cmd_mm{};       ///< commanded X, Y, Z
   std::array<double, 2> cmd_vel_mm_s{};  ///< commanded X, Y velocity
   std::array<double, 2> sim_mm{};       ///< simulated nozzle X, Y
-  /// Amplitude of the free (transient) vibration of each axis: the state minus the
-  /// particular response to the current polynomial input, sqrt(sum_i e_i^2 + (e_i'/w_i)^2).
+  /// Amplitude of the free vibration of each axis (only when
+  /// SimulationOptions::vibration_per_sample; else 0): the modal state minus the static
+  /// deflection under the current commanded acceleration a,
+  /// sqrt(sum_i (e_i + g_i a / w_i^2)^2 + (e_i' / w_i)^2). Exact at rest, cruising and under
+  /// constant acceleration; during jerk-limited ramps it also contains the ramp's lag term.
   std::array<double, 2> vibration_mm{};
   std::size_t move_index = 0;           ///< move whose geometry applies at t
+  std::uint64_t line = 0;               ///< its G-code line
   bool holding = false;                 ///< commanded tool at rest (gap, before, after)
 };
 
@@ -58,6 +67,34 @@ using SampleSink = std::function<void(const SimSample&)>;
 /// vibration amplitude of each axis just after the end (right limit: the next piece's input).
 using MoveEndSink = std::function<void(std::size_t move_index, double t_s,
                                        const std::array<double, 2>& vibration_mm)>;
+
+/// Incremental simulation for streaming: feed windows of the (time-ordered) move stream,
+/// each call producing the samples with t < t_stop (or, with final = true, up to the end of
+/// the last move plus the settle time). `window` holds the moves with global indices
+/// base .. base + size - 1 and must include every move active between the last sample
+/// produced and t_stop plus one step (keep a few moves behind and ahead). Sample and move-end
+/// indices are global. State: the modal states and the sample counter, O(modes).
+class Simulator {
+ public:
+  Simulator(const AxisModel& model_0, const AxisModel& model_1, const SimulationOptions& options);
+  ~Simulator();
+  void advance(std::span<const plan::PlannedMove> window, std::size_t base, double t_stop,
+               bool final, const SampleSink& sink, const MoveEndSink& move_end = nullptr);
+  [[nodiscard]] const SimulationStats& stats() const { return stats_; }
+  struct Run;
+
+ private:
+  SimulationOptions opt_;
+  double h_ = 0.0, settle_ = 0.0, t0_ = 0.0, motion_end_ = 0.0;
+  bool started_ = false;
+  std::vector<Run> runs_;
+  std::vector<ModePropagator> sub_;
+  std::size_t k_ = 0;
+  double v_left_[2] = {0.0, 0.0};
+  bool have_left_ = false;
+  std::size_t next_end_ = 0;
+  SimulationStats stats_;
+};
 
 /// Simulates the moves (time-ordered) from the first move's start, the nozzle at rest on
 /// the commanded path, and passes every sample at t0 + k / sample_rate_hz to `sink`.

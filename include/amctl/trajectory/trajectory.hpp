@@ -55,6 +55,9 @@ class Cursor {
   /// Path distance s and its derivatives 0..max_order at t (local polynomial of the piece).
   /// d[k] = d^k s / dt^k. Axis i follows start_mm[i] + axes_r[i] * s.
   void path_derivatives(double t_s, std::array<double, plan::kMaxPieceDegree + 1>& d);
+  /// Same for a location returned by locate(t_s) (no second search).
+  static void path_derivatives(const Location& loc, double t_s,
+                               std::array<double, plan::kMaxPieceDegree + 1>& d);
 
   [[nodiscard]] const plan::PlannedMove& move(std::size_t i) const { return moves_[i]; }
   [[nodiscard]] std::span<const plan::PlannedMove> moves() const { return moves_; }
@@ -67,6 +70,8 @@ class Cursor {
   std::size_t loaded_move_ = static_cast<std::size_t>(-1);
   std::size_t next_move_ = 0;   ///< first move not yet started at the last located time
   std::size_t piece_i_ = 0;
+  double piece_start_ = 0.0;    ///< start time of pieces_[piece_i_]
+  bool loc_valid_ = false;
   plan::PathPiece hold_{};
   Location loc_{};
   double last_t_ = -1e300;
