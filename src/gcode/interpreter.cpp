@@ -65,6 +65,13 @@ std::optional<double> parse_dhms(std::string_view s) {
   return total;
 }
 
+// Largest accepted machine coordinate [mm] (1000 km): anything beyond is an overflow or a
+// typo, never a print, and squares of distances must stay far from double overflow.
+constexpr double kMaxCoordinate_mm = 1e9;
+// Largest accepted speed/acceleration/jerk limit (mm/s, mm/min, mm/s^2 alike): squared speeds
+// and accel * distance products then stay finite.
+constexpr double kMaxLimit = 1e9;
+
 // Commands understood to have no effect on motion time.
 bool is_ignored_word(char letter, int code) {
   if (letter == 'T') return true;  // tool select: single-extruder time model
@@ -433,9 +440,10 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         for (int i = 0; i < 26; ++i) {
           if ((lc.params.present >> i) & 1u) {
             double v = lc.params.value[static_cast<std::size_t>(i)];
-            if (v < 0.0) {
+            if (v < 0.0 || v > kMaxLimit) {
               fail(line_no, lc.params.column[static_cast<std::size_t>(i)],
-                   fmt::format("{} {} must be >= 0, got {}", cmd.name, static_cast<char>('A' + i), v));
+                   fmt::format("{} {} must be in [0, {:g}], got {}", cmd.name,
+                               static_cast<char>('A' + i), kMaxLimit, v));
             }
           }
         }
@@ -516,10 +524,10 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     v = number_arg(cmd, "ACCEL_TO_DECEL", line_no, has);
     if (has) lc.accel_to_decel = v;
     auto bad = [&](const std::optional<double>& o, std::string_view key, bool allow_zero) {
-      if (o && (*o < 0.0 || (!allow_zero && *o == 0.0))) {
+      if (o && (*o < 0.0 || (!allow_zero && *o == 0.0) || *o > kMaxLimit)) {
         fail(line_no, cmd.args_column,
-             fmt::format("SET_VELOCITY_LIMIT {} must be {} 0, got {}", key,
-                         allow_zero ? ">=" : ">", *o));
+             fmt::format("SET_VELOCITY_LIMIT {} must be {} 0 and <= {:g}, got {}", key,
+                         allow_zero ? ">=" : ">", kMaxLimit, *o));
       }
     };
     bad(lc.velocity, "VELOCITY", false);
@@ -655,6 +663,19 @@ void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm
                             std::uint64_t line_no, EventSink& sink, bool from_arc,
                             bool from_retract) {
   if (target == pos_) return;
+  // Every coordinate must stay finite and within a sane range: larger values come from
+  // overflowing arithmetic (G20 with 1e308, G91 accumulation, M221 S1e308, huge arc offsets)
+  // and would poison the planner with inf/NaN.
+  for (std::size_t a = 0; a < 4; ++a) {
+    if (!(std::fabs(target[a]) <= kMaxCoordinate_mm)) {
+      const char l = "XYZE"[a];
+      const std::uint32_t col = params_.has(l) ? params_.column[static_cast<std::size_t>(l - 'A')]
+                                               : cmd_.args_column;
+      fail(line_no, col,
+           fmt::format("{} position {} mm is out of range: expected |{}| <= {:g} mm", l,
+                       target[a], l, kMaxCoordinate_mm));
+    }
+  }
   MoveRequest m;
   m.start_mm = pos_;
   m.end_mm = target;
