@@ -68,6 +68,24 @@ void BM_EstimateMarlinJunctionDeviation(benchmark::State& state) {
 }
 BENCHMARK(BM_EstimateMarlinJunctionDeviation)->Arg(1 << 18)->Unit(benchmark::kMillisecond);
 
+/// The same Klipper job with jerk-limited (scurve7) ramps: the look-ahead solves the S-curve's
+/// reachable speeds (Cardano / quadratic) and cruise peaks (Newton) instead of v^2 arithmetic.
+void BM_EstimateKlipperSCurve(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  amctl::machine::Machine m;
+  m.profile = amctl::machine::VelocityProfile::scurve7;
+  m.max_jerk_mm_s3 = 1.0e6;
+  std::uint64_t moves = 0;
+  for (auto _ : state) {
+    auto r = amctl::plan::estimate_text(g, "bench", m);
+    moves = r.moves;
+    benchmark::DoNotOptimize(r.total_time_s);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+}
+BENCHMARK(BM_EstimateKlipperSCurve)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
+
 /// Parsing and interpreting alone (no planning).
 void BM_InterpretOnly(benchmark::State& state) {
   const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));

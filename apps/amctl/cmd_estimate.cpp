@@ -2,6 +2,7 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <string>
 #include <iomanip>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
+#include "amctl/plan/velocity_profile.hpp"
 #include "commands.hpp"
 
 namespace amctl::cli {
@@ -46,6 +48,7 @@ struct EstimateArgs {
   double m73_interval_s = 60.0;
   std::string mode = "planner";  ///< or "empirical" (seed 004 estimator, cmd_process.cpp)
   std::string params;            ///< empirical parameters (JSON)
+  bool compare_profiles = false; ///< trapezoid, bezier5 and scurve7 side by side
 };
 
 nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
@@ -185,7 +188,97 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
                    compute_s > 0 ? static_cast<double>(r.moves) / compute_s / 1e6 : 0.0);
 }
 
+/// One profile's figures for --compare-profiles.
+struct ProfileRun {
+  machine::VelocityProfile profile = machine::VelocityProfile::trapezoid;
+  double jerk_limit_mm_s3 = 0.0;  ///< scurve7 only
+  double total_time_s = 0.0;
+  double peak_accel_mm_s2 = 0.0;  ///< largest acceleration commanded inside any XYZ ramp
+  double peak_jerk_mm_s3 = 0.0;   ///< largest jerk inside any XYZ ramp; +inf for trapezoid steps
+  std::uint64_t moves = 0;
+};
+
+ProfileRun run_profile(const std::string& file, machine::Machine m, machine::VelocityProfile p,
+                       bool strict) {
+  m.profile = p;
+  ProfileRun run;
+  run.profile = p;
+  run.jerk_limit_mm_s3 = p == machine::VelocityProfile::scurve7 ? m.max_jerk_mm_s3 : 0.0;
+  plan::EstimateOptions opt;
+  opt.strict = strict;
+  // Peaks of the ramps actually commanded (plan::make_ramp of each move's two speed changes).
+  // Extrude-only moves are left out: they move the extruder, not the toolhead (Klipper gives
+  // them an acceleration of 1e8 mm/s^2, which would say nothing about the machine).
+  opt.on_move = [&run](const plan::PlannedMove& mv) {
+    if (mv.extrude_only || mv.accel_mm_s2 <= 0.0) return;
+    for (const auto& [v0, v1] : {std::pair{mv.start_v_mm_s, mv.cruise_v_mm_s},
+                                 std::pair{mv.cruise_v_mm_s, mv.end_v_mm_s}}) {
+      // Speed changes below round-off are not ramps (a Bezier over them would claim a huge jerk).
+      if (std::abs(v1 - v0) <= 1e-9 * std::max({1.0, v0, v1})) continue;
+      const plan::Ramp r = plan::make_ramp(mv.profile, v0, v1, mv.accel_mm_s2, mv.jerk_mm_s3);
+      run.peak_accel_mm_s2 = std::max(run.peak_accel_mm_s2, r.peak_accel_mm_s2);
+      const double jerk = mv.profile == machine::VelocityProfile::trapezoid
+                              ? std::numeric_limits<double>::infinity()
+                              : r.peak_jerk_mm_s3;
+      run.peak_jerk_mm_s3 = std::max(run.peak_jerk_mm_s3, jerk);
+    }
+  };
+  const plan::EstimateReport r = plan::estimate_file(file, m, opt);
+  run.total_time_s = r.total_time_s;
+  run.moves = r.moves;
+  return run;
+}
+
+void run_compare_profiles(const EstimateArgs& a) {
+  const machine::Machine m = machine::load_machine(a.machine, a.overrides);
+  std::vector<ProfileRun> runs;
+  for (auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::bezier5,
+                 machine::VelocityProfile::scurve7}) {
+    runs.push_back(run_profile(a.file, m, p, !a.lenient));
+  }
+  const double base = runs.front().total_time_s;
+  if (a.json) {
+    using nlohmann::json;
+    json j;
+    j["file"] = a.file;
+    j["machine"] = m.name;
+    j["max_jerk_mm_s3"] = m.max_jerk_mm_s3;
+    json arr = json::array();
+    for (const auto& r : runs) {
+      arr.push_back({{"profile", std::string(machine::to_string(r.profile))},
+                     {"total_time_s", r.total_time_s},
+                     {"peak_accel_mm_s2", r.peak_accel_mm_s2},
+                     // JSON has no infinity: the trapezoid's jerk is a step (unbounded) -> null.
+                     {"peak_jerk_mm_s3", std::isfinite(r.peak_jerk_mm_s3) ? json(r.peak_jerk_mm_s3) : json(nullptr)},
+                     {"jerk_limit_mm_s3", r.jerk_limit_mm_s3 > 0 ? json(r.jerk_limit_mm_s3) : json(nullptr)},
+                     {"time_vs_trapezoid", base > 0 ? r.total_time_s / base : 0.0},
+                     {"moves", r.moves}});
+    }
+    j["profiles"] = arr;
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  auto& o = std::cout;
+  o << fmt::format("amctl estimate --compare-profiles: {}\n", a.file);
+  o << fmt::format("  machine {} ({}), max_jerk {:g} mm/s^3\n", m.name, machine::to_string(m.firmware),
+                   m.max_jerk_mm_s3);
+  o << fmt::format("  {:<10} {:>12} {:>12} {:>9} {:>18} {:>18}\n", "profile", "print time", "seconds",
+                   "vs trap", "peak accel mm/s^2", "peak jerk mm/s^3");
+  for (const auto& r : runs) {
+    o << fmt::format("  {:<10} {:>12} {:>12.3f} {:>8.3f}x {:>18.0f} {:>18}\n",
+                     machine::to_string(r.profile), hms(r.total_time_s), r.total_time_s,
+                     base > 0 ? r.total_time_s / base : 0.0, r.peak_accel_mm_s2,
+                     std::isfinite(r.peak_jerk_mm_s3) ? fmt::format("{:.4g}", r.peak_jerk_mm_s3)
+                                                      : std::string("step (unbounded)"));
+  }
+  o << "  (peaks over the toolhead's ramps; extrude-only moves left out)\n";
+}
+
 void run_estimate(const EstimateArgs& a) {
+  if (a.compare_profiles) {
+    run_compare_profiles(a);
+    return;
+  }
   const machine::Machine m = machine::load_machine(a.machine, a.overrides);
   plan::EstimateOptions opt;
   opt.strict = !a.lenient;
@@ -244,6 +337,9 @@ void register_estimate(CLI::App& app) {
   sub->add_option("--mode", args->mode,
                   "planner (default) or empirical: the seed-004 average-speed model")
       ->check(CLI::IsMember({"planner", "empirical"}));
+  sub->add_flag("--compare-profiles", args->compare_profiles,
+                "Plan the file with trapezoid, bezier5 and scurve7 (jerk: printer.max_jerk) and print "
+                "print time, peak acceleration and peak jerk side by side");
   sub->add_option("--params", args->params,
                   "Empirical parameters (JSON from `calibrate-time --mode empirical --save`); "
                   "default: the seed's FDM 2000 speeds");

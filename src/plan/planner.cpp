@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/plan/velocity_profile.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -44,6 +45,8 @@ Planner::Planner(const machine::Machine& m, PlanSink& sink, PlannerOptions optio
   require_positive("marlin.travel_accel", m.travel_accel_mm_s2);
   require_positive("marlin.retract_accel", m.retract_accel_mm_s2);
   require_non_negative("marlin.junction_deviation", m.junction_deviation_mm);
+  jerk_limited_ = m.profile == machine::VelocityProfile::scurve7;
+  if (jerk_limited_) require_positive("printer.max_jerk", m.max_jerk_mm_s3);
 
   const bool klipper = m.firmware == Firmware::klipper;
   lim_.max_velocity_mm_s = m.max_velocity_mm_s;
@@ -68,6 +71,27 @@ Planner::Planner(const machine::Machine& m, PlanSink& sink, PlannerOptions optio
 double Planner::klipper_junction_deviation() const {
   const double scv = lim_.square_corner_velocity_mm_s;
   return scv * scv * (std::numbers::sqrt2 - 1.0) / lim_.accel_mm_s2;
+}
+
+inline double Planner::reach_v2(double from_v2, const Move& m) const {
+  if (!jerk_limited_) return from_v2 + m.delta_v2;  // v^2 = v0^2 + 2 a D
+  const double v = max_reachable_speed_mm_s(VelocityProfile::scurve7, std::sqrt(from_v2),
+                                            m.out.distance_mm, m.out.accel_mm_s2, m.out.jerk_mm_s3);
+  return v * v;
+}
+
+inline double Planner::reach_mcr_v2(double from_v2, const Move& m) const {
+  if (!jerk_limited_) return from_v2 + m.mcr_delta_v2;
+  const double v = max_reachable_speed_mm_s(VelocityProfile::scurve7, std::sqrt(from_v2),
+                                            m.out.distance_mm, m.mcr_accel, m.out.jerk_mm_s3);
+  return v * v;
+}
+
+inline double Planner::scurve_peak_v2(double start_v2, double end_v2, const Move& m,
+                                      double accel, double cap_v2) const {
+  const double v = peak_speed_mm_s(VelocityProfile::scurve7, std::sqrt(start_v2), std::sqrt(end_v2),
+                                   m.out.distance_mm, accel, m.out.jerk_mm_s3, std::sqrt(cap_v2));
+  return v * v;
 }
 
 double Planner::mcr_pseudo_accel() const {
@@ -165,6 +189,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   o.layer = r.layer;
   o.feature = r.feature;
   o.profile = machine_.profile;
+  o.jerk_mm_s3 = jerk_limited_ ? machine_.max_jerk_mm_s3 : 0.0;
   std::array<double, 4> d{};
   for (std::size_t i = 0; i < 4; ++i) d[i] = r.end_mm[i] - r.start_mm[i];
   double move_d = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -253,9 +278,11 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   m.delta_v2 = 2.0 * move_d * accel;
   if (klipper) {
     m.mcr_delta_v2 = std::min(2.0 * move_d * mcr_pseudo_accel(), m.delta_v2);
+    m.mcr_accel = std::min(mcr_pseudo_accel(), accel);
     m.junction_deviation = klipper_junction_deviation();
   } else {
     m.mcr_delta_v2 = m.delta_v2;
+    m.mcr_accel = accel;
   }
   m.nominal_v = velocity;
   for (std::size_t i = 0; i < 4; ++i) m.axis_v[i] = velocity * o.axes_r[i];
@@ -266,7 +293,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
 
 void Planner::junction_klipper(Move& m, const Move& prev) const {
   if (!m.kinematic || !prev.kinematic) return;
-  double max_start_v2 = std::min({m.max_cruise_v2, prev.max_cruise_v2, prev.max_start_v2 + prev.delta_v2});
+  double max_start_v2 = std::min({m.max_cruise_v2, prev.max_cruise_v2, reach_v2(prev.max_start_v2, prev)});
   // Extruder: limit the instantaneous change of extrusion rate.
   const double diff_r = m.out.axes_r[3] - prev.out.axes_r[3];
   if (diff_r != 0.0) {
@@ -292,7 +319,7 @@ void Planner::junction_klipper(Move& m, const Move& prev) const {
     max_start_v2 = std::min({max_start_v2, move_jd_v2, prev_jd_v2, move_cent_v2, prev_cent_v2});
   }
   m.max_start_v2 = max_start_v2;
-  m.max_mcr_start_v2 = std::min(max_start_v2, prev.max_mcr_start_v2 + prev.mcr_delta_v2);
+  m.max_mcr_start_v2 = std::min(max_start_v2, reach_mcr_v2(prev.max_mcr_start_v2, prev));
 }
 
 void Planner::junction_marlin_jd(Move& m, const Move& prev) const {
@@ -418,6 +445,32 @@ void Planner::add_queued_move() {
 
 void Planner::emit(Move& m, double start_v2, double cruise_v2, double end_v2) {
   PlannedMove& o = m.out;
+  if (jerk_limited_) {
+    // Jerk-limited ramps (velocity_profile.hpp): durations from the S-curve, the cruise takes
+    // what the two ramps leave of the distance. The look-ahead chose the speeds with the
+    // S-curve's own reach and peak, so the ramps must fit.
+    const double j = o.jerk_mm_s3, a = o.accel_mm_s2, D = o.distance_mm;
+    o.start_v_mm_s = std::sqrt(start_v2);
+    o.cruise_v_mm_s = std::sqrt(cruise_v2);
+    o.end_v_mm_s = std::sqrt(end_v2);
+    o.accel_t_s = ramp_duration_s(VelocityProfile::scurve7, o.start_v_mm_s, o.cruise_v_mm_s, a, j);
+    o.decel_t_s = ramp_duration_s(VelocityProfile::scurve7, o.cruise_v_mm_s, o.end_v_mm_s, a, j);
+    const double ramps_d = 0.5 * (o.start_v_mm_s + o.cruise_v_mm_s) * o.accel_t_s +
+                           0.5 * (o.cruise_v_mm_s + o.end_v_mm_s) * o.decel_t_s;
+    AMCTL_CHECK(ramps_d <= D * (1.0 + 1e-9) + 1e-12,
+                fmt::format("line {}: S-curve ramps {} -> {} -> {} mm/s need {} mm, move is {} mm",
+                            o.line, o.start_v_mm_s, o.cruise_v_mm_s, o.end_v_mm_s, ramps_d, D));
+    const double cruise_d = D - ramps_d;
+    o.cruise_t_s = cruise_d > 0.0 && o.cruise_v_mm_s > 0.0 ? cruise_d / o.cruise_v_mm_s : 0.0;
+    o.start_time_s = print_time_s_;
+    print_time_s_ += o.accel_t_s + o.cruise_t_s + o.decel_t_s;
+    sink_.on_planned(o);
+    while (!pending_.empty() && pending_.front().after_seq <= m.seq) {
+      fire(pending_.front());
+      pending_.pop_front();
+    }
+    return;
+  }
   const double a = o.accel_mm_s2;
   const double half_inv_a = 0.5 / a;
   const double accel_d = (cruise_v2 - start_v2) * half_inv_a;
@@ -452,9 +505,9 @@ void Planner::flush(bool lazy) {
   std::size_t pending = 0;
   for (std::size_t k = n; k-- > 0;) {
     const Move& mv = queue_[k];
-    const double reachable_start_v2 = next_start_v2 + mv.delta_v2;
+    const double reachable_start_v2 = reach_v2(next_start_v2, mv);
     const double start_v2 = std::min(mv.max_start_v2, reachable_start_v2);
-    const double reach_mcr_start_v2 = next_mcr_start_v2 + mv.mcr_delta_v2;
+    const double reach_mcr_start_v2 = reach_mcr_v2(next_mcr_start_v2, mv);
     const double mcr_start_v2 = std::min(mv.max_mcr_start_v2, reach_mcr_start_v2);
     ++pending;
     JunctionInfo& ji = scratch_[k];
@@ -462,14 +515,22 @@ void Planner::flush(bool lazy) {
     if (mcr_start_v2 < reach_mcr_start_v2) {
       // This move may accelerate: either it can both accelerate and decelerate, or it is a
       // full acceleration followed by a full deceleration.
-      if (mcr_start_v2 + mv.mcr_delta_v2 > next_mcr_start_v2 || pending > 1) {
+      if (reach_mcr_v2(mcr_start_v2, mv) > next_mcr_start_v2 || pending > 1) {
         if (update_flush_count && peak_cruise_v2 != 0.0) {
           flush_count = k + pending;
           update_flush_count = false;
         }
-        peak_cruise_v2 = (mcr_start_v2 + reach_mcr_start_v2) * 0.5;
+        // Peak of the smoothed pass; the S-curve's is below the trapezoid's (3.1), its cap here.
+        peak_cruise_v2 = jerk_limited_
+                             ? scurve_peak_v2(mcr_start_v2, next_mcr_start_v2, mv, mv.mcr_accel,
+                                              (mcr_start_v2 + next_mcr_start_v2) * 0.5 +
+                                                  mv.out.distance_mm * mv.mcr_accel)
+                             : (mcr_start_v2 + reach_mcr_start_v2) * 0.5;
       }
-      ji.cruise_v2 = std::min({(start_v2 + reachable_start_v2) * 0.5, mv.max_cruise_v2, peak_cruise_v2});
+      ji.cruise_v2 = jerk_limited_
+                         ? scurve_peak_v2(start_v2, next_start_v2, mv, mv.out.accel_mm_s2,
+                                          std::min(mv.max_cruise_v2, peak_cruise_v2))
+                         : std::min({(start_v2 + reachable_start_v2) * 0.5, mv.max_cruise_v2, peak_cruise_v2});
       ji.has_cruise = true;
       pending = 0;
     }
@@ -498,16 +559,18 @@ void Planner::flush_marlin_head() {
   double next_start_v2 = 0.0;
   for (std::size_t k = n; k-- > 0;) {
     const Move& mv = queue_[k];
-    const double start_v2 = std::min(mv.max_start_v2, next_start_v2 + mv.delta_v2);
+    const double start_v2 = std::min(mv.max_start_v2, reach_v2(next_start_v2, mv));
     scratch_[k].start_v2 = start_v2;
     scratch_[k].next_start_v2 = next_start_v2;
     next_start_v2 = start_v2;
   }
   Move& head = queue_.front();
   const double s2 = scratch_[0].start_v2;
-  const double e2 = std::min(scratch_[0].next_start_v2, s2 + head.delta_v2);
-  // Peak of the trapezoid (seed 000 eq. 3.1), capped by the nominal speed.
-  const double cruise_v2 = std::max({std::min(head.max_cruise_v2, (s2 + e2 + head.delta_v2) * 0.5), s2, e2});
+  const double e2 = std::min(scratch_[0].next_start_v2, reach_v2(s2, head));
+  // Peak of the trapezoid (seed 000 eq. 3.1) or of the S-curve, capped by the nominal speed.
+  const double cruise_v2 =
+      jerk_limited_ ? std::max({scurve_peak_v2(s2, e2, head, head.out.accel_mm_s2, head.max_cruise_v2), s2, e2})
+                    : std::max({std::min(head.max_cruise_v2, (s2 + e2 + head.delta_v2) * 0.5), s2, e2});
   emit(head, s2, cruise_v2, e2);
   queue_.pop_front();
   if (!queue_.empty()) {

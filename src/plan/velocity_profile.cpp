@@ -86,6 +86,72 @@ double max_reachable_speed_mm_s(VelocityProfile profile, double v0, double dista
   return v0 + std::max(dv, 0.0);
 }
 
+namespace {
+
+// scurve7 ramp distance from v0 to v (v >= v0) and its derivative in v.
+struct DistSlope { double d; double dd; };
+DistSlope scurve_ramp_dist(double v0, double v, double a, double j) {
+  const double dv = v - v0;
+  if (dv <= 0.0) return {0.0, 0.0};
+  if (dv >= a * a / j) {
+    // d = (v0 + v)/2 (dv/a + a/j)  ->  d' = (dv/a + a/j)/2 + (v0 + v)/(2a) = v/a + a/(2j)
+    return {0.5 * (v0 + v) * (dv / a + a / j), v / a + 0.5 * a / j};
+  }
+  // d = (v0 + v) sqrt(dv/j)  ->  d' = sqrt(dv/j) + (v0 + v) / (2 sqrt(dv j))
+  const double r = std::sqrt(dv / j);
+  return {(v0 + v) * r, r + (v0 + v) / (2.0 * std::sqrt(dv * j))};
+}
+
+}  // namespace
+
+double peak_speed_mm_s(VelocityProfile profile, double v0, double v1, double distance,
+                       double accel, double jerk, double max_v) {
+  const double lo0 = std::max(v0, v1);
+  if (profile != VelocityProfile::scurve7) {
+    const double vp = std::sqrt(0.5 * (v0 * v0 + v1 * v1) + accel * distance);
+    return std::max(std::min(vp, max_v), lo0);
+  }
+  const double a = accel, j = jerk;
+  // The S-curve needs more distance than the trapezoid for the same speeds, so the
+  // trapezoid's peak bounds the root from above (and keeps an infinite cap finite).
+  max_v = std::min(max_v, std::sqrt(0.5 * (v0 * v0 + v1 * v1) + a * distance));
+  auto needed = [&](double v) {
+    const DistSlope p = scurve_ramp_dist(v0, v, a, j), q = scurve_ramp_dist(v1, v, a, j);
+    return DistSlope{p.d + q.d, p.dd + q.dd};
+  };
+  if (!(max_v > lo0)) return lo0;
+  if (needed(max_v).d <= distance) return max_v;
+  if (needed(lo0).d >= distance) return lo0;
+  // Both ramps at the accel limit: (v^2 - v0^2)/2a + (v^2 - v1^2)/2a + a/2j (v0 + v1 + 2v) = D,
+  // i.e. v^2/a + (a/j) v + c = 0; valid when v - max(v0, v1) >= a^2/j.
+  const double c = -(v0 * v0 + v1 * v1) / (2.0 * a) + a * (v0 + v1) / (2.0 * j) - distance;
+  const double b = a / j;
+  const double disc = b * b - 4.0 * c / a;
+  if (disc >= 0.0) {
+    const double root = 0.5 * a * (-b + std::sqrt(disc));
+    if (root - lo0 >= a * a / j && root <= max_v) return root;
+  }
+  // Bracketed Newton on f(v) = needed(v) - D, f(lo) < 0 < f(hi).
+  double lo = lo0, hi = max_v;
+  double v = std::min(hi, std::sqrt(0.5 * (v0 * v0 + v1 * v1) + a * distance));  // >= root
+  for (int it = 0; it < 100; ++it) {
+    const DistSlope f = needed(v);
+    const double g = f.d - distance;
+    if (g > 0.0) hi = v; else lo = v;
+    if (g == 0.0 || hi - lo <= 1e-14 * hi) break;
+    double next = (f.dd > 0.0 && std::isfinite(f.dd)) ? v - g / f.dd : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - v) <= 1e-14 * v) {
+      v = next;
+      break;
+    }
+    v = next;
+  }
+  // Newton from the right of a convex stretch ends a few ulps past the root: accept that
+  // (1e-12 of the distance); otherwise fall back to the feasible end of the bracket.
+  return needed(v).d - distance <= 1e-12 * distance ? v : lo;
+}
+
 Ramp make_ramp(VelocityProfile profile, double v0, double v1, double accel, double jerk) {
   check_inputs(profile, v0, v1, accel, jerk);
   Ramp r;

@@ -121,6 +121,7 @@ class Planner final : public gcode::EventSink {
     double delta_v2 = 0;
     double max_mcr_start_v2 = 0;
     double mcr_delta_v2 = 0;
+    double mcr_accel = 0;           // pseudo-accel of the smoothed pass (mcr_delta_v2 / 2D)
     double min_move_t = 0;
     double junction_deviation = 0;  // Klipper jd of the limits in force for this move
     bool kinematic = true;
@@ -183,6 +184,14 @@ class Planner final : public gcode::EventSink {
   void add_queued_move();
   void flush(bool lazy);
   void emit(Move& m, double start_v2, double cruise_v2, double end_v2);
+  // The two places where the ramp shape enters the look-ahead (docs/planner.md, "Jerk-limited
+  // profiles"): the squared speed reachable over a move from from_v2 (accelerating, or by
+  // time reversal braking), and the squared cruise peak between two end speeds.
+  // The smoothed (minimum cruise ratio) pass uses the same shapes with the pseudo-accel.
+  [[nodiscard]] double reach_v2(double from_v2, const Move& m) const;
+  [[nodiscard]] double reach_mcr_v2(double from_v2, const Move& m) const;
+  [[nodiscard]] double scurve_peak_v2(double start_v2, double end_v2, const Move& m,
+                                      double accel, double cap_v2) const;
   void full_stop();
   void junction_klipper(Move& m, const Move& prev) const;
   void junction_marlin_jd(Move& m, const Move& prev) const;
@@ -200,6 +209,7 @@ class Planner final : public gcode::EventSink {
   std::size_t buffer_size_ = 16;
   double print_time_s_ = 0.0;
   double prev_safe_v_ = 0.0;
+  bool jerk_limited_ = false;  // machine profile is scurve7: ramps are timed jerk-limited
   PlannerDiagnostics diag_;
   // Reusable scratch for flush().
   struct JunctionInfo { double start_v2; double cruise_v2; bool has_cruise; double next_start_v2; };

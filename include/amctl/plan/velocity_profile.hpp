@@ -74,6 +74,17 @@ struct PathState {
                                               double distance_mm, double accel_mm_s2,
                                               double jerk_mm_s3 = 0.0);
 
+/// Highest cruise speed vc, max(v0, v1) <= vc <= max_v, whose ramps v0 -> vc and vc -> v1 fit
+/// in distance_mm: ramp_distance(v0, vc) + ramp_distance(vc, v1) <= distance_mm. Trapezoid and
+/// bezier5: (3.1) v = sqrt((v0^2 + v1^2)/2 + a D). scurve7: exact root of the quadratic when both
+/// ramps reach the accel limit, otherwise a bracketed Newton iteration (bisection fallback) on
+/// the increasing function ramp_distance(v0, v) + ramp_distance(v, v1) - D, converged to ~1e-13
+/// relative. Returns max(v0, v1) when even the direct ramp v0 -> v1 does not fit. No input
+/// checks (hot path of the planner): speeds >= 0, distance > 0, accel, jerk > 0.
+[[nodiscard]] double peak_speed_mm_s(VelocityProfile profile, double v0_mm_s, double v1_mm_s,
+                                     double distance_mm, double accel_mm_s2, double jerk_mm_s3,
+                                     double max_v_mm_s);
+
 /// State at time t (clamped to [0, duration]) inside the ramp; s from the ramp start.
 [[nodiscard]] PathState evaluate_ramp(const Ramp& ramp, double t_s);
 
