@@ -302,3 +302,30 @@ TEST(SCurvePeak, AgreesWithBisectionOverMixedRampRegimes) {
 
 }  // namespace
 }  // namespace amctl::plan
+
+namespace amctl::plan {
+namespace {
+
+// Reference values printed by tests/reference/scurve_reference.py, which knows the S-curve only
+// as a jerk schedule, integrates it with scipy's solve_ivp and finds the peak with brentq.
+TEST(SCurvePeak, MatchesScipyIntegrationOfTheJerkSchedule) {
+  struct Case { double vs, ve, D, peak, time; };
+  const Case cases[] = {
+      {3.0, 60.0, 2.0, 66.743677840713, 0.047861400129},   // mixed regimes
+      {40.0, 0.0, 1.0, 43.620754529082, 0.038046379324},   // both ramps two-phase
+      {0.0, 10.0, 80.0, 467.735912597190, 0.338490608398}, // both ramps three-phase
+  };
+  const double a = 3000, j = 2e5;
+  for (const Case& c : cases) {
+    const double vp = peak_speed_mm_s(VelocityProfile::scurve7, c.vs, c.ve, c.D, a, j, 1000);
+    EXPECT_NEAR(vp, c.peak, 1e-8 * c.peak) << c.D;
+    const double t1 = ramp_duration_s(VelocityProfile::scurve7, c.vs, vp, a, j);
+    const double t2 = ramp_duration_s(VelocityProfile::scurve7, vp, c.ve, a, j);
+    const double d = ramp_distance_mm(VelocityProfile::scurve7, c.vs, vp, a, j) +
+                     ramp_distance_mm(VelocityProfile::scurve7, vp, c.ve, a, j);
+    EXPECT_NEAR(t1 + t2 + (c.D - d) / vp, c.time, 1e-9) << c.D;
+  }
+}
+
+}  // namespace
+}  // namespace amctl::plan
