@@ -75,15 +75,21 @@ double Planner::klipper_junction_deviation() const {
 
 inline double Planner::reach_v2(double from_v2, const Move& m) const {
   if (!jerk_limited_) return from_v2 + m.delta_v2;  // v^2 = v0^2 + 2 a D
+  if (from_v2 == m.reach_from_v2) return m.reach_to_v2;
   const double v = max_reachable_speed_mm_s(VelocityProfile::scurve7, std::sqrt(from_v2),
                                             m.out.distance_mm, m.out.accel_mm_s2, m.out.jerk_mm_s3);
+  m.reach_from_v2 = from_v2;
+  m.reach_to_v2 = v * v;
   return v * v;
 }
 
 inline double Planner::reach_mcr_v2(double from_v2, const Move& m) const {
   if (!jerk_limited_) return from_v2 + m.mcr_delta_v2;
+  if (from_v2 == m.mcr_reach_from_v2) return m.mcr_reach_to_v2;
   const double v = max_reachable_speed_mm_s(VelocityProfile::scurve7, std::sqrt(from_v2),
                                             m.out.distance_mm, m.mcr_accel, m.out.jerk_mm_s3);
+  m.mcr_reach_from_v2 = from_v2;
+  m.mcr_reach_to_v2 = v * v;
   return v * v;
 }
 
