@@ -230,7 +230,8 @@ TEST(SCurvePlanner, TimeFallsTowardsTheTrapezoidAsJerkGrows) {
   EXPECT_NEAR(prev, trap.total_time_s, 1e-3 * trap.total_time_s);
 }
 
-// A real PrusaSlicer file on the Voron V0 printer.cfg (minimum_cruise_ratio 0.5): every move's
+// A real PrusaSlicer file on the Voron V0 printer.cfg (minimum_cruise_ratio 0.5) and on two
+// Marlin machines (junction deviation, classic jerk; 16-block buffer): every move's
 // two ramps fit in its distance (checked here with the closed-form ramp lengths, independently
 // of the planner's own AMCTL_CHECK), and consecutive moves meet at the same speed, for the
 // trapezoid (jerk 0 below) and the S-curve at two jerk limits.
@@ -238,8 +239,12 @@ TEST(SCurvePlanner, EveryMoveOfARealFileFitsItsRampsAndJunctionsMatch) {
   const std::string file =
       std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode";
   if (!std::filesystem::exists(file)) GTEST_SKIP() << file;
+  // Klipper's look-ahead, then Marlin's finite buffer with junction deviation and classic jerk.
+  for (const char* cfg : {"/configs/klipper-voron-v0.cfg", "/configs/ender3.toml", "/configs/prusa-mk3s.toml"})
   for (double jerk : {0.0, 1e5, 1e6}) {
-    machine::Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg",
+    SCOPED_TRACE(cfg);
+    const std::string machine_file = std::string(AMCTL_SOURCE_DIR) + cfg;
+    machine::Machine m = machine::load_machine(machine_file,
                                                {jerk > 0 ? "printer.profile=scurve7" : "printer.profile=trapezoid",
                                                 fmt::format("printer.max_jerk={}", jerk > 0 ? jerk : 1e6)});
     std::size_t n = 0, bad_fit = 0, bad_junction = 0;
@@ -266,7 +271,7 @@ TEST(SCurvePlanner, EveryMoveOfARealFileFitsItsRampsAndJunctionsMatch) {
       have_prev = true;
     };
     auto r = estimate_file(file, m, opt);
-    auto t = estimate_file(file, machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg"));
+    auto t = estimate_file(file, machine::load_machine(machine_file));
     EXPECT_GT(n, 10000u);
     EXPECT_EQ(bad_fit, 0u) << jerk;
     EXPECT_EQ(bad_junction, 0u) << jerk << " worst " << worst;
