@@ -95,6 +95,9 @@ inline double Planner::reach_mcr_v2(double from_v2, const Move& m) const {
 
 inline double Planner::scurve_peak_v2(double start_v2, double end_v2, const Move& m,
                                       double accel, double cap_v2) const {
+  // As min(peak, cap) for the trapezoid: a cap below an end speed flattens the move at the cap
+  // (emit() then clips the end speeds to it).
+  if (cap_v2 <= std::max(start_v2, end_v2)) return cap_v2;
   const double v = peak_speed_mm_s(VelocityProfile::scurve7, std::sqrt(start_v2), std::sqrt(end_v2),
                                    m.out.distance_mm, accel, m.out.jerk_mm_s3, std::sqrt(cap_v2));
   return v * v;
