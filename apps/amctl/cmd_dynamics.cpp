@@ -254,15 +254,15 @@ void do_simulate(const SimulateArgs& a) {
   if (n_moves == 0) throw Error(fmt::format("{}: no moves to simulate", a.file));
   const dy::QualityReport rep = stream.finish();
   const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  // Feature names: estimate drops features without moves, keeping the order of the rest.
+  // Feature names by PlannedMove::feature index.
   std::vector<std::string> names;
-  {
-    std::size_t i = 0;
-    for (std::uint16_t f : used_features) {
-      if (names.size() <= f) names.resize(f + 1u);
-      names[f] = i < est.features.size() ? est.features[i].name : fmt::format("{}", f);
-      ++i;
-    }
+  for (const auto& f : est.features) {
+    if (names.size() <= f.index) names.resize(f.index + 1u);
+    names[f.index] = f.name;
+  }
+  for (std::uint16_t f : used_features) {
+    if (names.size() <= f) names.resize(f + 1u);
+    if (names[f].empty()) names[f] = fmt::format("{}", f);
   }
   json j = report_json(rep, names);
   j["file"] = a.file;

@@ -4,6 +4,7 @@
 #include <iostream>
 #include <limits>
 #include <string>
+#include <iomanip>
 #include <vector>
 
 #include <fmt/format.h>
@@ -83,13 +84,13 @@ nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
     feats.push_back({{"name", f.name}, {"time_s", f.time_s}, {"extrude_time_s", f.extrude_time_s},
                      {"path_mm", f.path_mm}, {"filament_mm", f.filament_mm}, {"moves", f.moves}});
   }
-  j["features"] = feats;
+  j["features"] = std::move(feats);
   json layers = json::array();
   for (const auto& l : r.layers) {
     layers.push_back({{"layer", l.layer}, {"start_s", l.start_s}, {"time_s", l.time_s},
                       {"z_mm", l.z_mm}, {"line", l.first_line}});
   }
-  j["layers"] = layers;
+  j["layers"] = std::move(layers);  // no copy: one row per layer, thousands on big prints
   auto events = [](const std::vector<plan::TimedEvent>& v) {
     json a = json::array();
     for (const auto& e : v) a.push_back({{"at_s", e.at_s}, {"what", e.what}, {"line", e.line}});
@@ -307,7 +308,7 @@ void run_estimate(const EstimateArgs& a) {
   } else if (a.json) {
     auto j = to_json(r, m, compute_s);
     if (!a.m73_out.empty()) j["m73_written"] = {{"file", a.m73_out}, {"lines", m73}};
-    std::cout << j.dump(2) << "\n";
+    std::cout << std::setw(2) << j << "\n";  // streamed: no second copy as one string
   } else {
     print_human(r, m, compute_s, a.all_layers);
     if (!a.m73_out.empty()) std::cout << fmt::format("  wrote {} with {} M73 lines\n", a.m73_out, m73);

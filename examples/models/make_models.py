@@ -4,7 +4,7 @@
   boxboss.stl  a 20 x 20 x 8 mm block with a 12 mm diameter, 12 mm tall round boss on top:
                straight walls, a curved wall and a top surface, so the sliced file has
                corners, short curve segments and infill.
-  coin_D.stl   coins of diameter D in {25, 50, 100} mm, 2 mm thick (seed 004, Table 4).
+(The seed 004 coins come from examples/04_make_coin_stl.py.)
 Usage: make_models.py OUTDIR
 """
 import math
@@ -57,8 +57,6 @@ def main():
     out = sys.argv[1] if len(sys.argv) > 1 else "."
     os.makedirs(out, exist_ok=True)
     write_stl(os.path.join(out, "boxboss.stl"), "boxboss", boxboss())
-    for d in (25, 50, 100):
-        write_stl(os.path.join(out, f"coin_{d}.stl"), f"coin_{d}", cylinder(d / 2, d / 2, 0, 2, d / 2, 180))
 
 
 if __name__ == "__main__":

@@ -65,6 +65,13 @@ std::optional<double> parse_dhms(std::string_view s) {
   return total;
 }
 
+// Largest accepted machine coordinate [mm] (1000 km): anything beyond is an overflow or a
+// typo, never a print, and squares of distances must stay far from double overflow.
+constexpr double kMaxCoordinate_mm = 1e9;
+// Largest accepted speed/acceleration/jerk limit (mm/s, mm/min, mm/s^2 alike): squared speeds
+// and accel * distance products then stay finite.
+constexpr double kMaxLimit = 1e9;
+
 // Commands understood to have no effect on motion time.
 bool is_ignored_word(char letter, int code) {
   if (letter == 'T') return true;  // tool select: single-extruder time model
@@ -433,9 +440,10 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         for (int i = 0; i < 26; ++i) {
           if ((lc.params.present >> i) & 1u) {
             double v = lc.params.value[static_cast<std::size_t>(i)];
-            if (v < 0.0) {
+            if (v < 0.0 || v > kMaxLimit) {
               fail(line_no, lc.params.column[static_cast<std::size_t>(i)],
-                   fmt::format("{} {} must be >= 0, got {}", cmd.name, static_cast<char>('A' + i), v));
+                   fmt::format("{} {} must be in [0, {:g}], got {}", cmd.name,
+                               static_cast<char>('A' + i), kMaxLimit, v));
             }
           }
         }
@@ -516,10 +524,10 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     v = number_arg(cmd, "ACCEL_TO_DECEL", line_no, has);
     if (has) lc.accel_to_decel = v;
     auto bad = [&](const std::optional<double>& o, std::string_view key, bool allow_zero) {
-      if (o && (*o < 0.0 || (!allow_zero && *o == 0.0))) {
+      if (o && (*o < 0.0 || (!allow_zero && *o == 0.0) || *o > kMaxLimit)) {
         fail(line_no, cmd.args_column,
-             fmt::format("SET_VELOCITY_LIMIT {} must be {} 0, got {}", key,
-                         allow_zero ? ">=" : ">", *o));
+             fmt::format("SET_VELOCITY_LIMIT {} must be {} 0 and <= {:g}, got {}", key,
+                         allow_zero ? ">=" : ">", kMaxLimit, *o));
       }
     };
     bad(lc.velocity, "VELOCITY", false);
@@ -593,39 +601,50 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
   note_unknown(name, line_no);
 }
 
-void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sink) {
-  require_numbers(p, line_no);
-  if (p.has('F')) {
-    double f = p.get('F');
-    if (!(f > 0.0)) {
-      fail(line_no, p.column['F' - 'A'],
-           fmt::format("feedrate F must be > 0 mm/min, got {}", f));
-    }
-    feed_mm_s_ = f * unit_mm_ / 60.0;
+void Interpreter::apply_feed(const Params& p, std::uint64_t line_no) {
+  if (!p.has('F')) return;
+  const double f = p.get('F');
+  if (!(f > 0.0)) {
+    fail(line_no, p.column['F' - 'A'], fmt::format("feedrate F must be > 0 mm/min, got {}", f));
   }
-  constexpr std::uint32_t kAxes = (1u << ('X' - 'A')) | (1u << ('Y' - 'A')) |
-                                  (1u << ('Z' - 'A')) | (1u << ('E' - 'A'));
-  if ((p.present & kAxes) == 0) return;  // F only: sets the speed of later moves
+  feed_mm_s_ = f * unit_mm_ / 60.0;
+}
+
+std::array<double, 4> Interpreter::target_of(const Params& p,
+                                             std::array<double, 4>& new_gcode) const {
   std::array<double, 4> target = pos_;
-  for (int a = 0; a < 3; ++a) {
+  new_gcode = gcode_pos_;
+  for (std::size_t a = 0; a < 3; ++a) {
     const char l = "XYZ"[a];
     if (!p.has(l)) continue;
     const double v = p.get(l) * unit_mm_;
     if (absolute_xyz_) {
       target[a] = pos_[a] + (v - gcode_pos_[a]);
-      gcode_pos_[a] = v;
+      new_gcode[a] = v;
     } else {
       target[a] = pos_[a] + v;
-      gcode_pos_[a] += v;
+      new_gcode[a] += v;
     }
   }
   if (p.has('E')) {
+    // Like Klipper, E is relative when either G91 or M83 is in force.
     const double v = p.get('E') * unit_mm_;
     const bool rel = !absolute_xyz_ || !absolute_e_;
-    const double delta = rel ? v : v - gcode_pos_[3];
-    gcode_pos_[3] = rel ? gcode_pos_[3] + v : v;
-    target[3] = pos_[3] + delta * extrude_factor_;
+    target[3] = pos_[3] + (rel ? v : v - gcode_pos_[3]) * extrude_factor_;
+    new_gcode[3] = rel ? gcode_pos_[3] + v : v;
   }
+  return target;
+}
+
+void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sink) {
+  require_numbers(p, line_no);
+  apply_feed(p, line_no);
+  constexpr std::uint32_t kAxes = (1u << ('X' - 'A')) | (1u << ('Y' - 'A')) |
+                                  (1u << ('Z' - 'A')) | (1u << ('E' - 'A'));
+  if ((p.present & kAxes) == 0) return;  // F only: sets the speed of later moves
+  std::array<double, 4> new_gcode;
+  const std::array<double, 4> target = target_of(p, new_gcode);
+  gcode_pos_ = new_gcode;
   emit_move(target, feed_mm_s_ * speed_factor_, line_no, sink, false);
 }
 
@@ -644,6 +663,19 @@ void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm
                             std::uint64_t line_no, EventSink& sink, bool from_arc,
                             bool from_retract) {
   if (target == pos_) return;
+  // Every coordinate must stay finite and within a sane range: larger values come from
+  // overflowing arithmetic (G20 with 1e308, G91 accumulation, M221 S1e308, huge arc offsets)
+  // and would poison the planner with inf/NaN.
+  for (std::size_t a = 0; a < 4; ++a) {
+    if (!(std::fabs(target[a]) <= kMaxCoordinate_mm)) {
+      const char l = "XYZE"[a];
+      const std::uint32_t col = params_.has(l) ? params_.column[static_cast<std::size_t>(l - 'A')]
+                                               : cmd_.args_column;
+      fail(line_no, col,
+           fmt::format("{} position {} mm is out of range: expected |{}| <= {:g} mm", l,
+                       target[a], l, kMaxCoordinate_mm));
+    }
+  }
   MoveRequest m;
   m.start_mm = pos_;
   m.end_mm = target;
@@ -661,39 +693,16 @@ void Interpreter::do_arc(const Command& cmd, const Params& p, bool clockwise,
                          std::uint64_t line_no, EventSink& sink) {
   require_numbers(p, line_no);
   // Klipper refuses relative arcs; Marlin allows them: targets are then relative.
-  if (p.has('F')) {
-    double f = p.get('F');
-    if (!(f > 0.0)) fail(line_no, p.column['F' - 'A'], fmt::format("feedrate F must be > 0 mm/min, got {}", f));
-    feed_mm_s_ = f * unit_mm_ / 60.0;
-  }
+  apply_feed(p, line_no);
   // Plane axes: (alpha, beta) in the plane, helical axis normal to it.
-  int a0 = 0, a1 = 1, ah = 2;
+  std::size_t a0 = 0, a1 = 1, ah = 2;
   char c0 = 'I', c1 = 'J';
   if (arc_plane_ == 18) { a0 = 0; a1 = 2; ah = 1; c0 = 'I'; c1 = 'K'; }
   if (arc_plane_ == 19) { a0 = 1; a1 = 2; ah = 0; c0 = 'J'; c1 = 'K'; }
 
-  // Target in machine coordinates, as for G1.
-  std::array<double, 4> target = pos_;
-  std::array<double, 4> new_gcode = gcode_pos_;
-  for (int a = 0; a < 3; ++a) {
-    const char l = "XYZ"[a];
-    if (!p.has(l)) continue;
-    const double v = p.get(l) * unit_mm_;
-    if (absolute_xyz_) {
-      target[a] = pos_[a] + (v - gcode_pos_[a]);
-      new_gcode[a] = v;
-    } else {
-      target[a] = pos_[a] + v;
-      new_gcode[a] += v;
-    }
-  }
-  double e_total = 0.0;
-  if (p.has('E')) {
-    const double v = p.get('E') * unit_mm_;
-    const bool rel = !absolute_xyz_ || !absolute_e_;
-    e_total = (rel ? v : v - gcode_pos_[3]) * extrude_factor_;
-    new_gcode[3] = rel ? gcode_pos_[3] + v : v;
-  }
+  std::array<double, 4> new_gcode;
+  const std::array<double, 4> target = target_of(p, new_gcode);
+  const double e_total = target[3] - pos_[3];
   double off0 = 0.0, off1 = 0.0;  // center - start, in the plane
   const double p0 = pos_[a0], q0 = pos_[a1], p1 = target[a0], q1 = target[a1];
   if (p.has('R')) {

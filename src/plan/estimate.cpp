@@ -139,6 +139,7 @@ EstimateReport run(gcode::LineReader& reader, const machine::Machine& machine,
   r.features.resize(std::max(r.features.size(), names.size()));
   for (std::size_t i = 0; i < r.features.size(); ++i) {
     r.features[i].name = i < names.size() ? names[i] : "unknown";
+    r.features[i].index = static_cast<std::uint16_t>(i);
   }
   // Drop features that never had a move (e.g. "unknown" when every move is annotated).
   std::erase_if(r.features, [](const FeatureTime& f) { return f.moves == 0; });

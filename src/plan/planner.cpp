@@ -180,8 +180,19 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   }
   // Built in place at the back of the queue (no copy of the large Move); dropped again if
   // it turns out to be zero-length.
-  Move& m = queue_.emplace_back();
+  Move& m = queue_.emplace_back();  // a recycled slot: every field is assigned below
   PlannedMove& o = m.out;
+  // Fields that are only set on some paths (or only by emit()) start from their defaults.
+  o.start_time_s = 0.0;
+  o.start_v_mm_s = o.cruise_v_mm_s = o.end_v_mm_s = 0.0;
+  o.jerk_mm_s3 = 0.0;
+  o.accel_t_s = o.cruise_t_s = o.decel_t_s = 0.0;
+  o.extrude_only = false;
+  m.max_start_v2 = 0.0;
+  m.max_mcr_start_v2 = 0.0;
+  m.junction_deviation = 0.0;
+  m.kinematic = true;
+  m.safe_v = 0.0;
   o.start_mm = r.start_mm;
   o.line = r.line;
   o.layer = r.layer;

@@ -156,6 +156,38 @@ TEST(Interpreter, BadInputNamesFileLineColumn) {
   EXPECT_NO_THROW(run("G28 X Y\n"));                  // bare letters are flags for G28
 }
 
+// Found by fuzz_gcode: coordinates that overflow to inf/NaN (or are merely absurd) must be
+// errors naming the line and the axis, not moves the planner turns into NaN times.
+TEST(Interpreter, CoordinatesBeyondAThousandKilometresAreErrors) {
+  auto expect_range_error = [](std::string_view g, std::uint64_t line, std::uint32_t col) {
+    try {
+      run(g);
+      FAIL() << "expected an error for " << g;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.where().line, line) << g;
+      EXPECT_EQ(e.where().column, col) << g;
+      EXPECT_NE(std::string(e.what()).find("out of range"), std::string::npos) << e.what();
+    }
+  };
+  expect_range_error("G20\nG1 X1e308 F100\n", 2, 4);                  // 25.4 * 1e308 = inf
+  expect_range_error("G91\nG1 X1.7e308 F100\nG1 X1.7e308\n", 2, 4);   // beyond 1e9 already
+  expect_range_error("G1 X1 F60\nG92 X-1.5e308\nG1 X1.5e308\n", 3, 4);  // v - offset = inf
+  expect_range_error("M221 S1e308\nM83\nG1 X10 E1e10 F100\n", 3, 8);
+  // An arc through 2e300 mm is refused for its segment count before any point is emitted.
+  EXPECT_THROW(run("G1 X1 F60\nG2 X1 Y0 I1e300 J0\n"), Error);
+  // The bound itself is accepted: 1e9 mm.
+  EXPECT_EQ(run("G1 X1e9 F60\n").moves.size(), 1u);
+}
+
+// Found by fuzz_gcode: SET_VELOCITY_LIMIT VELOCITY=1e308 made v^2 = inf in the planner.
+TEST(Interpreter, AbsurdlyLargeLimitsAreErrors) {
+  EXPECT_THROW(run("SET_VELOCITY_LIMIT VELOCITY=1e308\n"), Error);
+  EXPECT_THROW(run("SET_VELOCITY_LIMIT ACCEL=1e10\n"), Error);
+  EXPECT_THROW(run("M203 X1e300\n"), Error);
+  EXPECT_THROW(run("M204 S2e9\n"), Error);
+  EXPECT_EQ(run("SET_VELOCITY_LIMIT VELOCITY=1e9 ACCEL=1e9\nM204 S1e9\n").limits.size(), 2u);
+}
+
 TEST(Interpreter, LenientModeCountsSkippedLines) {
   InterpreterOptions o;
   o.strict = false;

@@ -58,6 +58,20 @@ TEST(Parser, ReadsLineNumbersAndVerifiesChecksums) {
   EXPECT_EQ(issue.column, 7u);
 }
 
+// Found by fuzz_gcode (UBSan: signed overflow in the checksum and N number accumulators).
+TEST(Parser, OverlongChecksumsAndLineNumbersAreErrorsNotOverflows) {
+  Command c;
+  ParseIssue issue;
+  EXPECT_FALSE(parse_line("G1 X1*3333333333333333333333", c, issue));
+  EXPECT_NE(issue.message.find("checksum mismatch"), std::string::npos);
+  EXPECT_EQ(issue.column, 6u);
+  EXPECT_FALSE(parse_line("N99999999999999999999999 G1 X1", c, issue));
+  EXPECT_NE(issue.message.find("line number"), std::string::npos);
+  EXPECT_EQ(issue.column, 2u);
+  // The largest accepted line number still reads exactly.
+  EXPECT_EQ(parse("N999999999999999999 G1 X1").line_number, 999999999999999999);
+}
+
 TEST(Parser, BlankAndCommentOnlyLinesHaveNoCommand) {
   EXPECT_EQ(parse("").kind, CommandKind::none);
   EXPECT_EQ(parse("   \t ").kind, CommandKind::none);

@@ -83,6 +83,10 @@ class Interpreter {
                  EventSink& sink, bool from_arc, bool from_retract = false);
   void set_feature(std::string_view name);
   void require_numbers(const Params& p, std::uint64_t line_no) const;
+  void apply_feed(const Params& p, std::uint64_t line_no);
+  /// Machine-coordinate target of the X/Y/Z/E words under the modal state; the file's own
+  /// coordinates after the move go to `new_gcode`.
+  [[nodiscard]] std::array<double, 4> target_of(const Params& p, std::array<double, 4>& new_gcode) const;
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;

@@ -30,6 +30,7 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m);
 
 struct FeatureTime {
   std::string name;
+  std::uint16_t index = 0;    ///< PlannedMove::feature of the moves counted here
   double time_s = 0.0;        ///< all moves tagged with this feature
   double extrude_time_s = 0.0;
   double path_mm = 0.0;       ///< XYZ length of extruding moves
