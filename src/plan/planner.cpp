@@ -193,6 +193,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   m.junction_deviation = 0.0;
   m.kinematic = true;
   m.safe_v = 0.0;
+  m.reach_from_v2 = m.mcr_reach_from_v2 = -1.0;  // no S-curve reach memo from an old move
   o.start_mm = r.start_mm;
   o.line = r.line;
   o.layer = r.layer;
