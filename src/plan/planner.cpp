@@ -75,20 +75,29 @@ double Planner::klipper_junction_deviation() const {
 
 inline double Planner::reach_v2(double from_v2, const Move& m) const {
   if (!jerk_limited_) return from_v2 + m.delta_v2;  // v^2 = v0^2 + 2 a D
+  if (from_v2 == m.reach_from_v2) return m.reach_to_v2;
   const double v = max_reachable_speed_mm_s(VelocityProfile::scurve7, std::sqrt(from_v2),
                                             m.out.distance_mm, m.out.accel_mm_s2, m.out.jerk_mm_s3);
+  m.reach_from_v2 = from_v2;
+  m.reach_to_v2 = v * v;
   return v * v;
 }
 
 inline double Planner::reach_mcr_v2(double from_v2, const Move& m) const {
   if (!jerk_limited_) return from_v2 + m.mcr_delta_v2;
+  if (from_v2 == m.mcr_reach_from_v2) return m.mcr_reach_to_v2;
   const double v = max_reachable_speed_mm_s(VelocityProfile::scurve7, std::sqrt(from_v2),
                                             m.out.distance_mm, m.mcr_accel, m.out.jerk_mm_s3);
+  m.mcr_reach_from_v2 = from_v2;
+  m.mcr_reach_to_v2 = v * v;
   return v * v;
 }
 
 inline double Planner::scurve_peak_v2(double start_v2, double end_v2, const Move& m,
                                       double accel, double cap_v2) const {
+  // As min(peak, cap) for the trapezoid: a cap below an end speed flattens the move at the cap
+  // (emit() then clips the end speeds to it).
+  if (cap_v2 <= std::max(start_v2, end_v2)) return cap_v2;
   const double v = peak_speed_mm_s(VelocityProfile::scurve7, std::sqrt(start_v2), std::sqrt(end_v2),
                                    m.out.distance_mm, accel, m.out.jerk_mm_s3, std::sqrt(cap_v2));
   return v * v;
@@ -184,6 +193,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   m.junction_deviation = 0.0;
   m.kinematic = true;
   m.safe_v = 0.0;
+  m.reach_from_v2 = m.mcr_reach_from_v2 = -1.0;  // no S-curve reach memo from an old move
   o.start_mm = r.start_mm;
   o.line = r.line;
   o.layer = r.layer;

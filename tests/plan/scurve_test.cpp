@@ -230,7 +230,8 @@ TEST(SCurvePlanner, TimeFallsTowardsTheTrapezoidAsJerkGrows) {
   EXPECT_NEAR(prev, trap.total_time_s, 1e-3 * trap.total_time_s);
 }
 
-// A real PrusaSlicer file on the Voron V0 printer.cfg (minimum_cruise_ratio 0.5): every move's
+// A real PrusaSlicer file on the Voron V0 printer.cfg (minimum_cruise_ratio 0.5) and on two
+// Marlin machines (junction deviation, classic jerk; 16-block buffer): every move's
 // two ramps fit in its distance (checked here with the closed-form ramp lengths, independently
 // of the planner's own AMCTL_CHECK), and consecutive moves meet at the same speed, for the
 // trapezoid (jerk 0 below) and the S-curve at two jerk limits.
@@ -238,8 +239,12 @@ TEST(SCurvePlanner, EveryMoveOfARealFileFitsItsRampsAndJunctionsMatch) {
   const std::string file =
       std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode";
   if (!std::filesystem::exists(file)) GTEST_SKIP() << file;
+  // Klipper's look-ahead, then Marlin's finite buffer with junction deviation and classic jerk.
+  for (const char* cfg : {"/configs/klipper-voron-v0.cfg", "/configs/ender3.toml", "/configs/prusa-mk3s.toml"})
   for (double jerk : {0.0, 1e5, 1e6}) {
-    machine::Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg",
+    SCOPED_TRACE(cfg);
+    const std::string machine_file = std::string(AMCTL_SOURCE_DIR) + cfg;
+    machine::Machine m = machine::load_machine(machine_file,
                                                {jerk > 0 ? "printer.profile=scurve7" : "printer.profile=trapezoid",
                                                 fmt::format("printer.max_jerk={}", jerk > 0 ? jerk : 1e6)});
     std::size_t n = 0, bad_fit = 0, bad_junction = 0;
@@ -266,7 +271,7 @@ TEST(SCurvePlanner, EveryMoveOfARealFileFitsItsRampsAndJunctionsMatch) {
       have_prev = true;
     };
     auto r = estimate_file(file, m, opt);
-    auto t = estimate_file(file, machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg"));
+    auto t = estimate_file(file, machine::load_machine(machine_file));
     EXPECT_GT(n, 10000u);
     EXPECT_EQ(bad_fit, 0u) << jerk;
     EXPECT_EQ(bad_junction, 0u) << jerk << " worst " << worst;
@@ -297,6 +302,33 @@ TEST(SCurvePeak, AgreesWithBisectionOverMixedRampRegimes) {
         EXPECT_LE(rd(v0, got) + rd(got, v1), D * (1 + 1e-12));
       }
     }
+  }
+}
+
+}  // namespace
+}  // namespace amctl::plan
+
+namespace amctl::plan {
+namespace {
+
+// Reference values printed by tests/reference/scurve_reference.py, which knows the S-curve only
+// as a jerk schedule, integrates it with scipy's solve_ivp and finds the peak with brentq.
+TEST(SCurvePeak, MatchesScipyIntegrationOfTheJerkSchedule) {
+  struct Case { double vs, ve, D, peak, time; };
+  const Case cases[] = {
+      {3.0, 60.0, 2.0, 66.743677840713, 0.047861400129},   // mixed regimes
+      {40.0, 0.0, 1.0, 43.620754529082, 0.038046379324},   // both ramps two-phase
+      {0.0, 10.0, 80.0, 467.735912597190, 0.338490608398}, // both ramps three-phase
+  };
+  const double a = 3000, j = 2e5;
+  for (const Case& c : cases) {
+    const double vp = peak_speed_mm_s(VelocityProfile::scurve7, c.vs, c.ve, c.D, a, j, 1000);
+    EXPECT_NEAR(vp, c.peak, 1e-8 * c.peak) << c.D;
+    const double t1 = ramp_duration_s(VelocityProfile::scurve7, c.vs, vp, a, j);
+    const double t2 = ramp_duration_s(VelocityProfile::scurve7, vp, c.ve, a, j);
+    const double d = ramp_distance_mm(VelocityProfile::scurve7, c.vs, vp, a, j) +
+                     ramp_distance_mm(VelocityProfile::scurve7, vp, c.ve, a, j);
+    EXPECT_NEAR(t1 + t2 + (c.D - d) / vp, c.time, 1e-9) << c.D;
   }
 }
 

@@ -122,6 +122,9 @@ class Planner final : public gcode::EventSink {
     double max_mcr_start_v2 = 0;
     double mcr_delta_v2 = 0;
     double mcr_accel = 0;           // pseudo-accel of the smoothed pass (mcr_delta_v2 / 2D)
+    // scurve7: last reachable-speed evaluation of each pass (flushes revisit queued moves,
+    // mostly with the same neighbour speed).
+    mutable double reach_from_v2 = -1, reach_to_v2 = 0, mcr_reach_from_v2 = -1, mcr_reach_to_v2 = 0;
     double min_move_t = 0;
     double junction_deviation = 0;  // Klipper jd of the limits in force for this move
     bool kinematic = true;
