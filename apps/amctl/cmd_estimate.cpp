@@ -15,6 +15,7 @@
 #include "amctl/plan/estimate.hpp"
 #include "amctl/plan/velocity_profile.hpp"
 #include "commands.hpp"
+#include "machine_cli.hpp"
 
 namespace amctl::cli {
 namespace {
@@ -38,8 +39,7 @@ std::string explain_unknown(const std::string& name) {
 
 struct EstimateArgs {
   std::string file;
-  std::string machine;
-  std::vector<std::string> overrides;
+  MachineOptions machine;
   bool json = false;
   bool lenient = false;
   bool all_layers = false;
@@ -230,7 +230,7 @@ ProfileRun run_profile(const std::string& file, machine::Machine m, machine::Vel
 }
 
 void run_compare_profiles(const EstimateArgs& a) {
-  const machine::Machine m = machine::load_machine(a.machine, a.overrides);
+  const machine::Machine m = resolve_machine(a.machine);
   std::vector<ProfileRun> runs;
   for (auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::bezier5,
                  machine::VelocityProfile::scurve7}) {
@@ -279,7 +279,7 @@ void run_estimate(const EstimateArgs& a) {
     run_compare_profiles(a);
     return;
   }
-  const machine::Machine m = machine::load_machine(a.machine, a.overrides);
+  const machine::Machine m = resolve_machine(a.machine);
   plan::EstimateOptions opt;
   opt.strict = !a.lenient;
   if (!a.m73_out.empty()) {
@@ -322,10 +322,7 @@ void register_estimate(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "estimate", "Plan every move as the firmware does and report the print time");
   sub->add_option("file", args->file, "G-code file ('-' reads standard input)")->required();
-  sub->add_option("--machine,-m", args->machine,
-                  "Preset name, machine .toml, or Klipper printer.cfg (default: the 'default' preset)");
-  sub->add_option("--set", args->overrides,
-                  "Override a machine key, e.g. --set printer.max_accel=5000 (repeatable; see docs/machine.md)");
+  add_machine_options(*sub, args->machine);
   sub->add_flag("--json", args->json, "Print one JSON object on stdout");
   sub->add_flag("--lenient", args->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->add_flag("--layers", args->all_layers, "List every layer's start and duration");

@@ -90,7 +90,7 @@ json machine_json(const mc::Machine& m) {
 
 
 void add_machine_options(CLI::App& cmd, MachineOptions& options) {
-  cmd.add_option("--machine", options.spec,
+  cmd.add_option("--machine,-m", options.spec,
                  "Printer: preset name (amctl machine list), machine .toml or Klipper "
                  "printer.cfg (default: the 'default' preset)");
   cmd.add_option("--set", options.overrides,
