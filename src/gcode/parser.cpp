@@ -46,34 +46,32 @@ std::size_t parse_number(std::string_view text, double& value) {
   if (i >= text.size() || !(is_digit(text[i]) || (text[i] == '.' && i + 1 < text.size() && is_digit(text[i + 1])))) {
     return 0;
   }
-  // Fast path (Clinger): at most 15 significant digits and no exponent. The mantissa and
-  // 10^k are exact doubles, so one IEEE division gives the correctly rounded value, the same
-  // as from_chars.
+  // Fast path (Clinger): the decimal digits form an integer mantissa below 2^53 and the
+  // fraction has at most 22 digits, so the mantissa and 10^k are exact doubles and one IEEE
+  // division gives the correctly rounded value, the same as from_chars. At most 19 digits
+  // are accumulated, so the uint64 never overflows.
   {
-    static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                        1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+    static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                        1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    const char* p = text.data() + i;
+    const char* const end = text.data() + text.size();
+    const char* const digits_begin = p;
     std::uint64_t mant = 0;
-    int digits = 0, frac = 0;
-    std::size_t k = i;
-    while (k < text.size() && is_digit(text[k])) {
-      mant = mant * 10 + static_cast<std::uint64_t>(text[k] - '0');
-      if (mant != 0) ++digits;
-      ++k;
+    while (p < end && is_digit(*p)) mant = mant * 10 + static_cast<std::uint64_t>(*p++ - '0');
+    std::ptrdiff_t ndigits = p - digits_begin;
+    std::ptrdiff_t frac = 0;
+    if (p < end && *p == '.') {
+      const char* const frac_begin = ++p;
+      while (p < end && is_digit(*p)) mant = mant * 10 + static_cast<std::uint64_t>(*p++ - '0');
+      frac = p - frac_begin;
+      ndigits += frac;
     }
-    if (k < text.size() && text[k] == '.') {
-      ++k;
-      while (k < text.size() && is_digit(text[k])) {
-        mant = mant * 10 + static_cast<std::uint64_t>(text[k] - '0');
-        if (mant != 0) ++digits;
-        ++frac;
-        ++k;
-      }
-    }
-    const bool exponent = k < text.size() && (text[k] == 'e' || text[k] == 'E');
-    if (!exponent && digits <= 15 && frac <= 15) {
+    const bool exponent = p < end && (*p == 'e' || *p == 'E');
+    if (!exponent && ndigits <= 19 && frac <= 22 && mant <= (std::uint64_t{1} << 53)) {
       const double v = static_cast<double>(mant) / kPow10[frac];
       value = negative ? -v : v;
-      return k;
+      return static_cast<std::size_t>(p - text.data());
     }
   }
   double v = 0.0;
