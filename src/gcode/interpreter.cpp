@@ -139,6 +139,123 @@ constexpr std::string_view kUntimedExtended[] = {
 
 }  // namespace
 
+namespace {
+
+/// The plain-move lexer of the fast path: "G0"/"G1", then only X Y Z E F words with plain
+/// decimal numbers, spaces and an optional ';' comment. Anything else (N, '*', '(', other
+/// letters, exponents, a repeated letter, a number not exactly representable by Clinger's
+/// rule) returns false and the line goes through the general parser, which alone reports
+/// errors. Values are computed exactly as parse_number() does, so both paths give the same
+/// doubles.
+struct PlainMove {
+  std::array<double, 5> value{};  // X Y Z E F
+  unsigned present = 0;           // bit i: value[i] given
+  std::string_view comment;
+  bool has_comment = false;
+};
+
+inline int plain_axis(char c) {
+  switch (c) {
+    case 'X': case 'x': return 0;
+    case 'Y': case 'y': return 1;
+    case 'Z': case 'z': return 2;
+    case 'E': case 'e': return 3;
+    case 'F': case 'f': return 4;
+    default: return -1;
+  }
+}
+
+inline bool lex_plain_move(std::string_view line, PlainMove& out) {
+  static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                      1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                      1e16, 1e17, 1e18, 1e19};
+  const char* p = line.data();
+  const char* const end = p + line.size();
+  if (line.size() < 3 || (p[0] != 'G' && p[0] != 'g') || (p[1] != '0' && p[1] != '1') ||
+      (p[2] != ' ' && p[2] != '\t')) {
+    return false;
+  }
+  p += 3;
+  for (;;) {
+    while (p < end && (*p == ' ' || *p == '\t')) ++p;
+    if (p == end) return true;
+    if (*p == ';') {
+      out.comment = std::string_view(p + 1, static_cast<std::size_t>(end - p - 1));
+      out.has_comment = true;
+      return true;
+    }
+    const int axis = plain_axis(*p);
+    if (axis < 0 || ((out.present >> axis) & 1u)) return false;
+    ++p;
+    bool negative = false;
+    if (p < end && (*p == '-' || *p == '+')) negative = *p++ == '-';
+    std::uint64_t mant = 0;
+    const char* const int_begin = p;
+    while (p < end && static_cast<unsigned>(*p - '0') < 10u) mant = mant * 10 + static_cast<unsigned>(*p++ - '0');
+    std::ptrdiff_t ndigits = p - int_begin;
+    std::ptrdiff_t frac = 0;
+    if (p < end && *p == '.') {
+      const char* const frac_begin = ++p;
+      while (p < end && static_cast<unsigned>(*p - '0') < 10u) mant = mant * 10 + static_cast<unsigned>(*p++ - '0');
+      frac = p - frac_begin;
+      ndigits += frac;
+    }
+    if (ndigits == 0 || ndigits > 19 || mant > (std::uint64_t{1} << 53)) return false;
+    if (p < end && *p != ' ' && *p != '\t' && *p != ';') return false;
+    const double v = static_cast<double>(mant) / kPow10[frac];
+    out.value[static_cast<std::size_t>(axis)] = negative ? -v : v;
+    out.present |= 1u << axis;
+  }
+}
+
+}  // namespace
+
+bool Interpreter::try_plain_move(std::string_view line, std::uint64_t line_no, EventSink& sink) {
+  PlainMove pm;
+  if (!lex_plain_move(line, pm)) return false;
+  // Everything that could fail is checked before any state changes, so a line that fails
+  // here is handed whole to the general path and reported there.
+  const bool has_f = (pm.present >> 4) & 1u;
+  if (has_f && !(pm.value[4] > 0.0)) return false;
+  std::array<double, 4> target = pos_;
+  std::array<double, 4> new_gcode = gcode_pos_;
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!((pm.present >> a) & 1u)) continue;
+    const double v = pm.value[a] * unit_mm_;
+    if (absolute_xyz_) {
+      target[a] = pos_[a] + (v - gcode_pos_[a]);
+      new_gcode[a] = v;
+    } else {
+      target[a] = pos_[a] + v;
+      new_gcode[a] += v;
+    }
+  }
+  if ((pm.present >> 3) & 1u) {
+    const double v = pm.value[3] * unit_mm_;
+    const bool rel = !absolute_xyz_ || !absolute_e_;
+    target[3] = pos_[3] + (rel ? v : v - gcode_pos_[3]) * extrude_factor_;
+    new_gcode[3] = rel ? gcode_pos_[3] + v : v;
+  }
+  for (std::size_t a = 0; a < 4; ++a) {
+    if (!(std::fabs(target[a]) <= kMaxCoordinate_mm)) return false;
+  }
+  if (pm.has_comment && !pm.comment.empty()) handle_comment(pm.comment, line_no, sink);
+  if (has_f) feed_mm_s_ = pm.value[4] * unit_mm_ / 60.0;
+  if ((pm.present & 0xFu) == 0) return true;  // F only: sets the speed of later moves
+  gcode_pos_ = new_gcode;
+  if (target == pos_) return true;
+  MoveRequest m;
+  m.start_mm = pos_;
+  m.end_mm = target;
+  m.speed_mm_s = feed_mm_s_ * speed_factor_;
+  m.line = line_no;
+  m.layer = notes_.layer;
+  m.feature = notes_.feature;
+  pos_ = target;
+  sink.on_move(m);
+  return true;
+}
+
 Interpreter::Interpreter(InterpreterOptions options, std::string source_name)
     : opt_(options), source_(std::move(source_name)) {
   require_positive("arcs.mm_per_arc_segment", opt_.mm_per_arc_segment);
@@ -160,6 +277,9 @@ void Interpreter::run(LineReader& reader, EventSink& sink) {
 }
 
 void Interpreter::feed(std::string_view line, std::uint64_t line_no, EventSink& sink) {
+  // Most lines of a sliced file are plain G0/G1 moves: a dedicated lexer takes them without
+  // building a Command and a 26-letter Params (docs/gcode.md, "Fast path").
+  if (try_plain_move(line, line_no, sink)) return;
   if (!parse_line(line, cmd_, issue_)) {
     if (opt_.strict) {
       fail(line_no, issue_.column, fmt::format("{} in '{}'", issue_.message, trim(line)));

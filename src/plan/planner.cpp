@@ -66,6 +66,25 @@ Planner::Planner(const machine::Machine& m, PlanSink& sink, PlannerOptions optio
     throw Error(fmt::format("marlin.block_buffer_size must be >= 0, got {}", m.block_buffer_size));
   }
   buffer_size_ = opt_.block_buffer_size.value_or(static_cast<std::size_t>(m.block_buffer_size));
+
+  // Per-move constants of the machine, computed once with the same expressions on_move()
+  // used to evaluate for every move (so the doubles are the same).
+  klipper_ = klipper;
+  z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
+  z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
+  const auto& ex = m.extruder;
+  filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
+  const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;
+  extrude_only_velocity_mm_s_ = ex.max_extrude_only_velocity_mm_s.value_or(m.max_velocity_mm_s * def_ratio);
+  extrude_only_accel_mm_s2_ = ex.max_extrude_only_accel_mm_s2.value_or(m.max_accel_mm_s2 * def_ratio);
+  max_cross_section_mm2_ = ex.max_extrude_cross_section_mm2.value_or(4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm);
+  max_extrude_ratio_ = max_cross_section_mm2_ / filament_area_mm2_;
+  update_derived_limits();
+}
+
+void Planner::update_derived_limits() {
+  mcr_accel_mm_s2_ = mcr_pseudo_accel();
+  junction_deviation_mm_ = klipper_junction_deviation();
 }
 
 double Planner::klipper_junction_deviation() const {
@@ -109,6 +128,11 @@ double Planner::mcr_pseudo_accel() const {
 }
 
 void Planner::on_limits(const gcode::LimitsCommand& c) {
+  apply_limits(c);
+  update_derived_limits();
+}
+
+void Planner::apply_limits(const gcode::LimitsCommand& c) {
   using S = gcode::LimitsCommand::Source;
   const auto& p = c.params;
   const Firmware fw = machine_.firmware;
@@ -203,7 +227,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   std::array<double, 4> d{};
   for (std::size_t i = 0; i < 4; ++i) d[i] = r.end_mm[i] - r.start_mm[i];
   double move_d = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  const bool klipper = machine_.firmware == Firmware::klipper;
+  const bool klipper = klipper_;
   double velocity = r.speed_mm_s;
   double accel = 0.0;
   if (move_d < 1e-9) {
@@ -239,17 +263,11 @@ void Planner::on_move(const gcode::MoveRequest& r) {
     // Kinematic Z limit (cartesian and corexy alike): the axis limit scaled to the move.
     if (m.kinematic && d[2] != 0.0) {
       const double z_ratio = move_d / std::fabs(d[2]);
-      const double zv = machine_.max_z_velocity_mm_s > 0 ? machine_.max_z_velocity_mm_s : machine_.max_velocity_mm_s;
-      const double za = machine_.max_z_accel_mm_s2 > 0 ? machine_.max_z_accel_mm_s2 : machine_.max_accel_mm_s2;
-      limit_speed(zv * z_ratio, za * z_ratio);
+      limit_speed(z_velocity_mm_s_ * z_ratio, z_accel_mm_s2_ * z_ratio);
     }
     // Extruder: extrude-only and retraction moves get the extruder's own limits.
     if (d[3] != 0.0) {
       const auto& ex = machine_.extruder;
-      const double fil_area = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
-      const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / fil_area;
-      const double e_v = ex.max_extrude_only_velocity_mm_s.value_or(machine_.max_velocity_mm_s * def_ratio);
-      const double e_a = ex.max_extrude_only_accel_mm_s2.value_or(machine_.max_accel_mm_s2 * def_ratio);
       const double axis_r = o.axes_r[3];
       if ((d[0] == 0.0 && d[1] == 0.0) || axis_r < 0.0) {
         if (std::fabs(d[3]) > ex.max_extrude_only_distance_mm && diag_.warnings.size() < 20) {
@@ -258,15 +276,13 @@ void Planner::on_move(const gcode::MoveRequest& r) {
               "(Klipper would stop with an error)", r.line, std::fabs(d[3]), ex.max_extrude_only_distance_mm));
         }
         const double inv = 1.0 / std::fabs(axis_r);
-        limit_speed(e_v * inv, e_a * inv);
-      } else {
-        const double max_cs = ex.max_extrude_cross_section_mm2.value_or(4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm);
-        const double max_ratio = max_cs / fil_area;
-        if (axis_r > max_ratio && d[3] > ex.nozzle_diameter_mm * max_ratio && warned_overextrusion_++ < 5) {
-          diag_.warnings.push_back(fmt::format(
-              "line {}: extrusion cross-section {:.3f} mm^2 exceeds max_extrude_cross_section "
-              "{:.3f} mm^2 (Klipper would stop with an error)", r.line, axis_r * fil_area, max_cs));
-        }
+        limit_speed(extrude_only_velocity_mm_s_ * inv, extrude_only_accel_mm_s2_ * inv);
+      } else if (axis_r > max_extrude_ratio_ && d[3] > ex.nozzle_diameter_mm * max_extrude_ratio_ &&
+                 warned_overextrusion_++ < 5) {
+        diag_.warnings.push_back(fmt::format(
+            "line {}: extrusion cross-section {:.3f} mm^2 exceeds max_extrude_cross_section "
+            "{:.3f} mm^2 (Klipper would stop with an error)", r.line, axis_r * filament_area_mm2_,
+            max_cross_section_mm2_));
       }
     }
   } else {
@@ -287,9 +303,9 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   o.accel_mm_s2 = accel;
   m.delta_v2 = 2.0 * move_d * accel;
   if (klipper) {
-    m.mcr_delta_v2 = std::min(2.0 * move_d * mcr_pseudo_accel(), m.delta_v2);
-    m.mcr_accel = std::min(mcr_pseudo_accel(), accel);
-    m.junction_deviation = klipper_junction_deviation();
+    m.mcr_delta_v2 = std::min(2.0 * move_d * mcr_accel_mm_s2_, m.delta_v2);
+    m.mcr_accel = std::min(mcr_accel_mm_s2_, accel);
+    m.junction_deviation = junction_deviation_mm_;
   } else {
     m.mcr_delta_v2 = m.delta_v2;
     m.mcr_accel = accel;

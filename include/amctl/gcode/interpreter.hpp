@@ -73,6 +73,9 @@ class Interpreter {
   [[nodiscard]] const std::array<double, 4>& machine_position_mm() const { return pos_; }
 
  private:
+  /// The fast path for plain "G0/G1 X Y Z E F [; comment]" lines: true when it handled the
+  /// line, false (with no state changed) when the general path must.
+  bool try_plain_move(std::string_view line, std::uint64_t line_no, EventSink& sink);
   void handle_word(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void handle_comment(std::string_view comment, std::uint64_t line_no, EventSink& sink);

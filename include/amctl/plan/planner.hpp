@@ -201,6 +201,9 @@ class Planner final : public gcode::EventSink {
   void junction_classic_jerk(Move& m, const Move& prev);
   void flush_marlin_head();
   [[nodiscard]] double klipper_junction_deviation() const;
+  void apply_limits(const gcode::LimitsCommand& cmd);
+  /// Recomputes the cached values that depend on lim_ (after a limits command).
+  void update_derived_limits();
   [[nodiscard]] double mcr_pseudo_accel() const;
 
   machine::Machine machine_;
@@ -213,6 +216,13 @@ class Planner final : public gcode::EventSink {
   double print_time_s_ = 0.0;
   double prev_safe_v_ = 0.0;
   bool jerk_limited_ = false;  // machine profile is scurve7: ramps are timed jerk-limited
+  // Constants of the machine used on every move (set once in the constructor).
+  bool klipper_ = true;
+  double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
+  double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
+  double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
+  // Derived from lim_, refreshed by update_derived_limits().
+  double mcr_accel_mm_s2_ = 0, junction_deviation_mm_ = 0;
   PlannerDiagnostics diag_;
   // Reusable scratch for flush().
   struct JunctionInfo { double start_v2; double cruise_v2; bool has_cruise; double next_start_v2; };
