@@ -1,6 +1,7 @@
 #include "amctl/gcode/interpreter.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <numbers>
 
@@ -165,22 +166,59 @@ inline int plain_axis(char c) {
   }
 }
 
+/// Copies line[0, n) (3 <= n <= 64) into buf, whose bytes from n on are zero, with fixed-size
+/// (overlapping) copies the compiler turns into a few vector moves.
+inline void copy_short(char* buf, const char* s, std::size_t n) {
+  if (n >= 32) {
+    std::memcpy(buf, s, 32);
+    std::memcpy(buf + n - 32, s + n - 32, 32);
+  } else if (n >= 16) {
+    std::memcpy(buf, s, 16);
+    std::memcpy(buf + n - 16, s + n - 16, 16);
+  } else if (n >= 8) {
+    std::memcpy(buf, s, 8);
+    std::memcpy(buf + n - 8, s + n - 8, 8);
+  } else {
+    for (std::size_t i = 0; i < n; ++i) buf[i] = s[i];
+  }
+}
+
 inline bool lex_plain_move(std::string_view line, PlainMove& out) {
   static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                       1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
                                       1e16, 1e17, 1e18, 1e19};
-  const char* p = line.data();
-  const char* const end = p + line.size();
-  if (line.size() < 3 || (p[0] != 'G' && p[0] != 'g') || (p[1] != '0' && p[1] != '1') ||
-      (p[2] != ' ' && p[2] != '\t')) {
+  const std::size_t n = line.size();
+  if (n < 3 || (line[0] != 'G' && line[0] != 'g') || (line[1] != '0' && line[1] != '1') ||
+      (line[2] != ' ' && line[2] != '\t')) {
     return false;
   }
-  p += 3;
+  // The lexer reads a zero-padded copy of the code part of the line (at most 64 bytes, up to
+  // a ';' comment on longer lines), so its loops need no bounds checks. A NUL anywhere but at
+  // the copy's end (a NUL byte in the file) hands the line to the general parser; a comment
+  // is taken from the line itself.
+  constexpr std::size_t kMaxCode = 64;
+  std::size_t code = n;
+  if (n > kMaxCode) {
+    const void* semi = std::memchr(line.data(), ';', kMaxCode + 1);
+    if (semi == nullptr) return false;
+    code = static_cast<std::size_t>(static_cast<const char*>(semi) - line.data());
+  }
+  alignas(16) char buf[kMaxCode + 16] = {};  // zeros past the copy end every loop
+  copy_short(buf, line.data(), code);
+  const char* p = buf + 3;
   for (;;) {
-    while (p < end && (*p == ' ' || *p == '\t')) ++p;
-    if (p == end) return true;
+    while (*p == ' ' || *p == '\t') ++p;
+    if (*p == '\0') {
+      const auto at = static_cast<std::size_t>(p - buf);
+      if (at != code) return false;
+      if (code < n) {
+        out.comment = line.substr(code + 1);
+        out.has_comment = true;
+      }
+      return true;
+    }
     if (*p == ';') {
-      out.comment = std::string_view(p + 1, static_cast<std::size_t>(end - p - 1));
+      out.comment = line.substr(static_cast<std::size_t>(p - buf) + 1);
       out.has_comment = true;
       return true;
     }
@@ -188,20 +226,20 @@ inline bool lex_plain_move(std::string_view line, PlainMove& out) {
     if (axis < 0 || ((out.present >> axis) & 1u)) return false;
     ++p;
     bool negative = false;
-    if (p < end && (*p == '-' || *p == '+')) negative = *p++ == '-';
+    if (*p == '-' || *p == '+') negative = *p++ == '-';
     std::uint64_t mant = 0;
     const char* const int_begin = p;
-    while (p < end && static_cast<unsigned>(*p - '0') < 10u) mant = mant * 10 + static_cast<unsigned>(*p++ - '0');
+    while (static_cast<unsigned>(*p - '0') < 10u) mant = mant * 10 + static_cast<unsigned>(*p++ - '0');
     std::ptrdiff_t ndigits = p - int_begin;
     std::ptrdiff_t frac = 0;
-    if (p < end && *p == '.') {
+    if (*p == '.') {
       const char* const frac_begin = ++p;
-      while (p < end && static_cast<unsigned>(*p - '0') < 10u) mant = mant * 10 + static_cast<unsigned>(*p++ - '0');
+      while (static_cast<unsigned>(*p - '0') < 10u) mant = mant * 10 + static_cast<unsigned>(*p++ - '0');
       frac = p - frac_begin;
       ndigits += frac;
     }
     if (ndigits == 0 || ndigits > 19 || mant > (std::uint64_t{1} << 53)) return false;
-    if (p < end && *p != ' ' && *p != '\t' && *p != ';') return false;
+    if (*p != ' ' && *p != '\t' && *p != ';' && *p != '\0') return false;
     const double v = static_cast<double>(mant) / kPow10[frac];
     out.value[static_cast<std::size_t>(axis)] = negative ? -v : v;
     out.present |= 1u << axis;

@@ -46,6 +46,7 @@ Planner::Planner(const machine::Machine& m, PlanSink& sink, PlannerOptions optio
   require_positive("marlin.retract_accel", m.retract_accel_mm_s2);
   require_non_negative("marlin.junction_deviation", m.junction_deviation_mm);
   jerk_limited_ = m.profile == machine::VelocityProfile::scurve7;
+  classic_jerk_ = m.junction == JunctionPolicy::classic_jerk;
   if (jerk_limited_) require_positive("printer.max_jerk", m.max_jerk_mm_s3);
 
   const bool klipper = m.firmware == Firmware::klipper;
@@ -311,13 +312,15 @@ void Planner::on_move(const gcode::MoveRequest& r) {
     m.mcr_accel = accel;
   }
   m.nominal_v = velocity;
-  for (std::size_t i = 0; i < 4; ++i) m.axis_v[i] = velocity * o.axes_r[i];
+  if (classic_jerk_) {
+    for (std::size_t i = 0; i < 4; ++i) m.axis_v[i] = velocity * o.axes_r[i];
+  }
   m.seq = next_seq_++;
   ++diag_.moves;
   add_queued_move();
 }
 
-void Planner::junction_klipper(Move& m, const Move& prev) const {
+[[gnu::always_inline]] inline void Planner::junction_klipper(Move& m, const Move& prev) const {
   if (!m.kinematic || !prev.kinematic) return;
   double max_start_v2 = std::min({m.max_cruise_v2, prev.max_cruise_v2, reach_v2(prev.max_start_v2, prev)});
   // Extruder: limit the instantaneous change of extrusion rate.
@@ -439,7 +442,7 @@ void Planner::junction_classic_jerk(Move& m, const Move& prev) {
   m.max_mcr_start_v2 = v2;
 }
 
-void Planner::add_queued_move() {
+[[gnu::always_inline]] inline void Planner::add_queued_move() {
   const bool klipper = machine_.firmware == Firmware::klipper;
   Move& m = queue_.back();
   if (queue_.size() > 1) {
@@ -498,13 +501,25 @@ void Planner::emit(Move& m, double start_v2, double cruise_v2, double end_v2) {
     return;
   }
   const double a = o.accel_mm_s2;
-  const double half_inv_a = 0.5 / a;
+  // 0.5 / a changes only with the limits: reuse the last quotient (the same double).
+  if (a != emit_a_) {
+    emit_a_ = a;
+    emit_half_inv_a_ = 0.5 / a;
+  }
+  const double half_inv_a = emit_half_inv_a_;
   const double accel_d = (cruise_v2 - start_v2) * half_inv_a;
   const double decel_d = (cruise_v2 - end_v2) * half_inv_a;
   const double cruise_d = std::max(0.0, o.distance_mm - accel_d - decel_d);
-  o.start_v_mm_s = std::sqrt(start_v2);
-  o.cruise_v_mm_s = std::sqrt(cruise_v2);
-  o.end_v_mm_s = std::sqrt(end_v2);
+  // Most moves start at the speed the previous one ended at, and a cruising move has all
+  // three speeds equal: each square root is taken once (sqrt is exact, so nothing changes).
+  const double start_v = start_v2 == emit_last_v2_ ? emit_last_v_ : std::sqrt(start_v2);
+  const double cruise_v = cruise_v2 == start_v2 ? start_v : std::sqrt(cruise_v2);
+  const double end_v = end_v2 == cruise_v2 ? cruise_v : std::sqrt(end_v2);
+  emit_last_v2_ = end_v2;
+  emit_last_v_ = end_v;
+  o.start_v_mm_s = start_v;
+  o.cruise_v_mm_s = cruise_v;
+  o.end_v_mm_s = end_v;
   // Time is distance over mean speed (well conditioned when speeds are close).
   o.accel_t_s = accel_d > 0 ? accel_d / ((o.start_v_mm_s + o.cruise_v_mm_s) * 0.5) : 0.0;
   o.cruise_t_s = cruise_d > 0 ? cruise_d / o.cruise_v_mm_s : 0.0;

@@ -181,6 +181,8 @@ TEST(InterpreterFastPath, UnusualLinesFallBackToTheGeneralParser) {
       "G1 X1.5(c)Y2",        // inline comment
       "G1 X-.5 Y.25",        // no integer digits
       "G1 X3. Y4.",          // no fraction digits
+      "G1 X1.25 Y2.5 E0.125 ; a comment long enough to take the line past 63 bytes",
+      "G1 X1.25 Y2.5 E0.125 F1800 Z0.3 ;TYPE:Perimeter with a name past the 63rd byte",
   };
   for (const char* l : lines) {
     std::string line = l;
@@ -195,6 +197,12 @@ TEST(InterpreterFastPath, UnusualLinesFallBackToTheGeneralParser) {
     EXPECT_TRUE(fast.error.empty()) << fast.error;
     expect_same(fast, run(through_general_parser(g)));
     EXPECT_FALSE(fast.events.moves.empty());
+  }
+  // A NUL byte inside a line is not the end of the line: the general parser rejects it.
+  {
+    const std::string g = std::string("G1 F600\nG1 X1") + '\0' + " Y2\n";
+    const Outcome fast = run(g);
+    EXPECT_NE(fast.error.find("t.gcode:2:"), std::string::npos) << fast.error;
   }
   // The last of two X words wins, as in the general parser's Params.
   EXPECT_EQ(run("G1 F60\nG1 X1 X2\n").events.moves.at(0).end_mm[0], 2.0);

@@ -169,7 +169,7 @@ class Planner final : public gcode::EventSink {
       head_ += n;
       if (head_ == end_) {
         head_ = end_ = 0;
-      } else if (head_ >= 4096 && 2 * head_ >= end_) {
+      } else if (head_ >= 64 && 2 * head_ >= end_) {
         std::move(buf_.begin() + static_cast<std::ptrdiff_t>(head_),
                   buf_.begin() + static_cast<std::ptrdiff_t>(end_), buf_.begin());
         end_ -= head_;
@@ -218,6 +218,9 @@ class Planner final : public gcode::EventSink {
   bool jerk_limited_ = false;  // machine profile is scurve7: ramps are timed jerk-limited
   // Constants of the machine used on every move (set once in the constructor).
   bool klipper_ = true;
+  bool classic_jerk_ = false;
+  // emit(): the last 0.5 / accel and the last end speed with its square root.
+  double emit_a_ = 0, emit_half_inv_a_ = 0, emit_last_v2_ = 0, emit_last_v_ = 0;
   double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
   double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
   double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
