@@ -248,7 +248,8 @@ inline bool lex_plain_move(std::string_view line, PlainMove& out) {
 
 }  // namespace
 
-bool Interpreter::try_plain_move(std::string_view line, std::uint64_t line_no, EventSink& sink) {
+[[gnu::always_inline]] inline bool Interpreter::try_plain_move(std::string_view line, std::uint64_t line_no,
+                                                                EventSink& sink) {
   PlainMove pm;
   if (!lex_plain_move(line, pm)) return false;
   // Everything that could fail is checked before any state changes, so a line that fails

@@ -56,7 +56,7 @@ bool LineReader::refill() {
   return true;
 }
 
-bool LineReader::next(std::string_view& line) {
+bool LineReader::next_slow(std::string_view& line) {
   if (file_ == nullptr) {
     if (memory_.empty()) return false;
     std::size_t nl = memory_.find('\n');

@@ -3,6 +3,7 @@
 // memory. Lines longer than the buffer are an error (no real G-code line comes close).
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -25,7 +26,24 @@ class LineReader {
   /// Next line without its terminator ('\n'; a preceding '\r' is dropped). Returns false at
   /// end of input. Throws amctl::Error on a read error or an over-long line. The view stays
   /// valid until the next call.
-  bool next(std::string_view& line);
+  /// The common case (a complete line already in the buffer) is inline: it runs once per line.
+  bool next(std::string_view& line) {
+    const bool in_memory = file_ == nullptr;
+    const char* data = in_memory ? memory_.data() : buf_.data() + begin_;
+    const std::size_t avail = in_memory ? memory_.size() : end_ - begin_;
+    const void* hit = avail != 0 ? std::memchr(data, '\n', avail) : nullptr;
+    if (hit == nullptr) return next_slow(line);
+    const auto len = static_cast<std::size_t>(static_cast<const char*>(hit) - data);
+    if (in_memory) {
+      memory_.remove_prefix(len + 1);
+    } else {
+      begin_ += len + 1;
+    }
+    bytes_ += len + 1;
+    ++line_no_;
+    line = std::string_view(data, len != 0 && data[len - 1] == '\r' ? len - 1 : len);
+    return true;
+  }
 
   /// 1-based number of the line last returned.
   [[nodiscard]] std::uint64_t line_number() const { return line_no_; }
@@ -36,6 +54,7 @@ class LineReader {
   [[nodiscard]] bool ended_without_newline() const { return no_final_newline_; }
 
  private:
+  bool next_slow(std::string_view& line);  // refills the buffer; the last unterminated line
   bool refill();
 
   std::string name_;
