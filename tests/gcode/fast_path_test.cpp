@@ -169,7 +169,8 @@ TEST(InterpreterFastPath, CoordinatesAreTheCorrectlyRoundedDecimal) {
 }
 
 TEST(InterpreterFastPath, UnusualLinesFallBackToTheGeneralParser) {
-  // Each of these is refused by the fast path and must still mean the same thing.
+  // Each of these is refused by the fast path (or is an edge it accepts) and must still mean
+  // the same thing.
   const char* lines[] = {
       "G1 X1e1 Y2",          // exponent
       "G1X5Y6",              // no space after the word
@@ -177,7 +178,7 @@ TEST(InterpreterFastPath, UnusualLinesFallBackToTheGeneralParser) {
       "N10 G1 X8*",          // line number (and a checksum, below)
       "G1 X1 X2",            // a repeated letter: the last wins
       "G1 X0.12345678901234567890",  // more digits than the exact rule allows
-      "G1 X9\tY3",           // tab
+      "G1 X9\tY3",           // tab (taken by both paths)
       "G1 X1.5(c)Y2",        // inline comment
       "G1 X-.5 Y.25",        // no integer digits
       "G1 X3. Y4.",          // no fraction digits
