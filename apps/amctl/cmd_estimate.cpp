@@ -299,7 +299,7 @@ void run_estimate(const EstimateArgs& a) {
   std::size_t m73 = 0;
   if (!a.m73_out.empty()) m73 = plan::write_m73(a.file, a.m73_out, r);
   if (a.brief) {
-    std::cout << fmt::format("{:<14} {:>12}  ({:.1f} s)", m.name, hms(r.total_time_s), r.total_time_s);
+    std::cout << fmt::format("{:<18} {:>10}  ({:.1f} s)", m.name, hms(r.total_time_s), r.total_time_s);
     if (r.slicer_estimate_s) {
       std::cout << fmt::format("  slicer {:+.1f} %",
                                (*r.slicer_estimate_s - r.total_time_s) / r.total_time_s * 100.0);
