@@ -219,6 +219,7 @@ void Planner::on_move(const gcode::MoveRequest& r) {
   m.kinematic = true;
   m.safe_v = 0.0;
   m.reach_from_v2 = m.mcr_reach_from_v2 = -1.0;  // no S-curve reach memo from an old move
+  m.planned_start_v2 = -1.0;                       // not yet planned (Marlin buffer)
   o.start_mm = r.start_mm;
   o.line = r.line;
   o.layer = r.layer;
@@ -469,6 +470,11 @@ void Planner::junction_classic_jerk(Move& m, const Move& prev) {
     // Marlin's ring buffer of BLOCK_BUFFER_SIZE slots holds one less block, the executing
     // one included: the oldest block must start once that many are queued.
     flush_marlin_head();
+  } else if (buffer_size_ <= 1 && queue_.size() >= opt_.max_queue) {
+    // "Unlimited" look-ahead still runs in bounded memory: the oldest block starts once
+    // max_queue blocks are queued (a look-ahead of 65 535 moves changes no real print).
+    ++diag_.forced_flushes;
+    flush_marlin_head();
   }
 }
 
@@ -595,19 +601,26 @@ void Planner::flush(bool lazy) {
 void Planner::flush_marlin_head() {
   // Plan the whole buffer as if the machine stopped after its last block, then execute the
   // oldest block. Its exit speed becomes the fixed entry speed of the next block.
+  // The backward pass keeps each block's result (planned_start_v2) and stops at the first
+  // block whose start comes out as before: every older block has the same inputs as in the
+  // previous pass (its own limit and that start), so it would repeat its previous result too.
+  // This is Marlin's own shortcut (it stops at blocks already planned optimally), exact here.
+  // The head is always recomputed: its entry limit was just replaced by the previous exit.
   const std::size_t n = queue_.size();
-  scratch_.resize(n);
-  double next_start_v2 = 0.0;
-  for (std::size_t k = n; k-- > 0;) {
-    const Move& mv = queue_[k];
+  double next_start_v2 = 0.0;  // ends as the planned start of block 1 (0 if none)
+  for (std::size_t k = n; k-- > 1;) {
+    Move& mv = queue_[k];
     const double start_v2 = std::min(mv.max_start_v2, reach_v2(next_start_v2, mv));
-    scratch_[k].start_v2 = start_v2;
-    scratch_[k].next_start_v2 = next_start_v2;
+    if (start_v2 == mv.planned_start_v2) {
+      next_start_v2 = queue_[1].planned_start_v2;
+      break;
+    }
+    mv.planned_start_v2 = start_v2;
     next_start_v2 = start_v2;
   }
   Move& head = queue_.front();
-  const double s2 = scratch_[0].start_v2;
-  const double e2 = std::min(scratch_[0].next_start_v2, reach_v2(s2, head));
+  const double s2 = std::min(head.max_start_v2, reach_v2(next_start_v2, head));
+  const double e2 = std::min(next_start_v2, reach_v2(s2, head));
   // Peak of the trapezoid (seed 000 eq. 3.1) or of the S-curve, capped by the nominal speed.
   const double cruise_v2 =
       jerk_limited_ ? std::max({scurve_peak_v2(s2, e2, head, head.out.accel_mm_s2, head.max_cruise_v2), s2, e2})

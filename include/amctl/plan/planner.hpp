@@ -54,8 +54,9 @@ class PlanSink {
 struct PlannerOptions {
   /// Overrides Machine::block_buffer_size when set (0 = unlimited look-ahead).
   std::optional<std::size_t> block_buffer_size;
-  /// Upper bound on queued moves for the Klipper policy before a forced lazy flush; it keeps
-  /// memory bounded on pathological input without changing results on real files.
+  /// Upper bound on queued moves before a forced flush (Klipper's lazy flush, or the oldest
+  /// block of an unlimited Marlin buffer); it keeps memory bounded on pathological input
+  /// without changing results on real files.
   std::size_t max_queue = 1u << 16;
   /// Marlin's MINIMUM_PLANNER_SPEED [mm/s].
   double minimum_planner_speed_mm_s = 0.05;
@@ -126,6 +127,7 @@ class Planner final : public gcode::EventSink {
     // mostly with the same neighbour speed).
     mutable double reach_from_v2 = -1, reach_to_v2 = 0, mcr_reach_from_v2 = -1, mcr_reach_to_v2 = 0;
     double min_move_t = 0;
+    double planned_start_v2 = -1;   // Marlin buffer: this block's start in the last backward pass
     double junction_deviation = 0;  // Klipper jd of the limits in force for this move
     bool kinematic = true;
     // Marlin classic jerk bookkeeping
