@@ -256,25 +256,8 @@ inline bool lex_plain_move(std::string_view line, PlainMove& out) {
   // here is handed whole to the general path and reported there.
   const bool has_f = (pm.present >> 4) & 1u;
   if (has_f && !(pm.value[4] > 0.0)) return false;
-  std::array<double, 4> target = pos_;
-  std::array<double, 4> new_gcode = gcode_pos_;
-  for (std::size_t a = 0; a < 3; ++a) {
-    if (!((pm.present >> a) & 1u)) continue;
-    const double v = pm.value[a] * unit_mm_;
-    if (absolute_xyz_) {
-      target[a] = pos_[a] + (v - gcode_pos_[a]);
-      new_gcode[a] = v;
-    } else {
-      target[a] = pos_[a] + v;
-      new_gcode[a] += v;
-    }
-  }
-  if ((pm.present >> 3) & 1u) {
-    const double v = pm.value[3] * unit_mm_;
-    const bool rel = !absolute_xyz_ || !absolute_e_;
-    target[3] = pos_[3] + (rel ? v : v - gcode_pos_[3]) * extrude_factor_;
-    new_gcode[3] = rel ? gcode_pos_[3] + v : v;
-  }
+  std::array<double, 4> new_gcode;
+  const std::array<double, 4> target = modal_target(pm.present & 0xFu, pm.value.data(), new_gcode);
   for (std::size_t a = 0; a < 4; ++a) {
     if (!(std::fabs(target[a]) <= kMaxCoordinate_mm)) return false;
   }
@@ -769,14 +752,13 @@ void Interpreter::apply_feed(const Params& p, std::uint64_t line_no) {
   feed_mm_s_ = f * unit_mm_ / 60.0;
 }
 
-std::array<double, 4> Interpreter::target_of(const Params& p,
-                                             std::array<double, 4>& new_gcode) const {
+std::array<double, 4> Interpreter::modal_target(unsigned axes, const double* value,
+                                                std::array<double, 4>& new_gcode) const {
   std::array<double, 4> target = pos_;
   new_gcode = gcode_pos_;
   for (std::size_t a = 0; a < 3; ++a) {
-    const char l = "XYZ"[a];
-    if (!p.has(l)) continue;
-    const double v = p.get(l) * unit_mm_;
+    if (!((axes >> a) & 1u)) continue;
+    const double v = value[a] * unit_mm_;
     if (absolute_xyz_) {
       target[a] = pos_[a] + (v - gcode_pos_[a]);
       new_gcode[a] = v;
@@ -785,14 +767,27 @@ std::array<double, 4> Interpreter::target_of(const Params& p,
       new_gcode[a] += v;
     }
   }
-  if (p.has('E')) {
+  if ((axes >> 3) & 1u) {
     // Like Klipper, E is relative when either G91 or M83 is in force.
-    const double v = p.get('E') * unit_mm_;
+    const double v = value[3] * unit_mm_;
     const bool rel = !absolute_xyz_ || !absolute_e_;
     target[3] = pos_[3] + (rel ? v : v - gcode_pos_[3]) * extrude_factor_;
     new_gcode[3] = rel ? gcode_pos_[3] + v : v;
   }
   return target;
+}
+
+std::array<double, 4> Interpreter::target_of(const Params& p,
+                                             std::array<double, 4>& new_gcode) const {
+  std::array<double, 4> value{};
+  unsigned axes = 0;
+  for (std::size_t a = 0; a < 4; ++a) {
+    const char l = "XYZE"[a];
+    if (!p.has(l)) continue;
+    value[a] = p.get(l);
+    axes |= 1u << a;
+  }
+  return modal_target(axes, value.data(), new_gcode);
 }
 
 void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sink) {

@@ -90,6 +90,9 @@ class Interpreter {
   /// Machine-coordinate target of the X/Y/Z/E words under the modal state; the file's own
   /// coordinates after the move go to `new_gcode`.
   [[nodiscard]] std::array<double, 4> target_of(const Params& p, std::array<double, 4>& new_gcode) const;
+  /// The same from the X Y Z E values (`value[0..3]`) given in the bit mask `axes`.
+  [[nodiscard]] std::array<double, 4> modal_target(unsigned axes, const double* value,
+                                                   std::array<double, 4>& new_gcode) const;
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;
