@@ -113,7 +113,8 @@ nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
   j["planner"] = {{"full_stops", r.diagnostics.full_stops},
                   {"speed_limited_moves", r.diagnostics.speed_limited_moves},
                   {"extrude_only_moves", r.diagnostics.extrude_only_moves},
-                  {"zero_length_moves", r.diagnostics.zero_length_moves}};
+                  {"zero_length_moves", r.diagnostics.zero_length_moves},
+                  {"forced_flushes", r.diagnostics.forced_flushes}};
   j["skipped_lines"] = r.skipped_lines;
   j["compute_time_s"] = compute_s;
   return j;

@@ -463,7 +463,7 @@ void Planner::junction_classic_jerk(Move& m, const Move& prev) {
     if (junction_flush_s_ <= 0.0) {
       flush(true);
     } else if (queue_.size() >= opt_.max_queue) {
-      ++diag_.forced_flushes;
+      note_forced_flush(m.out.line, "moves queued without a flush");
       flush(true);
     }
   } else if (buffer_size_ > 1 && queue_.size() >= buffer_size_ - 1) {
@@ -473,7 +473,7 @@ void Planner::junction_classic_jerk(Move& m, const Move& prev) {
   } else if (buffer_size_ <= 1 && queue_.size() >= opt_.max_queue) {
     // "Unlimited" look-ahead still runs in bounded memory: the oldest block starts once
     // max_queue blocks are queued (a look-ahead of 65 535 moves changes no real print).
-    ++diag_.forced_flushes;
+    note_forced_flush(m.out.line, "blocks queued in an unlimited buffer");
     flush_marlin_head();
   }
 }
@@ -655,7 +655,23 @@ void Planner::full_stop() {
   }
 }
 
+void Planner::note_forced_flush(std::uint64_t line, const char* what) {
+  if (diag_.forced_flushes++ == 0 && diag_.warnings.size() < 20) {
+    diag_.warnings.push_back(fmt::format(
+        "line {}: {} {}: planned early to keep memory bounded; the time here may differ "
+        "slightly from the firmware's (further cases are counted, not listed)",
+        line, opt_.max_queue, what));
+  }
+}
+
 void Planner::post(PendingEvent&& e) {
+  if (!queue_.empty() && pending_.size() >= opt_.max_queue) {
+    // Tens of thousands of fan/heater/progress/layer commands behind one queued move: no
+    // real file does this, and holding them all would make memory grow with the file. Stop
+    // the motion (as an M400 would), which fires them, and count it.
+    note_forced_flush(e.line, "commands waiting behind one move (stopped as M400 would)");
+    full_stop();
+  }
   if (queue_.empty()) {
     fire(e);
     return;

@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/gcode/interpreter.hpp"
+#include "amctl/gcode/line_reader.hpp"
 #include "amctl/plan/estimate.hpp"
 
 namespace amctl::plan {
@@ -317,6 +319,33 @@ TEST(Planner, UnlimitedMarlinBufferStaysBoundedOnALongStraightLine) {
   const auto r = estimate_text(g, "t", m);
   EXPECT_GT(r.diagnostics.forced_flushes, 0u);
   EXPECT_NEAR(r.total_time_s, 10000.0 / 100.0 + 100.0 / 1000.0, 1e-6);
+}
+
+TEST(Planner, EventsBehindOneQueuedMoveStayBounded) {
+  // 200 000 fan commands between two moves wait behind the first move; past max_queue the
+  // planner stops (as M400 would) instead of holding them all. Every event still arrives, in
+  // order, and the time is that of two separate moves from rest to rest.
+  machine::Machine m = klipper_machine(100, 1000, 5);
+  std::string g = "G1 X10 F6000\n";
+  g.reserve(200000 * 10);
+  for (int i = 0; i < 200000; ++i) g += (i % 2) != 0 ? "M106 S255\n" : "M107\n";
+  g += "G1 X20\n";
+  struct Count : PlanSink {
+    std::uint64_t moves = 0, fans = 0;
+    void on_planned(const PlannedMove&) override { ++moves; }
+    void on_fan(double, double, std::uint64_t) override { ++fans; }
+  } sink;
+  Planner planner(m, sink);
+  gcode::Interpreter in({}, "t");
+  gcode::LineReader reader(g, "t");
+  in.run(reader, planner);
+  planner.finish();
+  EXPECT_EQ(sink.moves, 2u);
+  EXPECT_EQ(sink.fans, 200000u);
+  EXPECT_GE(planner.diagnostics().forced_flushes, 1u);
+  ASSERT_EQ(planner.diagnostics().warnings.size(), 1u);
+  EXPECT_NE(planner.diagnostics().warnings[0].find("keep memory bounded"), std::string::npos);
+  EXPECT_NEAR(planner.print_time_s(), 2 * trapezoid_time(10, 0, 0, 100, 1000), 1e-9);
 }
 
 TEST(Planner, RejectsNonPhysicalLimits) {

@@ -55,8 +55,9 @@ struct PlannerOptions {
   /// Overrides Machine::block_buffer_size when set (0 = unlimited look-ahead).
   std::optional<std::size_t> block_buffer_size;
   /// Upper bound on queued moves before a forced flush (Klipper's lazy flush, or the oldest
-  /// block of an unlimited Marlin buffer); it keeps memory bounded on pathological input
-  /// without changing results on real files.
+  /// block of an unlimited Marlin buffer), and on non-motion events waiting behind queued
+  /// moves before a forced full stop; it keeps memory bounded on pathological input without
+  /// changing results on real files.
   std::size_t max_queue = 1u << 16;
   /// Marlin's MINIMUM_PLANNER_SPEED [mm/s].
   double minimum_planner_speed_mm_s = 0.05;
@@ -68,7 +69,7 @@ struct PlannerDiagnostics {
   std::uint64_t zero_length_moves = 0;
   std::uint64_t speed_limited_moves = 0;   ///< requested speed above a limit
   std::uint64_t extrude_only_moves = 0;
-  std::uint64_t forced_flushes = 0;        ///< max_queue reached (should stay 0)
+  std::uint64_t forced_flushes = 0;        ///< max_queue reached (0 on real files; warned)
   std::uint64_t full_stops = 0;            ///< flushes to zero speed (dwell, M400, ...)
   std::vector<std::string> warnings;       ///< e.g. over-extrusion (Klipper would refuse)
 };
@@ -149,6 +150,7 @@ class Planner final : public gcode::EventSink {
     std::string name;
   };
   void post(PendingEvent&& e);
+  void note_forced_flush(std::uint64_t line, const char* what);
 
   /// FIFO over a vector: O(1) pops from the front without deque's per-block allocations.
   /// Slots are recycled, not destroyed: emplace_back() returns a slot that may hold an old
