@@ -21,9 +21,12 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 rm -rf "$out"
 mkdir -p "$out"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
 
 # Drop the lines holding wall-clock times (JSON is printed one key per line with dump(2)).
-strip() { grep -v -E '"compute_time_s"|computed in|plan included\)' || true; }
+# The scratch directory's name is replaced by TMP.
+strip() { grep -v -E '"compute_time_s"|computed in|plan included\)' | sed "s|$tmp|TMP|g" || true; }
 
 run() {  # run NAME CMD...: stdout and exit status into $out/NAME
   local name=$1; shift
@@ -70,8 +73,6 @@ run simulate_boxboss_modes.json "$amctl" simulate examples/gcode/boxboss_prusasl
 run sweep.json "$amctl" sweep --json
 
 # Thermal and process (the examples' commands; CSV traces written to a scratch directory).
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
 run thermal_margins.json "$amctl" thermal sls-margins --kp 0.3 --ti 0.5 --modes 1 --json
 run thermal_margins_3.json "$amctl" thermal sls-margins --modes 3 --length-mm 0.5 --json
 run thermal_sls.txt "$amctl" thermal sls --config configs/sls_pa12.toml --csv "$tmp/sls.csv"

@@ -2,18 +2,16 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
-#include <limits>
 #include <string>
 #include <iomanip>
 #include <vector>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
-#include "amctl/plan/velocity_profile.hpp"
+#include "amctl/plan/report_json.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
 
@@ -29,14 +27,6 @@ std::string hms(double s) {
   return fmt::format("{:.2f}s", s);
 }
 
-std::string explain_unknown(const std::string& name) {
-  if (!name.empty() && (name[0] == 'G' || name[0] == 'M') && name.size() > 1 &&
-      std::isdigit(static_cast<unsigned char>(name[1]))) {
-    return "not a command amctl models; skipped (no motion assumed)";
-  }
-  return "not a built-in command (a printer macro?); skipped, its time is not counted";
-}
-
 struct EstimateArgs {
   std::string file;
   MachineOptions machine;
@@ -50,75 +40,6 @@ struct EstimateArgs {
   std::string params;            ///< empirical parameters (JSON)
   bool compare_profiles = false; ///< trapezoid, bezier5 and scurve7 side by side
 };
-
-nlohmann::json to_json(const plan::EstimateReport& r, const machine::Machine& m,
-                       double compute_s) {
-  using nlohmann::json;
-  json j;
-  j["file"] = r.file;
-  j["machine"] = {{"name", m.name},
-                  {"firmware", std::string(machine::to_string(m.firmware))},
-                  {"kinematics", std::string(machine::to_string(m.kinematics))},
-                  {"junction", std::string(machine::to_string(m.junction))}};
-  j["total_time_s"] = r.total_time_s;
-  j["motion_time_s"] = r.motion_time_s;
-  j["dwell_time_s"] = r.dwell_time_s;
-  j["extrude_time_s"] = r.extrude_time_s;
-  j["travel_time_s"] = r.travel_time_s;
-  j["extrude_only_time_s"] = r.extrude_only_time_s;
-  j["extrude_path_mm"] = r.extrude_path_mm;
-  j["travel_mm"] = r.travel_mm;
-  j["filament_mm"] = r.filament_mm;
-  j["filament_volume_mm3"] = r.filament_volume_mm3;
-  j["max_speed_mm_s"] = r.max_speed_mm_s;
-  j["moves"] = r.moves;
-  j["lines"] = r.lines;
-  j["bytes"] = r.bytes;
-  j["slicer"] = r.slicer_name;
-  j["slicer_estimate_s"] = r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr);
-  if (r.slicer_estimate_s && r.total_time_s > 0) {
-    j["slicer_vs_amctl_ratio"] = *r.slicer_estimate_s / r.total_time_s;
-  }
-  json feats = json::array();
-  for (const auto& f : r.features) {
-    feats.push_back({{"name", f.name}, {"time_s", f.time_s}, {"extrude_time_s", f.extrude_time_s},
-                     {"path_mm", f.path_mm}, {"filament_mm", f.filament_mm}, {"moves", f.moves}});
-  }
-  j["features"] = std::move(feats);
-  json layers = json::array();
-  for (const auto& l : r.layers) {
-    layers.push_back({{"layer", l.layer}, {"start_s", l.start_s}, {"time_s", l.time_s},
-                      {"z_mm", l.z_mm}, {"line", l.first_line}});
-  }
-  j["layers"] = std::move(layers);  // no copy: one row per layer, thousands on big prints
-  auto events = [](const std::vector<plan::TimedEvent>& v) {
-    json a = json::array();
-    for (const auto& e : v) a.push_back({{"at_s", e.at_s}, {"what", e.what}, {"line", e.line}});
-    return a;
-  };
-  j["heater_waits"] = events(r.heater_waits);
-  j["heater_sets"] = events(r.heater_sets);
-  j["untimed_commands"] = events(r.untimed);
-  json unk = json::array();
-  for (const auto& u : r.unknown_commands) {
-    unk.push_back({{"name", u.name}, {"first_line", u.first_line}, {"count", u.count},
-                   {"explanation", explain_unknown(u.name)}});
-  }
-  j["unknown_commands"] = unk;
-  j["ignored_commands"] = r.ignored_commands;
-  j["warnings"] = r.diagnostics.warnings;
-  if (r.ended_without_newline) {
-    j["warnings"].push_back("the file does not end with a newline: it may be truncated");
-  }
-  j["planner"] = {{"full_stops", r.diagnostics.full_stops},
-                  {"speed_limited_moves", r.diagnostics.speed_limited_moves},
-                  {"extrude_only_moves", r.diagnostics.extrude_only_moves},
-                  {"zero_length_moves", r.diagnostics.zero_length_moves},
-                  {"forced_flushes", r.diagnostics.forced_flushes}};
-  j["skipped_lines"] = r.skipped_lines;
-  j["compute_time_s"] = compute_s;
-  return j;
-}
 
 void print_human(const plan::EstimateReport& r, const machine::Machine& m, double compute_s,
                  bool all_layers) {
@@ -182,83 +103,21 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
   }
   for (const auto& u : r.unknown_commands) {
     o << fmt::format("  unknown command  {} (line {}, {}x): {}\n", u.name, u.first_line, u.count,
-                     explain_unknown(u.name));
+                     plan::explain_unknown_command(u.name));
   }
   for (const auto& w : r.diagnostics.warnings) o << "  warning: " << w << "\n";
   o << fmt::format("  computed in {:.3f} s ({:.1f} M moves/s)\n", compute_s,
                    compute_s > 0 ? static_cast<double>(r.moves) / compute_s / 1e6 : 0.0);
 }
 
-/// One profile's figures for --compare-profiles.
-struct ProfileRun {
-  machine::VelocityProfile profile = machine::VelocityProfile::trapezoid;
-  double jerk_limit_mm_s3 = 0.0;  ///< scurve7 only
-  double total_time_s = 0.0;
-  double peak_accel_mm_s2 = 0.0;  ///< largest acceleration commanded inside any XYZ ramp
-  double peak_jerk_mm_s3 = 0.0;   ///< largest jerk inside any XYZ ramp; +inf for trapezoid steps
-  std::uint64_t moves = 0;
-};
-
-ProfileRun run_profile(const std::string& file, machine::Machine m, machine::VelocityProfile p,
-                       bool strict) {
-  m.profile = p;
-  ProfileRun run;
-  run.profile = p;
-  run.jerk_limit_mm_s3 = p == machine::VelocityProfile::scurve7 ? m.max_jerk_mm_s3 : 0.0;
-  plan::EstimateOptions opt;
-  opt.strict = strict;
-  // Peaks of the ramps actually commanded (plan::make_ramp of each move's two speed changes).
-  // Extrude-only moves are left out: they move the extruder, not the toolhead (Klipper gives
-  // them an acceleration of 1e8 mm/s^2, which would say nothing about the machine).
-  opt.on_move = [&run](const plan::PlannedMove& mv) {
-    if (mv.extrude_only || mv.accel_mm_s2 <= 0.0) return;
-    for (const auto& [v0, v1] : {std::pair{mv.start_v_mm_s, mv.cruise_v_mm_s},
-                                 std::pair{mv.cruise_v_mm_s, mv.end_v_mm_s}}) {
-      // Speed changes below round-off are not ramps (a Bezier over them would claim a huge jerk).
-      if (std::abs(v1 - v0) <= 1e-9 * std::max({1.0, v0, v1})) continue;
-      const plan::Ramp r = plan::make_ramp(mv.profile, v0, v1, mv.accel_mm_s2, mv.jerk_mm_s3);
-      run.peak_accel_mm_s2 = std::max(run.peak_accel_mm_s2, r.peak_accel_mm_s2);
-      const double jerk = mv.profile == machine::VelocityProfile::trapezoid
-                              ? std::numeric_limits<double>::infinity()
-                              : r.peak_jerk_mm_s3;
-      run.peak_jerk_mm_s3 = std::max(run.peak_jerk_mm_s3, jerk);
-    }
-  };
-  const plan::EstimateReport r = plan::estimate_file(file, m, opt);
-  run.total_time_s = r.total_time_s;
-  run.moves = r.moves;
-  return run;
-}
-
 void run_compare_profiles(const EstimateArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
-  std::vector<ProfileRun> runs;
-  for (auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::bezier5,
-                 machine::VelocityProfile::scurve7}) {
-    runs.push_back(run_profile(a.file, m, p, !a.lenient));
-  }
-  const double base = runs.front().total_time_s;
+  const std::vector<plan::ProfileRun> runs = plan::compare_profiles(a.file, m, !a.lenient);
   if (a.json) {
-    using nlohmann::json;
-    json j;
-    j["file"] = a.file;
-    j["machine"] = m.name;
-    j["max_jerk_mm_s3"] = m.max_jerk_mm_s3;
-    json arr = json::array();
-    for (const auto& r : runs) {
-      arr.push_back({{"profile", std::string(machine::to_string(r.profile))},
-                     {"total_time_s", r.total_time_s},
-                     {"peak_accel_mm_s2", r.peak_accel_mm_s2},
-                     // JSON has no infinity: the trapezoid's jerk is a step (unbounded) -> null.
-                     {"peak_jerk_mm_s3", std::isfinite(r.peak_jerk_mm_s3) ? json(r.peak_jerk_mm_s3) : json(nullptr)},
-                     {"jerk_limit_mm_s3", r.jerk_limit_mm_s3 > 0 ? json(r.jerk_limit_mm_s3) : json(nullptr)},
-                     {"time_vs_trapezoid", base > 0 ? r.total_time_s / base : 0.0},
-                     {"moves", r.moves}});
-    }
-    j["profiles"] = arr;
-    std::cout << j.dump(2) << "\n";
+    std::cout << plan::to_json(runs, a.file, m).dump(2) << "\n";
     return;
   }
+  const double base = runs.front().total_time_s;
   auto& o = std::cout;
   o << fmt::format("amctl estimate --compare-profiles: {}\n", a.file);
   o << fmt::format("  machine {} ({}), max_jerk {:g} mm/s^3\n", m.name, machine::to_string(m.firmware),
@@ -307,7 +166,7 @@ void run_estimate(const EstimateArgs& a) {
     }
     std::cout << "\n";
   } else if (a.json) {
-    auto j = to_json(r, m, compute_s);
+    auto j = plan::to_json(r, m, compute_s);
     if (!a.m73_out.empty()) j["m73_written"] = {{"file", a.m73_out}, {"lines", m73}};
     std::cout << std::setw(2) << j << "\n";  // streamed: no second copy as one string
   } else {

@@ -7,7 +7,6 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
-#include "amctl/gcode/line_reader.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -19,137 +18,6 @@ const char* heater_name(gcode::HeaterCommand::Kind k) {
     case gcode::HeaterCommand::Kind::chamber: return "chamber";
   }
   return "heater";
-}
-
-/// Accumulates the report from the planner's output.
-class ReportSink final : public PlanSink {
- public:
-  ReportSink(EstimateReport& r, const EstimateOptions& opt, const gcode::Interpreter& interp,
-             double filament_area_mm2)
-      : r_(r), opt_(opt), interp_(interp), filament_area_(filament_area_mm2) {}
-
-  void on_planned(const PlannedMove& m) override {
-    const double t = m.duration_s();
-    ++r_.moves;
-    r_.motion_time_s += t;
-    r_.max_speed_mm_s = std::max(r_.max_speed_mm_s, m.cruise_v_mm_s);
-    const double de = m.axes_r[3] * m.distance_mm;
-    r_.filament_mm += de;
-    FeatureTime& f = feature(m.feature);
-    f.time_s += t;
-    ++f.moves;
-    if (m.extrude_only) {
-      r_.extrude_only_time_s += t;
-    } else if (de > 0.0) {
-      r_.extrude_time_s += t;
-      r_.extrude_path_mm += m.distance_mm;
-      f.extrude_time_s += t;
-      f.path_mm += m.distance_mm;
-      f.filament_mm += de;
-      if (!r_.layers.empty() && !layer_has_z_) {
-        r_.layers.back().z_mm = m.start_mm[2] + m.axes_r[2] * m.distance_mm;
-        layer_has_z_ = true;
-      }
-    } else {
-      r_.travel_time_s += t;
-      r_.travel_mm += m.distance_mm;
-    }
-    if (opt_.checkpoint_interval_s > 0.0 && m.start_time_s >= next_checkpoint_s_) {
-      r_.checkpoints.push_back(Checkpoint{m.line, m.start_time_s});
-      next_checkpoint_s_ = (std::floor(m.start_time_s / opt_.checkpoint_interval_s) + 1.0) *
-                           opt_.checkpoint_interval_s;
-    }
-    if (opt_.on_move) opt_.on_move(m);
-  }
-
-  void on_dwell(double start_time_s, double duration_s, std::uint64_t line) override {
-    (void)start_time_s;
-    (void)line;
-    r_.dwell_time_s += duration_s;
-  }
-
-  void on_heater(double time_s, const gcode::HeaterCommand& cmd) override {
-    TimedEvent e{time_s,
-                 fmt::format("{} {} {:g} C{}", cmd.wait ? (cmd.kind == gcode::HeaterCommand::Kind::bed ? "M190" : "M109")
-                                                       : (cmd.kind == gcode::HeaterCommand::Kind::bed ? "M140" : "M104"),
-                             heater_name(cmd.kind), cmd.target_c, cmd.wait ? " (wait)" : ""),
-                 cmd.line};
-    (cmd.wait ? r_.heater_waits : r_.heater_sets).push_back(std::move(e));
-  }
-
-  void on_untimed(double time_s, std::string_view name, std::uint64_t line) override {
-    if (r_.untimed.size() < 1000) r_.untimed.push_back(TimedEvent{time_s, std::string(name), line});
-  }
-
-  void on_layer_change(double time_s, std::int32_t layer, std::uint64_t line) override {
-    close_layer(time_s);
-    r_.layers.push_back(LayerTime{layer, time_s, 0.0, 0.0, line});
-    layer_has_z_ = false;
-  }
-
-  void close_layer(double now_s) {
-    if (!r_.layers.empty()) r_.layers.back().time_s = now_s - r_.layers.back().start_s;
-  }
-
- private:
-  FeatureTime& feature(std::uint16_t idx) {
-    if (idx >= r_.features.size()) r_.features.resize(idx + 1u);
-    return r_.features[idx];
-  }
-
-  EstimateReport& r_;
-  const EstimateOptions& opt_;
-  const gcode::Interpreter& interp_;
-  double filament_area_;
-  bool layer_has_z_ = false;
-  double next_checkpoint_s_ = 0.0;
-};
-
-EstimateReport run(gcode::LineReader& reader, const machine::Machine& machine,
-                   const EstimateOptions& opt) {
-  EstimateReport r;
-  r.file = reader.name();
-  r.machine_name = machine.name;
-  gcode::InterpreterOptions io = interpreter_options(machine);
-  io.strict = opt.strict;
-  gcode::Interpreter interp(io, reader.name());
-  const double area = std::numbers::pi * 0.25 * machine.extruder.filament_diameter_mm *
-                      machine.extruder.filament_diameter_mm;
-  ReportSink sink(r, opt, interp, area);
-  Planner planner(machine, sink, opt.planner);
-  std::string_view line;
-  try {
-    while (reader.next(line)) interp.feed(line, reader.line_number(), planner);
-    planner.finish();
-  } catch (const Error& e) {
-    // Errors raised below the interpreter know the line but not the file.
-    if (e.where().file.empty() && e.where().line != 0) {
-      throw Error(SourceLocation{reader.name(), e.where().line, e.where().column}, e.detail());
-    }
-    throw;
-  }
-  sink.close_layer(planner.print_time_s());
-  r.total_time_s = planner.print_time_s();
-  r.lines = reader.line_number();
-  r.bytes = reader.bytes_read();
-  r.ended_without_newline = reader.ended_without_newline();
-  r.skipped_lines = interp.skipped_lines();
-  r.filament_volume_mm3 = r.filament_mm * area;
-  const auto& names = interp.annotations().feature_names;
-  r.features.resize(std::max(r.features.size(), names.size()));
-  for (std::size_t i = 0; i < r.features.size(); ++i) {
-    r.features[i].name = i < names.size() ? names[i] : "unknown";
-    r.features[i].index = static_cast<std::uint16_t>(i);
-  }
-  // Drop features that never had a move (e.g. "unknown" when every move is annotated).
-  std::erase_if(r.features, [](const FeatureTime& f) { return f.moves == 0; });
-  r.unknown_commands = interp.unknown_commands();
-  r.ignored_commands = interp.ignored_commands();
-  r.slicer_estimate_s = interp.annotations().slicer_estimate_s;
-  r.slicer_name = interp.annotations().slicer_name;
-  r.diagnostics = planner.diagnostics();
-  r.final_limits = planner.limits();
-  return r;
 }
 
 }  // namespace
@@ -169,16 +37,138 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   return o;
 }
 
+EstimateSink::EstimateSink(const machine::Machine& machine, double checkpoint_interval_s)
+    : checkpoint_interval_s_(checkpoint_interval_s),
+      filament_area_mm2_(std::numbers::pi * 0.25 * machine.extruder.filament_diameter_mm *
+                         machine.extruder.filament_diameter_mm) {
+  r_.machine_name = machine.name;
+}
+
+void EstimateSink::consume(const PlanBatch& batch) {
+  for_each_in_order(
+      batch, [this](const PlannedMove& m) { add_move(m); },
+      [this](const PlanEvent& e) { add_event(e); });
+}
+
+void EstimateSink::add_move(const PlannedMove& m) {
+  const double t = m.duration_s();
+  ++r_.moves;
+  r_.motion_time_s += t;
+  r_.max_speed_mm_s = std::max(r_.max_speed_mm_s, m.cruise_v_mm_s);
+  const double de = m.axes_r[3] * m.distance_mm;
+  r_.filament_mm += de;
+  FeatureTime& f = feature(m.feature);
+  f.time_s += t;
+  ++f.moves;
+  if (m.extrude_only) {
+    r_.extrude_only_time_s += t;
+  } else if (de > 0.0) {
+    r_.extrude_time_s += t;
+    r_.extrude_path_mm += m.distance_mm;
+    f.extrude_time_s += t;
+    f.path_mm += m.distance_mm;
+    f.filament_mm += de;
+    if (!r_.layers.empty() && !layer_has_z_) {
+      r_.layers.back().z_mm = m.start_mm[2] + m.axes_r[2] * m.distance_mm;
+      layer_has_z_ = true;
+    }
+  } else {
+    r_.travel_time_s += t;
+    r_.travel_mm += m.distance_mm;
+  }
+  if (checkpoint_interval_s_ > 0.0 && m.start_time_s >= next_checkpoint_s_) {
+    r_.checkpoints.push_back(Checkpoint{m.line, m.start_time_s});
+    next_checkpoint_s_ =
+        (std::floor(m.start_time_s / checkpoint_interval_s_) + 1.0) * checkpoint_interval_s_;
+  }
+}
+
+void EstimateSink::add_event(const PlanEvent& e) {
+  switch (e.kind) {
+    case PlanEvent::Kind::dwell:
+      r_.dwell_time_s += e.duration_s;
+      break;
+    case PlanEvent::Kind::heater: {
+      const gcode::HeaterCommand& cmd = e.heater;
+      const bool bed = cmd.kind == gcode::HeaterCommand::Kind::bed;
+      TimedEvent te{e.time_s,
+                    fmt::format("{} {} {:g} C{}", cmd.wait ? (bed ? "M190" : "M109") : (bed ? "M140" : "M104"),
+                                heater_name(cmd.kind), cmd.target_c, cmd.wait ? " (wait)" : ""),
+                    cmd.line};
+      (cmd.wait ? r_.heater_waits : r_.heater_sets).push_back(std::move(te));
+      break;
+    }
+    case PlanEvent::Kind::untimed:
+      if (r_.untimed.size() < 1000) r_.untimed.push_back(TimedEvent{e.time_s, e.name, e.line});
+      break;
+    case PlanEvent::Kind::layer:
+      close_layer(e.time_s);
+      r_.layers.push_back(LayerTime{e.layer, e.time_s, 0.0, 0.0, e.line});
+      layer_has_z_ = false;
+      break;
+    case PlanEvent::Kind::progress:
+    case PlanEvent::Kind::fan:
+      break;
+  }
+}
+
+void EstimateSink::close_layer(double now_s) {
+  if (!r_.layers.empty()) r_.layers.back().time_s = now_s - r_.layers.back().start_s;
+}
+
+void EstimateSink::finish(const StreamSummary& s) {
+  close_layer(s.end_time_s);
+  r_.file = s.file;
+  r_.total_time_s = s.end_time_s;
+  r_.lines = s.lines;
+  r_.bytes = s.bytes;
+  r_.ended_without_newline = s.ended_without_newline;
+  r_.skipped_lines = s.skipped_lines;
+  r_.filament_volume_mm3 = r_.filament_mm * filament_area_mm2_;
+  const auto& names = s.feature_names;
+  r_.features.resize(std::max(r_.features.size(), names.size()));
+  for (std::size_t i = 0; i < r_.features.size(); ++i) {
+    r_.features[i].name = i < names.size() ? names[i] : "unknown";
+    r_.features[i].index = static_cast<std::uint16_t>(i);
+  }
+  // Drop features that never had a move (e.g. "unknown" when every move is annotated).
+  std::erase_if(r_.features, [](const FeatureTime& f) { return f.moves == 0; });
+  r_.unknown_commands = s.unknown_commands;
+  r_.ignored_commands = s.ignored_commands;
+  r_.slicer_estimate_s = s.slicer_estimate_s;
+  r_.slicer_name = s.slicer_name;
+  r_.diagnostics = s.diagnostics;
+  r_.final_limits = s.final_limits;
+}
+
+namespace {
+
+EstimateReport run_estimate(PlanSource& source, const machine::Machine& machine,
+                            const EstimateOptions& options) {
+  EstimateSink sink(machine, options.checkpoint_interval_s);
+  if (options.on_move) {
+    CallbackSink tap(options.on_move);
+    Sink* sinks[] = {&sink, &tap};
+    run_pipeline(source, sinks);
+  } else {
+    Sink* sinks[] = {&sink};
+    run_pipeline(source, sinks);
+  }
+  return sink.take_report();
+}
+
+}  // namespace
+
 EstimateReport estimate_file(const std::string& path, const machine::Machine& machine,
                              const EstimateOptions& options) {
-  gcode::LineReader reader(path);
-  return run(reader, machine, options);
+  PlanSource source(path, machine, options.source());
+  return run_estimate(source, machine, options);
 }
 
 EstimateReport estimate_text(std::string_view gcode, const std::string& name,
                              const machine::Machine& machine, const EstimateOptions& options) {
-  gcode::LineReader reader(gcode, name);
-  return run(reader, machine, options);
+  PlanSource source(gcode, name, machine, options.source());
+  return run_estimate(source, machine, options);
 }
 
 }  // namespace amctl::plan

@@ -1,5 +1,5 @@
 #pragma once
-// The main job: G-code file -> reader -> interpreter -> planner -> print-time report.
+// The main job: G-code file -> PlanSource -> EstimateSink -> print-time report.
 // Streams the file through a bounded buffer; memory grows only with the number of layers,
 // features and distinct unknown commands, never with the number of moves.
 #include <cstdint>
@@ -12,6 +12,7 @@
 #include "amctl/gcode/interpreter.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planner.hpp"
+#include "amctl/plan/stream.hpp"
 
 namespace amctl::plan {
 
@@ -19,14 +20,18 @@ struct EstimateOptions {
   PlannerOptions planner;
   /// Record (line, time) checkpoints every this many seconds of print time (for M73).
   double checkpoint_interval_s = 0.0;
-  /// Called for every planned move (e.g. to sample trajectories); may be empty.
-  std::function<void(const PlannedMove&)> on_move;
   /// Treat malformed lines as errors (true) or skip and count them.
   bool strict = true;
+  /// Called for every planned move (a CallbackSink beside the EstimateSink); may be empty.
+  std::function<void(const PlannedMove&)> on_move;
+  /// The source's options (planner, strictness, batch size) for these estimate options.
+  [[nodiscard]] SourceOptions source() const {
+    SourceOptions o;
+    o.planner = planner;
+    o.strict = strict;
+    return o;
+  }
 };
-
-/// Interpreter options implied by a machine (arcs, firmware retraction).
-gcode::InterpreterOptions interpreter_options(const machine::Machine& m);
 
 struct FeatureTime {
   std::string name;
@@ -88,6 +93,33 @@ struct EstimateReport {
   std::vector<Checkpoint> checkpoints;
   PlannerDiagnostics diagnostics;
   Planner::Limits final_limits{};
+};
+
+/// The estimate as a sink of the plan stream: one pass, O(layers + features) memory. Use it
+/// beside other sinks to get the report of a run that also simulates, writes CSV, ...
+class EstimateSink final : public Sink {
+ public:
+  explicit EstimateSink(const machine::Machine& machine, double checkpoint_interval_s = 0.0);
+  void consume(const PlanBatch& batch) override;
+  void finish(const StreamSummary& summary) override;
+  /// The report; complete after finish().
+  [[nodiscard]] const EstimateReport& report() const { return r_; }
+  [[nodiscard]] EstimateReport take_report() { return std::move(r_); }
+
+ private:
+  void add_move(const PlannedMove& m);
+  void add_event(const PlanEvent& e);
+  void close_layer(double now_s);
+  FeatureTime& feature(std::uint16_t idx) {
+    if (idx >= r_.features.size()) r_.features.resize(idx + 1u);
+    return r_.features[idx];
+  }
+
+  EstimateReport r_;
+  double checkpoint_interval_s_ = 0.0;
+  double next_checkpoint_s_ = 0.0;
+  double filament_area_mm2_ = 0.0;
+  bool layer_has_z_ = false;
 };
 
 /// Estimates a G-code file ("-" = standard input). Throws amctl::Error on bad input with

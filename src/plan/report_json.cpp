@@ -1,0 +1,133 @@
+#include "amctl/plan/report_json.hpp"
+
+#include <cctype>
+
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/profile_peaks.hpp"
+
+namespace amctl::plan {
+
+std::string explain_unknown_command(const std::string& name) {
+  if (!name.empty() && (name[0] == 'G' || name[0] == 'M') && name.size() > 1 &&
+      std::isdigit(static_cast<unsigned char>(name[1]))) {
+    return "not a command amctl models; skipped (no motion assumed)";
+  }
+  return "not a built-in command (a printer macro?); skipped, its time is not counted";
+}
+
+Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_s) {
+  Json j;
+  j["file"] = r.file;
+  j["machine"] = {{"name", m.name},
+                  {"firmware", std::string(machine::to_string(m.firmware))},
+                  {"kinematics", std::string(machine::to_string(m.kinematics))},
+                  {"junction", std::string(machine::to_string(m.junction))}};
+  j["total_time_s"] = r.total_time_s;
+  j["motion_time_s"] = r.motion_time_s;
+  j["dwell_time_s"] = r.dwell_time_s;
+  j["extrude_time_s"] = r.extrude_time_s;
+  j["travel_time_s"] = r.travel_time_s;
+  j["extrude_only_time_s"] = r.extrude_only_time_s;
+  j["extrude_path_mm"] = r.extrude_path_mm;
+  j["travel_mm"] = r.travel_mm;
+  j["filament_mm"] = r.filament_mm;
+  j["filament_volume_mm3"] = r.filament_volume_mm3;
+  j["max_speed_mm_s"] = r.max_speed_mm_s;
+  j["moves"] = r.moves;
+  j["lines"] = r.lines;
+  j["bytes"] = r.bytes;
+  j["slicer"] = r.slicer_name;
+  j["slicer_estimate_s"] = r.slicer_estimate_s ? Json(*r.slicer_estimate_s) : Json(nullptr);
+  if (r.slicer_estimate_s && r.total_time_s > 0) {
+    j["slicer_vs_amctl_ratio"] = *r.slicer_estimate_s / r.total_time_s;
+  }
+  Json feats = Json::array();
+  for (const auto& f : r.features) {
+    feats.push_back({{"name", f.name}, {"time_s", f.time_s}, {"extrude_time_s", f.extrude_time_s},
+                     {"path_mm", f.path_mm}, {"filament_mm", f.filament_mm}, {"moves", f.moves}});
+  }
+  j["features"] = std::move(feats);
+  Json layers = Json::array();
+  for (const auto& l : r.layers) {
+    layers.push_back({{"layer", l.layer}, {"start_s", l.start_s}, {"time_s", l.time_s},
+                      {"z_mm", l.z_mm}, {"line", l.first_line}});
+  }
+  j["layers"] = std::move(layers);  // no copy: one row per layer, thousands on big prints
+  auto events = [](const std::vector<TimedEvent>& v) {
+    Json a = Json::array();
+    for (const auto& e : v) a.push_back({{"at_s", e.at_s}, {"what", e.what}, {"line", e.line}});
+    return a;
+  };
+  j["heater_waits"] = events(r.heater_waits);
+  j["heater_sets"] = events(r.heater_sets);
+  j["untimed_commands"] = events(r.untimed);
+  Json unk = Json::array();
+  for (const auto& u : r.unknown_commands) {
+    unk.push_back({{"name", u.name}, {"first_line", u.first_line}, {"count", u.count},
+                   {"explanation", explain_unknown_command(u.name)}});
+  }
+  j["unknown_commands"] = unk;
+  j["ignored_commands"] = r.ignored_commands;
+  j["warnings"] = r.diagnostics.warnings;
+  if (r.ended_without_newline) {
+    j["warnings"].push_back("the file does not end with a newline: it may be truncated");
+  }
+  j["planner"] = {{"full_stops", r.diagnostics.full_stops},
+                  {"speed_limited_moves", r.diagnostics.speed_limited_moves},
+                  {"extrude_only_moves", r.diagnostics.extrude_only_moves},
+                  {"zero_length_moves", r.diagnostics.zero_length_moves},
+                  {"forced_flushes", r.diagnostics.forced_flushes}};
+  j["skipped_lines"] = r.skipped_lines;
+  j["compute_time_s"] = compute_s;
+  return j;
+}
+
+std::vector<ProfileRun> compare_profiles(const std::string& path, const machine::Machine& machine,
+                                         bool strict) {
+  std::vector<ProfileRun> runs;
+  for (auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::bezier5,
+                 machine::VelocityProfile::scurve7}) {
+    machine::Machine m = machine;
+    m.profile = p;
+    SourceOptions so;
+    so.strict = strict;
+    PlanSource source(path, m, so);
+    EstimateSink estimate(m);
+    ProfilePeaksSink peaks;
+    Sink* sinks[] = {&estimate, &peaks};
+    run_pipeline(source, sinks);
+    ProfileRun run;
+    run.profile = p;
+    run.jerk_limit_mm_s3 = p == machine::VelocityProfile::scurve7 ? m.max_jerk_mm_s3 : 0.0;
+    run.total_time_s = estimate.report().total_time_s;
+    run.moves = estimate.report().moves;
+    run.peak_accel_mm_s2 = peaks.peaks().peak_accel_mm_s2;
+    run.peak_jerk_mm_s3 = peaks.peaks().peak_jerk_mm_s3;
+    runs.push_back(run);
+  }
+  return runs;
+}
+
+Json to_json(const std::vector<ProfileRun>& runs, const std::string& file,
+             const machine::Machine& m) {
+  const double base = runs.empty() ? 0.0 : runs.front().total_time_s;
+  Json j;
+  j["file"] = file;
+  j["machine"] = m.name;
+  j["max_jerk_mm_s3"] = m.max_jerk_mm_s3;
+  Json arr = Json::array();
+  for (const auto& r : runs) {
+    arr.push_back({{"profile", std::string(machine::to_string(r.profile))},
+                   {"total_time_s", r.total_time_s},
+                   {"peak_accel_mm_s2", r.peak_accel_mm_s2},
+                   // The trapezoid's jerk is a step (unbounded): null.
+                   {"peak_jerk_mm_s3", json_number(r.peak_jerk_mm_s3)},
+                   {"jerk_limit_mm_s3", r.jerk_limit_mm_s3 > 0 ? Json(r.jerk_limit_mm_s3) : Json(nullptr)},
+                   {"time_vs_trapezoid", base > 0 ? r.total_time_s / base : 0.0},
+                   {"moves", r.moves}});
+  }
+  j["profiles"] = arr;
+  return j;
+}
+
+}  // namespace amctl::plan

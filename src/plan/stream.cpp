@@ -1,0 +1,159 @@
+#include "amctl/plan/stream.hpp"
+
+#include <utility>
+
+#include "amctl/core/error.hpp"
+#include "amctl/gcode/line_reader.hpp"
+
+namespace amctl::plan {
+namespace {
+
+/// The planner's output written into the batch being filled.
+class BatchWriter final : public PlanSink {
+ public:
+  PlanBatch* batch = nullptr;
+
+  void on_planned(const PlannedMove& m) override { batch->moves.push_back(m); }
+  void on_dwell(double start_time_s, double duration_s, std::uint64_t line) override {
+    event(PlanEvent::Kind::dwell, start_time_s, line).duration_s = duration_s;
+  }
+  void on_heater(double time_s, const gcode::HeaterCommand& cmd) override {
+    event(PlanEvent::Kind::heater, time_s, cmd.line).heater = cmd;
+  }
+  void on_progress(double time_s, const gcode::ProgressMarker& m) override {
+    event(PlanEvent::Kind::progress, time_s, m.line).progress = m;
+  }
+  void on_untimed(double time_s, std::string_view name, std::uint64_t line) override {
+    event(PlanEvent::Kind::untimed, time_s, line).name = std::string(name);
+  }
+  void on_layer_change(double time_s, std::int32_t layer, std::uint64_t line) override {
+    event(PlanEvent::Kind::layer, time_s, line).layer = layer;
+  }
+  void on_fan(double time_s, double fraction, std::uint64_t line) override {
+    event(PlanEvent::Kind::fan, time_s, line).fan_fraction = fraction;
+  }
+
+ private:
+  PlanEvent& event(PlanEvent::Kind kind, double time_s, std::uint64_t line) {
+    PlanEvent& e = batch->events.emplace_back();
+    e.kind = kind;
+    e.before_move = batch->moves.size();
+    e.time_s = time_s;
+    e.line = line;
+    return e;
+  }
+};
+
+gcode::InterpreterOptions source_interpreter_options(const machine::Machine& m, bool strict) {
+  gcode::InterpreterOptions o = interpreter_options(m);
+  o.strict = strict;
+  return o;
+}
+
+}  // namespace
+
+struct PlanSource::Impl {
+  Impl(std::unique_ptr<gcode::LineReader> r, const machine::Machine& m, const SourceOptions& o)
+      : machine(m),
+        options(o),
+        reader(std::move(r)),
+        interp(source_interpreter_options(m, o.strict), reader->name()),
+        planner(machine, writer, o.planner) {
+    summary.file = reader->name();
+    summary.machine_name = machine.name;
+  }
+
+  void fill(PlanBatch& batch);
+  void close();
+
+  machine::Machine machine;
+  SourceOptions options;
+  std::unique_ptr<gcode::LineReader> reader;
+  gcode::Interpreter interp;
+  BatchWriter writer;
+  Planner planner;
+  StreamSummary summary;
+  bool done = false;
+};
+
+void PlanSource::Impl::fill(PlanBatch& batch) {
+  writer.batch = &batch;
+  const std::size_t target = options.batch_moves == 0 ? 1 : options.batch_moves;
+  std::string_view line;
+  bool more = true;
+  while (batch.moves.size() < target && (more = reader->next(line))) {
+    interp.feed(line, reader->line_number(), planner);
+  }
+  if (!more) {
+    planner.finish();
+    close();
+  }
+}
+
+void PlanSource::Impl::close() {
+  done = true;
+  summary.end_time_s = planner.print_time_s();
+  summary.lines = reader->line_number();
+  summary.bytes = reader->bytes_read();
+  summary.ended_without_newline = reader->ended_without_newline();
+  summary.skipped_lines = interp.skipped_lines();
+  summary.feature_names = interp.annotations().feature_names;
+  summary.unknown_commands = interp.unknown_commands();
+  summary.ignored_commands = interp.ignored_commands();
+  summary.slicer_estimate_s = interp.annotations().slicer_estimate_s;
+  summary.slicer_name = interp.annotations().slicer_name;
+  summary.diagnostics = planner.diagnostics();
+  summary.final_limits = planner.limits();
+}
+
+PlanSource::PlanSource(const std::string& path, const machine::Machine& machine,
+                       SourceOptions options)
+    : impl_(std::make_unique<Impl>(std::make_unique<gcode::LineReader>(path), machine, options)) {}
+
+PlanSource::PlanSource(std::string_view text, std::string name, const machine::Machine& machine,
+                       SourceOptions options)
+    : impl_(std::make_unique<Impl>(std::make_unique<gcode::LineReader>(text, std::move(name)),
+                                   machine, options)) {}
+
+PlanSource::~PlanSource() = default;
+
+bool PlanSource::next(PlanBatch& batch) {
+  batch.clear();
+  if (impl_->done) return false;
+  try {
+    impl_->fill(batch);
+  } catch (const Error& e) {
+    // Errors raised below the interpreter (planner, limits) know the line but not the file.
+    if (e.where().file.empty() && e.where().line != 0) {
+      throw Error(SourceLocation{impl_->reader->name(), e.where().line, e.where().column},
+                  e.detail());
+    }
+    throw;
+  }
+  return !batch.empty() || !impl_->done;
+}
+
+bool PlanSource::done() const { return impl_->done; }
+const StreamSummary& PlanSource::summary() const { return impl_->summary; }
+const machine::Machine& PlanSource::machine() const { return impl_->machine; }
+
+const StreamSummary& run_pipeline(PlanSource& source, std::span<Stage* const> stages,
+                                  std::span<Sink* const> sinks) {
+  PlanBatch batch;
+  auto deliver = [&](PlanBatch& b, std::size_t first_stage) {
+    for (std::size_t i = first_stage; i < stages.size(); ++i) stages[i]->process(b);
+    if (b.empty()) return;
+    for (Sink* s : sinks) s->consume(b);
+  };
+  while (source.next(batch)) deliver(batch, 0);
+  // Each stage's held-back tail goes through the stages after it.
+  for (std::size_t i = 0; i < stages.size(); ++i) {
+    batch.clear();
+    stages[i]->finish(batch);
+    deliver(batch, i + 1);
+  }
+  for (Sink* s : sinks) s->finish(source.summary());
+  return source.summary();
+}
+
+}  // namespace amctl::plan
