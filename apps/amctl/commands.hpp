@@ -11,6 +11,8 @@ void register_all(CLI::App& app);
 
 /// `amctl estimate` (cmd_estimate.cpp): the main job.
 void register_estimate(CLI::App& app);
+/// `amctl plan`: the planned moves as CSV (cmd_plan.cpp).
+void register_plan(CLI::App& app);
 /// `amctl simulate`, `amctl sweep` (cmd_dynamics.cpp).
 void register_dynamics(CLI::App& app);
 /// `amctl thermal ...` (cmd_thermal.cpp).

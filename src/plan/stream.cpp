@@ -88,6 +88,7 @@ void PlanSource::Impl::fill(PlanBatch& batch) {
     planner.finish();
     close();
   }
+  batch.feature_names = &interp.annotations().feature_names;
 }
 
 void PlanSource::Impl::close() {

@@ -237,3 +237,100 @@ TEST(ProfilePeaks, MatchTheClosedFormsAndLeaveRetractionsOut) {
 
 }  // namespace
 }  // namespace amctl::plan
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "amctl/plan/moves_csv.hpp"
+
+namespace amctl::plan {
+namespace {
+
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+TEST(MovesCsv, RowsReadBackToTheSameDoublesAndChainEndToStart) {
+  const std::string g = zigzag(2, 9);
+  PlanSource ref(g, "z.gcode", klipper());
+  const auto moves = all_moves(ref);
+  PlanSource s(g, "z.gcode", klipper());
+  std::ostringstream out;
+  MovesCsvSink csv(out);
+  Sink* sinks[] = {&csv};
+  run_pipeline(s, sinks);
+  std::istringstream in(out.str());
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line + "\n", moves_csv_header());
+  const auto header = split_csv_line(line);
+  ASSERT_EQ(header.size(), 24u);
+  std::size_t i = 0;
+  double prev_end[4] = {0, 0, 0, 0};
+  while (std::getline(in, line)) {
+    ASSERT_LT(i, moves.size());
+    const auto f = split_csv_line(line);
+    ASSERT_EQ(f.size(), header.size()) << line;
+    const PlannedMove& m = moves[i];
+    EXPECT_EQ(std::stoull(f[0]), m.line);
+    EXPECT_EQ(std::stod(f[3]), m.start_time_s);  // shortest round-trip form: exact
+    EXPECT_EQ(std::stod(f[14]), m.start_v_mm_s);
+    EXPECT_EQ(std::stod(f[15]), m.cruise_v_mm_s);
+    EXPECT_EQ(std::stod(f[21]), m.decel_t_s);
+    EXPECT_EQ(f[22], "trapezoid");
+    // Each move starts where the previous one ended (the end columns are computed).
+    for (int k = 0; k < 4; ++k) {
+      if (i > 0) EXPECT_NEAR(std::stod(f[5 + k]), prev_end[k], 1e-9) << i << " axis " << k;
+      prev_end[k] = std::stod(f[9 + k]);
+    }
+    // The slicer's feature name: nothing is annotated in this file.
+    EXPECT_TRUE(f[2].empty() || f[2] == "unknown") << f[2];
+    ++i;
+  }
+  EXPECT_EQ(i, moves.size());
+}
+
+TEST(MovesCsv, AFileIsWrittenWholeOrNotAtAll) {
+  const auto dir = std::filesystem::temp_directory_path() / "amctl_moves_csv_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "moves.csv").string();
+  std::filesystem::remove(path);
+  {  // an error in the middle of the G-code: no CSV, no .part left behind
+    PlanSource s("G1 X10 F6000\nG1 X20\nG1 X1.2.3\n", "bad.gcode", klipper());
+    MovesCsvFile csv(path);
+    Sink* sinks[] = {&csv};
+    EXPECT_THROW(run_pipeline(s, sinks), Error);
+  }
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_FALSE(std::filesystem::exists(path + ".part"));
+  {
+    PlanSource s("G1 X10 F6000\nG1 X20\n", "good.gcode", klipper());
+    MovesCsvFile csv(path);
+    Sink* sinks[] = {&csv};
+    run_pipeline(s, sinks);
+    csv.commit();
+    EXPECT_EQ(csv.rows(), 2u);
+  }
+  std::ifstream in(path);
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line)) ++n;
+  EXPECT_EQ(n, 3u);  // header + 2 moves
+  std::filesystem::remove_all(dir);
+  EXPECT_THROW(MovesCsvFile("/nonexistent-dir/x/moves.csv"), Error);
+}
+
+}  // namespace
+}  // namespace amctl::plan

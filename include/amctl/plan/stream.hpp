@@ -50,6 +50,9 @@ struct PlanEvent {
 struct PlanBatch {
   std::vector<PlannedMove> moves;
   std::vector<PlanEvent> events;  ///< sorted by before_move, then arrival
+  /// The run's feature names so far, indexed by PlannedMove::feature (every move of the
+  /// batch has its name there). Owned by the source: valid while the batch is consumed.
+  const std::vector<std::string>* feature_names = nullptr;
 
   void clear() { moves.clear(); events.clear(); }
   [[nodiscard]] bool empty() const { return moves.empty() && events.empty(); }

@@ -1,0 +1,57 @@
+#pragma once
+// The planned moves as CSV, one row per move, as a sink of the plan stream (`amctl plan`).
+// Numbers are written in the shortest form that reads back to the same double, so a script
+// that loads the CSV (numpy, pandas, MATLAB) sees exactly the planner's values.
+//
+// Columns: line, layer, feature (the slicer's name, quoted if it holds a comma or quote;
+// empty before the first annotation), start_time_s, duration_s, x0_mm, y0_mm, z0_mm, e0_mm,
+// x1_mm, y1_mm, z1_mm, e1_mm, distance_mm, start_v_mm_s, cruise_v_mm_s, end_v_mm_s,
+// accel_mm_s2, jerk_mm_s3, accel_t_s, cruise_t_s, decel_t_s, profile, extrude_only.
+// (x1 = x0 + axes_r[0] distance_mm, ...; e of an extrude-only move is along axes_r[3].)
+#include <cstdio>
+#include <memory>
+#include <ostream>
+#include <string>
+
+#include "amctl/plan/stream.hpp"
+
+namespace amctl::plan {
+
+/// The header line of the moves CSV (with its newline).
+[[nodiscard]] const std::string& moves_csv_header();
+/// One row (with its newline). `feature_name` is the move's feature (PlanBatch::feature_names).
+[[nodiscard]] std::string moves_csv_row(const PlannedMove& m, std::string_view feature_name);
+
+/// Writes the moves CSV to a stream (e.g. std::cout).
+class MovesCsvSink final : public Sink {
+ public:
+  explicit MovesCsvSink(std::ostream& out);
+  void consume(const PlanBatch& batch) override;
+  [[nodiscard]] std::uint64_t rows() const { return rows_; }
+
+ private:
+  std::ostream& out_;
+  std::uint64_t rows_ = 0;
+};
+
+/// Writes the moves CSV to a file atomically: rows go to "<path>.part", renamed to `path`
+/// by commit() (call it after the pipeline ran); destroyed without commit, the partial file
+/// is removed, so an error never leaves half a CSV behind.
+class MovesCsvFile final : public Sink {
+ public:
+  explicit MovesCsvFile(std::string path);
+  ~MovesCsvFile() override;
+  MovesCsvFile(const MovesCsvFile&) = delete;
+  MovesCsvFile& operator=(const MovesCsvFile&) = delete;
+  void consume(const PlanBatch& batch) override;
+  void commit();
+  [[nodiscard]] std::uint64_t rows() const { return rows_; }
+
+ private:
+  std::string path_, tmp_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t rows_ = 0;
+  bool committed_ = false;
+};
+
+}  // namespace amctl::plan
