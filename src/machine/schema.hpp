@@ -82,6 +82,9 @@ void set_enum(Machine& m, Kind kind, int index);
 /// "> 0", ">= 0", "in [0, 1)" ...
 std::string_view bound_text(Bound b);
 bool within(Bound b, double v);
+/// Throws amctl::Error at `where` naming `label` (and its unit) unless `v` is within `b`.
+void check_bound(Bound b, double v, const SourceLocation& where, std::string_view label,
+                 std::string_view unit);
 
 /// Levenshtein distance, case-insensitive.
 std::size_t edit_distance(std::string_view a, std::string_view b);

@@ -1,6 +1,6 @@
 // amctl's TOML machine description: reading (with file:line:col errors and did-you-mean),
-// writing (round-trips exactly), `--set` overrides and validation. All of it is driven by the
-// key table in schema.cpp.
+// writing (round-trips exactly) and `--set` overrides. All of it is driven by the key table in
+// schema.cpp; validation and the key listing are in validate.cpp.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -44,10 +44,6 @@ std::string_view type_name(const toml::node& n) {
   }
 }
 
-std::string unit_suffix(std::string_view unit) {
-  return unit.empty() ? std::string() : fmt::format(" {}", unit);
-}
-
 /// Reads a number from a TOML node (integers are accepted where floats are expected).
 double number_of(const toml::node& v, const SourceLocation& where, std::string_view label,
                  std::string_view unit) {
@@ -57,18 +53,10 @@ double number_of(const toml::node& v, const SourceLocation& where, std::string_v
                                  unit.empty() ? "" : fmt::format(" in {}", unit), type_name(v)));
 }
 
-void check_bound(Bound b, double v, const SourceLocation& where, std::string_view label,
-                 std::string_view unit) {
-  if (!detail::within(b, v)) {
-    throw Error(where, fmt::format("{} must be a finite number {}{}, got {}", label,
-                                   detail::bound_text(b), unit_suffix(unit), v));
-  }
-}
-
 double bounded_number(const toml::node& v, Bound b, const SourceLocation& where,
                       std::string_view label, std::string_view unit) {
   const double x = number_of(v, where, label, unit);
-  check_bound(b, x, where, label, unit);
+  detail::check_bound(b, x, where, label, unit);
   return x;
 }
 
@@ -85,7 +73,7 @@ int integer_of(const toml::node& v, Bound b, const SourceLocation& where, std::s
   if (x > 1e9 || x < -1e9) {
     throw Error(where, fmt::format("{}: integer {} is out of range", label, x));
   }
-  check_bound(b, x, where, label, "");
+  detail::check_bound(b, x, where, label, "");
   return static_cast<int>(x);
 }
 
@@ -266,40 +254,6 @@ std::vector<std::pair<const toml::key*, const toml::node*>> in_file_order(const 
     return ra.line != rb.line ? ra.line < rb.line : ra.column < rb.column;
   });
   return out;
-}
-
-void check_bounds_for_validate(Machine& m) {
-  for (const KeyDef& d : detail::machine_keys()) {
-    const std::string label = fmt::format("{}.{}", d.section, d.key);
-    const SourceLocation none;
-    switch (d.kind) {
-      case Kind::number: check_bound(d.bound, d.number(m), none, label, d.unit); break;
-      case Kind::optional_number:
-        if (d.optional_number(m)) check_bound(d.bound, *d.optional_number(m), none, label, d.unit);
-        break;
-      case Kind::integer:
-        check_bound(d.bound, d.integer(m), none, label, d.unit);
-        break;
-      case Kind::axes4: {
-        static constexpr const char* kAxis[] = {"x", "y", "z", "e"};
-        for (std::size_t i = 0; i < 4; ++i) {
-          check_bound(d.bound, d.axes(m)[i], none, fmt::format("{}.{}", label, kAxis[i]), d.unit);
-        }
-        break;
-      }
-      default: break;
-    }
-  }
-  for (auto& [name, s] : m.steppers) {
-    if (!detail::valid_stepper_name(name)) {
-      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1", name));
-    }
-    for (const StepperKeyDef& d : detail::stepper_keys()) {
-      const std::string label = fmt::format("stepper_{}.{}", name, d.key);
-      if (d.kind == Kind::number) check_bound(d.bound, d.number(s), {}, label, d.unit);
-      if (d.kind == Kind::integer) check_bound(d.bound, d.integer(s), {}, label, d.unit);
-    }
-  }
 }
 
 void append_toml_string(std::string& out, std::string_view s) {
@@ -585,50 +539,6 @@ void apply_override(Machine& m, std::string_view assignment) {
     m.minimum_cruise_ratio =
         minimum_cruise_ratio_from_accel_to_decel(*pending.accel_to_decel, m.max_accel_mm_s2);
   }
-}
-
-void validate(const Machine& machine) {
-  Machine m = machine;
-  check_bounds_for_validate(m);
-  if (m.extruder.filament_diameter_mm < m.extruder.nozzle_diameter_mm) {
-    throw Error(fmt::format("extruder.filament_diameter ({} mm) must be >= "
-                            "extruder.nozzle_diameter ({} mm)",
-                            m.extruder.filament_diameter_mm, m.extruder.nozzle_diameter_mm));
-  }
-  if (m.arcs.min_arc_segment_mm > 0.0 && m.arcs.max_arc_segment_mm > 0.0 &&
-      m.arcs.min_arc_segment_mm > m.arcs.max_arc_segment_mm) {
-    throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
-                            m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
-  }
-}
-
-std::vector<KeyInfo> schema() {
-  std::vector<KeyInfo> out;
-  for (const KeyDef& d : detail::machine_keys()) {
-    std::string type;
-    switch (d.kind) {
-      case Kind::number:
-      case Kind::accel_to_decel: type = "number"; break;
-      case Kind::optional_number: type = "number (optional)"; break;
-      case Kind::integer: type = "integer"; break;
-      case Kind::axes4: type = "[x, y, z, e]"; break;
-      case Kind::text: type = "text"; break;
-      default: {
-        const auto names = detail::enum_names(d.kind);
-        type = fmt::format("{}", fmt::join(names, " | "));
-      }
-    }
-    out.push_back({std::string(d.section), std::string(d.key), type, std::string(d.unit),
-                   std::string(d.description)});
-  }
-  for (const StepperKeyDef& d : detail::stepper_keys()) {
-    out.push_back({"stepper_*", std::string(d.key),
-                   d.kind == Kind::integer      ? "integer"
-                   : d.kind == Kind::gear_ratio ? "text or number"
-                                                : "number",
-                   std::string(d.unit), std::string(d.description)});
-  }
-  return out;
 }
 
 }  // namespace amctl::machine

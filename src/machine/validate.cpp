@@ -1,0 +1,114 @@
+// Validation of a Machine, in one place: every bound of the key table (schema.cpp) and the
+// cross-key rules. The loader calls it after reading and overrides; the planner calls it on
+// the Machine it is given (a Machine built in code never went through the loader), so no
+// other module repeats a check. Also the key listing of `amctl machine keys`.
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "amctl/machine/loader.hpp"
+#include "schema.hpp"
+
+namespace amctl::machine {
+
+namespace detail {
+
+void check_bound(Bound b, double v, const SourceLocation& where, std::string_view label,
+                 std::string_view unit) {
+  if (!within(b, v)) {
+    throw Error(where, fmt::format("{} must be a finite number {}{}, got {}", label,
+                                   bound_text(b), unit.empty() ? std::string() : fmt::format(" {}", unit), v));
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::Kind;
+using detail::KeyDef;
+using detail::StepperKeyDef;
+using detail::check_bound;
+
+void check_bounds_for_validate(Machine& m) {
+  for (const KeyDef& d : detail::machine_keys()) {
+    const std::string label = fmt::format("{}.{}", d.section, d.key);
+    const SourceLocation none;
+    switch (d.kind) {
+      case Kind::number: check_bound(d.bound, d.number(m), none, label, d.unit); break;
+      case Kind::optional_number:
+        if (d.optional_number(m)) check_bound(d.bound, *d.optional_number(m), none, label, d.unit);
+        break;
+      case Kind::integer:
+        check_bound(d.bound, d.integer(m), none, label, d.unit);
+        break;
+      case Kind::axes4: {
+        static constexpr const char* kAxis[] = {"x", "y", "z", "e"};
+        for (std::size_t i = 0; i < 4; ++i) {
+          check_bound(d.bound, d.axes(m)[i], none, fmt::format("{}.{}", label, kAxis[i]), d.unit);
+        }
+        break;
+      }
+      default: break;
+    }
+  }
+  for (auto& [name, s] : m.steppers) {
+    if (!detail::valid_stepper_name(name)) {
+      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1", name));
+    }
+    for (const StepperKeyDef& d : detail::stepper_keys()) {
+      const std::string label = fmt::format("stepper_{}.{}", name, d.key);
+      if (d.kind == Kind::number) check_bound(d.bound, d.number(s), {}, label, d.unit);
+      if (d.kind == Kind::integer) check_bound(d.bound, d.integer(s), {}, label, d.unit);
+    }
+  }
+}
+
+}  // namespace
+
+void validate(const Machine& machine) {
+  Machine m = machine;
+  check_bounds_for_validate(m);
+  if (m.extruder.filament_diameter_mm < m.extruder.nozzle_diameter_mm) {
+    throw Error(fmt::format("extruder.filament_diameter ({} mm) must be >= "
+                            "extruder.nozzle_diameter ({} mm)",
+                            m.extruder.filament_diameter_mm, m.extruder.nozzle_diameter_mm));
+  }
+  if (m.arcs.min_arc_segment_mm > 0.0 && m.arcs.max_arc_segment_mm > 0.0 &&
+      m.arcs.min_arc_segment_mm > m.arcs.max_arc_segment_mm) {
+    throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
+                            m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
+  }
+}
+
+std::vector<KeyInfo> schema() {
+  std::vector<KeyInfo> out;
+  for (const KeyDef& d : detail::machine_keys()) {
+    std::string type;
+    switch (d.kind) {
+      case Kind::number:
+      case Kind::accel_to_decel: type = "number"; break;
+      case Kind::optional_number: type = "number (optional)"; break;
+      case Kind::integer: type = "integer"; break;
+      case Kind::axes4: type = "[x, y, z, e]"; break;
+      case Kind::text: type = "text"; break;
+      default: {
+        const auto names = detail::enum_names(d.kind);
+        type = fmt::format("{}", fmt::join(names, " | "));
+      }
+    }
+    out.push_back({std::string(d.section), std::string(d.key), type, std::string(d.unit),
+                   std::string(d.description)});
+  }
+  for (const StepperKeyDef& d : detail::stepper_keys()) {
+    out.push_back({"stepper_*", std::string(d.key),
+                   d.kind == Kind::integer      ? "integer"
+                   : d.kind == Kind::gear_ratio ? "text or number"
+                                                : "number",
+                   std::string(d.unit), std::string(d.description)});
+  }
+  return out;
+}
+
+}  // namespace amctl::machine
