@@ -12,6 +12,7 @@
 #include "amctl/gcode/interpreter.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/plan/estimate.hpp"
+#include "amctl/plan/stream.hpp"
 
 namespace {
 
@@ -105,5 +106,22 @@ void BM_InterpretOnly(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
 }
 BENCHMARK(BM_InterpretOnly)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
+
+/// The plan stream alone: batches pulled from a PlanSource, nothing consumed. The difference
+/// to BM_EstimateKlipper is the estimate sink; to BM_InterpretOnly, the planner and batching.
+void BM_PlanSourcePull(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  amctl::machine::Machine m;
+  std::uint64_t moves = 0;
+  for (auto _ : state) {
+    amctl::plan::PlanSource source(g, "bench", m);
+    amctl::plan::PlanBatch batch;
+    moves = 0;
+    while (source.next(batch)) moves += batch.moves.size();
+    benchmark::DoNotOptimize(moves);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+}
+BENCHMARK(BM_PlanSourcePull)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
 
 }  // namespace
