@@ -404,18 +404,15 @@ void register_shrink_apply(CLI::App& shrink) {
       rep["scaled_volume_mm3"] = pr::check_mesh(scaled).volume_mm3;
       rep["format"] = fmt_out == pr::StlFormat::ascii ? "ascii" : "binary";
     } else {
-      const std::string text = pr::read_file_bytes(o->gcode);
       if (!origin) {
-        const auto ex = pr::gcode_extrusion_extent(text, o->gcode);
+        const auto ex = pr::gcode_extrusion_extent(o->gcode);
         origin = std::array<double, 3>{0.5 * (ex.min_mm[0] + ex.max_mm[0]),
                                        0.5 * (ex.min_mm[1] + ex.max_mm[1]), 0.0};
       }
       map.origin_mm = *origin;
       pr::GcodeScaleOptions opt;
       opt.scale_extrusion = !o->no_scale_e;
-      std::string out;
-      const auto r = pr::scale_gcode(text, o->gcode, map, opt, out);
-      pr::write_file_atomic(o->out, out);
+      const auto r = pr::scale_gcode_file(o->gcode, o->out, map, opt);
       nmin = r.extrusion_min_mm;
       nmax = r.extrusion_max_mm;
       cmin = r.scaled_min_mm;
