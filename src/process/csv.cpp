@@ -17,6 +17,8 @@
 
 #include <fmt/format.h>
 
+#include "amctl/process/atomic_file.hpp"
+
 namespace amctl::process {
 namespace {
 
@@ -177,46 +179,9 @@ std::string read_file_bytes(const std::string& path) {
 }
 
 void write_file_atomic(const std::string& path, std::string_view content) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  fs::path dir = target.parent_path();
-  if (dir.empty()) dir = ".";
-  std::string tmpl = (dir / ("." + target.filename().string() + ".tmp.XXXXXX")).string();
-  std::vector<char> buf(tmpl.begin(), tmpl.end());
-  buf.push_back('\0');
-  const int fd = ::mkstemp(buf.data());
-  if (fd < 0) {
-    throw Error(fmt::format("cannot create a temporary file in '{}' for output '{}': {}",
-                            dir.string(), path, std::strerror(errno)));
-  }
-  const std::string tmp(buf.data());
-  auto fail = [&](const std::string& what) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    throw Error(fmt::format("cannot write output '{}' ({}): {}", path, what, std::strerror(err)));
-  };
-  std::size_t done = 0;
-  while (done < content.size()) {
-    const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      fail("write");
-    }
-    done += static_cast<std::size_t>(w);
-  }
-  if (::fsync(fd) != 0) fail("fsync");
-  ::fchmod(fd, 0644);
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw Error(fmt::format("cannot write output '{}' (close): {}", path, std::strerror(err)));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw Error(fmt::format("cannot rename temporary file onto '{}': {}", path, std::strerror(err)));
-  }
+  AtomicFileWriter out(path);
+  out.write(content);
+  out.commit();
 }
 
 }  // namespace amctl::process

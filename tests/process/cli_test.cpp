@@ -103,3 +103,35 @@ TEST(Cli, EstimateHasAnEmpiricalModeAndCalibrateTimeReportsEveryFile) {
   EXPECT_EQ(run("calibrate-time " + (dir / "one.csv").string() + " --fit accel,scv").status, 2);
   fs::remove_all(dir);
 }
+
+TEST(Cli, ShrinkApplyReadsTheModelFileOfShrinkFitAndScalesInchGcode) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "amctl_process_cli_apply_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const auto fit = run("shrink fit " + kTable1 + " --json");
+  ASSERT_EQ(fit.status, 0) << fit.out;
+  std::ofstream(dir / "model.json") << fit.out;
+  const double c = nlohmann::json::parse(fit.out).at("factor").get<double>();
+  ASSERT_NEAR(c, 1.00310959189896, 1e-12);  // Z, as in ShrinkFitJsonHasSlopeInterceptAndFactor
+  // Inches: Z0.5 in = 12.7 mm -> 12.7 C mm = 0.5 C in = 0.50155 -> "0.5016"; the extrusion
+  // follows the local Z factor: 0.1 C = 0.100311 -> "0.10031". Other lines are kept.
+  std::ofstream(dir / "in.gcode") << "G20\nG90\nM83\nG1 Z0.5 F600\nG1 X1 Y0 E0.1\nG4 P\nM84 X Y E\n";
+  const auto r = run("shrink apply --gcode " + (dir / "in.gcode").string() + " --factors " +
+                     (dir / "model.json").string() + " -o " + (dir / "out.gcode").string() +
+                     " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("layers").get<int>(), 1);
+  EXPECT_EQ(j.at("factors").at(2).at("factors").at(0).get<double>(), c);
+  std::ifstream in(dir / "out.gcode");
+  const std::string out((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(out, "G20\nG90\nM83\nG1 Z0.5016 F600\nG1 X1 Y0 E0.10031\nG4 P\nM84 X Y E\n");
+  // A malformed model file: exit 2, the file named, nothing written.
+  std::ofstream(dir / "bad.json") << "{\"axis\": \"Z\",\n \"factor\": \"one\"}\n";
+  const auto bad = run("shrink apply --gcode " + (dir / "in.gcode").string() + " --factors " +
+                       (dir / "bad.json").string() + " -o " + (dir / "bad.gcode").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_FALSE(fs::exists(dir / "bad.gcode"));
+  fs::remove_all(dir);
+}

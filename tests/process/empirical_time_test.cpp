@@ -42,6 +42,7 @@ TEST(EmpiricalTime, ScanSeparatesRastersLinksContoursAndTravel) {
   EXPECT_NEAR(s.total.raster_mm, std::hypot(20, 0.5) + 40.0, 1e-9);
   EXPECT_NEAR(s.total.link_mm, 1.0, 1e-9);
   // Width 0.505 is a table node: all link length lands on it.
+  ASSERT_EQ(s.total.link_mm_by_width.size(), 3u);
   EXPECT_NEAR(s.total.link_mm_by_width[1], 1.0, 1e-4);
   EXPECT_NEAR(s.total.travel_mm, 0.2 + 30.0 + 10.0, 1e-9);
   EXPECT_DOUBLE_EQ(s.total.retracts, 1.0);
@@ -55,6 +56,7 @@ TEST(EmpiricalTime, ScanSeparatesRastersLinksContoursAndTravel) {
 TEST(EmpiricalTime, LinkLengthIsSplitBetweenNeighbouringWidths) {
   const auto s = pr::scan_gcode_for_time(layer_gcode(0.405), "sq.gcode", {});
   // 0.405 lies halfway between 0.305 and 0.505.
+  ASSERT_EQ(s.total.link_mm_by_width.size(), 3u);
   EXPECT_NEAR(s.total.link_mm_by_width[0], 0.5, 1e-3);
   EXPECT_NEAR(s.total.link_mm_by_width[1], 0.5, 1e-3);
 }

@@ -58,7 +58,11 @@ TEST(Slicing, Table2RemodelledColumnIsReproduced) {
   const auto z = pr::parse_factor_spec("z=0.9902:10:1.0032")[2];
   const pr::SlicingModel m{0.254, 0.254, 1.0};
   const auto rows = pr::slicing_error_table(d.nominal, d.meas_r, z, pr::HeightScaling::dimension, m);
+  // The loop below checks nothing if the table is empty: the seed's Table 2 has 22 heights.
+  ASSERT_EQ(d.nominal.size(), 22u);
+  ASSERT_EQ(rows.size(), d.nominal.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_TRUE(rows[i].total_error_mm && rows[i].dimensional_error_mm) << "row " << i;
     EXPECT_NEAR(rows[i].slicing_error_mm, d.slice_r[i], 0.0005) << "row " << i;
     EXPECT_NEAR(*rows[i].total_error_mm, d.tot_r[i], 1e-9) << "row " << i;
     EXPECT_NEAR(*rows[i].dimensional_error_mm, d.dim_r[i], 0.0101) << "row " << i;
@@ -80,7 +84,9 @@ TEST(Slicing, Table2OriginalColumnNeedsASlicePlaneNear57Percent) {
   m.plane_fraction = 0.5 * (iv.lo + iv.hi);
   const auto rows = pr::slicing_error_table(d.nominal, d.meas_o, pr::AxisMap{},
                                             pr::HeightScaling::none, m);
+  ASSERT_EQ(rows.size(), 22u);
   for (std::size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_TRUE(rows[i].dimensional_error_mm) << "row " << i;
     EXPECT_NEAR(rows[i].slicing_error_mm, d.slice_o[i], 0.0005) << "row " << i;
     EXPECT_NEAR(*rows[i].dimensional_error_mm, d.dim_o[i], 0.0101) << "row " << i;
   }
