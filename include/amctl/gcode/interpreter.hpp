@@ -77,14 +77,17 @@ class Interpreter {
   /// line, false (with no state changed) when the general path must.
   bool try_plain_move(std::string_view line, std::uint64_t line_no, EventSink& sink);
   void handle_word(const Command& cmd, std::uint64_t line_no, EventSink& sink);
-  void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);  // extended.cpp
   void handle_comment(std::string_view comment, std::uint64_t line_no, EventSink& sink);
   void do_move(const Params& p, std::uint64_t line_no, EventSink& sink);
   void do_arc(const Command& cmd, const Params& p, bool clockwise, std::uint64_t line_no,
-              EventSink& sink);
+              EventSink& sink);  // arcs.cpp
+  /// G10 (`retract`) or G11 (retraction.cpp).
+  void firmware_retraction(bool retract, const Params& p, std::uint64_t line_no, EventSink& sink);
+  /// M207 or M208 (`code`): firmware retraction settings (retraction.cpp).
+  void set_firmware_retraction(int code, const Params& p);
   void emit_move(const std::array<double, 4>& target, double speed_mm_s, std::uint64_t line_no,
                  EventSink& sink, bool from_arc, bool from_retract = false);
-  void set_feature(std::string_view name);
   void require_numbers(const Params& p, std::uint64_t line_no) const;
   void apply_feed(const Params& p, std::uint64_t line_no);
   /// Machine-coordinate target of the X/Y/Z/E words under the modal state; the file's own
@@ -96,8 +99,6 @@ class Interpreter {
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;
-  double number_arg(const Command& cmd, std::string_view key, std::uint64_t line_no,
-                    bool& present) const;
 
   InterpreterOptions opt_;
   std::string source_;
