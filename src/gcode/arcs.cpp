@@ -12,12 +12,29 @@
 namespace amctl::gcode {
 
 double detail::arc_segment_count(const InterpreterOptions& o, double length_mm,
-                                 double speed_mm_s) {
+                                 double sweep_rad, bool full_circle, double speed_mm_s) {
   double seg_len = o.mm_per_arc_segment;
   if (o.arc_segments_per_second > 0.0) seg_len = speed_mm_s / o.arc_segments_per_second;
   if (o.min_arc_segment_mm > 0.0) seg_len = std::max(seg_len, o.min_arc_segment_mm);
   if (o.max_arc_segment_mm > 0.0) seg_len = std::min(seg_len, o.max_arc_segment_mm);
-  return std::max(1.0, std::floor(length_mm / seg_len));
+  double segments = std::max(1.0, std::floor(length_mm / seg_len));
+  if (o.min_circle_segments > 0) {
+    // Marlin MIN_CIRCLE_SEGMENTS (Marlin/src/gcode/motion/G2_G3.cpp, plan_arc): n segments
+    // for a full circle, ceil(n * sweep / 2 pi) for a part of one. The 1e-9 keeps exact
+    // fractions exact: a quarter of 72 is 18, not 19 from the rounding of atan2 and pi.
+    const double n = o.min_circle_segments;
+    const double least =
+        full_circle ? n
+                    : std::max(1.0, std::ceil(n * std::fabs(sweep_rad) / (2.0 * std::numbers::pi) - 1e-9));
+    if (least > segments) {
+      segments = least;
+      // Marlin then gives up segments that would be shorter than MIN_ARC_SEGMENT_MM.
+      if (o.min_arc_segment_mm > 0.0 && length_mm / segments < o.min_arc_segment_mm) {
+        segments = std::max(1.0, std::floor(length_mm / o.min_arc_segment_mm));
+      }
+    }
+  }
+  return segments;
 }
 
 void Interpreter::do_arc(const Command& cmd, const Params& p, bool clockwise,
@@ -80,7 +97,9 @@ void Interpreter::do_arc(const Command& cmd, const Params& p, bool clockwise,
   const double linear = target[ah] - pos_[ah];
   const double flat = radius * std::fabs(angle);
   const double travel = linear != 0.0 ? std::hypot(flat, linear) : flat;
-  const double segments_d = detail::arc_segment_count(opt_, travel, feed_mm_s_ * speed_factor_);
+  const bool full_circle = p0 == p1 && q0 == q1;
+  const double segments_d =
+      detail::arc_segment_count(opt_, travel, angle, full_circle, feed_mm_s_ * speed_factor_);
   if (segments_d > 1e7) {
     fail(line_no, cmd.args_column,
          fmt::format("arc of {} mm would need {} segments: radius or segment length is absurd",

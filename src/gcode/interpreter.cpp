@@ -63,6 +63,7 @@ Interpreter::Interpreter(InterpreterOptions options, std::string source_name)
   require_non_negative("retraction.retract_length", opt_.retract_length_mm);
   require_positive("retraction.retract_speed", opt_.retract_speed_mm_s);
   require_positive("retraction.unretract_speed", opt_.unretract_speed_mm_s);
+  require_non_negative("arcs.min_circle_segments", opt_.min_circle_segments);
 }
 
 void Interpreter::fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const {

@@ -164,6 +164,7 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   o.retract_speed_mm_s = m.firmware_retraction.retract_speed_mm_s;
   o.unretract_extra_length_mm = m.firmware_retraction.unretract_extra_length_mm;
   o.unretract_speed_mm_s = m.firmware_retraction.unretract_speed_mm_s;
+  o.min_circle_segments = m.arcs.min_circle_segments;
   // Klipper's M84/M18 dwells DISABLE_STALL_TIME (0.1 s) before and after switching off.
   o.motor_off_dwell_s = m.firmware == machine::Firmware::klipper ? 0.2 : 0.0;
   return o;

@@ -21,7 +21,7 @@ namespace amctl::gcode {
 struct InterpreterOptions {
   /// Arc linearisation: target chord length [mm], clamps (0 = none), and Marlin's
   /// ARC_SEGMENTS_PER_SEC (0 = off). Segments = max(1, floor(arc length / chord length)),
-  /// Klipper's [gcode_arcs] rule.
+  /// Klipper's [gcode_arcs] rule; see also min_circle_segments below.
   double mm_per_arc_segment = 1.0;
   double min_arc_segment_mm = 0.0;
   double max_arc_segment_mm = 0.0;
@@ -36,6 +36,12 @@ struct InterpreterOptions {
   double motor_off_dwell_s = 0.0;
   /// Treat an unparseable line as an error (default) or count and skip it.
   bool strict = true;
+  // The fields below came later (issue 13); they stay last so that positional initialisation
+  // of the ones above keeps its meaning.
+  /// Marlin MIN_CIRCLE_SEGMENTS (0 = off): an arc sweeping theta gets at least
+  /// ceil(n theta / 2 pi) segments (n for a full circle), but no more than keeps each one
+  /// >= min_arc_segment_mm (docs/gcode.md, "Arcs").
+  int min_circle_segments = 0;
 };
 
 /// Layer, feature and slicer figures read from comments.
