@@ -64,6 +64,8 @@ Interpreter::Interpreter(InterpreterOptions options, std::string source_name)
   require_positive("retraction.retract_speed", opt_.retract_speed_mm_s);
   require_positive("retraction.unretract_speed", opt_.unretract_speed_mm_s);
   require_non_negative("arcs.min_circle_segments", opt_.min_circle_segments);
+  require_non_negative("retraction.lift_z", opt_.lift_z_mm);
+  require_positive("retraction.lift_z_speed", opt_.lift_z_speed_mm_s);
 }
 
 void Interpreter::fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const {

@@ -1,5 +1,7 @@
-// Marlin's MIN_CIRCLE_SEGMENTS (arcs.min_circle_segments). Expected values are worked out by
-// hand from Marlin's rule (Marlin/src/gcode/motion/G2_G3.cpp), not from the code under test.
+// Marlin's MIN_CIRCLE_SEGMENTS (arcs.min_circle_segments) and RETRACT_ZRAISE
+// (firmware_retraction.lift_z, M207 Z). Expected values are worked out by hand from Marlin's
+// rules (Marlin/src/gcode/motion/G2_G3.cpp, Marlin/src/feature/fwretract.cpp), not from
+// the code under test.
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -8,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "amctl/core/error.hpp"
 #include "amctl/gcode/interpreter.hpp"
 #include "amctl/gcode/line_reader.hpp"
 
@@ -109,6 +112,99 @@ TEST(MinCircleSegments, CombinesWithSegmentsPerSecond) {
   EXPECT_EQ(arc_segments("G1 X10 Y0 F6000\nG3 X0 Y10 I-10 J0\n", o), 18u);
   o.min_circle_segments = 0;
   EXPECT_EQ(arc_segments("G1 X10 Y0 F6000\nG3 X0 Y10 I-10 J0\n", o), 7u);
+}
+
+InterpreterOptions hop_options(double lift_z_mm) {
+  InterpreterOptions o;
+  o.retract_length_mm = 0.8;
+  o.retract_speed_mm_s = 35;
+  o.unretract_speed_mm_s = 20;
+  o.lift_z_mm = lift_z_mm;
+  o.lift_z_speed_mm_s = 12;
+  return o;
+}
+
+TEST(FirmwareRetractionLiftZ, G10RetractsThenHopsAndG11LowersThenRecovers) {
+  const auto m = run("G1 Z0.3 F600\nG1 X10 E1\nG10\nG1 X20\nG11\nG1 X30 E2\n", hop_options(0.4));
+  ASSERT_EQ(m.size(), 8u);
+  // G10: E 1 -> 0.2 at the retract speed, Z untouched...
+  EXPECT_DOUBLE_EQ(m[2].end_mm[3] - m[2].start_mm[3], -0.8);
+  EXPECT_EQ(m[2].end_mm[2], 0.3);
+  EXPECT_DOUBLE_EQ(m[2].speed_mm_s, 35.0);
+  // ...then Z 0.3 -> 0.7 alone at the Z speed.
+  EXPECT_DOUBLE_EQ(m[3].end_mm[2] - m[3].start_mm[2], 0.4);
+  EXPECT_EQ(m[3].end_mm[3], m[3].start_mm[3]);
+  EXPECT_EQ(m[3].end_mm[0], m[3].start_mm[0]);
+  EXPECT_DOUBLE_EQ(m[3].speed_mm_s, 12.0);
+  EXPECT_TRUE(m[2].from_firmware_retract);
+  EXPECT_TRUE(m[3].from_firmware_retract);
+  // The travel in between stays raised.
+  EXPECT_DOUBLE_EQ(m[4].end_mm[2], 0.7);
+  EXPECT_EQ(m[4].end_mm[0], 20.0);
+  // G11: Z back to exactly 0.3 first, at the Z speed...
+  EXPECT_EQ(m[5].end_mm[2], 0.3);
+  EXPECT_EQ(m[5].end_mm[3], m[5].start_mm[3]);
+  EXPECT_DOUBLE_EQ(m[5].speed_mm_s, 12.0);
+  // ...then E recovers by 0.8 at the unretract speed.
+  EXPECT_DOUBLE_EQ(m[6].end_mm[3] - m[6].start_mm[3], 0.8);
+  EXPECT_EQ(m[6].end_mm[2], 0.3);
+  EXPECT_DOUBLE_EQ(m[6].speed_mm_s, 20.0);
+  EXPECT_TRUE(m[5].from_firmware_retract);
+  EXPECT_TRUE(m[6].from_firmware_retract);
+  // The print goes on at the file's Z.
+  EXPECT_EQ(m[7].end_mm[2], 0.3);
+  EXPECT_DOUBLE_EQ(m[7].end_mm[3], 2.0);
+}
+
+TEST(FirmwareRetractionLiftZ, OneHopOnlyAndTinyHopsIgnored) {
+  // A repeated G10 or G11 does nothing: retract, hop, lower, recover.
+  const auto m = run("G10\nG10\nG11\nG11\n", hop_options(0.4));
+  ASSERT_EQ(m.size(), 4u);
+  EXPECT_DOUBLE_EQ(m[1].end_mm[2], 0.4);
+  EXPECT_EQ(m[2].end_mm[2], 0.0);
+  // Marlin applies a hop only above 0.01 mm: just the E moves.
+  const auto tiny = run("G10\nG11\n", hop_options(0.01));
+  ASSERT_EQ(tiny.size(), 2u);
+  for (const auto& mv : tiny) EXPECT_EQ(mv.end_mm[2], 0.0);
+  // lift_z = 0 (the default of every preset): no Z move.
+  ASSERT_EQ(run("G10\nG11\n", hop_options(0.0)).size(), 2u);
+}
+
+TEST(FirmwareRetractionLiftZ, ZMovesWhileRaisedKeepTheHopAsAnOffset) {
+  // Absolute G1 Z1 while hopped by 0.4 goes to 1.4; G11 lowers by the hop to 1.0.
+  const auto m = run("G10\nG1 Z1 F600\nG11\n", hop_options(0.4));
+  ASSERT_EQ(m.size(), 5u);
+  EXPECT_DOUBLE_EQ(m[2].end_mm[2], 1.4);
+  EXPECT_DOUBLE_EQ(m[3].end_mm[2], 1.0);
+}
+
+TEST(FirmwareRetractionLiftZ, M207ZSetsTheHopInCurrentUnits) {
+  InterpreterOptions o;  // Klipper defaults: no retraction, no hop
+  auto m = run("M207 S1 F1800 Z0.5\nG10\nG11\n", o);
+  ASSERT_EQ(m.size(), 4u);
+  EXPECT_DOUBLE_EQ(m[0].end_mm[3], -1.0);
+  EXPECT_DOUBLE_EQ(m[0].speed_mm_s, 30.0);
+  EXPECT_DOUBLE_EQ(m[1].end_mm[2], 0.5);
+  EXPECT_EQ(m[2].end_mm[2], 0.0);
+  EXPECT_DOUBLE_EQ(m[3].end_mm[3], 0.0);
+  // G20: Z0.02 inch = 0.508 mm.
+  m = run("G20\nM207 Z0.02\nG21\nG10\n", o);
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_DOUBLE_EQ(m[0].end_mm[2], 0.508);
+  // M207 Z0 turns the hop off again.
+  EXPECT_TRUE(run("M207 Z0\nG10\nG11\n", hop_options(0.4)).size() == 2u);
+}
+
+TEST(FirmwareRetractionLiftZ, NegativeOptionsAreErrors) {
+  InterpreterOptions o;
+  o.lift_z_mm = -1;
+  EXPECT_THROW(Interpreter(o, "t"), Error);
+  o = {};
+  o.min_circle_segments = -3;
+  EXPECT_THROW(Interpreter(o, "t"), Error);
+  o = {};
+  o.lift_z_speed_mm_s = 0;
+  EXPECT_THROW(Interpreter(o, "t"), Error);
 }
 
 }  // namespace

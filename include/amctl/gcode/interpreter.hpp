@@ -42,6 +42,11 @@ struct InterpreterOptions {
   /// ceil(n theta / 2 pi) segments (n for a full circle), but no more than keeps each one
   /// >= min_arc_segment_mm (docs/gcode.md, "Arcs").
   int min_circle_segments = 0;
+  /// Marlin RETRACT_ZRAISE (M207 Z): G10 raises Z by this much after retracting and G11
+  /// lowers it again before recovering (0 = off; like Marlin, hops <= 0.01 mm are ignored).
+  double lift_z_mm = 0.0;
+  /// Speed of those Z moves; Marlin uses the Z axis's maximum feedrate.
+  double lift_z_speed_mm_s = 12.0;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -119,6 +124,8 @@ class Interpreter {
   double extrude_factor_ = 1.0;         // M221
   int arc_plane_ = 17;
   bool retracted_ = false;
+  double hop_mm_ = 0.0;         // Z raised by G10 and not yet lowered by G11
+  double hop_from_z_mm_ = 0.0;  // machine Z before that hop
   Annotations notes_;
   std::vector<UnknownCommand> unknown_;
   std::map<std::string, std::uint64_t> ignored_;
