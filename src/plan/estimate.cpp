@@ -32,6 +32,14 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   o.retract_speed_mm_s = m.firmware_retraction.retract_speed_mm_s;
   o.unretract_extra_length_mm = m.firmware_retraction.unretract_extra_length_mm;
   o.unretract_speed_mm_s = m.firmware_retraction.unretract_speed_mm_s;
+  o.min_circle_segments = m.arcs.min_circle_segments;
+  o.lift_z_mm = m.firmware_retraction.lift_z_mm;
+  // Marlin moves the G10/G11 Z hop at the Z axis's maximum feedrate (fwretract.cpp); Klipper
+  // has no hop, so a configured one moves at Klipper's Z speed limit (max_z_velocity, which
+  // defaults to max_velocity).
+  o.lift_z_speed_mm_s = m.firmware == machine::Firmware::klipper
+                            ? (m.max_z_velocity_mm_s > 0.0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s)
+                            : m.max_feedrate_mm_s[2];
   // Klipper's M84/M18 dwells DISABLE_STALL_TIME (0.1 s) before and after switching off.
   o.motor_off_dwell_s = m.firmware == machine::Firmware::klipper ? 0.2 : 0.0;
   return o;

@@ -296,10 +296,13 @@ namespace amctl::machine {
 namespace {
 
 /// Byte-level mutations (flip, delete, duplicate, insert specials) of a valid input; every
-/// result must either load or fail with amctl::Error - nothing else may escape.
+/// result must either load or fail with amctl::Error - nothing else may escape. Both outcomes
+/// must occur: a run in which every input is rejected (or every one loads) would only
+/// exercise one path and could pass whatever the parser did with the rest.
 template <class Parse>
 void mutate_and_parse(const std::string& seed_text, Parse parse, unsigned seed) {
   std::mt19937 rng(seed);
+  int loaded = 0, rejected = 0;
   const std::string specials = "[]:=#;\n\t \"'\\{}%*?.,-+eEn0123456789";
   for (int round = 0; round < 600; ++round) {
     std::string text = seed_text;
@@ -315,12 +318,16 @@ void mutate_and_parse(const std::string& seed_text, Parse parse, unsigned seed) 
     }
     try {
       (void)parse(text);
+      ++loaded;
     } catch (const amctl::Error&) {
+      ++rejected;
     } catch (const std::exception& ex) {
       ADD_FAILURE() << "non-amctl exception '" << ex.what() << "' for input:\n" << text;
       return;
     }
   }
+  EXPECT_GT(loaded, 0) << "no mutated input loaded";
+  EXPECT_GT(rejected, 0) << "no mutated input was rejected";
 }
 
 TEST(Robustness, MutatedPrinterCfgEitherLoadsOrFailsWithAnAmctlError) {

@@ -96,6 +96,30 @@ TEST(Estimate, ArcLengthTimeMatchesTheCircle) {
   EXPECT_NEAR(r.travel_mm, 10 + 62 * chord, 1e-9);
 }
 
+TEST(Estimate, InterpreterOptionsCarryTheMarlinArcAndZHopKeys) {
+  machine::Machine m = simple();
+  m.arcs.min_circle_segments = 72;
+  m.firmware_retraction.lift_z_mm = 0.4;
+  gcode::InterpreterOptions o = interpreter_options(m);
+  EXPECT_EQ(o.min_circle_segments, 72);
+  EXPECT_EQ(o.lift_z_mm, 0.4);
+  // Klipper: the Z speed limit, max_z_velocity (0 = max_velocity).
+  EXPECT_EQ(o.lift_z_speed_mm_s, 300.0);
+  m.max_z_velocity_mm_s = 15;
+  EXPECT_EQ(interpreter_options(m).lift_z_speed_mm_s, 15.0);
+  // Marlin: M203 Z, the Z axis's maximum feedrate.
+  m.firmware = machine::Firmware::marlin;
+  m.max_feedrate_mm_s[2] = 5;
+  EXPECT_EQ(interpreter_options(m).lift_z_speed_mm_s, 5.0);
+  // And the estimate sees the hop: two extra Z moves of 0.4 mm.
+  const auto plain = estimate_text("G10\nG11\n", "t.gcode", simple());
+  machine::Machine hop = simple();
+  hop.firmware_retraction.lift_z_mm = 0.4;
+  const auto hopped = estimate_text("G10\nG11\n", "t.gcode", hop);
+  EXPECT_EQ(hopped.moves, plain.moves + 2);
+  EXPECT_GT(hopped.total_time_s, plain.total_time_s);
+}
+
 TEST(Estimate, RejectsNegativeAndZeroFeedrates) {
   EXPECT_THROW(estimate_text("G1 X10 F0\n", "t", simple()), Error);
   EXPECT_THROW(estimate_text("G1 X10 F-100\n", "t", simple()), Error);

@@ -21,7 +21,7 @@ namespace amctl::gcode {
 struct InterpreterOptions {
   /// Arc linearisation: target chord length [mm], clamps (0 = none), and Marlin's
   /// ARC_SEGMENTS_PER_SEC (0 = off). Segments = max(1, floor(arc length / chord length)),
-  /// Klipper's [gcode_arcs] rule.
+  /// Klipper's [gcode_arcs] rule; see also min_circle_segments below.
   double mm_per_arc_segment = 1.0;
   double min_arc_segment_mm = 0.0;
   double max_arc_segment_mm = 0.0;
@@ -36,6 +36,17 @@ struct InterpreterOptions {
   double motor_off_dwell_s = 0.0;
   /// Treat an unparseable line as an error (default) or count and skip it.
   bool strict = true;
+  // The fields below came later (issue 13); they stay last so that positional initialisation
+  // of the ones above keeps its meaning.
+  /// Marlin MIN_CIRCLE_SEGMENTS (0 = off): an arc sweeping theta gets at least
+  /// ceil(n theta / 2 pi) segments (n for a full circle), but no more than keeps each one
+  /// >= min_arc_segment_mm (docs/gcode.md, "Arcs").
+  int min_circle_segments = 0;
+  /// Marlin RETRACT_ZRAISE (M207 Z): G10 raises Z by this much after retracting and G11
+  /// lowers it again before recovering (0 = off; like Marlin, hops <= 0.01 mm are ignored).
+  double lift_z_mm = 0.0;
+  /// Speed of those Z moves; Marlin uses the Z axis's maximum feedrate.
+  double lift_z_speed_mm_s = 12.0;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -77,14 +88,17 @@ class Interpreter {
   /// line, false (with no state changed) when the general path must.
   bool try_plain_move(std::string_view line, std::uint64_t line_no, EventSink& sink);
   void handle_word(const Command& cmd, std::uint64_t line_no, EventSink& sink);
-  void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);  // extended.cpp
   void handle_comment(std::string_view comment, std::uint64_t line_no, EventSink& sink);
   void do_move(const Params& p, std::uint64_t line_no, EventSink& sink);
   void do_arc(const Command& cmd, const Params& p, bool clockwise, std::uint64_t line_no,
-              EventSink& sink);
+              EventSink& sink);  // arcs.cpp
+  /// G10 (`retract`) or G11 (retraction.cpp).
+  void firmware_retraction(bool retract, const Params& p, std::uint64_t line_no, EventSink& sink);
+  /// M207 or M208 (`code`): firmware retraction settings (retraction.cpp).
+  void set_firmware_retraction(int code, const Params& p);
   void emit_move(const std::array<double, 4>& target, double speed_mm_s, std::uint64_t line_no,
                  EventSink& sink, bool from_arc, bool from_retract = false);
-  void set_feature(std::string_view name);
   void require_numbers(const Params& p, std::uint64_t line_no) const;
   void apply_feed(const Params& p, std::uint64_t line_no);
   /// Machine-coordinate target of the X/Y/Z/E words under the modal state; the file's own
@@ -96,8 +110,6 @@ class Interpreter {
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;
-  double number_arg(const Command& cmd, std::string_view key, std::uint64_t line_no,
-                    bool& present) const;
 
   InterpreterOptions opt_;
   std::string source_;
@@ -112,6 +124,8 @@ class Interpreter {
   double extrude_factor_ = 1.0;         // M221
   int arc_plane_ = 17;
   bool retracted_ = false;
+  double hop_mm_ = 0.0;         // Z raised by G10 and not yet lowered by G11
+  double hop_from_z_mm_ = 0.0;  // machine Z before that hop
   Annotations notes_;
   std::vector<UnknownCommand> unknown_;
   std::map<std::string, std::uint64_t> ignored_;

@@ -1,0 +1,122 @@
+// Klipper extended commands (NAME KEY=VALUE ...): SET_VELOCITY_LIMIT,
+// SET_KINEMATIC_POSITION, SET_RETRACTION, TEMPERATURE_WAIT / SET_HEATER_TEMPERATURE, and
+// the lists of ignored and untimed ones (command_table.cpp).
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "amctl/gcode/interpreter.hpp"
+#include "command_table.hpp"
+#include "internal.hpp"
+
+namespace amctl::gcode {
+
+using detail::iequals;
+using detail::kMaxLimit;
+using detail::starts_with_ci;
+using detail::to_upper;
+
+void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink) {
+  const std::string_view name = cmd.name;
+  // KEY=number: the value, or 0 with has = false when KEY is absent; an error otherwise.
+  auto number_arg = [&](std::string_view key, bool& present) {
+    std::string_view text;
+    std::uint32_t col = 0;
+    present = find_extended_arg(cmd, key, text, col);
+    if (!present) return 0.0;
+    double v = 0.0;
+    const std::size_t used = parse_number(text, v);
+    if (used == 0 || used != text.size() || !std::isfinite(v)) {
+      fail(line_no, col, fmt::format("{} {}= expects a number, found '{}'", cmd.name, key, text));
+    }
+    return v;
+  };
+  if (iequals(name, "SET_VELOCITY_LIMIT")) {
+    LimitsCommand lc;
+    lc.source = LimitsCommand::Source::set_velocity_limit;
+    lc.line = line_no;
+    bool has = false;
+    double v = number_arg("VELOCITY", has);
+    if (has) lc.velocity = v;
+    v = number_arg("ACCEL", has);
+    if (has) lc.accel = v;
+    v = number_arg("SQUARE_CORNER_VELOCITY", has);
+    if (has) lc.square_corner_velocity = v;
+    v = number_arg("MINIMUM_CRUISE_RATIO", has);
+    if (has) lc.minimum_cruise_ratio = v;
+    v = number_arg("ACCEL_TO_DECEL", has);
+    if (has) lc.accel_to_decel = v;
+    auto bad = [&](const std::optional<double>& o, std::string_view key, bool allow_zero) {
+      if (o && (*o < 0.0 || (!allow_zero && *o == 0.0) || *o > kMaxLimit)) {
+        fail(line_no, cmd.args_column,
+             fmt::format("SET_VELOCITY_LIMIT {} must be {} 0 and <= {:g}, got {}", key,
+                         allow_zero ? ">=" : ">", kMaxLimit, *o));
+      }
+    };
+    bad(lc.velocity, "VELOCITY", false);
+    bad(lc.accel, "ACCEL", false);
+    bad(lc.square_corner_velocity, "SQUARE_CORNER_VELOCITY", true);
+    bad(lc.minimum_cruise_ratio, "MINIMUM_CRUISE_RATIO", true);
+    bad(lc.accel_to_decel, "ACCEL_TO_DECEL", false);
+    if (lc.minimum_cruise_ratio && *lc.minimum_cruise_ratio >= 1.0) {
+      fail(line_no, cmd.args_column, "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO must be < 1");
+    }
+    sink.on_limits(lc);
+    return;
+  }
+  if (iequals(name, "SET_KINEMATIC_POSITION")) {
+    bool has = false;
+    for (int a = 0; a < 3; ++a) {
+      const char key[2] = {"XYZ"[a], 0};
+      double v = number_arg(key, has);
+      if (has) {
+        pos_[a] = v;
+        gcode_pos_[a] = v;
+      }
+    }
+    sink.on_set_position(pos_, line_no);
+    return;
+  }
+  if (iequals(name, "SET_RETRACTION")) {
+    bool has = false;
+    double v = number_arg("RETRACT_LENGTH", has);
+    if (has) opt_.retract_length_mm = std::max(0.0, v);
+    v = number_arg("RETRACT_SPEED", has);
+    if (has && v > 0) opt_.retract_speed_mm_s = v;
+    v = number_arg("UNRETRACT_EXTRA_LENGTH", has);
+    if (has) opt_.unretract_extra_length_mm = v;
+    v = number_arg("UNRETRACT_SPEED", has);
+    if (has && v > 0) opt_.unretract_speed_mm_s = v;
+    return;
+  }
+  if (iequals(name, "TEMPERATURE_WAIT") || iequals(name, "SET_HEATER_TEMPERATURE")) {
+    HeaterCommand h;
+    std::string_view text;
+    std::uint32_t col = 0;
+    if (find_extended_arg(cmd, "SENSOR", text, col) || find_extended_arg(cmd, "HEATER", text, col)) {
+      h.kind = starts_with_ci(text, "heater_bed") ? HeaterCommand::Kind::bed : HeaterCommand::Kind::hotend;
+    }
+    bool has = false;
+    double v = number_arg("TARGET", has);
+    if (!has) v = number_arg("MINIMUM", has);
+    h.target_c = has ? v : 0.0;
+    h.wait = iequals(name, "TEMPERATURE_WAIT");
+    h.line = line_no;
+    sink.on_heater(h);
+    return;
+  }
+  if (detail::is_untimed_extended(name)) {
+    sink.on_untimed(to_upper(name), line_no);
+    sink.on_wait_moves(line_no);
+    return;
+  }
+  if (detail::is_ignored_extended(name)) {
+    note_ignored(name);
+    return;
+  }
+  note_unknown(name, line_no);
+}
+
+}  // namespace amctl::gcode

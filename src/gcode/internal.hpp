@@ -1,0 +1,42 @@
+#pragma once
+// Helpers shared by the interpreter's source files (interpreter.cpp, annotations.cpp,
+// arcs.cpp, extended.cpp, retraction.cpp, command_table.cpp). Internal to the gcode module.
+#include <string>
+#include <string_view>
+
+namespace amctl::gcode::detail {
+
+// Largest accepted machine coordinate [mm] (1000 km): anything beyond is an overflow or a
+// typo, never a print, and squares of distances must stay far from double overflow.
+inline constexpr double kMaxCoordinate_mm = 1e9;
+// Largest accepted speed/acceleration/jerk limit (mm/s, mm/min, mm/s^2 alike): squared speeds
+// and accel * distance products then stay finite.
+inline constexpr double kMaxLimit = 1e9;
+
+inline char upper(char c) { return (c >= 'a' && c <= 'z') ? static_cast<char>(c - 32) : c; }
+
+inline bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (upper(a[i]) != upper(b[i])) return false;
+  }
+  return true;
+}
+
+inline bool starts_with_ci(std::string_view s, std::string_view prefix) {
+  return s.size() >= prefix.size() && iequals(s.substr(0, prefix.size()), prefix);
+}
+
+inline std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+inline std::string to_upper(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = upper(c);
+  return out;
+}
+
+}  // namespace amctl::gcode::detail
