@@ -85,8 +85,8 @@ TEST(SlsBuild, AntiWindupLimitsOvershootAfterALongSaturation) {
   c.setpoint_changes = {{1, 190.0}};
   double overshoot[3];
   int i = 0;
-  for (auto aw : {AntiWindup::none, AntiWindup::back_calculation,
-                  AntiWindup::conditional_integration}) {
+  for (auto aw : {amctl::control::AntiWindup::none, amctl::control::AntiWindup::back_calculation,
+                  amctl::control::AntiWindup::conditional_integration}) {
     c.anti_windup = aw;
     overshoot[i++] = simulate_sls_build(c).max_overshoot_k;
   }
@@ -104,7 +104,7 @@ TEST(SlsBuild, LaserDisturbanceRaisesTheBedAndSaturatesTheHeaterAtZero) {
 TEST(SlsBuild, ExampleConfigLoadsAndRuns) {
   const auto c = load_sls_config(std::string(AMCTL_SOURCE_DIR) + "/configs/sls_pa12.toml");
   EXPECT_EQ(c.layers_added, 200);
-  EXPECT_EQ(c.anti_windup, AntiWindup::conditional_integration);
+  EXPECT_EQ(c.anti_windup, amctl::control::AntiWindup::conditional_integration);
   ASSERT_EQ(c.setpoint_changes.size(), 1u);
   auto small = c;
   small.layers_added = 5;
