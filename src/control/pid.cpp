@@ -114,6 +114,8 @@ void PidController::reset() {
 
 PidStep PidController::step(double setpoint, double y, double dt) {
   require_positive("controller period dt, s", dt);
+  require_finite("controller setpoint", setpoint);
+  require_finite("controller measurement", y);
   const double e = setpoint - y;
   if (first_) {
     y_filt_ = y_filt_prev_ = y;

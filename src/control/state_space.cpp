@@ -1,7 +1,7 @@
 #include "amctl/control/state_space.hpp"
 
 #include <cmath>
-#include <string>
+#include <utility>
 
 #include <fmt/format.h>
 

@@ -173,6 +173,8 @@ TEST(PidController, RejectsBadOptionsAndPeriods) {
   PidController pi(g, PidOptions{});
   EXPECT_THROW((void)pi.update(1.0, 0.0, 0.0), Error);
   EXPECT_THROW((void)pi.update(1.0, 0.0, std::nan("")), Error);
+  EXPECT_THROW((void)pi.update(1.0, std::nan(""), 0.1), Error);
+  EXPECT_THROW((void)pi.update(std::numeric_limits<double>::infinity(), 0.0, 0.1), Error);
 }
 
 TEST(AntiWindup, NamesRoundTrip) {

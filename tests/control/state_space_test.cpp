@@ -3,6 +3,8 @@
 #include "amctl/control/state_space.hpp"
 
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <numbers>
 #include <string>
 

@@ -100,7 +100,8 @@ class PidController {
   /// Throws amctl::Error for bad options (PidOptions::validate).
   PidController(const PidGains& gains, const PidOptions& options);
 
-  /// One period: setpoint and measurement in [E], period_s > 0 (throws amctl::Error else).
+  /// One period: setpoint and measurement finite, in [E]; period_s > 0. Throws amctl::Error
+  /// naming the bad argument.
   PidStep step(double setpoint, double measurement, double period_s);
   /// step(...).output.
   double update(double setpoint, double measurement, double period_s) {
