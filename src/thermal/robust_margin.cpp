@@ -35,7 +35,10 @@ struct Siso {
 };
 
 Siso siso_parts(const control::StateSpace& s) {
-  AMCTL_CHECK(s.is_siso(), "the margin computations need a SISO system");
+  if (!s.is_siso())
+    throw Error("the loop and H-infinity computations need a SISO system, got " +
+                std::to_string(s.inputs()) + " inputs and " + std::to_string(s.outputs()) +
+                " outputs");
   return Siso{s.A(), s.B().col(0), s.C().row(0), s.D()(0, 0)};
 }
 

@@ -1,6 +1,7 @@
 #include "amctl/thermal/studies.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 

@@ -164,3 +164,10 @@ TEST(RobustMargin, PaperPiStabilisesTheExactIrrationalPlant) {
   };
   EXPECT_GT(nyquist_closed_loop_rhp_poles(delayed, 0, 1e-9, 1e3), 0);
 }
+
+TEST(RobustMargin, LoopComputationsRejectAMimoPlant) {
+  const amctl::control::StateSpace two_inputs(Eigen::MatrixXd{{-1.0}}, Eigen::MatrixXd{{1.0, 1.0}},
+                                              Eigen::MatrixXd{{1.0}}, Eigen::MatrixXd{{0.0, 0.0}});
+  EXPECT_THROW((void)control_sensitivity(two_inputs, kPaperPi), amctl::Error);
+  EXPECT_THROW((void)hinf_norm_hamiltonian(two_inputs), amctl::Error);
+}

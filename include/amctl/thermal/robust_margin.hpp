@@ -57,9 +57,9 @@ struct SweepOptions {
 template <class F>
 PeakResult sweep_peak(F&& f, const SweepOptions& opt);
 
-/// H-infinity norm of a stable state-space system by bisection on the imaginary-axis
-/// eigenvalues of the Hamiltonian (Boyd, Balakrishnan & Kabamba 1989). Throws InternalError if
-/// A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
+/// H-infinity norm of a stable SISO state-space system by bisection on the imaginary-axis
+/// eigenvalues of the Hamiltonian (Boyd, Balakrishnan & Kabamba 1989). Throws amctl::Error for
+/// a system that is not SISO and InternalError if A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
 [[nodiscard]] double hinf_norm_hamiltonian(const control::StateSpace& sys,
                                            double rel_tol = 1e-9);
 
