@@ -45,7 +45,7 @@ BENCHMARK(BM_ExactTransferFunction);
 static void BM_SlsMarginsPaperPi(benchmark::State& state) {
   const PowderBedTf g(PowderMaterial{}, 1e-4);
   for (auto _ : state) {
-    auto r = compute_margins(g, PiController{0.3, 0.5}, 1);
+    auto r = compute_margins(g, amctl::control::PidGains::standard(0.3, 0.5), 1);
     benchmark::DoNotOptimize(r.margin_on_g_sweep);
   }
 }

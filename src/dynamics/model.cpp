@@ -98,33 +98,28 @@ Eigen::RowVectorXd AxisModel::C() const {
   return c;
 }
 
-StateSpace seed000_axis_state_space(double w, double z) {
+control::StateSpace seed000_axis_state_space(double w, double z) {
   require_positive("natural_frequency_rad_s", w);
   require_non_negative("damping_ratio", z);
-  StateSpace s;
   // x'' = -(c/m) x' - (k/m) x + (c/m) x_b' + (k/m) x_b   (3.11), k/m = w^2, c/m = 2 z w
-  s.A = Eigen::MatrixXd{{0.0, 1.0}, {-w * w, -2.0 * z * w}};
-  s.B = Eigen::MatrixXd{{0.0, 0.0}, {w * w, 2.0 * z * w}};
-  s.C = Eigen::MatrixXd{{1.0, 0.0}};
-  s.D = Eigen::MatrixXd::Zero(1, 2);
-  return s;
+  return control::StateSpace(Eigen::MatrixXd{{0.0, 1.0}, {-w * w, -2.0 * z * w}},
+                             Eigen::MatrixXd{{0.0, 0.0}, {w * w, 2.0 * z * w}},
+                             Eigen::MatrixXd{{1.0, 0.0}}, Eigen::MatrixXd::Zero(1, 2));
 }
 
-StateSpace seed000_xy_state_space(double wx, double zx, double wy, double zy) {
-  const StateSpace x = seed000_axis_state_space(wx, zx);
-  const StateSpace y = seed000_axis_state_space(wy, zy);
-  StateSpace s;
-  s.A = Eigen::MatrixXd::Zero(4, 4);
-  s.B = Eigen::MatrixXd::Zero(4, 4);
-  s.C = Eigen::MatrixXd::Zero(2, 4);
-  s.D = Eigen::MatrixXd::Zero(2, 4);
-  s.A.block(0, 0, 2, 2) = x.A;
-  s.A.block(2, 2, 2, 2) = y.A;
-  s.B.block(0, 0, 2, 2) = x.B;
-  s.B.block(2, 2, 2, 2) = y.B;
-  s.C(0, 0) = 1.0;
-  s.C(1, 2) = 1.0;
-  return s;
+control::StateSpace seed000_xy_state_space(double wx, double zx, double wy, double zy) {
+  const control::StateSpace x = seed000_axis_state_space(wx, zx);
+  const control::StateSpace y = seed000_axis_state_space(wy, zy);
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(4, 4), b = Eigen::MatrixXd::Zero(4, 4);
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(2, 4);
+  a.block(0, 0, 2, 2) = x.A();
+  a.block(2, 2, 2, 2) = y.A();
+  b.block(0, 0, 2, 2) = x.B();
+  b.block(2, 2, 2, 2) = y.B();
+  c(0, 0) = 1.0;
+  c(1, 2) = 1.0;
+  return control::StateSpace(std::move(a), std::move(b), std::move(c),
+                             Eigen::MatrixXd::Zero(2, 4));
 }
 
 void require_above_nyquist(double sample_rate_hz, const std::vector<const AxisModel*>& models) {

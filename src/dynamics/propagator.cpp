@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
-#include "amctl/dynamics/discretize.hpp"
+#include "amctl/control/discretize.hpp"
 
 namespace amctl::dynamics {
 
@@ -86,7 +86,7 @@ ModePropagator mode_propagator(const Mode& mode, double tau, int terms) {
   Eigen::MatrixXd A(2, 2), B(2, 1);
   A << 0.0, w, -w, -2.0 * z * w;
   B << 0.0, bq;
-  const PolynomialDiscretization p = discretize_polynomial(A, B, terms, tau);
+  const control::PolynomialDiscretization p = control::discretize_polynomial(A, B, terms, tau);
   for (int r = 0; r < 2; ++r) {
     for (int c = 0; c < 2; ++c) out.phi[r][c] = p.Phi(r, c);
     for (int j = 0; j < terms; ++j) out.psi[r][j] = p.Psi(r, j);

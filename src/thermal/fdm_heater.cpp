@@ -110,82 +110,41 @@ double HeaterPlant::measured_c() {
 
 // ---------------------------------------------------------------------------------------- PID
 
-PidController::PidController(const PidGains& g, const PidOptions& o) : g_(g), o_(o) {
-  require_non_negative("kp", g.kp);
-  require_non_negative("ki", g.ki);
-  require_non_negative("kd", g.kd);
-  require_non_negative("derivative_filter_s", o.derivative_filter_s);
-  if (o.anti_windup == PidAntiWindup::back_calculation)
-    require_positive("tracking_time_s", o.tracking_time_s);
-}
-
-void PidController::reset() {
-  integral_ = 0.0;
-  first_ = true;
-}
-
-double PidController::update(double target, double y, double dt) {
-  require_positive("controller period dt, s", dt);
-  const double e = target - y;
-  if (first_) {
-    y_filt_ = y_filt_prev_ = y;
-    first_ = false;
-  }
-  const double a = dt / (o_.derivative_filter_s + dt);
-  y_filt_ += a * (y - y_filt_);
-  const double dy = (y_filt_ - y_filt_prev_) / dt;
-  y_filt_prev_ = y_filt_;
-  if (o_.functional_range_k > 0.0) {
-    if (e > o_.functional_range_k) {
-      integral_ = 0.0;
-      return 1.0;
-    }
-    if (e < -o_.functional_range_k) {
-      integral_ = 0.0;
-      return 0.0;
-    }
-  }
-  const double u_raw = g_.kp * e + integral_ - g_.kd * dy;
-  const double u = std::clamp(u_raw, 0.0, 1.0);
-  const double di = g_.ki * e * dt;
-  switch (o_.anti_windup) {
-    case PidAntiWindup::clamp_integral:
-      integral_ = std::clamp(integral_ + di, 0.0, 1.0);
-      break;
-    case PidAntiWindup::conditional_integration:
-      if (u == u_raw || (u_raw > 1.0 && e < 0.0) || (u_raw < 0.0 && e > 0.0)) integral_ += di;
-      break;
-    case PidAntiWindup::back_calculation:
-      integral_ += di + (u - u_raw) * dt / o_.tracking_time_s;
-      break;
-  }
-  return u;
+control::PidOptions heater_pid_options() {
+  control::PidOptions o;
+  o.output_min = 0.0;
+  o.output_max = 1.0;
+  o.anti_windup = control::AntiWindup::conditional_integration;
+  o.derivative_filter_s = 1.0;
+  o.full_output_band = 10.0;
+  o.tracking_time_s = 5.0;
+  return o;
 }
 
 // ----------------------------------------------------------------------------------- autotune
 
-PidGains tuning_rule(TuningRule r, double ku, double tu) {
+control::PidGains tuning_rule(TuningRule r, double ku, double tu) {
   require_positive("Ku", ku);
   require_positive("Tu", tu);
-  PidGains g;
+  double kp = 0.0, ki = 0.0, kd = 0.0;
   switch (r) {
     case TuningRule::classic_zn:  // Kp = 0.6 Ku, Ti = Tu/2, Td = Tu/8
-      g.kp = 0.6 * ku;
-      g.ki = 2.0 * g.kp / tu;
-      g.kd = g.kp * tu / 8.0;
+      kp = 0.6 * ku;
+      ki = 2.0 * kp / tu;
+      kd = kp * tu / 8.0;
       break;
     case TuningRule::some_overshoot:  // Kp = Ku/3, Ti = Tu/2, Td = Tu/3
-      g.kp = ku / 3.0;
-      g.ki = 2.0 * g.kp / tu;
-      g.kd = g.kp * tu / 3.0;
+      kp = ku / 3.0;
+      ki = 2.0 * kp / tu;
+      kd = kp * tu / 3.0;
       break;
     case TuningRule::no_overshoot:  // Kp = Ku/5, Ti = Tu/2, Td = Tu/3
-      g.kp = 0.2 * ku;
-      g.ki = 2.0 * g.kp / tu;
-      g.kd = g.kp * tu / 3.0;
+      kp = 0.2 * ku;
+      ki = 2.0 * kp / tu;
+      kd = kp * tu / 3.0;
       break;
   }
-  return g;
+  return control::PidGains::parallel(kp, ki, kd);
 }
 
 AutotuneResult relay_autotune(HeaterPlant plant, const AutotuneOptions& o) {

@@ -8,15 +8,6 @@
 
 namespace amctl::thermal {
 
-const char* to_string(AntiWindup a) {
-  switch (a) {
-    case AntiWindup::none: return "none";
-    case AntiWindup::back_calculation: return "back_calculation";
-    case AntiWindup::conditional_integration: return "conditional_integration";
-  }
-  return "?";
-}
-
 const char* to_string(TimeScheme s) {
   switch (s) {
     case TimeScheme::crank_nicolson: return "crank_nicolson";

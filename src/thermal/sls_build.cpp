@@ -27,7 +27,8 @@ void SlsBuildConfig::validate() const {
   if (!(flux_max_w_m2 > flux_min_w_m2))
     throw Error("saturation limits reversed: flux_max_w_m2 (" + std::to_string(flux_max_w_m2) +
                 ") must exceed flux_min_w_m2 (" + std::to_string(flux_min_w_m2) + ")");
-  if (anti_windup == AntiWindup::back_calculation) require_positive("tracking_time_s", tracking_time_s);
+  if (anti_windup == control::AntiWindup::back_calculation)
+    require_positive("tracking_time_s", tracking_time_s);
   require_finite("laser_flux_w_m2", laser_flux_w_m2);
   require_non_negative("laser_start_s", laser_start_s);
   require_non_negative("laser_duration_s", laser_duration_s);
@@ -62,7 +63,13 @@ SlsBuildResult simulate_sls_build(const SlsBuildConfig& cfg) {
   SlsBuildResult res;
   const double heat0 = col.heat_j_m2();
   double heat_in = 0.0;  // flux integral plus fresh powder heat
-  double integral = 0.0;  // PI integral state (W/m^2)
+  // PI with saturation and anti-windup; the sample and hold period is dt.
+  control::PidOptions pi_options;
+  pi_options.output_min = cfg.flux_min_w_m2;
+  pi_options.output_max = cfg.flux_max_w_m2;
+  pi_options.anti_windup = cfg.anti_windup;
+  pi_options.tracking_time_s = cfg.tracking_time_s;
+  control::PidController pi(control::PidGains::standard(cfg.kp_w_m2k, cfg.ti_s), pi_options);
   double sum_u2 = 0.0;
   std::int64_t sat_steps = 0;
   double t = 0.0;
@@ -96,27 +103,13 @@ SlsBuildResult simulate_sls_build(const SlsBuildConfig& cfg) {
         last_outside = tau + dt;
         ever_outside = true;
       }
-      // PI with saturation and anti-windup; the sample and hold period is dt.
-      const double u_raw = cfg.kp_w_m2k * e + integral;
-      const double u = std::clamp(u_raw, cfg.flux_min_w_m2, cfg.flux_max_w_m2);
-      const bool saturated = u != u_raw;
-      const double di = cfg.kp_w_m2k / cfg.ti_s * e * dt;
-      switch (cfg.anti_windup) {
-        case AntiWindup::none: integral += di; break;
-        case AntiWindup::back_calculation:
-          integral += di + (u - u_raw) * dt / cfg.tracking_time_s;
-          break;
-        case AntiWindup::conditional_integration:
-          // Integrate unless saturated and the error would drive further into saturation.
-          if (!saturated || (u_raw > cfg.flux_max_w_m2 && e < 0) ||
-              (u_raw < cfg.flux_min_w_m2 && e > 0))
-            integral += di;
-          break;
-      }
+      const control::PidStep pi_step = pi.step(sp, y, dt);
+      const double u = pi_step.output;
+      const bool saturated = pi_step.saturated;
       const bool laser_on = tau >= cfg.laser_start_s && tau < cfg.laser_start_s + cfg.laser_duration_s;
       const double dist = laser_on ? cfg.laser_flux_w_m2 : 0.0;
       if (cfg.csv_every > 0 && (res.steps % cfg.csv_every) == 0)
-        res.trace.push_back({t, col.length_m(), y, sp, u, dist, integral, layers_now});
+        res.trace.push_back({t, col.length_m(), y, sp, u, dist, pi.integral(), layers_now});
       col.step(dt, u + dist);
       heat_in += (u + dist) * dt;
       st.effort_j_m2 += std::abs(u) * dt;

@@ -120,13 +120,14 @@ SlsBuildConfig load_sls_config(const std::string& path) {
   ctl.get("flux_min_w_m2", c.flux_min_w_m2);
   ctl.get("flux_max_w_m2", c.flux_max_w_m2);
   ctl.get("tracking_time_s", c.tracking_time_s);
-  const std::string aw = ctl.get_string("anti_windup", to_string(c.anti_windup));
-  if (aw == "none") c.anti_windup = AntiWindup::none;
-  else if (aw == "back_calculation") c.anti_windup = AntiWindup::back_calculation;
-  else if (aw == "conditional_integration") c.anti_windup = AntiWindup::conditional_integration;
-  else
-    throw Error(ctl.loc("anti_windup"), "[controller] anti_windup '" + aw +
-                "' unknown; expected none, back_calculation or conditional_integration");
+  const std::string aw = ctl.get_string("anti_windup", control::to_string(c.anti_windup));
+  const auto parsed = control::anti_windup_from_string(aw);
+  if (!parsed)
+    throw Error(ctl.loc("anti_windup"),
+                "[controller] anti_windup '" + aw +
+                    "' unknown; expected none, clamp_integral, back_calculation or "
+                    "conditional_integration");
+  c.anti_windup = *parsed;
 
   const Section las(path, root, "laser", {"flux_w_m2", "start_s", "duration_s"});
   las.get("flux_w_m2", c.laser_flux_w_m2);

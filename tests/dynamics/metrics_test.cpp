@@ -152,8 +152,10 @@ TEST(StreamingSimulation, SmallWindowsGiveTheSameReportAsTheWholePlan) {
   EXPECT_EQ(a.corners.size(), b.corner_count);
   EXPECT_EQ(b.corners.size(), 5u);
   ASSERT_EQ(a.worst.size(), b.worst.size());
+  ASSERT_FALSE(a.worst.empty());
   for (std::size_t i = 0; i < a.worst.size(); ++i) EXPECT_EQ(a.worst[i].line, b.worst[i].line);
   ASSERT_EQ(a.per_layer.size(), b.per_layer.size());
+  ASSERT_FALSE(a.per_layer.empty());
   for (const auto& [layer, g] : a.per_layer) {
     EXPECT_DOUBLE_EQ(g.max_contour_error_mm, b.per_layer.at(layer).max_contour_error_mm);
     EXPECT_EQ(g.samples, b.per_layer.at(layer).samples);

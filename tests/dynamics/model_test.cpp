@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "amctl/core/error.hpp"
-#include "amctl/dynamics/discretize.hpp"
+#include "amctl/control/discretize.hpp"
 
 namespace amctl::dynamics {
 namespace {
@@ -56,18 +56,18 @@ TEST(AxisModel, SampleRateAtOrBelowNyquistIsRejected) {
 }
 
 TEST(StateSpace, Seed312UsesEachAxisOwnParameters) {
-  const StateSpace s = seed000_xy_state_space(100.0, 0.5, 200.0, 0.1);
-  EXPECT_DOUBLE_EQ(s.A(1, 0), -1e4);
-  EXPECT_DOUBLE_EQ(s.A(3, 2), -4e4);  // the printed 3.12 repeats k_x/m_x here
-  EXPECT_DOUBLE_EQ(s.A(3, 3), -40.0);
-  EXPECT_DOUBLE_EQ(s.B(3, 2), 4e4);
-  EXPECT_DOUBLE_EQ(s.B(3, 3), 40.0);
+  const control::StateSpace s = seed000_xy_state_space(100.0, 0.5, 200.0, 0.1);
+  EXPECT_DOUBLE_EQ(s.A()(1, 0), -1e4);
+  EXPECT_DOUBLE_EQ(s.A()(3, 2), -4e4);  // the printed 3.12 repeats k_x/m_x here
+  EXPECT_DOUBLE_EQ(s.A()(3, 3), -40.0);
+  EXPECT_DOUBLE_EQ(s.B()(3, 2), 4e4);
+  EXPECT_DOUBLE_EQ(s.B()(3, 3), 40.0);
 }
 
 TEST(Discretize, ZohOfSeedModelMatchesScipy) {
   // tests/reference/dynamics_reference.py (scipy.signal.cont2discrete, method="zoh").
-  const StateSpace s = seed000_axis_state_space(100.0, 0.5);
-  const Discretization d = discretize_zoh(s.A, s.B, 0.005);
+  const control::StateSpace s = seed000_axis_state_space(100.0, 0.5);
+  const control::Discretization d = control::discretize_zoh(s, 0.005);
   const double phi[4] = {8.9559452654492056e-01, 3.7734520347490683e-03,
                          -3.7734520347490687e+01, 5.1824932307001370e-01};
   const double gam[4] = {1.0440547345507939e-01, 1.0440547345507939e-03,
@@ -76,20 +76,6 @@ TEST(Discretize, ZohOfSeedModelMatchesScipy) {
     EXPECT_NEAR(d.Phi(i / 2, i % 2), phi[i], 1e-12 * (1 + std::abs(phi[i])));
     EXPECT_NEAR(d.Gamma0(i / 2, i % 2), gam[i], 1e-12 * (1 + std::abs(gam[i])));
   }
-}
-
-TEST(Discretize, FohIsExactForInputsLinearInsideTheStep) {
-  // x' = -x + u, u(t) = t: x(h) from 0 = h - 1 + e^{-h}.
-  Eigen::MatrixXd A(1, 1), B(1, 1);
-  A << -1.0;
-  B << 1.0;
-  const double h = 0.3;
-  const Discretization d = discretize_foh(A, B, h);
-  const double x1 = d.Phi(0, 0) * 0.0 + d.Gamma0(0, 0) * 0.0 + d.Gamma1(0, 0) * (h - 0.0);
-  EXPECT_NEAR(x1, h - 1.0 + std::exp(-h), 1e-15);
-  // ZOH of the same input (u held at u_k = 0) gives 0.
-  EXPECT_NEAR(discretize_zoh(A, B, h).Gamma0(0, 0), 1.0 - std::exp(-h), 1e-15);
-  EXPECT_THROW((void)discretize_zoh(A, B, 0.0), Error);
 }
 
 }  // namespace

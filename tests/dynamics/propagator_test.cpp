@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "amctl/dynamics/discretize.hpp"
+#include "amctl/control/discretize.hpp"
 
 namespace amctl::dynamics {
 namespace {
@@ -16,7 +16,8 @@ TEST(ModePropagator, SeriesBranchAgreesWithAugmentedMatrixExponential) {
     for (double tau : {1e-7, 1e-4, 0.0013, 0.004, 0.02}) {
       for (int terms = 1; terms <= kMaxInputTerms; ++terms) {
         const ModePropagator p = mode_propagator(mode, tau, terms);
-        const PolynomialDiscretization ref = discretize_polynomial(m.A(), m.B(), terms, tau);
+        const control::PolynomialDiscretization ref =
+            control::discretize_polynomial(m.A(), m.B(), terms, tau);
         for (int r = 0; r < 2; ++r) {
           for (int c = 0; c < 2; ++c) EXPECT_NEAR(p.phi[r][c], ref.Phi(r, c), 1e-13);
           for (int j = 0; j < terms; ++j) {

@@ -101,6 +101,7 @@ TEST(Simulate, AgreesWithAdaptiveRk45ForEveryProfileAndSplitSteps) {
       const auto samples = run(moves, m, m, rate);
       std::vector<double> times;
       for (std::size_t k = 3; k < samples.size(); k += 37) times.push_back(samples[k].t_s);
+      ASSERT_GT(times.size(), 10u) << "too few samples to compare";
       const auto ref = testing::reference_response(moves, w, z, times);
       std::size_t i = 0;
       for (std::size_t k = 3; k < samples.size(); k += 37, ++i) {
@@ -121,6 +122,7 @@ TEST(Simulate, CoreXYMotorSpaceWithEqualMotorsEqualsCartesian) {
   const auto a = run(moves, m, m, 2000.0, o);
   const auto b = run(moves, m, m, 2000.0);
   ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 100u);
   for (std::size_t k = 0; k < a.size(); ++k) {
     EXPECT_NEAR(a[k].sim_mm[0], b[k].sim_mm[0], 1e-11);
     EXPECT_NEAR(a[k].sim_mm[1], b[k].sim_mm[1], 1e-11);
@@ -130,6 +132,7 @@ TEST(Simulate, CoreXYMotorSpaceWithEqualMotorsEqualsCartesian) {
 TEST(Simulate, RigidModelFollowsTheCommandExactly) {
   const auto moves = seed_path(VP::bezier5);
   const auto s = run(moves, AxisModel::rigid(), AxisModel::rigid(), 500.0);
+  ASSERT_GT(s.size(), 10u);
   for (const auto& x : s) {
     EXPECT_EQ(x.sim_mm[0], x.cmd_mm[0]);
     EXPECT_EQ(x.sim_mm[1], x.cmd_mm[1]);

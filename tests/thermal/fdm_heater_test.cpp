@@ -75,13 +75,13 @@ TEST(RelayAutotune, UltimateGainAndPeriodMatchTheDescribingFunction) {
 
 TEST(RelayAutotune, RulesGiveTheTextbookRatios) {
   const auto c = tuning_rule(TuningRule::classic_zn, 2.0, 10.0);
-  EXPECT_DOUBLE_EQ(c.kp, 1.2);
-  EXPECT_DOUBLE_EQ(c.ki, 0.24);   // 2 kp / Tu
-  EXPECT_DOUBLE_EQ(c.kd, 1.5);    // kp Tu / 8
+  EXPECT_DOUBLE_EQ(c.kp(), 1.2);
+  EXPECT_DOUBLE_EQ(c.ki_per_s(), 0.24);   // 2 kp / Tu
+  EXPECT_DOUBLE_EQ(c.kd_s(), 1.5);    // kp Tu / 8
   const auto n = tuning_rule(TuningRule::no_overshoot, 2.0, 10.0);
-  EXPECT_DOUBLE_EQ(n.kp, 0.4);
-  EXPECT_DOUBLE_EQ(n.ki, 0.08);
-  EXPECT_NEAR(n.kd, 4.0 / 3.0, 1e-15);
+  EXPECT_DOUBLE_EQ(n.kp(), 0.4);
+  EXPECT_DOUBLE_EQ(n.ki_per_s(), 0.08);
+  EXPECT_NEAR(n.kd_s(), 4.0 / 3.0, 1e-15);
   EXPECT_THROW((void)tuning_rule(TuningRule::classic_zn, 0.0, 1.0), amctl::Error);
 }
 
@@ -119,7 +119,7 @@ TEST(HeaterComparison, MpcRejectsFanAndFlowBetterThanTheAutotunedPid) {
   ASSERT_TRUE(at.ok);
   const auto id = identify_mpc_model(HeaterPlant(p), IdentifyOptions{});
   HeaterScenario sc;
-  PidController pid(at.gains, PidOptions{});
+  amctl::control::PidController pid(at.gains, heater_pid_options());
   MpcController mpc(id.model, MpcOptions{}, p.ambient_c);
   const auto rp = run_heater_scenario(p, sc,
       [&](double t, double y, double, double, double dt) { return pid.update(t, y, dt); }, "pid");
@@ -137,12 +137,12 @@ TEST(HeaterComparison, MpcRejectsFanAndFlowBetterThanTheAutotunedPid) {
 
 TEST(PidController, AntiWindupCutsTheOvershootOfALongSaturatedHeatUp) {
   const HeaterPlantParams p = HeaterPlantParams::hotend();
-  const PidGains g{0.05, 0.01, 0.1};
-  auto overshoot = [&](PidAntiWindup aw, bool plain) {
-    PidOptions o;
+  const auto g = amctl::control::PidGains::parallel(0.05, 0.01, 0.1);
+  auto overshoot = [&](amctl::control::AntiWindup aw, bool plain) {
+    amctl::control::PidOptions o = heater_pid_options();
     o.anti_windup = aw;
-    o.functional_range_k = 0.0;  // PID from cold: the integrator sees the whole rise
-    PidController pid(g, o);
+    o.full_output_band = 0.0;  // PID from cold: the integrator sees the whole rise
+    amctl::control::PidController pid(g, o);
     HeaterPlant plant(p);
     double mx = 0.0;
     double integral = 0.0;  // a plain, unprotected PI-D for reference
@@ -150,8 +150,8 @@ TEST(PidController, AntiWindupCutsTheOvershootOfALongSaturatedHeatUp) {
       const double y = plant.measured_c();
       double u;
       if (plain) {
-        integral += g.ki * (200.0 - y) * 0.1;
-        u = std::clamp(g.kp * (200.0 - y) + integral, 0.0, 1.0);
+        integral += g.ki_per_s() * (200.0 - y) * 0.1;
+        u = std::clamp(g.kp() * (200.0 - y) + integral, 0.0, 1.0);
       } else {
         u = pid.update(200.0, y, 0.1);
       }
@@ -160,10 +160,10 @@ TEST(PidController, AntiWindupCutsTheOvershootOfALongSaturatedHeatUp) {
     }
     return mx - 200.0;
   };
-  const double none = overshoot(PidAntiWindup::conditional_integration, true);
+  const double none = overshoot(amctl::control::AntiWindup::conditional_integration, true);
   EXPECT_GT(none, 20.0);
-  EXPECT_LT(overshoot(PidAntiWindup::conditional_integration, false), 0.3 * none);
-  EXPECT_LT(overshoot(PidAntiWindup::back_calculation, false), 0.3 * none);
+  EXPECT_LT(overshoot(amctl::control::AntiWindup::conditional_integration, false), 0.3 * none);
+  EXPECT_LT(overshoot(amctl::control::AntiWindup::back_calculation, false), 0.3 * none);
 }
 
 TEST(HeaterPlant, RejectsNonPositiveConstantsNamingThem) {
@@ -178,5 +178,5 @@ TEST(HeaterPlant, RejectsNonPositiveConstantsNamingThem) {
   p = HeaterPlantParams{};
   p.heater_power_w = -40;
   EXPECT_THROW(HeaterPlant{p}, amctl::Error);
-  EXPECT_THROW(PidController(PidGains{-1, 0, 0}, PidOptions{}), amctl::Error);
+  EXPECT_THROW((void)amctl::control::PidGains::parallel(-1, 0, 0), amctl::Error);
 }

@@ -4,14 +4,18 @@
 
 #include <cmath>
 
+#include "amctl/control/pid.hpp"
+#include "amctl/control/state_space.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/thermal/robust_margin.hpp"
+#include "amctl/thermal/studies.hpp"
 
 using namespace amctl::thermal;
+using amctl::control::PidGains;
 
 namespace {
 const PowderMaterial kPa12{};
-const PiController kPaperPi{0.3, 0.5};
+const PidGains kPaperPi = PidGains::standard(0.3, 0.5);
 }  // namespace
 
 TEST(RobustMargin, PaperPiOnOneLayerMatchesScipyBothWays) {
@@ -72,13 +76,13 @@ TEST(RobustMargin, BothWaysAgreeOnADeepBedWithManyModes) {
   SweepOptions o;
   o.w_min_rad_s = 1e-6;
   o.w_max_rad_s = 1e6;
-  const auto pk = sweep_peak([&](std::complex<double> s) { return t.eval(s); }, o);
+  const auto pk = sweep_peak([&](std::complex<double> s) { return amctl::control::transfer_siso(t, s); }, o);
   EXPECT_NEAR(1.0 / pk.peak, r.margin_on_g_sweep, 1e-8 * r.margin_on_g_sweep);
 }
 
 TEST(RobustMargin, MarginCannotExceedOneOverKp) {
   // |C S| -> kp as w -> inf because G -> 0, so 1/kp is a ceiling for every plant and l.
-  const PiController pi{0.3, 2.0};
+  const PidGains pi = PidGains::standard(0.3, 2.0);
   const PowderBedTf g(kPa12, 1e-6);
   const auto r = compute_margins(g, pi, 1);
   EXPECT_LE(r.margin_on_gn_sweep, 1.0 / 0.3 + 1e-12);
@@ -86,21 +90,15 @@ TEST(RobustMargin, MarginCannotExceedOneOverKp) {
 }
 
 TEST(RobustMargin, HamiltonianNormOfAFirstOrderLagIsItsDcGain) {
-  StateSpace s;
-  s.a = Eigen::MatrixXd::Constant(1, 1, -2.0);
-  s.b = Eigen::VectorXd::Constant(1, 1.0);
-  s.c = Eigen::RowVectorXd::Constant(1, 3.0);
-  s.d = 0.0;
+  const auto s = amctl::control::StateSpace::siso(Eigen::MatrixXd::Constant(1, 1, -2.0),
+                                                  Eigen::VectorXd::Constant(1, 1.0),
+                                                  Eigen::RowVectorXd::Constant(1, 3.0));
   EXPECT_NEAR(hinf_norm_hamiltonian(s), 1.5, 1e-8);
   // A lightly damped resonance 1/(s^2 + 2 z s + 1): peak 1/(2 z sqrt(1 - z^2)).
-  StateSpace r;
   const double z = 0.05;
-  r.a = Eigen::MatrixXd(2, 2);
-  r.a << 0, 1, -1, -2 * z;
-  r.b = Eigen::VectorXd(2);
-  r.b << 0, 1;
-  r.c = Eigen::RowVectorXd(2);
-  r.c << 1, 0;
+  const auto r = amctl::control::StateSpace::siso(Eigen::MatrixXd{{0, 1}, {-1, -2 * z}},
+                                                  Eigen::VectorXd{{0, 1}},
+                                                  Eigen::RowVectorXd{{1, 0}});
   EXPECT_NEAR(hinf_norm_hamiltonian(r), 1.0 / (2 * z * std::sqrt(1 - z * z)), 1e-7);
 }
 
@@ -112,14 +110,34 @@ TEST(RobustMargin, HankelBestMarginIsResidueOverTwoBeta) {
 
 TEST(RobustMargin, RejectsUnrealisablePi) {
   const PowderBedTf g(kPa12, 1e-4);
-  EXPECT_THROW((void)compute_margins(g, PiController{0.3, 0.0}, 1), amctl::Error);
-  EXPECT_THROW((void)compute_margins(g, PiController{-1.0, 0.5}, 1), amctl::Error);
+  // Gains that cannot even be built (Ti <= 0, kp < 0) and gains that are not a realisable PI
+  // (kp = 0, no integral action, a derivative term) are all rejected.
+  EXPECT_THROW((void)compute_margins(g, PidGains::standard(0.3, 0.0), 1), amctl::Error);
+  EXPECT_THROW((void)compute_margins(g, PidGains::standard(-1.0, 0.5), 1), amctl::Error);
+  EXPECT_THROW((void)compute_margins(g, PidGains::standard(0.0, 0.5), 1), amctl::Error);
+  EXPECT_THROW((void)compute_margins(g, PidGains::parallel(0.3, 0.0), 1), amctl::Error);
+  EXPECT_THROW((void)compute_margins(g, PidGains::standard(0.3, 0.5, 0.1), 1), amctl::Error);
   EXPECT_THROW((void)compute_margins(g, kPaperPi, 0), amctl::Error);
-  try {
-    (void)compute_margins(g, PiController{0.3, -1.0}, 1);
-  } catch (const amctl::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("Ti"), std::string::npos);
-  }
+  auto message_of = [](const auto& f) -> std::string {
+    try {
+      f();
+    } catch (const amctl::Error& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "expected amctl::Error";
+    return "";
+  };
+  EXPECT_NE(message_of([] { (void)PidGains::standard(0.3, -1.0); }).find("Ti"), std::string::npos);
+  EXPECT_NE(message_of([&] { (void)compute_margins(g, PidGains::parallel(0.3, 0.0), 1); })
+                .find("Ti (PI integral time)"),
+            std::string::npos);
+  // The study behind `thermal sls-margins` names Ti before any gains are built.
+  EXPECT_NE(message_of([] {
+              MarginStudyOptions o;
+              o.ti_s = -1.0;
+              (void)run_margin_study(o);
+            }).find("Ti (PI integral time)"),
+            std::string::npos);
 }
 
 TEST(RobustMargin, NyquistCountFindsTheUnstablePolesOfAThirdOrderLoop) {
@@ -142,7 +160,14 @@ TEST(RobustMargin, PaperPiStabilisesTheExactIrrationalPlant) {
   // crossover is 5.5 rad): the count must become positive.
   const PowderBedTf g(kPa12, 1e-4);
   auto delayed = [&](std::complex<double> s) {
-    return g.eval(s) * kPaperPi.eval(s) * std::exp(-100.0 * s);
+    return g.eval(s) * kPaperPi.transfer(s) * std::exp(-100.0 * s);
   };
   EXPECT_GT(nyquist_closed_loop_rhp_poles(delayed, 0, 1e-9, 1e3), 0);
+}
+
+TEST(RobustMargin, LoopComputationsRejectAMimoPlant) {
+  const amctl::control::StateSpace two_inputs(Eigen::MatrixXd{{-1.0}}, Eigen::MatrixXd{{1.0, 1.0}},
+                                              Eigen::MatrixXd{{1.0}}, Eigen::MatrixXd{{0.0, 0.0}});
+  EXPECT_THROW((void)control_sensitivity(two_inputs, kPaperPi), amctl::Error);
+  EXPECT_THROW((void)hinf_norm_hamiltonian(two_inputs), amctl::Error);
 }

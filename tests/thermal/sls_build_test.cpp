@@ -30,6 +30,7 @@ TEST(SlsBuild, CoarsenedMeshReproducesTheUniformMesh) {
   const auto rc = simulate_sls_build(c);
   const auto ru = simulate_sls_build(u);
   ASSERT_EQ(rc.trace.size(), ru.trace.size());
+  ASSERT_GT(rc.trace.size(), 120u);  // one row per step, many steps per layer
   double max_diff = 0.0;
   for (std::size_t i = 0; i < rc.trace.size(); ++i)
     max_diff = std::max(max_diff, std::abs(rc.trace[i].y_c - ru.trace[i].y_c));
@@ -85,8 +86,8 @@ TEST(SlsBuild, AntiWindupLimitsOvershootAfterALongSaturation) {
   c.setpoint_changes = {{1, 190.0}};
   double overshoot[3];
   int i = 0;
-  for (auto aw : {AntiWindup::none, AntiWindup::back_calculation,
-                  AntiWindup::conditional_integration}) {
+  for (auto aw : {amctl::control::AntiWindup::none, amctl::control::AntiWindup::back_calculation,
+                  amctl::control::AntiWindup::conditional_integration}) {
     c.anti_windup = aw;
     overshoot[i++] = simulate_sls_build(c).max_overshoot_k;
   }
@@ -104,11 +105,17 @@ TEST(SlsBuild, LaserDisturbanceRaisesTheBedAndSaturatesTheHeaterAtZero) {
 TEST(SlsBuild, ExampleConfigLoadsAndRuns) {
   const auto c = load_sls_config(std::string(AMCTL_SOURCE_DIR) + "/configs/sls_pa12.toml");
   EXPECT_EQ(c.layers_added, 200);
-  EXPECT_EQ(c.anti_windup, AntiWindup::conditional_integration);
+  EXPECT_EQ(c.anti_windup, amctl::control::AntiWindup::conditional_integration);
   ASSERT_EQ(c.setpoint_changes.size(), 1u);
   auto small = c;
   small.layers_added = 5;
-  EXPECT_NO_THROW((void)simulate_sls_build(small));
+  const auto r = simulate_sls_build(small);
+  // 14 s / 0.25 s = 56 steps per interval; the start-up interval and five additions.
+  EXPECT_EQ(r.layers.size(), 6u);
+  EXPECT_EQ(r.steps, 6 * 56);
+  EXPECT_EQ(r.trace.size(), std::size_t(6 * 56 / 4));  // csv_every = 4
+  EXPECT_EQ(r.layers.back().layer, 55);
+  EXPECT_LT(std::abs(r.energy_balance_error_j_m2), 1e-3);
 }
 
 TEST(SlsBuild, BadInputNamesTheParameter) {

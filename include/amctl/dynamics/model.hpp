@@ -16,6 +16,8 @@
 
 #include <Eigen/Dense>
 
+#include "amctl/control/state_space.hpp"
+
 namespace amctl::dynamics {
 
 /// One vibration mode of an axis.
@@ -60,19 +62,14 @@ class AxisModel {
   std::vector<Mode> modes_;
 };
 
-/// A general continuous LTI system x' = A x + B u, y = C x + D u.
-struct StateSpace {
-  Eigen::MatrixXd A, B, C, D;
-};
-
 /// Seed 000 (3.12), one axis, physical coordinates: state [x, x'], input [x_b, x_b'],
 /// output x. (The printed 3.12 uses k_x/m_x for both axes; each axis has its own.)
-[[nodiscard]] StateSpace seed000_axis_state_space(double natural_frequency_rad_s,
-                                                  double damping_ratio);
+[[nodiscard]] control::StateSpace seed000_axis_state_space(double natural_frequency_rad_s,
+                                                           double damping_ratio);
 /// Seed 000 (3.12) for X and Y together, state [x, x', y, y'], input [x_b, x_b', y_b, y_b'],
 /// outputs [x, y], each axis with its own parameters.
-[[nodiscard]] StateSpace seed000_xy_state_space(double wx_rad_s, double zx, double wy_rad_s,
-                                                double zy);
+[[nodiscard]] control::StateSpace seed000_xy_state_space(double wx_rad_s, double zx,
+                                                         double wy_rad_s, double zy);
 
 /// Throws amctl::Error naming "sample_rate_hz" unless sample_rate_hz exceeds twice the
 /// highest natural frequency of every model (the Nyquist limit of the sampled output).

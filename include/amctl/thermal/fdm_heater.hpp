@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "amctl/control/pid.hpp"
+
 namespace amctl::thermal {
 
 /// The "true" simulated heater: a heater core coupled to the block (the extra node the MPC
@@ -53,35 +55,12 @@ class HeaterPlant {
   std::uint64_t rng_;
 };
 
-enum class PidAntiWindup { clamp_integral, conditional_integration, back_calculation };
-
-/// Gains on duty fraction: u = kp e + ki int(e) - kd d(y_filtered)/dt, u in [0, 1].
-struct PidGains {
-  double kp = 0.05;   ///< 1/K
-  double ki = 0.005;  ///< 1/(K s)
-  double kd = 0.2;    ///< s/K
-};
-
-struct PidOptions {
-  PidAntiWindup anti_windup = PidAntiWindup::conditional_integration;
-  double derivative_filter_s = 1.0;  ///< first-order filter on the measured temperature
-  double functional_range_k = 10.0;  ///< |e| beyond this: full on / off (Marlin PID_FUNCTIONAL_RANGE); <= 0 disables
-  double tracking_time_s = 5.0;      ///< back-calculation Tt
-};
-
-/// Discrete PID (derivative on measurement) with saturation and anti-windup.
-class PidController {
- public:
-  PidController(const PidGains& g, const PidOptions& o);
-  double update(double target_c, double measured_c, double dt_s);
-  void reset();
-
- private:
-  PidGains g_;
-  PidOptions o_;
-  double integral_ = 0.0, y_filt_ = 0.0, y_filt_prev_ = 0.0;
-  bool first_ = true;
-};
+/// The heater PID is a control::PidController on the duty fraction u in [0, 1] with the
+/// error in K: gains kp [1/K], ki [1/(K s)], kd [s/K] (control::PidGains::parallel), and these
+/// options: conditional integration, a 1 s filter on the measured temperature for the
+/// derivative, full on/off beyond 10 K of error (Marlin PID_FUNCTIONAL_RANGE), Tt = 5 s should
+/// back-calculation be chosen.
+[[nodiscard]] control::PidOptions heater_pid_options();
 
 enum class TuningRule { classic_zn, some_overshoot, no_overshoot };
 
@@ -94,7 +73,7 @@ struct AutotuneResult {
   double bias = 0.0, amplitude = 0.0;  ///< last relay bias and half swing (duty)
   double t_max_c = 0.0, t_min_c = 0.0;
   int cycles = 0;
-  PidGains gains;
+  control::PidGains gains;  ///< parallel form, per K of error on the duty fraction
   double duration_s = 0.0;
 };
 
@@ -112,8 +91,8 @@ struct AutotuneOptions {
 /// Relay autotune like M303: a relay around the target with bias/amplitude adaptation after
 /// each cycle; Ku = 4 d/(pi a) from the describing function, Tu the relay period.
 [[nodiscard]] AutotuneResult relay_autotune(HeaterPlant plant, const AutotuneOptions& o);
-/// The gain rule from (Ku, Tu).
-[[nodiscard]] PidGains tuning_rule(TuningRule r, double ku, double tu_s);
+/// The gain rule from (Ku [duty/K], Tu [s]), as parallel-form gains.
+[[nodiscard]] control::PidGains tuning_rule(TuningRule r, double ku, double tu_s);
 
 /// Model used by the MPC-like controller (the four/five numbers of M306).
 struct MpcModel {

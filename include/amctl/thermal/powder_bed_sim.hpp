@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "amctl/control/pid.hpp"
 #include "amctl/thermal/powder_bed_tf.hpp"
 
 namespace amctl::thermal {
@@ -94,8 +95,6 @@ class HeatColumn {
   bool fresh_start_ = true;  // CN: next step is a Rannacher start-up
 };
 
-enum class AntiWindup { none, back_calculation, conditional_integration };
-
 /// One constant set point from a given layer on.
 struct SetpointChange {
   int from_layer = 0;
@@ -113,12 +112,13 @@ struct SlsBuildConfig {
   double fresh_powder_temp_c = 150.0;
   double setpoint_c = 172.0;
   std::vector<SetpointChange> setpoint_changes{};
-  // PI C(s) = kp (Ti s + 1)/(Ti s) on e = r - y, output = flux at the top.
+  // PI C(s) = kp (Ti s + 1)/(Ti s) on e = r - y, output = flux at the top: a
+  // control::PidController with standard-form gains and the flux limits as output limits.
   double kp_w_m2k = 300.0;
   double ti_s = 3.0;
   double flux_min_w_m2 = 0.0;
   double flux_max_w_m2 = 5000.0;
-  AntiWindup anti_windup = AntiWindup::back_calculation;
+  control::AntiWindup anti_windup = control::AntiWindup::back_calculation;
   double tracking_time_s = 2.0;  ///< Tt of back-calculation
   // Sintering laser: extra flux (layer average) during [start, start + duration) of each layer.
   double laser_flux_w_m2 = 250.0;
@@ -178,7 +178,6 @@ struct SlsBuildResult {
 /// Reads a TOML configuration (see configs/sls_pa12.toml); errors carry file:line:col.
 [[nodiscard]] SlsBuildConfig load_sls_config(const std::string& path);
 
-[[nodiscard]] const char* to_string(AntiWindup a);
 [[nodiscard]] const char* to_string(TimeScheme s);
 
 }  // namespace amctl::thermal

@@ -7,27 +7,17 @@
 
 #include <Eigen/Dense>
 
+#include "amctl/control/pid.hpp"
+#include "amctl/control/state_space.hpp"
 #include "amctl/thermal/powder_bed_tf.hpp"
 
 namespace amctl::thermal {
 
-/// C(s) = kp (Ti s + 1)/(Ti s), kp in W/(m^2 K), Ti in s.
-struct PiController {
-  double kp = 0.3;
-  double ti_s = 0.5;
-  /// Throws amctl::Error naming kp or Ti unless both are finite and > 0.
-  void validate() const;
-  [[nodiscard]] std::complex<double> eval(std::complex<double> s) const;
-};
-
-/// A real SISO state-space system x' = A x + B u, y = C x + D u.
-struct StateSpace {
-  Eigen::MatrixXd a;
-  Eigen::VectorXd b;
-  Eigen::RowVectorXd c;
-  double d = 0.0;
-  [[nodiscard]] std::complex<double> eval(std::complex<double> s) const;
-};
+/// The PI of seed 002, C(s) = kp (Ti s + 1)/(Ti s), kp in W/(m^2 K), Ti in s: a
+/// control::PidGains in the standard form, control::PidGains::standard(kp, ti_s).
+/// Throws amctl::Error naming kp or Ti unless kp is finite and > 0, Ti finite and > 0 and the
+/// derivative action zero (the margins below are for a PI).
+void require_realisable_pi(const control::PidGains& pi);
 
 /// How the modes beyond N are represented in a modal realisation.
 enum class TailModel {
@@ -39,12 +29,13 @@ enum class TailModel {
 /// Modal realisation of G_N (diagonal A = poles, B = 1, C = residues), plus the tail model.
 /// T0 = sum_{k>N} r_k/|p_k|, T2 = sum_{k>N} r_k/p_k^2; the one-pole tail has b = T0/T2 (a mean
 /// of the omitted |p_k|, so >= |p_{N+1}|) and a = T0 b.
-[[nodiscard]] StateSpace modal_realization(const PowderBedTf& g, int modes,
-                                           TailModel tail = TailModel::none);
+[[nodiscard]] control::StateSpace modal_realization(const PowderBedTf& g, int modes,
+                                                    TailModel tail = TailModel::none);
 
 /// Closed loop from reference w to control u, T = C (1 + G C)^-1, for a plant in state space
-/// (any D with 1 + kp D != 0) under the PI controller.
-[[nodiscard]] StateSpace control_sensitivity(const StateSpace& plant, const PiController& pi);
+/// (SISO, any D with 1 + kp D != 0) under the PI controller.
+[[nodiscard]] control::StateSpace control_sensitivity(const control::StateSpace& plant,
+                                                      const control::PidGains& pi);
 
 /// Result of a frequency-domain peak search.
 struct PeakResult {
@@ -66,10 +57,11 @@ struct SweepOptions {
 template <class F>
 PeakResult sweep_peak(F&& f, const SweepOptions& opt);
 
-/// H-infinity norm of a stable state-space system by bisection on the imaginary-axis
-/// eigenvalues of the Hamiltonian (Boyd, Balakrishnan & Kabamba 1989). Throws InternalError if
-/// A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
-[[nodiscard]] double hinf_norm_hamiltonian(const StateSpace& sys, double rel_tol = 1e-9);
+/// H-infinity norm of a stable SISO state-space system by bisection on the imaginary-axis
+/// eigenvalues of the Hamiltonian (Boyd, Balakrishnan & Kabamba 1989). Throws amctl::Error for
+/// a system that is not SISO and InternalError if A is not Hurwitz. `rel_tol` is the relative bracket width on exit.
+[[nodiscard]] double hinf_norm_hamiltonian(const control::StateSpace& sys,
+                                           double rel_tol = 1e-9);
 
 /// Number of closed-loop poles of 1/(1 + L) in the closed right half plane by the argument
 /// principle (Nyquist): the winding of 1 + L(s) along the D-contour (the imaginary axis from
@@ -119,7 +111,7 @@ struct MarginReport {
 
 /// All the figures above. `beta` (< 0) sets the stability margin for the Hankel value;
 /// `hamiltonian_modes` the truncation used for the second evaluation of the margin on G.
-[[nodiscard]] MarginReport compute_margins(const PowderBedTf& g, const PiController& pi,
+[[nodiscard]] MarginReport compute_margins(const PowderBedTf& g, const control::PidGains& pi,
                                            int modes, double beta = -0.01,
                                            int hamiltonian_modes = 60);
 
