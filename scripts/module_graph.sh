@@ -4,13 +4,19 @@
 # docs/architecture.md; also checks that every edge points down the layer order below and
 # exits 1 naming the edge if one does not.
 #
-#   scripts/module_graph.sh [BUILD_DIR]      (default build/release, configured already)
+#   scripts/module_graph.sh [BUILD_DIR]   an existing build tree (re-runs its configure step)
+#   scripts/module_graph.sh --fresh       configures a scratch tree (CTest uses this)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build/release}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-(cd "$work" && cmake --graphviz="$work/g.dot" "$build" >/dev/null)
+if [ "$build" = "--fresh" ]; then
+  cmake -S "$root" -B "$work/build" -G Ninja -DAMCTL_BUILD_TESTS=OFF -DAMCTL_BUILD_BENCH=OFF \
+        --graphviz="$work/g.dot" >/dev/null
+else
+  (cd "$work" && cmake --graphviz="$work/g.dot" "$build" >/dev/null)
+fi
 # Layers, lowest first: a module may link only modules in lower layers.
 layers="core:0 control:1 gcode:1 machine:2 plan:3 trajectory:4 dynamics:5 shaping:5
 thermal:2 process:4 resonance:5 compensation:6 steppers:6"
