@@ -62,7 +62,7 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
       buffer_(ramps_, timeline_, buffer_size_of(m, options)) {
   classic_jerk_ = m.junction == machine::JunctionPolicy::classic_jerk;
   const bool klipper = m.firmware == Firmware::klipper;
-  slowdown_ = false;  // SLOWDOWN: enabled in the next commit
+  slowdown_ = m.firmware == Firmware::marlin;  // SLOWDOWN is Marlin's (M205 B)
   lim_.max_velocity_mm_s = m.max_velocity_mm_s;
   lim_.accel_mm_s2 = klipper ? m.max_accel_mm_s2 : m.print_accel_mm_s2;
   lim_.travel_accel_mm_s2 = klipper ? m.max_accel_mm_s2 : m.travel_accel_mm_s2;
