@@ -123,7 +123,9 @@ TEST(Sampling, SeedInterpolationAgreesWithExactEvaluationToRoundOff) {
     const auto moves = seed_path();
     const Trajectory tr(moves);
     double worst = 0.0;
-    for (const PathSample& s : sample_seed000(moves, h)) {
+    const auto samples = sample_seed000(moves, h);
+    ASSERT_GT(samples.size(), 20u) << "h " << h;  // the comparison below must not be vacuous
+    for (const PathSample& s : samples) {
       const AxisState e = tr.evaluate(s.t_s);
       worst = std::max({worst, std::abs(e.pos_mm[0] - s.pos_mm[0]), std::abs(e.pos_mm[1] - s.pos_mm[1])});
     }
@@ -180,6 +182,7 @@ TEST(Retime, ProfilesKeepPathAndBezierKeepsTimeWhileSCurveTakesLonger) {
   // every re-timed move is self-consistent and ends where the next starts, in space and time
   for (const auto* plan : {&bez, &sc}) {
     const Trajectory tr(*plan);
+    ASSERT_GT(plan->size(), 2u);  // the junction checks below must not be vacuous
     for (std::size_t i = 0; i + 1 < plan->size(); ++i) {
       EXPECT_NEAR((*plan)[i].end_time_s(), (*plan)[i + 1].start_time_s, 1e-12);
       const AxisState e = tr.evaluate((*plan)[i + 1].start_time_s - 1e-12);
