@@ -43,7 +43,9 @@ namespace amctl::plan::detail {
     const double quarter_tan_half = 0.25 * sin_half / cos_half;
     const double move_cent_v2 = m.delta_v2 * quarter_tan_half;
     const double prev_cent_v2 = prev.delta_v2 * quarter_tan_half;
-    max_start_v2 = std::min({max_start_v2, move_jd_v2, prev_jd_v2, move_cent_v2, prev_cent_v2});
+    // Nested two-operand mins: the same value as std::min({...}), without its array and loop.
+    max_start_v2 = std::min(std::min(std::min(max_start_v2, move_jd_v2), std::min(prev_jd_v2, move_cent_v2)),
+                            prev_cent_v2);
   }
   m.max_start_v2 = max_start_v2;
   m.max_mcr_start_v2 = std::min(max_start_v2, ramps.reach_mcr_v2(prev.max_mcr_start_v2, prev));

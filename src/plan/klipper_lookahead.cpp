@@ -8,7 +8,8 @@ void KlipperLookahead::flush(MoveQueue& queue, bool lazy) {
   flush_budget_s_ = kLazyFlushTime_s;
   const std::size_t n = queue.size();
   if (n == 0) return;
-  const bool jerk_limited = ramps_.jerk_limited();
+  const RampShape ramps = ramps_;  // a local copy: the compiler sees it cannot change in the loops
+  const bool jerk_limited = ramps.jerk_limited();
   bool update_flush_count = lazy;
   std::size_t flush_count = n;
   scratch_.resize(n);
@@ -18,9 +19,9 @@ void KlipperLookahead::flush(MoveQueue& queue, bool lazy) {
   std::size_t pending = 0;
   for (std::size_t k = n; k-- > 0;) {
     const Move& mv = queue[k];
-    const double reachable_start_v2 = ramps_.reach_v2(next_start_v2, mv);
+    const double reachable_start_v2 = ramps.reach_v2(next_start_v2, mv);
     const double start_v2 = std::min(mv.max_start_v2, reachable_start_v2);
-    const double reach_mcr_start_v2 = ramps_.reach_mcr_v2(next_mcr_start_v2, mv);
+    const double reach_mcr_start_v2 = ramps.reach_mcr_v2(next_mcr_start_v2, mv);
     const double mcr_start_v2 = std::min(mv.max_mcr_start_v2, reach_mcr_start_v2);
     ++pending;
     JunctionInfo& ji = scratch_[k];
@@ -28,7 +29,7 @@ void KlipperLookahead::flush(MoveQueue& queue, bool lazy) {
     if (mcr_start_v2 < reach_mcr_start_v2) {
       // This move may accelerate: either it can both accelerate and decelerate, or it is a
       // full acceleration followed by a full deceleration.
-      if (ramps_.reach_mcr_v2(mcr_start_v2, mv) > next_mcr_start_v2 || pending > 1) {
+      if (ramps.reach_mcr_v2(mcr_start_v2, mv) > next_mcr_start_v2 || pending > 1) {
         if (update_flush_count && peak_cruise_v2 != 0.0) {
           flush_count = k + pending;
           update_flush_count = false;

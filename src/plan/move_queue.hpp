@@ -49,8 +49,9 @@ class MoveQueue {
   Move& back() { return buf_[end_ - 1]; }
   const Move& back() const { return buf_[end_ - 1]; }
   Move& emplace_back() {
-    if (end_ < buf_.size()) return buf_[end_++];
+    if (end_ < slots_) return buf_[end_++];
     ++end_;
+    ++slots_;  // buf_.size(), kept as a count (size() divides by sizeof(Move))
     return buf_.emplace_back();
   }
   void pop_back() { --end_; }
@@ -68,6 +69,7 @@ class MoveQueue {
 
  private:
   std::vector<Move> buf_;
+  std::size_t slots_ = 0;  // == buf_.size()
   std::size_t head_ = 0;
   std::size_t end_ = 0;
 };
