@@ -5,11 +5,20 @@
 namespace amctl::plan::detail {
 
 void KlipperLookahead::flush(MoveQueue& queue, bool lazy) {
+  if (ramps_.jerk_limited()) {
+    flush_with<StaticRampShape<true>>(queue, lazy);
+  } else {
+    flush_with<StaticRampShape<false>>(queue, lazy);
+  }
+}
+
+template <class Shape>
+void KlipperLookahead::flush_with(MoveQueue& queue, bool lazy) {
   flush_budget_s_ = kLazyFlushTime_s;
   const std::size_t n = queue.size();
   if (n == 0) return;
-  const RampShape ramps = ramps_;  // a local copy: the compiler sees it cannot change in the loops
-  const bool jerk_limited = ramps.jerk_limited();
+  constexpr Shape ramps{};
+  constexpr bool jerk_limited = Shape::jerk_limited();
   bool update_flush_count = lazy;
   std::size_t flush_count = n;
   scratch_.resize(n);

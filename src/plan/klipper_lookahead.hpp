@@ -41,6 +41,8 @@ class KlipperLookahead {
 
  private:
   struct JunctionInfo { double start_v2; double cruise_v2; bool has_cruise; double next_start_v2; };
+  template <class Shape>
+  void flush_with(MoveQueue& queue, bool lazy);
 
   RampShape ramps_;
   Timeline& out_;

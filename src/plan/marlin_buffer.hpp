@@ -59,6 +59,9 @@ class MarlinBuffer {
   void after_full_stop() { blocks_since_stop_ = 0; }
 
  private:
+  template <class Shape>
+  void start_oldest_with(MoveQueue& queue);
+
   RampShape ramps_;
   Timeline& out_;
   std::size_t buffer_size_ = 16;

@@ -51,4 +51,19 @@ class RampShape {
   bool jerk_limited_ = false;
 };
 
+/// RampShape with the profile fixed at compile time, for the hot loops (each strategy
+/// instantiates both and picks one per flush): the same arithmetic, without the tests.
+template <bool kJerkLimited>
+struct StaticRampShape {
+  static constexpr bool jerk_limited() { return kJerkLimited; }
+  static double reach_v2(double from_v2, const Move& m) {
+    if constexpr (kJerkLimited) return RampShape(true).reach_v2(from_v2, m);
+    else return from_v2 + m.delta_v2;
+  }
+  static double reach_mcr_v2(double from_v2, const Move& m) {
+    if constexpr (kJerkLimited) return RampShape(true).reach_mcr_v2(from_v2, m);
+    else return from_v2 + m.mcr_delta_v2;
+  }
+};
+
 }  // namespace amctl::plan::detail
