@@ -1,4 +1,4 @@
-// Every real slicer file in ../shared/corpus/gcode (beside the clone; skipped when absent)
+// Every real slicer file in shared/corpus/gcode (corpus_dir.hpp; skipped when absent)
 // is estimated on the machines it could have been sliced for: no crash, every unknown
 // command explained, totals within a sane band of the slicer's own figure.
 #include <filesystem>
@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "amctl/machine/loader.hpp"
+#include "corpus_dir.hpp"
 #include "amctl/plan/estimate.hpp"
 
 namespace amctl::plan {
@@ -16,8 +17,9 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(Corpus, EveryFileEstimatesSanelyOnEveryPreset) {
-  const fs::path dir = fs::path(AMCTL_SOURCE_DIR) / "../shared/corpus/gcode";
-  if (!fs::exists(dir)) GTEST_SKIP() << "no ../shared/corpus/gcode beside the clone";
+  const auto corpus = test::corpus_dir();
+  if (!corpus) GTEST_SKIP() << "no shared/corpus beside the clone (or set AMCTL_CORPUS_DIR)";
+  const fs::path dir = *corpus / "gcode";
   std::size_t files = 0;
   for (const auto& entry : fs::directory_iterator(dir)) {
     if (entry.path().extension() != ".gcode") continue;

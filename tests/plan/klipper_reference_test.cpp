@@ -12,6 +12,7 @@
 
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
+#include "corpus_dir.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -42,8 +43,9 @@ INSTANTIATE_TEST_SUITE_P(Files, KlipperReference,
                                            "syn_arcs"));
 
 TEST(KlipperReference, CorpusBenchiesMatchKlipperWithinATenthOfASecond) {
-  const std::filesystem::path corpus = std::filesystem::path(AMCTL_SOURCE_DIR) / "../shared/corpus/gcode";
-  if (!std::filesystem::exists(corpus)) GTEST_SKIP() << "no ../shared/corpus beside the clone";
+  const auto corpus_root = test::corpus_dir();
+  if (!corpus_root) GTEST_SKIP() << "no shared/corpus beside the clone (or set AMCTL_CORPUS_DIR)";
+  const std::filesystem::path corpus = *corpus_root / "gcode";
   const auto times = klipper_times();
   for (const char* cfg : {"v0_corexy", "ender3_cartesian"}) {
     const auto m = machine::load_machine(kDir + cfg + ".cfg");

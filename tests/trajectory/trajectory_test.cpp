@@ -123,7 +123,9 @@ TEST(Sampling, SeedInterpolationAgreesWithExactEvaluationToRoundOff) {
     const auto moves = seed_path();
     const Trajectory tr(moves);
     double worst = 0.0;
-    for (const PathSample& s : sample_seed000(moves, h)) {
+    const auto samples = sample_seed000(moves, h);
+    ASSERT_GT(samples.size(), 20u) << "h " << h;  // the comparison below must not be vacuous
+    for (const PathSample& s : samples) {
       const AxisState e = tr.evaluate(s.t_s);
       worst = std::max({worst, std::abs(e.pos_mm[0] - s.pos_mm[0]), std::abs(e.pos_mm[1] - s.pos_mm[1])});
     }

@@ -14,10 +14,11 @@
 //    fully at dwells, M400 and position resets.
 // Marlin's junction deviation (with its small-segment limit) and classic jerk are the other
 // junction policies; Marlin also plans over a finite block buffer (16 moves by default).
-// Derivations: docs/planner.md.
+// Derivations and the map of the implementation (src/plan/): docs/planner.md.
 #include <algorithm>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,6 +28,10 @@
 #include "amctl/plan/planned_move.hpp"
 
 namespace amctl::plan {
+
+namespace detail {
+class PlannerCore;  // src/plan/planner_core.hpp
+}  // namespace detail
 
 /// Receives the planner's output in time order.
 class PlanSink {
@@ -71,12 +76,16 @@ struct PlannerDiagnostics {
   std::uint64_t extrude_only_moves = 0;
   std::uint64_t forced_flushes = 0;        ///< max_queue reached (0 on real files; warned)
   std::uint64_t full_stops = 0;            ///< flushes to zero speed (dwell, M400, ...)
+  std::uint64_t min_segment_time_slowdowns = 0;  ///< Marlin SLOWDOWN (M205 B) slowed the move
   std::vector<std::string> warnings;       ///< e.g. over-extrusion (Klipper would refuse)
 };
 
 class Planner final : public gcode::EventSink {
  public:
   Planner(const machine::Machine& machine, PlanSink& sink, PlannerOptions options = {});
+  ~Planner() override;
+  Planner(const Planner&) = delete;
+  Planner& operator=(const Planner&) = delete;
 
   // gcode::EventSink
   void on_move(const gcode::MoveRequest& move) override;
@@ -94,8 +103,8 @@ class Planner final : public gcode::EventSink {
   void finish();
 
   /// Print time reached by the moves emitted so far [s].
-  [[nodiscard]] double print_time_s() const { return print_time_s_; }
-  [[nodiscard]] const PlannerDiagnostics& diagnostics() const { return diag_; }
+  [[nodiscard]] double print_time_s() const;
+  [[nodiscard]] const PlannerDiagnostics& diagnostics() const;
 
   /// Current limits (after G-code changes) — useful for reports and tests.
   struct Limits {
@@ -112,131 +121,12 @@ class Planner final : public gcode::EventSink {
     double junction_deviation_mm;
     double min_feedrate_mm_s;
     double min_travel_feedrate_mm_s;
+    double min_segment_time_s;      ///< Marlin M205 B (SLOWDOWN)
   };
-  [[nodiscard]] const Limits& limits() const { return lim_; }
+  [[nodiscard]] const Limits& limits() const;
 
  private:
-  struct Move {
-    PlannedMove out;           // geometry and identity; speeds/times filled at flush
-    double max_cruise_v2 = 0;
-    double max_start_v2 = 0;
-    double delta_v2 = 0;
-    double max_mcr_start_v2 = 0;
-    double mcr_delta_v2 = 0;
-    double mcr_accel = 0;           // pseudo-accel of the smoothed pass (mcr_delta_v2 / 2D)
-    // scurve7: last reachable-speed evaluation of each pass (flushes revisit queued moves,
-    // mostly with the same neighbour speed).
-    mutable double reach_from_v2 = -1, reach_to_v2 = 0, mcr_reach_from_v2 = -1, mcr_reach_to_v2 = 0;
-    double min_move_t = 0;
-    double planned_start_v2 = -1;   // Marlin buffer: this block's start in the last backward pass
-    double junction_deviation = 0;  // Klipper jd of the limits in force for this move
-    bool kinematic = true;
-    // Marlin classic jerk bookkeeping
-    std::array<double, 4> axis_v{};  // per-axis velocity at nominal speed
-    double nominal_v = 0;
-    double safe_v = 0;
-    std::uint64_t seq = 0;  // arrival order, for events queued behind this move
-  };
-
-  // A non-motion event that takes effect once every move queued before it has run.
-  struct PendingEvent {
-    enum class Kind : std::uint8_t { heater, fan, progress, layer, untimed } kind = Kind::heater;
-    std::uint64_t after_seq = 0;
-    gcode::HeaterCommand heater{};
-    gcode::ProgressMarker progress{};
-    double fan = 0.0;
-    std::int32_t layer = 0;
-    std::uint64_t line = 0;
-    std::string name;
-  };
-  void post(PendingEvent&& e);
-  void note_forced_flush(std::uint64_t line, const char* what);
-
-  /// FIFO over a vector: O(1) pops from the front without deque's per-block allocations.
-  /// Slots are recycled, not destroyed: emplace_back() returns a slot that may hold an old
-  /// move, and Planner::on_move() assigns every field (value-initialising a Move, ~300
-  /// bytes, was a quarter of on_move's time).
-  class MoveQueue {
-   public:
-    [[nodiscard]] std::size_t size() const { return end_ - head_; }
-    [[nodiscard]] bool empty() const { return size() == 0; }
-    Move& operator[](std::size_t i) { return buf_[head_ + i]; }
-    Move& front() { return buf_[head_]; }
-    Move& back() { return buf_[end_ - 1]; }
-    Move& emplace_back() {
-      if (end_ < buf_.size()) return buf_[end_++];
-      ++end_;
-      return buf_.emplace_back();
-    }
-    void pop_back() { --end_; }
-    void pop_front(std::size_t n = 1) {
-      head_ += n;
-      if (head_ == end_) {
-        head_ = end_ = 0;
-      } else if (head_ >= 64 && 2 * head_ >= end_) {
-        std::move(buf_.begin() + static_cast<std::ptrdiff_t>(head_),
-                  buf_.begin() + static_cast<std::ptrdiff_t>(end_), buf_.begin());
-        end_ -= head_;
-        head_ = 0;
-      }
-    }
-
-   private:
-    std::vector<Move> buf_;
-    std::size_t head_ = 0;
-    std::size_t end_ = 0;
-  };
-  void fire(const PendingEvent& e);
-
-  void add_queued_move();
-  void flush(bool lazy);
-  void emit(Move& m, double start_v2, double cruise_v2, double end_v2);
-  // The two places where the ramp shape enters the look-ahead (docs/planner.md, "Jerk-limited
-  // profiles"): the squared speed reachable over a move from from_v2 (accelerating, or by
-  // time reversal braking), and the squared cruise peak between two end speeds.
-  // The smoothed (minimum cruise ratio) pass uses the same shapes with the pseudo-accel.
-  [[nodiscard]] double reach_v2(double from_v2, const Move& m) const;
-  [[nodiscard]] double reach_mcr_v2(double from_v2, const Move& m) const;
-  [[nodiscard]] double scurve_peak_v2(double start_v2, double end_v2, const Move& m,
-                                      double accel, double cap_v2) const;
-  void full_stop();
-  void junction_klipper(Move& m, const Move& prev) const;
-  void junction_marlin_jd(Move& m, const Move& prev) const;
-  void junction_classic_jerk(Move& m, const Move& prev);
-  void flush_marlin_head();
-  [[nodiscard]] double klipper_junction_deviation() const;
-  void apply_limits(const gcode::LimitsCommand& cmd);
-  /// Recomputes the cached values that depend on lim_ (after a limits command).
-  void update_derived_limits();
-  [[nodiscard]] double mcr_pseudo_accel() const;
-
-  machine::Machine machine_;
-  PlanSink& sink_;
-  PlannerOptions opt_;
-  Limits lim_{};
-  MoveQueue queue_;
-  double junction_flush_s_ = 1.0;
-  std::size_t buffer_size_ = 16;
-  double print_time_s_ = 0.0;
-  double prev_safe_v_ = 0.0;
-  bool jerk_limited_ = false;  // machine profile is scurve7: ramps are timed jerk-limited
-  // Constants of the machine used on every move (set once in the constructor).
-  bool klipper_ = true;
-  bool classic_jerk_ = false;
-  // emit(): the last 0.5 / accel and the last end speed with its square root.
-  double emit_a_ = 0, emit_half_inv_a_ = 0, emit_last_v2_ = 0, emit_last_v_ = 0;
-  double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
-  double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
-  double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
-  // Derived from lim_, refreshed by update_derived_limits().
-  double mcr_accel_mm_s2_ = 0, junction_deviation_mm_ = 0;
-  PlannerDiagnostics diag_;
-  // Reusable scratch for flush().
-  struct JunctionInfo { double start_v2; double cruise_v2; bool has_cruise; double next_start_v2; };
-  std::vector<JunctionInfo> scratch_;
-  std::uint64_t warned_overextrusion_ = 0;
-  std::uint64_t next_seq_ = 1;
-  std::deque<PendingEvent> pending_;
+  std::unique_ptr<detail::PlannerCore> core_;  // queue, strategies, limits: src/plan/
 };
 
 }  // namespace amctl::plan

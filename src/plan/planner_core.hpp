@@ -1,0 +1,75 @@
+#pragma once
+// Internal to the planner: the state behind amctl::plan::Planner (which only forwards to
+// it, so that the public header does not expose the queue). It turns requests into queued
+// moves (firmware limits, junction policy) and hands them to one of the two strategies:
+// Klipper's lazy-flush look-ahead or Marlin's block buffer. Source map: docs/planner.md.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "amctl/gcode/events.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planner.hpp"
+#include "klipper_lookahead.hpp"
+#include "marlin_buffer.hpp"
+#include "move_queue.hpp"
+#include "pending_events.hpp"
+#include "ramp_shape.hpp"
+#include "timeline.hpp"
+
+namespace amctl::plan::detail {
+
+class PlannerCore {
+ public:
+  PlannerCore(const machine::Machine& machine, PlanSink& sink, PlannerOptions options);
+
+  void on_move(const gcode::MoveRequest& move);
+  void on_dwell(double duration_s, std::uint64_t line);
+  void on_limits(const gcode::LimitsCommand& cmd);
+  void on_heater(const gcode::HeaterCommand& cmd);
+  /// Queues a non-motion event behind the moves queued so far.
+  void post(PendingEvent&& e);
+  /// Plans and emits every queued move, ending at rest, and fires every waiting event.
+  void full_stop();
+
+  [[nodiscard]] double print_time_s() const { return timeline_.print_time_s(); }
+  [[nodiscard]] const PlannerDiagnostics& diagnostics() const { return diag_; }
+  [[nodiscard]] const Planner::Limits& limits() const { return lim_; }
+
+ private:
+  /// Limits of the move m (queued, geometry set) under Klipper's check_move rules;
+  /// velocity and accel come in as requested and leave capped.
+  void klipper_move_limits(const gcode::MoveRequest& r, const std::array<double, 4>& d,
+                           Move& m, double& velocity, double& accel);
+  /// The same under Marlin/RRF rules (minimum feedrates, per-axis limits); returns the speed
+  /// SLOWDOWN allows (M205 B), +inf when it does not apply.
+  double marlin_move_limits(const std::array<double, 4>& d, Move& m, double& velocity, double& accel);
+  void set_junction_limit(Move& m);
+  void note_forced_flush(std::uint64_t line, const char* what);
+  void apply_limits(const gcode::LimitsCommand& cmd);
+  /// Recomputes the cached values that depend on lim_ (after a limits command).
+  void update_derived_limits();
+
+  machine::Machine machine_;
+  PlannerOptions opt_;
+  Planner::Limits lim_{};
+  PlannerDiagnostics diag_;
+  RampShape ramps_;
+  Timeline timeline_;
+  MoveQueue queue_;
+  KlipperLookahead lookahead_;
+  MarlinBuffer buffer_;
+  // Constants of the machine used on every move (set once in the constructor).
+  bool klipper_ = true;
+  bool classic_jerk_ = false;
+  bool slowdown_ = false;  // Marlin: SLOWDOWN applies (min_segment_time may become > 0)
+  double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
+  double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
+  double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
+  // Derived from lim_, refreshed by update_derived_limits().
+  double mcr_accel_mm_s2_ = 0, junction_deviation_mm_ = 0;
+  std::uint64_t warned_overextrusion_ = 0;
+  std::uint64_t next_seq_ = 1;
+};
+
+}  // namespace amctl::plan::detail

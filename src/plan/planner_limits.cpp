@@ -1,0 +1,176 @@
+// The planner's limits: the machine description checked and turned into the initial limits,
+// and the G-code commands that change them (M201/M203/M204/M205/M566, SET_VELOCITY_LIMIT)
+// with each firmware's semantics.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "planner_core.hpp"
+
+namespace amctl::plan::detail {
+namespace {
+
+using machine::Firmware;
+
+/// Checks the machine description (in a fixed order: the first bad key is reported).
+const machine::Machine& validated(const machine::Machine& m) {
+  require_positive("printer.max_velocity", m.max_velocity_mm_s);
+  require_positive("printer.max_accel", m.max_accel_mm_s2);
+  require_non_negative("printer.square_corner_velocity", m.square_corner_velocity_mm_s);
+  if (!(m.minimum_cruise_ratio >= 0.0 && m.minimum_cruise_ratio < 1.0)) {
+    throw Error(fmt::format("printer.minimum_cruise_ratio must be in [0, 1), got {}",
+                            m.minimum_cruise_ratio));
+  }
+  require_non_negative("printer.max_z_velocity", m.max_z_velocity_mm_s);
+  require_non_negative("printer.max_z_accel", m.max_z_accel_mm_s2);
+  require_positive("extruder.nozzle_diameter", m.extruder.nozzle_diameter_mm);
+  require_positive("extruder.filament_diameter", m.extruder.filament_diameter_mm);
+  require_non_negative("extruder.instantaneous_corner_velocity",
+                       m.extruder.instantaneous_corner_velocity_mm_s);
+  for (std::size_t i = 0; i < 4; ++i) {
+    require_positive("marlin.max_feedrate", m.max_feedrate_mm_s[i]);
+    require_positive("marlin.max_accel", m.max_axis_accel_mm_s2[i]);
+    require_non_negative("marlin.jerk", m.jerk_mm_s[i]);
+  }
+  require_positive("marlin.print_accel", m.print_accel_mm_s2);
+  require_positive("marlin.travel_accel", m.travel_accel_mm_s2);
+  require_positive("marlin.retract_accel", m.retract_accel_mm_s2);
+  require_non_negative("marlin.junction_deviation", m.junction_deviation_mm);
+  if (m.profile == machine::VelocityProfile::scurve7) require_positive("printer.max_jerk", m.max_jerk_mm_s3);
+  if (m.block_buffer_size < 0) {
+    throw Error(fmt::format("marlin.block_buffer_size must be >= 0, got {}", m.block_buffer_size));
+  }
+  require_non_negative("marlin.min_segment_time", m.min_segment_time_s);
+  return m;
+}
+
+std::size_t buffer_size_of(const machine::Machine& m, const PlannerOptions& opt) {
+  return opt.block_buffer_size.value_or(static_cast<std::size_t>(m.block_buffer_size));
+}
+
+}  // namespace
+
+PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptions options)
+    : machine_(validated(m)),
+      opt_(options),
+      ramps_(m.profile == machine::VelocityProfile::scurve7),
+      timeline_(sink, ramps_.jerk_limited()),
+      lookahead_(ramps_, timeline_),
+      buffer_(ramps_, timeline_, buffer_size_of(m, options)) {
+  classic_jerk_ = m.junction == machine::JunctionPolicy::classic_jerk;
+  const bool klipper = m.firmware == Firmware::klipper;
+  slowdown_ = m.firmware == Firmware::marlin;  // SLOWDOWN is Marlin's (M205 B)
+  lim_.max_velocity_mm_s = m.max_velocity_mm_s;
+  lim_.accel_mm_s2 = klipper ? m.max_accel_mm_s2 : m.print_accel_mm_s2;
+  lim_.travel_accel_mm_s2 = klipper ? m.max_accel_mm_s2 : m.travel_accel_mm_s2;
+  lim_.retract_accel_mm_s2 = klipper ? m.max_accel_mm_s2 : m.retract_accel_mm_s2;
+  lim_.square_corner_velocity_mm_s = m.square_corner_velocity_mm_s;
+  lim_.minimum_cruise_ratio = m.minimum_cruise_ratio;
+  lim_.max_feedrate_mm_s = m.max_feedrate_mm_s;
+  lim_.max_axis_accel_mm_s2 = m.max_axis_accel_mm_s2;
+  lim_.jerk_mm_s = m.jerk_mm_s;
+  lim_.junction_deviation_mm = m.junction_deviation_mm;
+  lim_.min_feedrate_mm_s = m.min_feedrate_mm_s;
+  lim_.min_travel_feedrate_mm_s = m.min_travel_feedrate_mm_s;
+  lim_.min_segment_time_s = m.min_segment_time_s;
+
+  // Per-move constants of the machine, computed once with the same expressions on_move()
+  // used to evaluate for every move (so the doubles are the same).
+  klipper_ = klipper;
+  z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
+  z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
+  const auto& ex = m.extruder;
+  filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
+  const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;
+  extrude_only_velocity_mm_s_ = ex.max_extrude_only_velocity_mm_s.value_or(m.max_velocity_mm_s * def_ratio);
+  extrude_only_accel_mm_s2_ = ex.max_extrude_only_accel_mm_s2.value_or(m.max_accel_mm_s2 * def_ratio);
+  max_cross_section_mm2_ = ex.max_extrude_cross_section_mm2.value_or(4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm);
+  max_extrude_ratio_ = max_cross_section_mm2_ / filament_area_mm2_;
+  update_derived_limits();
+}
+
+void PlannerCore::update_derived_limits() {
+  // Klipper's smoothed pass: accel_to_decel when given, else accel (1 - minimum_cruise_ratio).
+  mcr_accel_mm_s2_ = lim_.accel_to_decel_mm_s2 ? std::min(*lim_.accel_to_decel_mm_s2, lim_.accel_mm_s2)
+                                               : lim_.accel_mm_s2 * (1.0 - lim_.minimum_cruise_ratio);
+  // Klipper's junction deviation from square_corner_velocity: jd = scv^2 (sqrt2 - 1) / accel.
+  const double scv = lim_.square_corner_velocity_mm_s;
+  junction_deviation_mm_ = scv * scv * (std::numbers::sqrt2 - 1.0) / lim_.accel_mm_s2;
+}
+
+void PlannerCore::on_limits(const gcode::LimitsCommand& c) {
+  apply_limits(c);
+  update_derived_limits();
+}
+
+void PlannerCore::apply_limits(const gcode::LimitsCommand& c) {
+  using S = gcode::LimitsCommand::Source;
+  const auto& p = c.params;
+  const Firmware fw = machine_.firmware;
+  if (c.source == S::set_velocity_limit) {
+    // Klipper's own command; other firmwares do not know it, so it is ignored there.
+    if (fw != Firmware::klipper) return;
+    if (c.velocity) lim_.max_velocity_mm_s = *c.velocity;
+    if (c.accel) lim_.accel_mm_s2 = *c.accel;
+    if (c.square_corner_velocity) lim_.square_corner_velocity_mm_s = *c.square_corner_velocity;
+    if (c.minimum_cruise_ratio) {
+      lim_.minimum_cruise_ratio = *c.minimum_cruise_ratio;
+      lim_.accel_to_decel_mm_s2.reset();
+    }
+    if (c.accel_to_decel) lim_.accel_to_decel_mm_s2 = *c.accel_to_decel;
+    return;
+  }
+  if (fw == Firmware::klipper) {
+    // Klipper implements only M204: accel from S, else min(P, T) (both required).
+    if (c.source == S::m204) {
+      double a = 0.0;
+      if (p.has('S')) a = p.get('S');
+      else if (p.has('P') && p.has('T')) a = std::min(p.get('P'), p.get('T'));
+      if (a > 0.0) lim_.accel_mm_s2 = a;
+    }
+    return;
+  }
+  // Marlin / RepRapFirmware semantics. RRF's M203 and M566 are in mm/min.
+  const double feed_scale = fw == Firmware::reprap ? 1.0 / 60.0 : 1.0;
+  constexpr const char* kAxes = "XYZE";
+  switch (c.source) {
+    case S::m201:
+      for (std::size_t a = 0; a < 4; ++a) {
+        if (p.has(kAxes[a]) && p.get(kAxes[a]) > 0) lim_.max_axis_accel_mm_s2[a] = p.get(kAxes[a]);
+      }
+      break;
+    case S::m203:
+      for (std::size_t a = 0; a < 4; ++a) {
+        if (p.has(kAxes[a]) && p.get(kAxes[a]) > 0) lim_.max_feedrate_mm_s[a] = p.get(kAxes[a]) * feed_scale;
+      }
+      break;
+    case S::m204:
+      if (p.has('S') && p.get('S') > 0) lim_.accel_mm_s2 = lim_.travel_accel_mm_s2 = p.get('S');
+      if (p.has('P') && p.get('P') > 0) lim_.accel_mm_s2 = p.get('P');
+      if (p.has('R') && p.get('R') > 0) lim_.retract_accel_mm_s2 = p.get('R');
+      if (p.has('T') && p.get('T') > 0) lim_.travel_accel_mm_s2 = p.get('T');
+      break;
+    case S::m205:
+      for (std::size_t a = 0; a < 4; ++a) {
+        if (p.has(kAxes[a])) lim_.jerk_mm_s[a] = p.get(kAxes[a]);
+      }
+      if (p.has('J') && p.get('J') > 0) lim_.junction_deviation_mm = p.get('J');
+      if (p.has('S')) lim_.min_feedrate_mm_s = p.get('S');
+      if (p.has('T')) lim_.min_travel_feedrate_mm_s = p.get('T');
+      // Marlin's M205 B: minimum segment time in microseconds (SLOWDOWN, see MarlinBuffer).
+      if (fw == Firmware::marlin && p.has('B') && p.get('B') >= 0) lim_.min_segment_time_s = p.get('B') * 1e-6;
+      break;
+    case S::m566:
+      for (std::size_t a = 0; a < 4; ++a) {
+        if (p.has(kAxes[a])) lim_.jerk_mm_s[a] = p.get(kAxes[a]) / 60.0;
+      }
+      break;
+    case S::set_velocity_limit:
+      break;
+  }
+}
+
+}  // namespace amctl::plan::detail
