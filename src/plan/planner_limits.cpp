@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/machine/loader.hpp"
 #include "planner_core.hpp"
 
 namespace amctl::plan::detail {
@@ -15,35 +16,11 @@ namespace {
 
 using machine::Firmware;
 
-/// Checks the machine description (in a fixed order: the first bad key is reported).
+/// The machine description checked by the one validation of the machine module (every bound
+/// of the key table and the cross-key rules, the same that loading a TOML or printer.cfg
+/// applies): a Machine built in code is held to the same rules as one read from a file.
 const machine::Machine& validated(const machine::Machine& m) {
-  require_positive("printer.max_velocity", m.max_velocity_mm_s);
-  require_positive("printer.max_accel", m.max_accel_mm_s2);
-  require_non_negative("printer.square_corner_velocity", m.square_corner_velocity_mm_s);
-  if (!(m.minimum_cruise_ratio >= 0.0 && m.minimum_cruise_ratio < 1.0)) {
-    throw Error(fmt::format("printer.minimum_cruise_ratio must be in [0, 1), got {}",
-                            m.minimum_cruise_ratio));
-  }
-  require_non_negative("printer.max_z_velocity", m.max_z_velocity_mm_s);
-  require_non_negative("printer.max_z_accel", m.max_z_accel_mm_s2);
-  require_positive("extruder.nozzle_diameter", m.extruder.nozzle_diameter_mm);
-  require_positive("extruder.filament_diameter", m.extruder.filament_diameter_mm);
-  require_non_negative("extruder.instantaneous_corner_velocity",
-                       m.extruder.instantaneous_corner_velocity_mm_s);
-  for (std::size_t i = 0; i < 4; ++i) {
-    require_positive("marlin.max_feedrate", m.max_feedrate_mm_s[i]);
-    require_positive("marlin.max_accel", m.max_axis_accel_mm_s2[i]);
-    require_non_negative("marlin.jerk", m.jerk_mm_s[i]);
-  }
-  require_positive("marlin.print_accel", m.print_accel_mm_s2);
-  require_positive("marlin.travel_accel", m.travel_accel_mm_s2);
-  require_positive("marlin.retract_accel", m.retract_accel_mm_s2);
-  require_non_negative("marlin.junction_deviation", m.junction_deviation_mm);
-  if (m.profile == machine::VelocityProfile::scurve7) require_positive("printer.max_jerk", m.max_jerk_mm_s3);
-  if (m.block_buffer_size < 0) {
-    throw Error(fmt::format("marlin.block_buffer_size must be >= 0, got {}", m.block_buffer_size));
-  }
-  require_non_negative("marlin.min_segment_time", m.min_segment_time_s);
+  machine::validate(m);
   return m;
 }
 

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "amctl/gcode/interpreter.hpp"
@@ -81,9 +83,13 @@ TEST(MinSegmentTime, SecondBlockAfterAStopLastsExactlyTheMinimumSegmentTime) {
 }
 
 TEST(MinSegmentTime, NoSlowdownWhenTheWindowIsEmptyOrTheSegmentIsLongEnough) {
-  for (const int buffer : {0, 1, 2, 4}) {  // B/2 - 1 < 2 (0, 1: unlimited look-ahead, no ring)
+  // B/2 - 1 < 2 (0, 1: unlimited look-ahead, no ring). A machine's buffer is >= 1 (the schema);
+  // 0 is the planner option for unlimited look-ahead.
+  for (const int buffer : {0, 1, 2, 4}) {
     Collect c;
-    Planner p(marlin(0.02, buffer), c);
+    PlannerOptions o;
+    o.block_buffer_size = static_cast<std::size_t>(buffer);
+    Planner p(marlin(0.02, std::max(buffer, 1)), c, o);
     double x = 0;
     run_line(p, x, 20);
     p.finish();
