@@ -105,6 +105,14 @@ for g in examples/gcode/*.gcode ../shared/corpus/gcode/benchy_cura-5.3.gcode; do
   run "shrink_apply_out__$gb.gcode" cat "$tmp/scaled.gcode"
 done
 
+# The machine descriptions.
+for m in "${machines[@]}"; do
+  mb=$(basename "$m"); mb=${mb%.*}
+  run "machine_show__$mb.json" "$amctl" machine show "$m" --json
+  run "machine_show__$mb.toml" "$amctl" machine show "$m"
+done
+run machine_keys.json "$amctl" machine keys --json
+
 # Bad input: the message and exit code are part of the interface.
 printf 'G1 X10\nG1 X1e\n' >"$tmp/bad.gcode"
 run error_bad_number.txt "$amctl" estimate "$tmp/bad.gcode"

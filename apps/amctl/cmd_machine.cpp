@@ -7,9 +7,9 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "amctl/machine/effective.hpp"
+#include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
@@ -17,7 +17,6 @@
 namespace amctl::cli {
 namespace {
 
-using nlohmann::json;
 namespace mc = amctl::machine;
 
 struct ShowOptions {
@@ -28,7 +27,7 @@ struct ShowOptions {
 void show(const ShowOptions& o) {
   const mc::Machine m = resolve_machine(o.machine);
   if (o.json) {
-    json j = machine_json(m);
+    Json j = mc::to_json(m);
     j["source"] = o.machine.spec.empty() ? "default" : o.machine.spec;
     std::cout << j.dump(2) << "\n";
     return;
@@ -79,12 +78,7 @@ void register_machine(CLI::App& app) {
   keys->callback([keys_json] {
     const auto all = mc::schema();
     if (*keys_json) {
-      json arr = json::array();
-      for (const auto& k : all) {
-        arr.push_back({{"section", k.section}, {"key", k.key}, {"type", k.type},
-                       {"unit", k.unit}, {"description", k.description}});
-      }
-      std::cout << json{{"keys", arr}}.dump(2) << "\n";
+      std::cout << mc::schema_json().dump(2) << "\n";
       return;
     }
     for (const auto& k : all) {

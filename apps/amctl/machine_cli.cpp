@@ -1,93 +1,9 @@
-// Shared --machine/--set options and the machine as JSON.
+// Shared --machine/--set options.
 #include "machine_cli.hpp"
 
-#include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 
 namespace amctl::cli {
-namespace {
-
-using nlohmann::json;
-namespace mc = amctl::machine;
-
-json optional_number(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
-
-json axes(const std::array<double, 4>& a) { return json::array({a[0], a[1], a[2], a[3]}); }
-
-}  // namespace
-
-json machine_json(const mc::Machine& m) {
-  json j;
-  j["printer"] = {
-      {"name", m.name},
-      {"firmware", mc::to_string(m.firmware)},
-      {"kinematics", mc::to_string(m.kinematics)},
-      {"junction", mc::to_string(m.junction)},
-      {"profile", mc::to_string(m.profile)},
-      {"max_velocity", m.max_velocity_mm_s},
-      {"max_accel", m.max_accel_mm_s2},
-      {"square_corner_velocity", m.square_corner_velocity_mm_s},
-      {"minimum_cruise_ratio", m.minimum_cruise_ratio},
-      {"max_z_velocity", m.max_z_velocity_mm_s},
-      {"max_z_accel", m.max_z_accel_mm_s2},
-      {"max_jerk", m.max_jerk_mm_s3},
-  };
-  j["marlin"] = {
-      {"max_feedrate", axes(m.max_feedrate_mm_s)},
-      {"max_accel", axes(m.max_axis_accel_mm_s2)},
-      {"print_accel", m.print_accel_mm_s2},
-      {"retract_accel", m.retract_accel_mm_s2},
-      {"travel_accel", m.travel_accel_mm_s2},
-      {"jerk", axes(m.jerk_mm_s)},
-      {"junction_deviation", m.junction_deviation_mm},
-      {"min_feedrate", m.min_feedrate_mm_s},
-      {"min_travel_feedrate", m.min_travel_feedrate_mm_s},
-      {"min_segment_time", m.min_segment_time_s},
-      {"block_buffer_size", m.block_buffer_size},
-  };
-  j["extruder"] = {
-      {"nozzle_diameter", m.extruder.nozzle_diameter_mm},
-      {"filament_diameter", m.extruder.filament_diameter_mm},
-      {"max_extrude_only_velocity", optional_number(m.extruder.max_extrude_only_velocity_mm_s)},
-      {"max_extrude_only_accel", optional_number(m.extruder.max_extrude_only_accel_mm_s2)},
-      {"max_extrude_only_distance", m.extruder.max_extrude_only_distance_mm},
-      {"instantaneous_corner_velocity", m.extruder.instantaneous_corner_velocity_mm_s},
-      {"max_extrude_cross_section", optional_number(m.extruder.max_extrude_cross_section_mm2)},
-  };
-  j["arcs"] = {
-      {"resolution", m.arcs.mm_per_arc_segment},
-      {"min_segment", m.arcs.min_arc_segment_mm},
-      {"max_segment", m.arcs.max_arc_segment_mm},
-      {"min_circle_segments", m.arcs.min_circle_segments},
-      {"segments_per_second", m.arcs.segments_per_second},
-  };
-  j["firmware_retraction"] = {
-      {"retract_length", m.firmware_retraction.retract_length_mm},
-      {"retract_speed", m.firmware_retraction.retract_speed_mm_s},
-      {"unretract_extra_length", m.firmware_retraction.unretract_extra_length_mm},
-      {"unretract_speed", m.firmware_retraction.unretract_speed_mm_s},
-      {"lift_z", m.firmware_retraction.lift_z_mm},
-  };
-  json steppers = json::object();
-  for (const auto& [name, s] : m.steppers) {
-    steppers[name] = {{"rotation_distance", s.rotation_distance_mm},
-                      {"microsteps", s.microsteps},
-                      {"full_steps_per_rotation", s.full_steps_per_rotation},
-                      {"steps_per_mm", s.steps_per_mm()}};
-  }
-  j["steppers"] = steppers;
-  j["effective"] = {
-      {"max_z_velocity", mc::effective_max_z_velocity_mm_s(m)},
-      {"max_z_accel", mc::effective_max_z_accel_mm_s2(m)},
-      {"max_extrude_only_velocity", mc::effective_max_extrude_only_velocity_mm_s(m)},
-      {"max_extrude_only_accel", mc::effective_max_extrude_only_accel_mm_s2(m)},
-      {"max_extrude_cross_section", mc::effective_max_extrude_cross_section_mm2(m)},
-      {"junction_deviation_at_max_accel",
-       mc::klipper_junction_deviation_mm(m.square_corner_velocity_mm_s, m.max_accel_mm_s2)},
-  };
-  return j;
-}
-
 
 void add_machine_options(CLI::App& cmd, MachineOptions& options) {
   cmd.add_option("--machine,-m", options.spec,
@@ -98,7 +14,7 @@ void add_machine_options(CLI::App& cmd, MachineOptions& options) {
 }
 
 machine::Machine resolve_machine(const MachineOptions& options) {
-  return mc::load_machine(options.spec, options.overrides);
+  return machine::load_machine(options.spec, options.overrides);
 }
 
 }  // namespace amctl::cli

@@ -1,12 +1,10 @@
 #pragma once
-// Shared `--machine` / `--set` options for every subcommand that needs a printer, and the
-// machine as JSON (same section/key names as the TOML file).
+// Shared `--machine` / `--set` options for every subcommand that needs a printer.
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 
 #include "amctl/machine/machine.hpp"
 
@@ -22,8 +20,5 @@ void add_machine_options(CLI::App& cmd, MachineOptions& options);
 
 /// load_machine(spec, overrides): the validated machine, or amctl::Error.
 machine::Machine resolve_machine(const MachineOptions& options);
-
-/// Every field of `m`, plus an "effective" object with the limits Klipper derives.
-nlohmann::json machine_json(const machine::Machine& m);
 
 }  // namespace amctl::cli
