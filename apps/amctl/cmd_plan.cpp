@@ -1,7 +1,9 @@
-// `amctl plan FILE [-o moves.csv] [--json]`: every planned move as CSV (plan::MovesCsvSink),
-// with the estimate computed in the same pass.
+// `amctl plan FILE [-o moves.csv] [--json] [--t-begin/--t-end S] [--layer-begin/--layer-end N]`:
+// the planned moves as CSV: PlanSource -> SelectStage (a range, when asked) -> MovesCsvSink.
 #include <iostream>
 #include <memory>
+#include <optional>
+#include <vector>
 #include <string>
 
 #include <fmt/format.h>
@@ -9,7 +11,8 @@
 #include "amctl/core/error.hpp"
 #include "amctl/core/json.hpp"
 #include "amctl/machine/loader.hpp"
-#include "amctl/plan/estimate.hpp"
+#include "amctl/plan/select_stage.hpp"
+#include "amctl/plan/stream.hpp"
 #include "amctl/plan/moves_csv.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
@@ -23,6 +26,8 @@ struct PlanArgs {
   std::string output;
   bool json = false;
   bool lenient = false;
+  std::optional<double> t_begin, t_end;
+  std::optional<int> layer_begin, layer_end;
 };
 
 void run_plan(const PlanArgs& a) {
@@ -30,35 +35,41 @@ void run_plan(const PlanArgs& a) {
     throw Error("plan --json prints a summary: give the CSV file with -o/--output");
   }
   const machine::Machine m = resolve_machine(a.machine);
+  plan::SelectOptions sel;
+  if (a.t_begin) sel.t_begin_s = *a.t_begin;
+  if (a.t_end) sel.t_end_s = *a.t_end;
+  if (a.layer_begin) sel.layer_begin = *a.layer_begin;
+  if (a.layer_end) sel.layer_end = *a.layer_end;
+  plan::SelectStage select(sel);
+  std::vector<plan::Stage*> stages;
+  if (a.t_begin || a.t_end || a.layer_begin || a.layer_end) stages.push_back(&select);
   plan::SourceOptions so;
   so.strict = !a.lenient;
   plan::PlanSource source(a.file, m, so);
-  plan::EstimateSink estimate(m);
-  std::uint64_t rows = 0;
   if (a.output.empty()) {
     plan::MovesCsvSink csv(std::cout);
-    plan::Sink* sinks[] = {&csv, &estimate};
-    plan::run_pipeline(source, sinks);
+    plan::Sink* sinks[] = {&csv};
+    plan::run_pipeline(source, stages, sinks);
     return;
   }
   plan::MovesCsvFile csv(a.output);
-  plan::Sink* sinks[] = {&csv, &estimate};
-  plan::run_pipeline(source, sinks);
+  plan::Sink* sinks[] = {&csv};
+  plan::run_pipeline(source, stages, sinks);
   csv.commit();
-  rows = csv.rows();
-  const plan::EstimateReport& r = estimate.report();
+  const std::uint64_t rows = csv.rows();
+  const double total_s = source.summary().end_time_s;
   if (a.json) {
     Json features = Json::array();
     for (const auto& name : source.summary().feature_names) features.push_back(name);
     std::cout << Json{{"file", a.file}, {"machine", m.name}, {"output", a.output},
-                      {"moves", rows}, {"total_time_s", r.total_time_s},
+                      {"moves", rows}, {"total_time_s", total_s},
                       {"feature_names", features}}
                      .dump(2)
               << "\n";
     return;
   }
-  std::cout << fmt::format("{}: {} moves, {:.3f} s of print time -> {}\n", a.file, rows,
-                           r.total_time_s, a.output);
+  std::cout << fmt::format("{}: {} moves written to {} (the whole print takes {:.3f} s)\n", a.file,
+                           rows, a.output, total_s);
 }
 
 }  // namespace
@@ -72,6 +83,10 @@ void register_plan(CLI::App& app) {
   sub->add_option("-o,--output", a->output,
                   "CSV file (written whole or not at all); default: standard output");
   sub->add_flag("--json", a->json, "Print a JSON summary (needs -o)");
+  sub->add_option("--t-begin", a->t_begin, "only moves that end at or after this print time [s]");
+  sub->add_option("--t-end", a->t_end, "only moves that start at or before this print time [s]");
+  sub->add_option("--layer-begin", a->layer_begin, "only moves from this layer on");
+  sub->add_option("--layer-end", a->layer_end, "only moves up to this layer");
   sub->add_flag("--lenient", a->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->callback([a] { run_plan(*a); });
 }

@@ -334,3 +334,60 @@ TEST(MovesCsv, AFileIsWrittenWholeOrNotAtAll) {
 
 }  // namespace
 }  // namespace amctl::plan
+
+#include "amctl/plan/select_stage.hpp"
+
+namespace amctl::plan {
+namespace {
+
+TEST(SelectStage, KeepsExactlyTheMovesAndEventsOfTheRangeWhateverTheBatchSize) {
+  const std::string g = zigzag(6, 20);
+  PlanSource whole(g, "z.gcode", klipper());
+  CollectSink all;
+  Sink* all_sinks[] = {&all};
+  run_pipeline(whole, all_sinks);
+  // Reference selection written out on the whole stream: layers 2..3 (0-based layer numbers
+  // from the ;LAYER_CHANGE comments) and print time <= 15 s (layer 3 is cut: layers take about 4.4 s).
+  SelectOptions o;
+  o.layer_begin = 2;
+  o.layer_end = 3;
+  o.t_end_s = 15.0;
+  std::vector<PlannedMove> expected;
+  for (const PlannedMove& m : all.moves) {
+    if (m.layer >= 2 && m.layer <= 3 && m.start_time_s <= 15.0) expected.push_back(m);
+  }
+  ASSERT_GT(expected.size(), 10u);
+  ASSERT_LT(expected.size(), all.moves.size() / 2);
+  for (std::size_t n : {1u, 9u, 4096u}) {
+    SourceOptions so;
+    so.batch_moves = n;
+    PlanSource s(g, "z.gcode", klipper(), so);
+    SelectStage select(o);
+    CollectSink got;
+    Stage* stages[] = {&select};
+    Sink* sinks[] = {&got};
+    run_pipeline(s, stages, sinks);
+    ASSERT_EQ(got.moves.size(), expected.size()) << n;
+    for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_TRUE(same_bits(got.moves[i], expected[i]));
+    EXPECT_EQ(select.kept_moves(), expected.size());
+    EXPECT_EQ(select.dropped_moves(), all.moves.size() - expected.size());
+    // Events: the layer changes to 2 and 3 are kept, each before the first move of its layer.
+    std::vector<std::int32_t> layers;
+    for (const PlanEvent& e : got.events) {
+      if (e.kind == PlanEvent::Kind::layer) {
+        layers.push_back(e.layer);
+        ASSERT_LT(e.before_move, got.moves.size());
+        EXPECT_EQ(got.moves[e.before_move].layer, e.layer);
+      }
+    }
+    EXPECT_EQ(layers, (std::vector<std::int32_t>{2, 3})) << n;
+  }
+  EXPECT_THROW(SelectStage(SelectOptions{5.0, 4.0}), Error);
+  SelectOptions bad;
+  bad.layer_begin = 3;
+  bad.layer_end = 2;
+  EXPECT_THROW(SelectStage{bad}, Error);
+}
+
+}  // namespace
+}  // namespace amctl::plan
