@@ -22,6 +22,8 @@ function(amctl_add_test)
   target_compile_definitions(${T_NAME} PRIVATE
     AMCTL_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     AMCTL_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  # Test names carry the executable ("plan_tests.PlanStream.X"), so `ctest -R plan` selects a
+  # module's suites.
   gtest_discover_tests(${T_NAME} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-    DISCOVERY_TIMEOUT 60)
+    TEST_PREFIX "${T_NAME}." DISCOVERY_TIMEOUT 60)
 endfunction()
