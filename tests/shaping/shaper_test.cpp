@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -167,6 +168,36 @@ TEST(Shaper, EiLeavesItsToleranceAtTheDesignFrequency) {
     EXPECT_NEAR(remaining_vibration(s, 45.0, zeta), 0.05, 0.003) << zeta;
     const Shaper s10 = make_shaper("ei(v_tol=0.1)", 45.0, zeta);
     EXPECT_NEAR(remaining_vibration(s10, 45.0, zeta), 0.1, 0.006) << zeta;
+  }
+}
+
+TEST(Shaper, UndampedEiFamilyIsCloseToSinghosesClosedForms) {
+  // Klipper's EI shapers are curve fits over zeta; at zeta = 0 they should land on the exact
+  // undamped shapers (Singhose et al. 1997, V = 0.05), with impulses every half period:
+  //   EI:       [(1+V)/4, (1-V)/2, (1+V)/4]
+  //   2-hump:   X = (V^2 (sqrt(1-V^2) + 1))^(1/3), a1 = (3X^2 + 2X + 3V^2) / (16X),
+  //             [a1, 1/2 - a1, 1/2 - a1, a1]
+  //   3-hump:   a1 = (1 + 3V + 2 sqrt(2 (V^2 + V))) / 16, a2 = (1 - V)/4,
+  //             [a1, a2, 1 - 2 (a1 + a2), a2, a1]
+  // The fits agree to about 1e-3 in amplitude and 3e-3 periods in time (the fits' own error).
+  const double V = 0.05;
+  const double f = 50.0;
+  const double X = std::cbrt(V * V * (std::sqrt(1.0 - V * V) + 1.0));
+  const double h1 = (3.0 * X * X + 2.0 * X + 3.0 * V * V) / (16.0 * X);
+  const double e1 = (1.0 + 3.0 * V + 2.0 * std::sqrt(2.0 * (V * V + V))) / 16.0;
+  const double e2 = (1.0 - V) / 4.0;
+  const std::vector<std::pair<const char*, std::vector<double>>> cases = {
+      {"ei", {(1 + V) / 4, (1 - V) / 2, (1 + V) / 4}},
+      {"2hump_ei", {h1, 0.5 - h1, 0.5 - h1, h1}},
+      {"3hump_ei", {e1, e2, 1.0 - 2.0 * (e1 + e2), e2, e1}}};
+  for (const auto& [name, expect] : cases) {
+    const Shaper s = make_shaper(name, f, 0.0);
+    const auto a = s.normalized_amplitudes();
+    ASSERT_EQ(a.size(), expect.size()) << name;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_NEAR(a[i], expect[i], 2e-3) << name << " " << i;
+      EXPECT_NEAR(s.times_s[i] * f, 0.5 * i, 3e-3) << name << " " << i;
+    }
   }
 }
 
