@@ -4,8 +4,9 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <utility>
+#include <vector>
 
-#include <Eigen/Dense>
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
@@ -40,51 +41,90 @@ void binomial(const Damped& dm, int n, Shaper& s) {
   }
 }
 
+/// Solves S x = b (S symmetric positive semi-definite, n x n) by Gaussian elimination with
+/// partial pivoting that eliminates the columns from the last to the first, then forward
+/// substitution: the order of Klipper's mathutil.gaussian_solve, so that the same systems are
+/// refused (a pivot below 1e-10 in absolute value) and the same doubles come out. Returns
+/// false when refused.
+bool solve_last_column_first(std::vector<std::vector<double>> S, std::vector<double> b,
+                             std::vector<double>& x) {
+  const std::size_t n = S.size();
+  for (std::size_t i = n; i-- > 0;) {
+    std::size_t p = 0;  // first row (of 0..i) with the largest |S[row][i]|
+    for (std::size_t r = 1; r <= i; ++r) {
+      if (std::abs(S[r][i]) > std::abs(S[p][i])) p = r;
+    }
+    std::swap(S[i], S[p]);
+    std::swap(b[i], b[p]);
+    if (std::abs(S[i][i]) < 1e-10) return false;
+    const double recip = 1.0 / S[i][i];
+    for (std::size_t k = 0; k < i; ++k) S[i][k] *= recip;
+    b[i] *= recip;
+    for (std::size_t r = 0; r < i; ++r) {
+      const double c = S[r][i];
+      for (std::size_t k = 0; k < i; ++k) S[r][k] -= c * S[i][k];
+      b[r] -= c * b[i];
+    }
+  }
+  // Row i now reads x_i + sum_{k<i} S[i][k] x_k = b_i.
+  x = b;
+  for (std::size_t i = 1; i < n; ++i) {
+    double dot = 0.0;
+    for (std::size_t k = 0; k < i; ++k) dot += S[i][k] * x[k];
+    x[i] -= dot;
+  }
+  return true;
+}
+
 /// Klipper's generalised MZV: n equally spaced impulses over t damped periods whose
 /// undamped amplitudes sum to 1 and put zeros of the shaper's response at the frequencies
 /// (1 + i / tau) f, i = 0..n-2, tau = t (n-2) / (n-2t-1). Solved in the least-squares sense
-/// (normal equations) as Klipper does; the system is consistent, so this is its solution.
+/// (normal equations M^T M a = M^T e_0) as Klipper does; the system is consistent, so this is
+/// its solution.
 void mzv(const ShaperSpec& spec, const Damped& dm, double zeta, Shaper& s) {
   const int n = spec.mzv_n;
   const double t = spec.mzv_t;
   const double tau = t * (n - 2.0) / (n - 2.0 * t - 1.0);
-  Eigen::VectorXd T(n);
-  for (int j = 0; j < n; ++j) T(j) = j * t / (n - 1.0);
-  const int rows = 1 + 2 * (n - 1);
-  Eigen::MatrixXd M(rows, n);
-  M.row(0).setOnes();
-  for (int i = 0; i < n - 1; ++i) {
-    for (int j = 0; j < n; ++j) {
-      const double w = 2.0 * kPi * (1.0 + i / tau) * T(j);
-      M(1 + 2 * i, j) = std::cos(w);
-      M(2 + 2 * i, j) = std::sin(w);
+  const auto un = static_cast<std::size_t>(n);
+  std::vector<double> T(un);
+  for (int j = 0; j < n; ++j) T[static_cast<std::size_t>(j)] = j * t / (n - 1.0);
+  // Columns of M (one per impulse): 1, then cos and sin of each zero's phase.
+  std::vector<std::vector<double>> col(un);
+  for (std::size_t j = 0; j < un; ++j) {
+    col[j].push_back(1.0);
+    for (int i = 0; i < n - 1; ++i) {
+      const double w = 2.0 * kPi * (1.0 + i / tau) * T[j];
+      col[j].push_back(std::cos(w));
+      col[j].push_back(std::sin(w));
     }
   }
-  const Eigen::MatrixXd MtM = M.transpose() * M;
-  Eigen::FullPivLU<Eigen::MatrixXd> lu(MtM);
-  lu.setThreshold(1e-10);
-  if (!lu.isInvertible()) {
+  std::vector<std::vector<double>> MtM(un, std::vector<double>(un, 0.0));
+  for (std::size_t i = 0; i < un; ++i) {
+    for (std::size_t j = 0; j < un; ++j) {
+      double sum = 0.0;
+      for (std::size_t r = 0; r < col[i].size(); ++r) sum += col[i][r] * col[j][r];
+      MtM[i][j] = sum;
+    }
+  }
+  std::vector<double> A;
+  if (!solve_last_column_first(MtM, std::vector<double>(un, 1.0), A)) {  // M^T e_0 = ones
     throw Error(fmt::format("type mzv(n={}, t={}): ill-formed shaper (singular system)", n, t));
   }
-  const Eigen::VectorXd A = lu.solve(M.transpose().col(0));  // M^T e_0 (F = e_0)
-  for (int j = 0; j < n; ++j) {
-    if (A(j) < -1e-5) {
+  for (std::size_t j = 0; j < un; ++j) {
+    if (A[j] < -1e-5) {
       throw Error(fmt::format("type mzv(n={}, t={}): negative-valued shaper (amplitude {} = {})",
-                              n, t, j, A(j)));
+                              n, t, j, A[j]));
     }
   }
   // Damping: impulse j is j t / (n-1) damped periods late, so it is scaled by K_step^j with
   // K_step = exp(-2 t zeta pi / ((n-1) d)) (K^(2t/(n-1)) in the notation of shaper.hpp).
   const double K = std::exp(-2.0 * t * zeta * kPi / ((n - 1.0) * dm.d));
   double Kp = K;
-  for (int j = 0; j < n; ++j) {
-    if (j == 0) {
-      s.amplitudes.push_back(A(0));
-      s.times_s.push_back(T(0));
-      continue;
-    }
-    s.amplitudes.push_back(A(j) * Kp);
-    s.times_s.push_back(T(j) * dm.t_d_s);
+  s.amplitudes.push_back(A[0]);
+  s.times_s.push_back(T[0]);
+  for (std::size_t j = 1; j < un; ++j) {
+    s.amplitudes.push_back(A[j] * Kp);
+    s.times_s.push_back(T[j] * dm.t_d_s);
     Kp *= K;
   }
 }
