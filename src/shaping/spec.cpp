@@ -22,6 +22,8 @@ constexpr std::array<ShaperType, 8> kTypes = {
     ShaperType::zv,          ShaperType::mzv,           ShaperType::zvd,  ShaperType::ei,
     ShaperType::two_hump_ei, ShaperType::three_hump_ei, ShaperType::zvdd, ShaperType::zvddd};
 
+constexpr int kMaxMzvImpulses = 64;
+
 std::string_view trim(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
@@ -147,6 +149,11 @@ ShaperSpec parse_shaper_spec(std::string_view text) {
       t_periods = tau * (n - 1.0) / (n + 2.0 * tau - 2.0);
     }
     if (n < 3) bad_parameter(text, fmt::format("n = {} is too small, must be at least 3", n));
+    // Klipper's motion code (kin_shaper.c) applies at most 10 impulses; its definitions have
+    // no limit. amctl keeps a generous one so that a typo cannot ask for an n^2 system of 1e12.
+    if (n > kMaxMzvImpulses) {
+      bad_parameter(text, fmt::format("n = {} is too large, must be at most {}", n, kMaxMzvImpulses));
+    }
     if (n <= 2.0 * t_periods + 1.0 + 1e-7) {
       bad_parameter(text, fmt::format("t = {:.6f} is too large for n = {}, must be less than {:.6f}",
                                       t_periods, n, 0.5 * (n - 1)));

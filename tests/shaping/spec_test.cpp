@@ -55,6 +55,9 @@ TEST(ShaperSpec, RejectsWhatKlipperRejects) {
                                  "ei, 2hump_ei, 3hump_ei, zvdd, zvddd"),
             std::string::npos);
   EXPECT_NE(error_of("mzv(n=2)").find("n = 2 is too small, must be at least 3"), std::string::npos);
+  EXPECT_NE(error_of("mzv(n=1000000)").find("n = 1000000 is too large, must be at most 64"),
+            std::string::npos);
+  EXPECT_EQ(error_of("mzv(n=64)"), "");
   EXPECT_NE(error_of("mzv(n=3, t=1.0)").find("t = 1.000000 is too large for n = 3, must be less than 1.000000"),
             std::string::npos);
   EXPECT_EQ(error_of("mzv(n=4, t=1)"), "");

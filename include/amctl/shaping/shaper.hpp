@@ -48,7 +48,8 @@ struct ShaperSpec {
 
 /// Parses a shaper type (see ShaperSpec). Throws amctl::Error naming `type`, the text and
 /// the valid names for an unknown type, and the parameter for a bad or out-of-range one
-/// (Klipper's own limits for mzv: n >= 3, t < (n - 1)/2; tau= gives t = tau (n-1)/(n+2tau-2)).
+/// (Klipper's own limits for mzv: n >= 3, t < (n - 1)/2; tau= gives t = tau (n-1)/(n+2tau-2);
+/// and amctl's n <= 64. Klipper's motion code applies at most 10 impulses.)
 [[nodiscard]] ShaperSpec parse_shaper_spec(std::string_view text);
 
 /// The canonical spelling: "zv", "mzv", "mzv(n=4, t=0.9)", "2hump_ei", "ei(v_tol=0.1)", ...
