@@ -8,5 +8,6 @@ void register_all(CLI::App& app) {
   register_thermal(app);
   register_process(app);
   register_machine(app);
+  register_shaper(app);
 }
 }  // namespace amctl::cli

@@ -25,4 +25,6 @@ void register_process(CLI::App& app);
 void run_empirical_estimate(const std::string& file, const std::string& params_json, bool as_json);
 /// `amctl machine show|list|keys` (cmd_machine.cpp).
 void register_machine(CLI::App& app);
+/// `amctl shaper show` (cmd_shaper.cpp).
+void register_shaper(CLI::App& app);
 }  // namespace amctl::cli

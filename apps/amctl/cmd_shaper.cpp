@@ -1,0 +1,57 @@
+// `amctl shaper show --type T --freq-hz F --damping-ratio Z [--residual-at-hz F1,F2,...]
+//  [--test-damping-ratio Z2] [--json]`: one input shaper's impulses and Klipper's figures
+// for it (shaping/report.hpp; docs/shaping.md).
+#include <iostream>
+#include <memory>
+
+#include "amctl/shaping/report.hpp"
+#include "commands.hpp"
+
+namespace amctl::cli {
+namespace {
+
+struct ShowArgs {
+  shaping::ShaperReportOptions options;
+  double test_damping_ratio = 0.0;
+  bool json = false;
+};
+
+}  // namespace
+
+void register_shaper(CLI::App& app) {
+  CLI::App* shaper = app.add_subcommand("shaper", "Input shapers (ZV, MZV, ZVD, EI, ...)");
+  shaper->require_subcommand(1);
+
+  auto a = std::make_shared<ShowArgs>();
+  CLI::App* show = shaper->add_subcommand(
+      "show", "Impulses, smoothing, max accel and residual vibration of one shaper (Klipper's "
+              "definitions and estimates)");
+  show->add_option("--type", a->options.type,
+                   "zv, mzv, zvd, ei, 2hump_ei, 3hump_ei, zvdd, zvddd; mzv(n=N, t=T), "
+                   "ei(v_tol=V)")
+      ->required();
+  show->add_option("--freq-hz", a->options.freq_hz, "Shaper frequency [Hz]")->required();
+  show->add_option("--damping-ratio", a->options.damping_ratio,
+                   "Damping ratio the shaper is designed for, in [0, 1)")
+      ->required();
+  show->add_option("--residual-at-hz", a->options.residual_at_hz,
+                   "Frequencies [Hz] at which to report the remaining vibration (default: the "
+                   "shaper frequency)")
+      ->delimiter(',');
+  CLI::Option* test_dr = show->add_option(
+      "--test-damping-ratio", a->test_damping_ratio,
+      "Damping ratio of the vibrating mode for the residual (default: --damping-ratio)");
+  show->add_flag("--json", a->json, "Print one JSON object");
+  show->callback([a, test_dr] {
+    shaping::ShaperReportOptions o = a->options;
+    if (test_dr->count() > 0) o.test_damping_ratio = a->test_damping_ratio;
+    const shaping::ShaperReport r = shaping::shaper_report(o);
+    if (a->json) {
+      std::cout << shaping::to_json(r).dump(2) << "\n";
+    } else {
+      std::cout << shaping::to_text(r);
+    }
+  });
+}
+
+}  // namespace amctl::cli
