@@ -37,8 +37,18 @@ run() {  # run NAME CMD...: stdout and exit status into $out/NAME
   rm -f "$out/$name.tmp"
 }
 
+# The shared corpus sits beside the clone (../shared); from a git worktree deeper down, look
+# further up, or set AMCTL_CORPUS_DIR.
+corpus=${AMCTL_CORPUS_DIR:-}
+if [ -z "$corpus" ]; then
+  d=$root
+  while [ "$d" != / ]; do
+    d=$(dirname "$d")
+    if [ -d "$d/shared/corpus/gcode" ]; then corpus=$(realpath --relative-to="$root" "$d/shared/corpus"); break; fi
+  done
+fi
 gcodes=(examples/gcode/*.gcode examples/*.gcode tests/reference/klipper/*.gcode)
-if [ -d ../shared/corpus/gcode ]; then gcodes+=(../shared/corpus/gcode/*.gcode); fi
+if [ -n "$corpus" ]; then gcodes+=("$corpus"/gcode/*.gcode); fi
 machines=(default ender3 prusa-mk3s voron24 configs/klipper-voron-v0.cfg
           examples/30_seed000_printer.cfg
           tests/reference/klipper/ender3_cartesian.cfg tests/reference/klipper/v0_corexy.cfg)
@@ -87,14 +97,14 @@ run shrink_fit1.txt "$amctl" shrink fit examples/04_shrink_geometry1.csv
 run shrink_fit4.json "$amctl" shrink fit examples/04_shrink_geometry4.csv --json
 run shrink_fit_ranges.json "$amctl" shrink fit examples/04_shrink_geometry1.csv --ranges 2 --json
 run shrink_slicing.txt "$amctl" shrink slicing examples/04_shrink_geometry4.csv
-if [ -f ../shared/corpus/models/ringing_tower.stl ]; then
+if [ -f "$corpus/models/ringing_tower.stl" ]; then
   run shrink_fit_save.json "$amctl" shrink fit examples/04_shrink_geometry1.csv --json
   cp "$out/shrink_fit_save.json" "$tmp/fit.json"; sed -i '$d' "$tmp/fit.json"
-  run shrink_apply_stl.json "$amctl" shrink apply --model ../shared/corpus/models/ringing_tower.stl \
+  run shrink_apply_stl.json "$amctl" shrink apply --model "$corpus/models/ringing_tower.stl" \
       --factors "$tmp/fit.json" --layer-mm 0.2 -o "$tmp/scaled.stl" --json
   run shrink_apply_stl_md5.txt md5sum - <"$tmp/scaled.stl"
 fi
-for g in examples/gcode/*.gcode ../shared/corpus/gcode/benchy_cura-5.3.gcode; do
+for g in examples/gcode/*.gcode "$corpus/gcode/benchy_cura-5.3.gcode"; do
   [ -f "$g" ] || continue
   gb=$(basename "$g" .gcode)
   run "empirical__$gb.json" "$amctl" estimate "$g" --mode empirical --json
