@@ -51,7 +51,7 @@ def iter_plan(path, machine=None, set=None, *, batch_moves=4096, lenient=False,
     """Yields the planned moves batch by batch, each a numpy structured array of MOVE_DTYPE.
 
     Memory stays bounded on a whole print: one batch of about ``batch_moves`` moves (the
-    planner may release a few more at once; about 170 bytes per move) plus the planner's
+    planner may release a few more at once; 192 bytes per move) plus the planner's
     look-ahead. Each batch comes from one
     ``plan::PlanSource::next()`` call, run with the GIL released.
 
@@ -94,8 +94,8 @@ def plan(path, machine=None, set=None, *, lenient=False, t_begin=None, t_end=Non
     """Every planned move as one numpy structured array (MOVE_DTYPE; see iter_plan).
 
     The same rows and values as ``amctl plan FILE`` (one row per move, in plan order). The
-    array holds the whole print: about 170 bytes per move (a 2-hour print of 10^6 moves is
-    ~170 MB, twice that for a moment while the batches are joined). Use iter_plan() or a
+    array holds the whole print: 192 bytes per move (a 2-hour print of 10^6 moves is
+    ~190 MB, twice that for a moment while the batches are joined). Use iter_plan() or a
     t_/layer_ range for less. Arguments as iter_plan().
     """
     batches = list(iter_plan(path, machine, set, batch_moves=batch_moves, lenient=lenient,

@@ -195,6 +195,13 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
       .def("__eq__", [](const MachineValue& a, const MachineValue& b) { return a.m == b.m; })
       .def("__copy__", [](const MachineValue& a) { return a; })
       .def("__deepcopy__", [](const MachineValue& a, py::handle) { return a; })
+      .def(py::pickle(  // as its TOML text (to_toml reads back to an equal machine) and source
+          [](const MachineValue& v) { return py::make_tuple(mc::to_toml(v.m), v.source); },
+          [](const py::tuple& t) {
+            if (t.size() != 2) throw std::runtime_error("amctl.Machine: bad pickle state");
+            return MachineValue{mc::parse_machine_toml(t[0].cast<std::string>(), "<pickled machine>"),
+                                t[1].cast<std::string>()};
+          }))
       .def_property_readonly("source", [](const MachineValue& v) { return v.source; },
                              "the spec the machine was loaded from ('default' when none was given)")
       .def("__repr__", [](const MachineValue& v) {

@@ -42,7 +42,9 @@ const Layout& layout() {
   static const Layout* l = [] {
     py::list spec;
     for (const auto& [name, type] : move_fields()) spec.append(py::make_tuple(name, type));
-    auto* out = new Layout{py::dtype::from_args(spec), 0, {}};
+    // Aligned (C struct layout): numpy reads every double field without an unaligned copy.
+    py::dtype dt = py::module_::import("numpy").attr("dtype")(spec, py::arg("align") = true);
+    auto* out = new Layout{dt, 0, {}};
     py::dict fields = out->dtype.attr("fields");
     for (const auto& [name, type] : move_fields()) {
       out->offset.push_back(py::cast<std::size_t>(py::tuple(fields[name])[1]));

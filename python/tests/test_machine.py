@@ -86,3 +86,14 @@ def test_wrong_types_are_type_errors_naming_the_parameter():
         amctl.Machine.load("default", set="printer.max_accel=5")
     with pytest.raises(TypeError, match=r"set\['printer.max_accel'\]"):
         amctl.Machine.load("default", set={"printer.max_accel": {"a": 1}})
+
+
+def test_machines_pickle_to_an_equal_machine():
+    # (worker processes, e.g. fleet runs, receive machines pickled)
+    import copy
+    import pickle
+    m = amctl.Machine.load("prusa-mk3s", set={"printer.max_accel": 1500, "printer.profile": "bezier5"})
+    back = pickle.loads(pickle.dumps(m))
+    assert back == m
+    assert back.to_dict() == m.to_dict()
+    assert copy.deepcopy(m) == m
