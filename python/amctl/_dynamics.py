@@ -80,8 +80,8 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
             or a jerk-limited machine, the dict has peak_accel_mm_s2 and peak_jerk_mm_s3.
         motor_space: apply the models to the motors (corexy A, B) instead of X and Y.
         worst: how many worst places to list; corner_window_s [s]: time watched per corner.
-        samples: also return the samples, under the key "samples": a dict of 1-D numpy
-            arrays ``t_s`` [s], ``cmd_x_mm``, ``cmd_y_mm``, ``cmd_z_mm`` (commanded),
+        samples: also return the samples, under the key "trace" (the key "samples" is the
+            metrics' sample count, as in the CLI's JSON): a dict of 1-D numpy arrays ``t_s`` [s], ``cmd_x_mm``, ``cmd_y_mm``, ``cmd_z_mm`` (commanded),
             ``sim_x_mm``, ``sim_y_mm`` (simulated nozzle) [mm], ``contour_error_mm`` [mm],
             ``vibration_mm`` [mm] (free-vibration amplitude) and ``line`` (G-code line):
             the rows of ``amctl simulate --csv`` (samples inside the measured range).

@@ -94,7 +94,7 @@ py::object simulate(const std::string& path, const MachineValue& mach_value, con
     j = dy::to_json(r, with_peaks);
   }
   py::dict out(to_python(j));
-  if (samples) out["samples"] = rows.arrays();
+  if (samples) out["trace"] = rows.arrays();  // "samples" is the count of the metrics
   return out;
 }
 

@@ -22,7 +22,7 @@ def corner(source_dir):
 
 
 def _without_compute_time(d):
-    return {k: v for k, v in d.items() if k not in ("compute_time_s", "samples")}
+    return {k: v for k, v in d.items() if k != "compute_time_s"}
 
 
 def test_seed_corner_matches_the_closed_form_and_the_scipy_reference(corner):
@@ -41,7 +41,7 @@ def test_a_rigid_axis_follows_the_command_exactly(corner):
     path, cfg = corner
     rigid = amctl.AxisModel.rigid()
     r = amctl.simulate(path, machine=cfg, model_x=rigid, model_y=rigid, samples=True)
-    s = r["samples"]
+    s = r["trace"]
     assert r["max_contour_error_mm"] == pytest.approx(0.0, abs=1e-12)  # distance rounding only
     assert np.array_equal(s["sim_x_mm"], s["cmd_x_mm"])
     assert np.array_equal(s["sim_y_mm"], s["cmd_y_mm"])
@@ -50,12 +50,15 @@ def test_a_rigid_axis_follows_the_command_exactly(corner):
 def test_samples_are_the_measured_samples(corner):
     path, cfg = corner
     r = amctl.simulate(path, machine=cfg, natural_frequency_hz=40, damping_ratio=0.1, samples=True)
-    s = r["samples"]
+    s = r["trace"]
     assert set(s) == {"t_s", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm", "sim_x_mm", "sim_y_mm",
                       "contour_error_mm", "vibration_mm", "line"}
-    n = r["samples"]["t_s"].size
+    n = s["t_s"].size
     assert all(a.shape == (n,) for a in s.values())
-    assert n == amctl.simulate(path, machine=cfg, natural_frequency_hz=40)["samples"]
+    assert n == r["samples"]  # every measured sample (the metrics' count)
+    plain = amctl.simulate(path, machine=cfg, natural_frequency_hz=40, damping_ratio=0.1)
+    assert "trace" not in plain
+    assert _without_compute_time(plain) == {k: v for k, v in _without_compute_time(r).items() if k != "trace"}
     assert np.allclose(np.diff(s["t_s"]), 1e-3, rtol=0, atol=1e-12)  # 1 kHz
     assert s["contour_error_mm"].max() == r["max_contour_error_mm"]
     assert math.sqrt(np.mean(s["contour_error_mm"] ** 2)) == pytest.approx(r["rms_contour_error_mm"], rel=1e-9)
@@ -66,7 +69,7 @@ def test_samples_are_the_measured_samples(corner):
     assert not s["t_s"].flags["OWNDATA"] and s["t_s"].base is not None
 
     ten = amctl.simulate(path, machine=cfg, natural_frequency_hz=40, samples=True, samples_rate_hz=100)
-    assert np.array_equal(ten["samples"]["t_s"], s["t_s"][::10])
+    assert np.array_equal(ten["trace"]["t_s"], s["t_s"][::10])
 
 
 def test_samples_agree_with_the_cli_csv(cli, corner, tmp_path):
@@ -74,7 +77,7 @@ def test_samples_agree_with_the_cli_csv(cli, corner, tmp_path):
     csv = tmp_path / "sim.csv"
     cli("simulate", path, "--machine", cfg, "--natural-frequency-hz", 40, "--csv", csv)
     want = np.genfromtxt(csv, delimiter=",", names=True)
-    s = amctl.simulate(path, machine=cfg, natural_frequency_hz=40, samples=True)["samples"]
+    s = amctl.simulate(path, machine=cfg, natural_frequency_hz=40, samples=True)["trace"]
     assert len(want) == len(s["t_s"])
     for name in ("t_s", "cmd_x_mm", "cmd_y_mm", "sim_x_mm", "sim_y_mm"):  # written as %.6f
         assert np.allclose(s[name], want[name], rtol=0, atol=5.1e-7), name
