@@ -14,7 +14,7 @@ the parameter.
 """
 
 from ._errors import Error, InternalError
-from ._amctl import AxisModel, Machine, MOVE_DTYPE
+from ._amctl import AxisModel, Machine, MOVE_DTYPE, __version__
 from ._planning import estimate, iter_plan, plan
 from ._dynamics import simulate
 from ._thermal import bed, hotend, sls_build, sls_margins

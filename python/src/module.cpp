@@ -158,6 +158,7 @@ PYBIND11_MODULE(_amctl, m) {
   using namespace amctl::py_bind;
   namespace mc = amctl::machine;
   m.doc() = "amctl's compiled core; use the package `amctl` (docs/python.md).";
+  m.attr("__version__") = AMCTL_VERSION;
 
   py::module_ errors = py::module_::import("amctl._errors");
   g_error = py::object(errors.attr("Error")).release().ptr();

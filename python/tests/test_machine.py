@@ -8,6 +8,12 @@ import amctl
 from conftest import SIMPLE
 
 
+def test_version_is_the_projects(source_dir):
+    import re
+    text = (source_dir / "CMakeLists.txt").read_text()
+    assert amctl.__version__ == re.search(r"project\(amctl VERSION ([0-9.]+)", text).group(1)
+
+
 def test_presets_are_listed_and_load():
     names = amctl.Machine.presets()
     assert "voron24" in names and "default" in names
