@@ -68,3 +68,14 @@ def machine(value, set_, param="machine"):
     if value is None or isinstance(value, (str, os.PathLike)):
         return Machine.load(None if value is None else path(value, param), set=set_)
     raise TypeError(f"{param} must be a preset name, a path or an amctl.Machine, got {type(value).__name__}")
+
+
+def alias(value, name, cli_value, cli_name, default):
+    """A parameter that may also be given by its command-line spelling (kp for kp_w_m2k):
+    the one given, else the default; both given is an error."""
+    if cli_value is not None:
+        if value is not None:
+            from ._errors import Error
+            raise Error(f"give {name} or {cli_name} (the same parameter), not both")
+        return cli_value
+    return default if value is None else value

@@ -55,7 +55,7 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
              stiffness_n_per_m=None, damping_n_s_per_m=None, modes=None, model_x=None,
              model_y=None, sample_rate_hz=1000.0, t_begin=None, t_end=None, layer_begin=None,
              layer_end=None, profile=None, jerk_mm_s3=None, motor_space=False, worst=10,
-             corner_window_s=0.25, samples=False, samples_rate_hz=None):
+             corner_window_s=0.25, samples=False, samples_rate_hz=None, jerk=None):
     """Simulates the nozzle through the belt dynamics of X and Y and measures print quality.
 
     Returns the dict of ``amctl simulate FILE --json`` (``dynamics::simulate_print`` +
@@ -76,7 +76,8 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
         sample_rate_hz: simulation output rate [Hz] (> the models' Nyquist limit).
         t_begin, t_end [s]; layer_begin, layer_end: only measure (and sample) this range.
         profile: plan with 'trapezoid', 'scurve7' or 'bezier5' (as --set printer.profile=P);
-            jerk_mm_s3: the scurve7 jerk [mm/s^3] (as --set printer.max_jerk=J). With either,
+            jerk_mm_s3 (or jerk, as the flag): the scurve7 jerk [mm/s^3] (as
+            --set printer.max_jerk=J). With either,
             or a jerk-limited machine, the dict has peak_accel_mm_s2 and peak_jerk_mm_s3.
         motor_space: apply the models to the motors (corexy A, B) instead of X and Y.
         worst: how many worst places to list; corner_window_s [s]: time watched per corner.
@@ -94,6 +95,7 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
 
     The GIL is released while the simulation runs. Raises amctl.Error for bad input.
     """
+    jerk_mm_s3 = _args.alias(jerk_mm_s3, "jerk_mm_s3", jerk, "jerk", None)
     p = _args.path(path, "path")
     n_worst = _args.integer(worst, "worst")
     if n_worst < 0:

@@ -7,7 +7,7 @@ from . import _args
 
 
 def shrink_fit(csv_path, *, axis=None, average=False, ranges=1, breaks_mm=None, min_points=3,
-               confidence=0.95):
+               confidence=0.95, breaks=None):
     """Fits the measured error E = A h + B and the shrinkage factor C = 1/(1+A) per axis.
 
     The dict of ``amctl shrink fit FILE --json`` (``process::fit_shrinkage_file`` +
@@ -25,7 +25,9 @@ def shrink_fit(csv_path, *, axis=None, average=False, ranges=1, breaks_mm=None, 
         breaks_mm: breakpoints [mm], strictly increasing (replaces ranges).
         min_points: minimum points per automatically found range.
         confidence: two-sided confidence level of the intervals (0..1).
+        breaks: the command line's spelling of breaks_mm.
     """
+    breaks_mm = _args.alias(breaks_mm, "breaks_mm", breaks, "breaks", None)
     p = _args.path(csv_path, "csv_path")
     a = None
     if axis is not None:

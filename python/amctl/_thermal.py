@@ -5,9 +5,9 @@ from . import _amctl
 from . import _args
 
 
-def sls_margins(*, kp_w_m2k=0.3, ti_s=0.5, modes=1, length_mm=0.1, density_kg_m3=1010.0,
-                specific_heat_j_kgk=1928.0, conductivity_w_mk=0.28, beta_1_s=-0.01,
-                hamiltonian_modes=60):
+def sls_margins(*, kp_w_m2k=None, ti_s=None, modes=1, length_mm=0.1, density_kg_m3=None,
+                specific_heat_j_kgk=None, conductivity_w_mk=None, beta_1_s=None,
+                hamiltonian_modes=60, kp=None, ti=None, rho=None, cp=None, k=None, beta=None):
     """Additive-uncertainty margins of a PI on the SLS powder bed (seed 002, section 4).
 
     The dict of ``amctl thermal sls-margins --json`` (``thermal::run_margin_study``):
@@ -15,15 +15,23 @@ def sls_margins(*, kp_w_m2k=0.3, ti_s=0.5, modes=1, length_mm=0.1, density_kg_m3
     margins, Theorem 2, closed-loop stability and the Hankel bound (docs/thermal.md).
 
     Args:
-        kp_w_m2k:  PI gain kp [W/(m^2 K)].
-        ti_s:      PI integral time Ti [s].
+        kp_w_m2k:  PI gain kp [W/(m^2 K)] (default 0.3).
+        ti_s:      PI integral time Ti [s] (default 0.5).
         modes:     modal truncation order N (>= 1).
         length_mm: powder depth l [mm].
         density_kg_m3 [kg/m^3], specific_heat_j_kgk [J/(kg K)], conductivity_w_mk [W/(m K)]:
-                   the powder (defaults: PA12).
-        beta_1_s:  stability margin beta < 0 of the Hankel bound [1/s].
+                   the powder (defaults: PA12, 1010, 1928, 0.28).
+        beta_1_s:  stability margin beta < 0 of the Hankel bound [1/s] (default -0.01).
         hamiltonian_modes: modes M of the model used for the second margin on G (>= 1).
+        kp, ti, rho, cp, k, beta: the command line's spellings of kp_w_m2k, ti_s,
+                   density_kg_m3, specific_heat_j_kgk, conductivity_w_mk, beta_1_s.
     """
+    kp_w_m2k = _args.alias(kp_w_m2k, "kp_w_m2k", kp, "kp", 0.3)
+    ti_s = _args.alias(ti_s, "ti_s", ti, "ti", 0.5)
+    density_kg_m3 = _args.alias(density_kg_m3, "density_kg_m3", rho, "rho", 1010.0)
+    specific_heat_j_kgk = _args.alias(specific_heat_j_kgk, "specific_heat_j_kgk", cp, "cp", 1928.0)
+    conductivity_w_mk = _args.alias(conductivity_w_mk, "conductivity_w_mk", k, "k", 0.28)
+    beta_1_s = _args.alias(beta_1_s, "beta_1_s", beta, "beta", -0.01)
     return _amctl._sls_margins(
         _args.number(kp_w_m2k, "kp_w_m2k", "W/(m^2 K)"), _args.number(ti_s, "ti_s", "s"),
         _args.integer(modes, "modes"), _args.number(length_mm, "length_mm", "mm"),
@@ -87,13 +95,19 @@ _HEATER_DOC = """
 
 
 def hotend(*, target_c=None, noise_k=None, cycles=None, rule=None, power_w=None,
-           capacity_j_k=None, loss_w_k=None, fan_loss_w_k=None, sensor_tau_s=None):
+           capacity_j_k=None, loss_w_k=None, fan_loss_w_k=None, sensor_tau_s=None, target=None,
+           noise=None):
+    target_c = _args.alias(target_c, "target_c", target, "target", None)
+    noise_k = _args.alias(noise_k, "noise_k", noise, "noise", None)
     return _heater(False, target_c, noise_k, cycles, rule, power_w, capacity_j_k, loss_w_k,
                    fan_loss_w_k, sensor_tau_s)
 
 
 def bed(*, target_c=None, noise_k=None, cycles=None, rule=None, power_w=None,
-        capacity_j_k=None, loss_w_k=None, fan_loss_w_k=None, sensor_tau_s=None):
+        capacity_j_k=None, loss_w_k=None, fan_loss_w_k=None, sensor_tau_s=None, target=None,
+        noise=None):
+    target_c = _args.alias(target_c, "target_c", target, "target", None)
+    noise_k = _args.alias(noise_k, "noise_k", noise, "noise", None)
     return _heater(True, target_c, noise_k, cycles, rule, power_w, capacity_j_k, loss_w_k,
                    fan_loss_w_k, sensor_tau_s)
 

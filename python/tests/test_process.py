@@ -30,6 +30,7 @@ def test_shrink_fit_is_numpys_least_squares_line(source_dir):
     ({}, []),
     (dict(average=True, ranges=2), ["--average", "--ranges", "2"]),
     (dict(breaks_mm=[30.0]), ["--breaks", "30"]),
+    (dict(breaks=[30.0, 60.0]), ["--breaks", "30,60"]),
     (dict(ranges="auto", confidence=0.9), ["--ranges", "auto", "--confidence", "0.9"]),
 ])
 def test_shrink_fit_is_the_cli_json(cli, source_dir, kw, flags):

@@ -90,6 +90,8 @@ def test_samples_agree_with_the_cli_csv(cli, corner, tmp_path):
      dict(natural_frequency_hz=15.915494309189533, damping_ratio=0.5)),
     (CORNER, SEED_CFG, ["--mode", "40,0.05", "--mode", "95,0.1,0.3", "--profile", "scurve7", "--jerk", "1e6"],
      dict(modes=[(40, 0.05), (95, 0.1, 0.3)], profile="scurve7", jerk_mm_s3=1e6)),
+    (CORNER, SEED_CFG, ["--natural-frequency-hz", "40", "--profile", "scurve7", "--jerk", "2e5"],
+     dict(natural_frequency_hz=40, profile="scurve7", jerk=2e5)),
     (BOXBOSS, "voron24", ["--natural-frequency-hz", "40", "--natural-frequency-y-hz", "55",
                           "--layer-begin", "2", "--layer-end", "4", "--worst", "3"],
      dict(natural_frequency_hz=40, natural_frequency_y_hz=55, layer_begin=2, layer_end=4, worst=3)),

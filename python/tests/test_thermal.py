@@ -76,3 +76,10 @@ def test_thermal_errors():
         amctl.hotend(rule="fast")
     with pytest.raises(TypeError, match="cycles"):
         amctl.hotend(cycles=4.5)
+
+
+def test_the_cli_spellings_are_the_same_parameters():
+    assert amctl.sls_margins(kp=0.5, ti=2.0, modes=3, beta=-0.02) == \
+        amctl.sls_margins(kp_w_m2k=0.5, ti_s=2.0, modes=3, beta_1_s=-0.02)
+    with pytest.raises(amctl.Error, match="kp_w_m2k or kp"):
+        amctl.sls_margins(kp=0.5, kp_w_m2k=0.5)
