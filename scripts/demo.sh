@@ -16,3 +16,12 @@ done
 echo
 echo "== what-if: the Voron with square_corner_velocity 0 (the thesis' full stop at every corner)"
 "$amctl" estimate "$gcode" --machine configs/klipper-voron-v0.cfg --set printer.square_corner_velocity=0 --brief
+if [[ -f "$build/python/amctl/__init__.py" ]]; then
+  echo
+  echo "== the same from Python (docs/python.md)"
+  PYTHONPATH="$build/python" /usr/bin/python3 -c "
+import amctl
+r = amctl.estimate('$gcode', machine='configs/klipper-voron-v0.cfg')
+moves = amctl.plan('$gcode', machine='configs/klipper-voron-v0.cfg')
+print(f\"total {r['total_time_s']:.1f} s; {len(moves)} moves, {int((moves['cruise_v_mm_s'] > 200).sum())} cruise above 200 mm/s\")"
+fi

@@ -138,7 +138,16 @@ PrintSimulationResult simulate_print(const std::string& path, const machine::Mac
     csv = std::make_unique<SampleCsv>(options.csv_path, csv_decimation(options));
   }
   StreamingSimulation::RowSink rows;
-  if (csv) rows = [&csv](const SimSample& s, double e) { csv->row(s, e); };
+  if (csv && options.rows) {
+    rows = [&csv, &options](const SimSample& s, double e) {
+      csv->row(s, e);
+      options.rows(s, e);
+    };
+  } else if (csv) {
+    rows = [&csv](const SimSample& s, double e) { csv->row(s, e); };
+  } else if (options.rows) {
+    rows = options.rows;
+  }
 
   const auto t0 = std::chrono::steady_clock::now();
   plan::PlanSource source(path, machine);

@@ -57,6 +57,10 @@ struct PrintSimulationOptions {
   std::string csv_path;
   /// CSV row rate [Hz]; must divide simulation.sample_rate_hz (default: every sample).
   std::optional<double> csv_rate_hz;
+  /// Called for every simulated sample with its contour error [mm] (NaN for a sample outside
+  /// the measured range), beside the CSV; may be empty. The Python binding fills its sample
+  /// arrays from it. Runs on the simulating thread, in time order.
+  StreamingSimulation::RowSink rows;
 };
 
 struct PrintSimulationResult {

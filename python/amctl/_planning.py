@@ -1,0 +1,108 @@
+"""Print time and planned moves: amctl estimate and amctl plan (docs/planner.md)."""
+
+import numpy as np
+
+from . import _amctl
+from . import _args
+
+
+def estimate(path, machine=None, set=None, *, lenient=False, mode="planner", params=None):
+    """Plans every move as the firmware does and reports the print time.
+
+    The same dict as ``amctl estimate FILE --json`` (``plan::estimate_file`` +
+    ``plan::to_json``): ``total_time_s`` [s], ``motion_time_s``, ``dwell_time_s``,
+    ``travel_time_s``, ``extrude_time_s``, ``filament_mm`` [mm], ``filament_volume_mm3``,
+    ``max_speed_mm_s`` [mm/s], ``moves``, ``layers`` (list), ``features`` (list),
+    ``heater_waits``, ``unknown_commands``, ``slicer_estimate_s``, ..., and
+    ``compute_time_s`` (wall-clock time of this run, the only key that differs between runs).
+
+    Args:
+        path:    G-code file (str or os.PathLike).
+        machine: preset name, machine .toml, Klipper printer.cfg or amctl.Machine
+                 (None: the 'default' preset).
+        set:     {"section.key": value} overrides, as ``--set`` (units in docs/machine.md).
+        lenient: skip malformed lines (counted in ``skipped_lines``) instead of raising.
+        mode:    "planner" (default) or "empirical": the seed-004 average-speed model, the
+                 dict of ``amctl estimate --mode empirical --json`` (see estimate_empirical).
+        params:  empirical mode only: parameter file (JSON), None for the seed's values.
+
+    The GIL is released while the file is planned. Raises amctl.Error (with file, line,
+    column) for malformed G-code or a bad machine.
+    """
+    p = _args.path(path, "path")
+    lenient = _args.boolean(lenient, "lenient")
+    mode = _args.text(mode, "mode")
+    if mode == "empirical":
+        from ._process import estimate_empirical
+        return estimate_empirical(p, params=params)
+    if mode != "planner":
+        raise _amctl_error(f"mode must be 'planner' or 'empirical', got '{mode}'")
+    m = _args.machine(machine, set)
+    return _amctl._estimate(p, m, not lenient)
+
+
+def _amctl_error(message):
+    from ._errors import Error
+    return Error(message)
+
+
+def iter_plan(path, machine=None, set=None, *, batch_moves=4096, lenient=False,
+              t_begin=None, t_end=None, layer_begin=None, layer_end=None):
+    """Yields the planned moves batch by batch, each a numpy structured array of MOVE_DTYPE.
+
+    Memory stays bounded on a whole print: one batch of about ``batch_moves`` moves (the
+    planner may release a few more at once; 192 bytes per move) plus the planner's
+    look-ahead. Each batch comes from one
+    ``plan::PlanSource::next()`` call, run with the GIL released.
+
+    Fields (the columns of ``amctl plan``, docs/planner.md "The planned moves as CSV"):
+        line (uint64), layer (int32, -1 before the first), feature (str, the slicer's name),
+        start_time_s, duration_s [s]; x0_mm, y0_mm, z0_mm, e0_mm, x1_mm, y1_mm, z1_mm, e1_mm
+        [mm]; distance_mm [mm]; start_v_mm_s, cruise_v_mm_s, end_v_mm_s [mm/s];
+        accel_mm_s2 [mm/s^2]; jerk_mm_s3 [mm/s^3]; accel_t_s, cruise_t_s, decel_t_s [s];
+        profile (str: trapezoid, scurve7, bezier5); extrude_only (bool).
+    The doubles are the planner's own, bit for bit (the CSV reads back to the same values).
+
+    Args:
+        path, machine, set, lenient: as estimate().
+        batch_moves: moves asked for per batch (>= 1); the plan does not depend on it.
+        t_begin, t_end: keep moves overlapping this print-time range [s] (``--t-begin``...).
+        layer_begin, layer_end: keep moves of these layers (inclusive).
+    """
+    p = _args.path(path, "path")
+    n = _args.integer(batch_moves, "batch_moves")
+    if n < 1:
+        raise _amctl_error(f"batch_moves must be >= 1, got {n}")
+    m = _args.machine(machine, set)
+    reader = _amctl._PlanReader(
+        p, m, not _args.boolean(lenient, "lenient"), n,
+        _args.optional_number(t_begin, "t_begin", "s"), _args.optional_number(t_end, "t_end", "s"),
+        _args.optional_integer(layer_begin, "layer_begin"), _args.optional_integer(layer_end, "layer_end"))
+    return _batches(reader)
+
+
+def _batches(reader):
+    while True:
+        batch = reader.next()
+        if batch is None:
+            return
+        yield batch
+
+
+def plan(path, machine=None, set=None, *, lenient=False, t_begin=None, t_end=None,
+         layer_begin=None, layer_end=None, batch_moves=65536):
+    """Every planned move as one numpy structured array (MOVE_DTYPE; see iter_plan).
+
+    The same rows and values as ``amctl plan FILE`` (one row per move, in plan order). The
+    array holds the whole print: 192 bytes per move (a 2-hour print of 10^6 moves is
+    ~190 MB, twice that for a moment while the batches are joined). Use iter_plan() or a
+    t_/layer_ range for less. Arguments as iter_plan().
+    """
+    batches = list(iter_plan(path, machine, set, batch_moves=batch_moves, lenient=lenient,
+                             t_begin=t_begin, t_end=t_end, layer_begin=layer_begin,
+                             layer_end=layer_end))
+    if not batches:
+        return np.zeros(0, dtype=_amctl.MOVE_DTYPE)
+    if len(batches) == 1:
+        return batches[0]
+    return np.concatenate(batches)
