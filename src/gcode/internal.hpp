@@ -39,4 +39,8 @@ inline std::string to_upper(std::string_view s) {
   return out;
 }
 
+/// Thrown by the interpreter when a line's parameters are malformed in lenient mode; caught
+/// by Interpreter::feed(), which counts the line as skipped. Never leaves the gcode module.
+struct SkipMalformedLine {};
+
 }  // namespace amctl::gcode::detail

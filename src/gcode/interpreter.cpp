@@ -93,7 +93,11 @@ void Interpreter::feed(std::string_view line, std::uint64_t line_no, EventSink& 
     case CommandKind::none:
       return;
     case CommandKind::word:
-      handle_word(cmd_, line_no, sink);
+      try {
+        handle_word(cmd_, line_no, sink);
+      } catch (const detail::SkipMalformedLine&) {
+        ++skipped_lines_;
+      }
       return;
     case CommandKind::extended:
       handle_extended(cmd_, line_no, sink);
@@ -123,6 +127,9 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
   const int code = cmd.code;
   auto params = [&]() -> const Params& {
     if (!parse_params(cmd, params_, issue_)) {
+      // A malformed parameter ("G1 X1.2.3") is a malformed line: skipped in lenient mode
+      // (feed() counts it), an error otherwise. Parameters are read before any state changes.
+      if (!opt_.strict) throw detail::SkipMalformedLine{};
       fail(line_no, issue_.column, fmt::format("{} in {}", issue_.message, cmd.name));
     }
     return params_;

@@ -199,6 +199,24 @@ TEST(Interpreter, LenientModeCountsSkippedLines) {
   in.feed("@@@", 2, r);
   EXPECT_EQ(in.skipped_lines(), 1u);
   EXPECT_EQ(r.moves.size(), 1u);
+  // A malformed number in a parameter is a malformed line too (found by the Python tests:
+  // it used to raise even in lenient mode); the state is left as it was.
+  in.feed("G1 X1.2.3", 3, r);
+  in.feed("M204 S1.2.3", 4, r);
+  EXPECT_EQ(in.skipped_lines(), 3u);
+  in.feed("G1 X2", 5, r);
+  ASSERT_EQ(r.moves.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.moves[1].start_mm[0], 1.0);
+  EXPECT_DOUBLE_EQ(r.moves[1].end_mm[0], 2.0);
+  // Strict mode still stops there with the column of the bad number.
+  auto strict = Interpreter({}, "t.gcode");
+  try {
+    strict.feed("G1 X1.2.3", 7, r);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().line, 7u);
+    EXPECT_GT(e.where().column, 0u);
+  }
 }
 
 TEST(Interpreter, SlicerAnnotationsFromFourSlicers) {

@@ -9,8 +9,10 @@
 // (the CLI, a test, the Python binding) asks for the next batch, so it never makes a call
 // per move and can run without holding any lock between batches. Stages transform the stream
 // (a re-timing, input shaping, compensation); sinks consume it (the estimate report, the
-// simulator, step generation, CSV). Memory is bounded: a batch holds at most
-// SourceOptions::batch_moves moves plus the events between them.
+// simulator, step generation, CSV). Memory is bounded: filling a batch stops at the first
+// line after which it holds SourceOptions::batch_moves moves, and one line can release at most
+// the planner's look-ahead queue (PlannerOptions::max_queue), so a batch holds about
+// batch_moves moves and never more than batch_moves + max_queue, plus the events between them.
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -111,7 +113,8 @@ struct SourceOptions {
   PlannerOptions planner;
   /// Treat malformed lines as errors (true) or skip and count them.
   bool strict = true;
-  /// Moves per batch (the last batch may hold fewer). Events do not count.
+  /// Moves per batch: filling stops once the batch holds this many (one G-code line may add a
+  /// whole look-ahead flush beyond it; the last batch may hold fewer). Events do not count.
   std::size_t batch_moves = 4096;
 };
 
