@@ -8,7 +8,7 @@ pkgs=(
   libeigen3-dev coinor-libipopt-dev libfftw3-dev
   libcli11-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  pybind11-dev python3-dev python3-numpy python3-scipy python3-pytest
+  pybind11-dev python3-dev python3-numpy python3-scipy python3-distributed python3-pandas python3-pytest
 )
 # The real-slicer tests slice a model with Debian's prusa-slicer.
 if [[ "${1:-}" == "--with-slicer" ]]; then
