@@ -114,10 +114,15 @@ def test_empirical_mode_is_estimate_empirical(cli, source_dir):
     assert amctl.estimate_empirical(path) == want
 
 
-def test_the_gil_is_released_while_planning(source_dir):
+def test_the_gil_is_released_while_planning(source_dir, tmp_path):
     # A second Python thread keeps running while the C++ plans: with the GIL held for the
-    # whole call it could not take a single timestamp inside the call.
-    path = str(source_dir / "examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode")
+    # whole call it could not take a single timestamp inside the call. The job is the bundled
+    # file eight times over (about 0.2 s of planning), long enough that a loaded machine (CI
+    # runs the C++ suites beside this one) still schedules the second thread inside it.
+    text = (source_dir / "examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode").read_text()
+    big = tmp_path / "eight.gcode"
+    big.write_text(text * 8)
+    path = str(big)
     stamps, stop = [], threading.Event()
 
     def ticker():
@@ -134,4 +139,4 @@ def test_the_gil_is_released_while_planning(source_dir):
     stop.set()
     t.join()
     inside = [s for s in stamps if t0 < s < t1]
-    assert len(inside) >= 3, (len(inside), t1 - t0)
+    assert len(inside) >= 2, (len(inside), t1 - t0)
