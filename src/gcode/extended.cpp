@@ -27,7 +27,7 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     present = find_extended_arg(cmd, key, text, col);
     if (!present) return 0.0;
     double v = 0.0;
-    const std::size_t used = parse_number(text, v);
+    const std::size_t used = parse_float_value(text, v);  // Klipper: Python's float()
     if (used == 0 || used != text.size() || !std::isfinite(v)) {
       fail(line_no, col, fmt::format("{} {}= expects a number, found '{}'", cmd.name, key, text));
     }

@@ -46,43 +46,74 @@ std::size_t parse_number(std::string_view text, double& value) {
   if (i >= text.size() || !(is_digit(text[i]) || (text[i] == '.' && i + 1 < text.size() && is_digit(text[i + 1])))) {
     return 0;
   }
+  // G-code numbers have no exponent: Klipper splits a line at every letter and Marlin's
+  // value_float() stops at 'E', so "X1E5" is X=1 and E=5 and "Y40E1.5" is Y=40 and E=1.5
+  // (docs/gcode.md, "Numbers"). A number is [sign] digits [. digits].
   // Fast path (Clinger): the decimal digits form an integer mantissa below 2^53 and the
   // fraction has at most 22 digits, so the mantissa and 10^k are exact doubles and one IEEE
   // division gives the correctly rounded value, the same as from_chars. At most 19 digits
   // are accumulated, so the uint64 never overflows.
-  {
-    static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                        1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-                                        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
-    const char* p = text.data() + i;
-    const char* const end = text.data() + text.size();
-    const char* const digits_begin = p;
-    std::uint64_t mant = 0;
+  static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                      1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                      1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  const char* p = text.data() + i;
+  const char* const end = text.data() + text.size();
+  const char* const digits_begin = p;
+  std::uint64_t mant = 0;
+  while (p < end && is_digit(*p)) mant = mant * 10 + static_cast<std::uint64_t>(*p++ - '0');
+  std::ptrdiff_t ndigits = p - digits_begin;
+  std::ptrdiff_t frac = 0;
+  if (p < end && *p == '.') {
+    const char* const frac_begin = ++p;
     while (p < end && is_digit(*p)) mant = mant * 10 + static_cast<std::uint64_t>(*p++ - '0');
-    std::ptrdiff_t ndigits = p - digits_begin;
-    std::ptrdiff_t frac = 0;
-    if (p < end && *p == '.') {
-      const char* const frac_begin = ++p;
-      while (p < end && is_digit(*p)) mant = mant * 10 + static_cast<std::uint64_t>(*p++ - '0');
-      frac = p - frac_begin;
-      ndigits += frac;
-    }
-    const bool exponent = p < end && (*p == 'e' || *p == 'E');
-    if (!exponent && ndigits <= 19 && frac <= 22 && mant <= (std::uint64_t{1} << 53)) {
-      const double v = static_cast<double>(mant) / kPow10[frac];
-      value = negative ? -v : v;
-      return static_cast<std::size_t>(p - text.data());
-    }
+    frac = p - frac_begin;
+    ndigits += frac;
   }
   double v = 0.0;
-  auto [ptr, ec] = std::from_chars(text.data() + i, text.data() + text.size(), v);
-  if (ec == std::errc::result_out_of_range) {
-    v = HUGE_VAL;  // reported as "not finite" by the caller
-  } else if (ec != std::errc()) {
-    return 0;
+  if (ndigits <= 19 && frac <= 22 && mant <= (std::uint64_t{1} << 53)) {
+    v = static_cast<double>(mant) / kPow10[frac];
+  } else {
+    // Long digit strings: the correctly rounded value of exactly these characters (fixed
+    // format: from_chars reads no exponent).
+    auto [ptr, ec] = std::from_chars(text.data() + i, p, v, std::chars_format::fixed);
+    if (ec == std::errc::result_out_of_range) {
+      v = HUGE_VAL;  // reported as "not finite" by the caller
+    } else if (ec != std::errc() || ptr != p) {
+      return 0;
+    }
   }
   value = negative ? -v : v;
-  return static_cast<std::size_t>(ptr - text.data());
+  return static_cast<std::size_t>(p - text.data());
+}
+
+std::size_t parse_float_value(std::string_view text, double& value) {
+  const std::size_t mantissa = parse_number(text, value);
+  if (mantissa == 0) return 0;
+  std::size_t j = mantissa;
+  if (j < text.size() && (text[j] == 'e' || text[j] == 'E')) {
+    std::size_t k = j + 1;
+    if (k < text.size() && (text[k] == '+' || text[k] == '-')) ++k;
+    if (k < text.size() && is_digit(text[k])) {
+      while (k < text.size() && is_digit(text[k])) ++k;
+      // The whole text with its exponent, correctly rounded (sign handled here: from_chars
+      // takes no '+').
+      const bool negative = text[0] == '-';
+      const std::size_t start = (text[0] == '+' || text[0] == '-') ? 1 : 0;
+      double v = 0.0;
+      auto [ptr, ec] = std::from_chars(text.data() + start, text.data() + k, v,
+                                       std::chars_format::scientific);
+      if (ec == std::errc::result_out_of_range) {
+        // Overflow is reported as "not finite" by the caller; underflow is 0.
+        const bool tiny = text[j + 1] == '-';
+        v = tiny ? 0.0 : HUGE_VAL;
+      } else if (ec != std::errc() || ptr != text.data() + k) {
+        return 0;
+      }
+      value = negative ? -v : v;
+      return k;
+    }
+  }
+  return mantissa;
 }
 
 bool parse_line(std::string_view line, Command& out, ParseIssue& issue) {

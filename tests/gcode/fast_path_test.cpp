@@ -174,7 +174,7 @@ TEST(InterpreterFastPath, UnusualLinesFallBackToTheGeneralParser) {
   // Each of these is refused by the fast path (or is an edge it accepts) and must still mean
   // the same thing.
   const char* lines[] = {
-      "G1 X1e1 Y2",          // exponent
+      "G1 X1e1 Y2",          // no exponent in G-code: X1, then the word E1
       "G1X5Y6",              // no space after the word
       "G01 X7",              // leading zero in the command number
       "N10 G1 X8*",          // line number (and a checksum, below)

@@ -13,6 +13,9 @@
 namespace amctl::gcode {
 namespace {
 
+/// n zeros: G-code has no exponent, so big numbers are written out in full.
+std::string zeros(int n) { return std::string(static_cast<std::size_t>(n), '0'); }
+
 struct Record : EventSink {
   std::vector<MoveRequest> moves;
   std::vector<double> dwells;
@@ -171,23 +174,24 @@ TEST(Interpreter, CoordinatesBeyondAThousandKilometresAreErrors) {
       EXPECT_NE(std::string(e.what()).find("out of range"), std::string::npos) << e.what();
     }
   };
-  expect_range_error("G20\nG1 X1e308 F100\n", 2, 4);                  // 25.4 * 1e308 = inf
-  expect_range_error("G91\nG1 X1.7e308 F100\nG1 X1.7e308\n", 2, 4);   // beyond 1e9 already
-  expect_range_error("G1 X1 F60\nG92 X-1.5e308\nG1 X1.5e308\n", 3, 4);  // v - offset = inf
-  expect_range_error("M221 S1e308\nM83\nG1 X10 E1e10 F100\n", 3, 8);
+  expect_range_error("G20\nG1 X1" + zeros(308) + " F100\n", 2, 4);         // 25.4 * 1e308 = inf
+  expect_range_error("G91\nG1 X17" + zeros(307) + " F100\nG1 X17" + zeros(307) + "\n", 2, 4);  // beyond 1e9 already
+  expect_range_error("G1 X1 F60\nG92 X-15" + zeros(307) + "\nG1 X15" + zeros(307) + "\n", 3, 4);  // v - offset = inf
+  expect_range_error("M221 S1" + zeros(308) + "\nM83\nG1 X10 E1" + zeros(10) + " F100\n", 3, 8);
   // An arc through 2e300 mm is refused for its segment count before any point is emitted.
-  EXPECT_THROW(run("G1 X1 F60\nG2 X1 Y0 I1e300 J0\n"), Error);
+  EXPECT_THROW(run("G1 X1 F60\nG2 X1 Y0 I1" + zeros(300) + " J0\n"), Error);
   // The bound itself is accepted: 1e9 mm.
-  EXPECT_EQ(run("G1 X1e9 F60\n").moves.size(), 1u);
+  EXPECT_EQ(run("G1 X1" + zeros(9) + " F60\n").moves.size(), 1u);
 }
 
 // Found by fuzz_gcode: SET_VELOCITY_LIMIT VELOCITY=1e308 made v^2 = inf in the planner.
 TEST(Interpreter, AbsurdlyLargeLimitsAreErrors) {
   EXPECT_THROW(run("SET_VELOCITY_LIMIT VELOCITY=1e308\n"), Error);
   EXPECT_THROW(run("SET_VELOCITY_LIMIT ACCEL=1e10\n"), Error);
-  EXPECT_THROW(run("M203 X1e300\n"), Error);
-  EXPECT_THROW(run("M204 S2e9\n"), Error);
-  EXPECT_EQ(run("SET_VELOCITY_LIMIT VELOCITY=1e9 ACCEL=1e9\nM204 S1e9\n").limits.size(), 2u);
+  EXPECT_THROW(run("M203 X1" + zeros(300) + "\n"), Error);
+  EXPECT_THROW(run("M204 S2" + zeros(9) + "\n"), Error);
+  // Extended commands take Python float() syntax (Klipper), exponents included.
+  EXPECT_EQ(run("SET_VELOCITY_LIMIT VELOCITY=1e9 ACCEL=1e9\nM204 S1" + zeros(9) + "\n").limits.size(), 2u);
 }
 
 TEST(Interpreter, LenientModeCountsSkippedLines) {

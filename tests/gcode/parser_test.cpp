@@ -113,7 +113,8 @@ TEST(Parser, ReportsMalformedNumbersWithTheirColumn) {
 TEST(Parser, RejectsNanInfinityAndOverflow) {
   Params p;
   ParseIssue issue;
-  for (const char* line : {"G1 Xnan", "G1 Xinf", "G1 X-inf", "G1 X1e400"}) {
+  for (const std::string& line : {std::string("G1 Xnan"), std::string("G1 Xinf"), std::string("G1 X-inf"),
+                                 "G1 X1" + std::string(400, '0')}) {
     Command c = parse(line);
     EXPECT_FALSE(parse_params(c, p, issue)) << line;
   }
@@ -134,8 +135,15 @@ TEST(Parser, ParseNumberHandlesAllDecimalForms) {
   double v = 0;
   EXPECT_EQ(parse_number("-.5", v), 3u);
   EXPECT_DOUBLE_EQ(v, -0.5);
-  EXPECT_EQ(parse_number("+2.5e-3X", v), 7u);
-  EXPECT_DOUBLE_EQ(v, 2.5e-3);
+  // No exponent in G-code: the number ends at 'e' (Klipper splits at letters, Marlin's
+  // value_float() stops at E), so "+2.5e-3" is 2.5 followed by the word E-3.
+  EXPECT_EQ(parse_number("+2.5e-3X", v), 4u);
+  EXPECT_DOUBLE_EQ(v, 2.5);
+  EXPECT_EQ(parse_number("40E1.5", v), 2u);
+  EXPECT_DOUBLE_EQ(v, 40.0);
+  // More digits than the exact rule takes: the correctly rounded value, still no exponent.
+  EXPECT_EQ(parse_number("0.12345678901234567890123e5", v), 25u);
+  EXPECT_DOUBLE_EQ(v, 0.12345678901234567890123);
   EXPECT_EQ(parse_number("7.", v), 2u);
   EXPECT_DOUBLE_EQ(v, 7.0);
   EXPECT_EQ(parse_number("nan", v), 0u);
@@ -160,6 +168,51 @@ TEST(Parser, FastNumberPathAgreesWithFromCharsBitForBit) {
     std::from_chars(s.data() + (s[0] == '-'), s.data() + s.size(), ref);
     if (s[0] == '-') ref = -ref;
     ASSERT_EQ(fast, ref) << s;
+  }
+}
+
+}  // namespace
+}  // namespace amctl::gcode
+
+#include "amctl/gcode/interpreter.hpp"
+#include "amctl/gcode/line_reader.hpp"
+
+namespace amctl::gcode {
+namespace {
+
+struct Moves : EventSink {
+  std::vector<MoveRequest> moves;
+  void on_move(const MoveRequest& m) override { moves.push_back(m); }
+};
+
+// Dense (space-free) G-code and letters inside numbers, read as Klipper and Marlin read them
+// (issue 14): Klipper upper-cases the line and splits it at every letter (klippy/gcode.py);
+// Marlin's parser takes each letter's value up to the next letter and value_float() stops at
+// 'E'. Neither knows an exponent.
+TEST(Parser, DenseGcodeAndLettersEndNumbersAsFirmwareReadsThem) {
+  struct Case {
+    const char* line;
+    std::array<double, 4> end;
+  };
+  const Case cases[] = {
+      {"G1X30Y40E1.5", {30, 40, 0, 1.5}},
+      {"G1 X30Y40E1.5", {30, 40, 0, 1.5}},
+      {"G1 X1E5", {1, 0, 0, 5}},
+      {"G1 X1e5", {1, 0, 0, 5}},
+      {"G1 X2.5e-3 Y1", {2.5, 1, 0, -3}},
+      {"g1 x3 y4 e0.5", {3, 4, 0, 0.5}},
+      {"G1 Y.5E.25", {0, 0.5, 0, 0.25}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.line);
+    InterpreterOptions o;
+    Interpreter in(o, "t.gcode");
+    Moves m;
+    in.feed("M82", 1, m);
+    in.feed("G1 F600", 2, m);
+    in.feed(c.line, 3, m);
+    ASSERT_EQ(m.moves.size(), 1u);
+    for (int a = 0; a < 4; ++a) EXPECT_DOUBLE_EQ(m.moves[0].end_mm[a], c.end[a]) << a;
   }
 }
 

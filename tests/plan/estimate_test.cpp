@@ -124,19 +124,19 @@ TEST(Estimate, RejectsNegativeAndZeroFeedrates) {
   EXPECT_THROW(estimate_text("G1 X10 F0\n", "t", simple()), Error);
   EXPECT_THROW(estimate_text("G1 X10 F-100\n", "t", simple()), Error);
   EXPECT_THROW(estimate_text("G1 Xnan\n", "t", simple()), Error);
-  EXPECT_THROW(estimate_text("G1 X1e999\n", "t", simple()), Error);
+  EXPECT_THROW(estimate_text("G1 X1" + std::string(999, '0') + "\n", "t", simple()), Error);
 }
 
 // Found by fuzz_gcode (a trap on NaN total time): huge limits and feedrates must be refused
 // before they reach the planner's squared speeds.
 TEST(Estimate, HugeLimitsAndFeedratesNeverGiveNanTimes) {
-  EXPECT_THROW(estimate_text("SET_VELOCITY_LIMIT VELOCITY=1e308 ACCEL=1e308\nG1 X10 F1e308\n",
+  EXPECT_THROW(estimate_text("SET_VELOCITY_LIMIT VELOCITY=1e308 ACCEL=1e308\nG1 X10 F1" + std::string(308, '0') + "\n",
                              "t", simple()),
                Error);
   // F1e308 alone is capped by max_velocity (300 mm/s). Reaching 300 mm/s at 5000 mm/s^2
   // takes 300^2 / (2 5000) = 9 mm each way, more than half of 10 mm: a triangle with peak
   // sqrt(5000 * 10) = 223.6 mm/s and time 2 sqrt(10 / 5000).
-  auto r = estimate_text("G1 X10 F1e308\n", "t", simple());
+  auto r = estimate_text("G1 X10 F1" + std::string(308, '0') + "\n", "t", simple());
   EXPECT_NEAR(r.total_time_s, 2 * std::sqrt(10.0 / 5000.0), 1e-12);
 }
 

@@ -190,7 +190,7 @@ TEST(PlanStream, EstimateThroughTheSinkIsTheEstimate) {
 TEST(PlanStream, ErrorsFromAnyDepthNameTheFile) {
   const machine::Machine m = klipper();
   for (const char* text : {"G1 X10\nG1 X20 F0\n", "G1 X10\nG1 X1.2.3\n",
-                           "G1 X1\nSET_VELOCITY_LIMIT VELOCITY=1e308 ACCEL=1e308\nG1 X10 F1e308\n"}) {
+                           "G1 X1\nSET_VELOCITY_LIMIT VELOCITY=1e308 ACCEL=1e308\nG1 X10 F600\n"}) {
     PlanSource s(text, "part.gcode", m);
     PlanBatch b;
     try {

@@ -28,8 +28,15 @@ bool parse_params(const Command& cmd, Params& out, ParseIssue& issue);
 bool find_extended_arg(const Command& cmd, std::string_view key, std::string_view& value_text,
                        std::uint32_t& column);
 
-/// Fast, locale-independent number parsing: [+-]digits[.digits][e[+-]digits]; also ".5", "5.".
-/// Returns the number of characters consumed, 0 if none form a number.
+/// A G-code word's number: [+-]digits[.digits], also ".5" and "5.". No exponent: as in
+/// Klipper and Marlin a letter ends the number, so "1E5" is 1 (then the word E5). Fast and
+/// locale-independent, correctly rounded. Returns the number of characters consumed, 0 if
+/// none form a number.
 std::size_t parse_number(std::string_view text, double& value);
+
+/// The value of an extended command's KEY=VALUE (Klipper reads it with Python's float()):
+/// parse_number's forms plus an exponent, [+-]digits[.digits][(e|E)[+-]digits]. No "inf",
+/// "nan" or hexadecimal. Returns the number of characters consumed, 0 if none form a number.
+std::size_t parse_float_value(std::string_view text, double& value);
 
 }  // namespace amctl::gcode
