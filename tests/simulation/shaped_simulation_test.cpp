@@ -149,5 +149,154 @@ TEST(ShapedSimulate, EqualsRk45OnTheExplicitlyShapedCommand) {
   }
 }
 
+
+std::vector<dy::SimSample> run_plain(const std::vector<plan::PlannedMove>& moves, const dy::AxisModel& mx,
+                                     const dy::AxisModel& my, double rate = 1000.0) {
+  dy::SimulationOptions o;
+  o.sample_rate_hz = rate;
+  o.vibration_per_sample = true;
+  std::vector<dy::SimSample> out;
+  (void)dy::simulate(moves, mx, my, o, [&](const dy::SimSample& s) { out.push_back(s); });
+  return out;
+}
+
+TEST(ShapedSimulate, WithoutShaperEqualsThePlainSimulation) {
+  const auto moves = corner_path(VP::scurve7, 30.0);
+  const auto belt = dy::AxisModel::belt(37.0, 0.07);
+  const auto taps = command_taps(std::nullopt, std::nullopt, false);
+  ASSERT_EQ(taps.size(), 1u);
+  const ShapedRun r = run_shaped(moves, belt, belt, taps);
+  const auto plain = run_plain(moves, belt, belt);
+  ASSERT_GE(r.samples.size(), plain.size());
+  for (std::size_t k = 0; k < plain.size(); ++k) {
+    EXPECT_EQ(r.samples[k].t_s, plain[k].t_s);
+    EXPECT_EQ(r.samples[k].sim_mm, plain[k].sim_mm);
+    EXPECT_EQ(r.samples[k].cmd_mm, plain[k].cmd_mm);
+    EXPECT_NEAR(r.samples[k].vibration_mm[0], plain[k].vibration_mm[0], 1e-15);
+  }
+  EXPECT_LT(r.smoothing.max_mm, 1e-12);
+}
+
+TEST(ShapedSimulate, StreamingWindowDoesNotChangeThePath) {
+  // 1500 short zigzag moves (0.2-2 mm at up to 150 mm/s): many moves per shaper duration.
+  std::vector<MoveSpec> specs;
+  double x = 0, y = 0;
+  for (int i = 0; i < 1500; ++i) {
+    const double len = 0.2 + 1.8 * ((i * 7919) % 97) / 96.0;
+    const double ang = ((i * 104729) % 360) * std::numbers::pi / 180.0;
+    x += len * std::cos(ang);
+    y += len * std::sin(ang);
+    specs.push_back({{x, y, 0, 0.01 * i}, 150.0, (i % 5) * 5.0, static_cast<std::uint64_t>(i + 1), i / 100});
+  }
+  specs.back().end_v_mm_s = 0.0;
+  const auto moves = trajectory::chain_moves({0, 0, 0, 0}, specs, 4000.0, VP::trapezoid);
+  const auto belt = dy::AxisModel::belt(30.0, 0.08);
+  const auto sx = shaping::make_shaper("ei", 25.0, 0.1);
+  const auto sy = shaping::make_shaper("mzv", 45.0, 0.1);
+  const auto taps = command_taps(sx, sy, false);
+  const ShapedRun a = run_shaped(moves, belt, belt, taps, 1000.0, 80);
+  const ShapedRun b = run_shaped(moves, belt, belt, taps, 1000.0, 1000000);
+  ASSERT_EQ(a.samples.size(), b.samples.size());
+  for (std::size_t k = 0; k < a.samples.size(); ++k) {
+    // Each window starts a fresh trajectory::Cursor in every Simulator (as in
+    // dynamics::StreamingSimulation): equal to the last bits (1e-17 mm seen).
+    ASSERT_NEAR(a.samples[k].sim_mm[0], b.samples[k].sim_mm[0], 1e-12) << k;
+    ASSERT_NEAR(a.samples[k].sim_mm[1], b.samples[k].sim_mm[1], 1e-12) << k;
+    ASSERT_NEAR(a.samples[k].vibration_mm[0], b.samples[k].vibration_mm[0], 1e-12) << k;
+    ASSERT_NEAR(a.samples[k].vibration_mm[1], b.samples[k].vibration_mm[1], 1e-12) << k;
+    ASSERT_EQ(a.samples[k].move_index, b.samples[k].move_index) << k;
+  }
+  EXPECT_NEAR(a.report.max_contour_error_mm, b.report.max_contour_error_mm, 1e-12);
+  EXPECT_NEAR(a.report.max_residual_vibration_mm, b.report.max_residual_vibration_mm, 1e-12);
+  EXPECT_NEAR(a.smoothing.max_mm, b.smoothing.max_mm, 1e-12);
+  EXPECT_NEAR(a.smoothing.max_at_corners_mm, b.smoothing.max_at_corners_mm, 1e-12);
+  EXPECT_GT(a.smoothing.max_mm, 0.0);
+}
+
+TEST(ShapedSimulate, ZvAtTheBeltFrequencyRemovesTheResidualVibration) {
+  // Belt 40 Hz, zeta 0.05; ZV designed for exactly that mode. After the corner (full stop)
+  // and after the end the unshaped nozzle rings; the shaped one does not.
+  const double f = 40.0, z = 0.05;
+  const auto belt = dy::AxisModel::belt(f, z);
+  const auto moves = corner_path();
+  const auto zv = shaping::make_shaper("zv", f, z);
+  const ShapedRun with = run_shaped(moves, belt, belt, command_taps(zv, zv, false));
+  const ShapedRun without = run_shaped(moves, belt, belt, command_taps(std::nullopt, std::nullopt, false));
+  EXPECT_GT(without.report.max_residual_vibration_mm, 0.05);
+  EXPECT_LT(with.report.max_residual_vibration_mm, 0.05 * without.report.max_residual_vibration_mm);
+  EXPECT_LT(with.report.max_residual_vibration_mm, 1e-9);
+  // After the shaped motion has ended, sample by sample.
+  const double t_end = moves.back().end_time_s() + applied_pulses(zv).delays_s.back();
+  EXPECT_LT(residual_after(with.samples, t_end), 0.05 * residual_after(without.samples, t_end));
+  // The ringing is gone; the corner is rounded instead.
+  EXPECT_LT(with.report.max_corner_overshoot_mm, 0.05 * without.report.max_corner_overshoot_mm);
+  EXPECT_GT(with.smoothing.max_mm, 0.01);
+  EXPECT_EQ(with.smoothing.max_at_corners_mm, with.smoothing.max_mm);
+}
+
+TEST(ShapedSimulate, ConstantVelocityIsLeftAsPlanned) {
+  // One long straight move: during the cruise the shaped command is the plan, so once the
+  // start transient has decayed the shaped and unshaped nozzles both sit on the plan.
+  const std::vector<MoveSpec> specs{{{300, 150, 0, 0}, 200.0, 0.0, 1}};
+  const auto moves = trajectory::chain_moves({0, 0, 0, 0}, specs, 5000.0, VP::trapezoid);
+  const auto belt = dy::AxisModel::belt(40.0, 0.1);
+  const auto mzv = shaping::make_shaper("mzv", 40.0, 0.1);
+  const ShapedRun r = run_shaped(moves, belt, belt, command_taps(mzv, mzv, false));
+  const double t_a = moves[0].start_time_s + moves[0].accel_t_s + 0.5;
+  const double t_b = moves[0].start_time_s + moves[0].accel_t_s + moves[0].cruise_t_s - 0.05;
+  ASSERT_GT(t_b, t_a + 0.2);
+  int n = 0;
+  for (const auto& s : r.samples) {
+    if (s.t_s < t_a || s.t_s > t_b) continue;
+    EXPECT_NEAR(s.sim_mm[0], s.cmd_mm[0], 1e-9);
+    EXPECT_NEAR(s.sim_mm[1], s.cmd_mm[1], 1e-9);
+    ++n;
+  }
+  EXPECT_GT(n, 200);
+  EXPECT_LT(r.smoothing.max_mm, 1e-9);  // a straight line: the shaped command stays on it
+}
+
+TEST(ShapedSimulate, MotorSpaceNeedsTheSameShaperOnBothAxes) {
+  const auto a = shaping::make_shaper("mzv", 40.0, 0.1);
+  const auto b = shaping::make_shaper("zv", 40.0, 0.1);
+  EXPECT_THROW((void)command_taps(a, b, true), Error);
+  EXPECT_THROW((void)command_taps(a, std::nullopt, true), Error);
+  const auto taps = command_taps(a, a, true);
+  ASSERT_EQ(taps.size(), 3u);
+  for (const auto& t : taps) EXPECT_EQ(t.weight[0], t.weight[1]);
+  // corexy motors with the same shaper: the nozzle equals the Cartesian run (the motor map
+  // is linear and the same belt on both motors; here equal models on X and Y).
+  const auto belt = dy::AxisModel::belt(40.0, 0.1);
+  const auto moves = corner_path(VP::trapezoid, 10.0);
+  dy::SimulationOptions so;
+  so.kinematics = machine::Kinematics::corexy;
+  so.motor_space = true;
+  const ShapedRun m = run_shaped(moves, belt, belt, taps, 1000.0, 80, so);
+  const ShapedRun c = run_shaped(moves, belt, belt, command_taps(a, a, false));
+  ASSERT_EQ(m.samples.size(), c.samples.size());
+  for (std::size_t k = 0; k < m.samples.size(); ++k) {
+    EXPECT_NEAR(m.samples[k].sim_mm[0], c.samples[k].sim_mm[0], 1e-9);
+    EXPECT_NEAR(m.samples[k].sim_mm[1], c.samples[k].sim_mm[1], 1e-9);
+  }
+}
+
+TEST(ShapedSimulate, ShaperSettingsAreChecked) {
+  AxisShaperSetting s{"mzv", 40.0, 0.1, "test"};
+  EXPECT_NO_THROW((void)make_axis_shaper(s, 1000.0));
+  auto msg = [&](AxisShaperSetting bad) {
+    try {
+      (void)make_axis_shaper(bad, 1000.0);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(msg({"bogus", 40.0, 0.1, "t"}).find("--shaper"), std::string::npos);
+  EXPECT_NE(msg({"zv", 0.0, 0.1, "t"}).find("--shaper-freq-hz"), std::string::npos);
+  EXPECT_NE(msg({"zv", -3.0, 0.1, "t"}).find("--shaper-freq-hz"), std::string::npos);
+  EXPECT_NE(msg({"zv", 500.0, 0.1, "t"}).find("Nyquist"), std::string::npos);
+  EXPECT_NE(msg({"zv", 40.0, 1.0, "t"}).find("--shaper-damping-ratio"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace amctl::simulation
