@@ -80,7 +80,26 @@ struct SimulateArgs {
   std::optional<double> shaper_freq, shaper_freq_x, shaper_freq_y;
   double shaper_damping = 0.1;
   bool compare_shaper = false;
+  bool no_shaper = false;
 };
+
+// The shaper of one axis from the machine's [input_shaper] (frequency 0: not shaped).
+std::optional<simulation::AxisShaperSetting> axis_shaper_from_machine(const machine::Machine& m, bool y,
+                                                                      simulation::ShaperParamNames& names) {
+  const machine::InputShaper& in = m.input_shaper;
+  const double f = y ? in.shaper_freq_y_hz : in.shaper_freq_x_hz;
+  if (f <= 0.0) return std::nullopt;
+  const char* ax = y ? "y" : "x";
+  names.type = fmt::format("[input_shaper] shaper_type_{}", ax);
+  names.freq = fmt::format("[input_shaper] shaper_freq_{}", ax);
+  names.damping = fmt::format("[input_shaper] damping_ratio_{}", ax);
+  simulation::AxisShaperSetting s;
+  s.type = y ? in.shaper_type_y : in.shaper_type_x;
+  s.freq_hz = f;
+  s.damping_ratio = y ? in.damping_ratio_y : in.damping_ratio_x;
+  s.source = fmt::format("machine {}", m.name);
+  return s;
+}
 
 // The shaper of one axis from the flags; nothing when no flag names the axis.
 std::optional<simulation::AxisShaperSetting> axis_shaper_from_flags(const SimulateArgs& a, bool y,
@@ -180,6 +199,11 @@ void do_simulate(const SimulateArgs& a) {
   simulation::ShaperSettings shapers;
   shapers.x = axis_shaper_from_flags(a, false, shapers.names_x);
   shapers.y = axis_shaper_from_flags(a, true, shapers.names_y);
+  if (shapers.any() && a.no_shaper) throw Error("--no-shaper and a --shaper flag contradict each other");
+  if (!shapers.any() && !a.no_shaper) {  // the machine's [input_shaper], when it shapes
+    shapers.x = axis_shaper_from_machine(mach, false, shapers.names_x);
+    shapers.y = axis_shaper_from_machine(mach, true, shapers.names_y);
+  }
   if (shapers.any() || a.compare_shaper) {
     if (!shapers.any()) throw Error("--compare-shaper needs a shaper: --shaper T --shaper-freq-hz F");
     do_shaped(a, mach, mx, my, o, shapers);
@@ -265,6 +289,7 @@ void register_dynamics(CLI::App& app) {
   sim->add_option("--shaper-y", a->shaper_y, "input shaper type of Y");
   sim->add_option("--shaper-freq-y-hz", a->shaper_freq_y, "input shaper frequency of Y [Hz]");
   sim->add_option("--shaper-damping-ratio", a->shaper_damping, "damping ratio the shapers are designed for (default 0.1)");
+  sim->add_flag("--no-shaper", a->no_shaper, "ignore the machine's [input_shaper] (and M593): simulate the plan unshaped");
   sim->add_flag("--compare-shaper", a->compare_shaper, "report with and without the shaper (always done when a shaper is given)");
   sim->add_flag("--json", a->json_out, "print one JSON object");
   sim->callback([a] { do_simulate(*a); });

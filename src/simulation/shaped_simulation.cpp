@@ -174,6 +174,13 @@ void ShapedStreamingSimulation::emit(trajectory::Cursor& plan_cursor, bool flush
     s.move_index = base_ + loc.move_index;
     s.line = mv.line;
     s.holding = loc.holding;
+    // Residual vibration of every move that has ended by t: the vibration read L samples
+    // later, once the shaped command has left the move (QualityMeter::on_move_end, called
+    // before the sample as the Simulator does).
+    next_end_ = std::max(next_end_, base_);
+    while (next_end_ < base_ + buf_.size() && s.t_s >= buf_[next_end_ - base_].end_time_s() - 1e-12) {
+      meter_.on_move_end(next_end_++, s.t_s, s.vibration_mm);
+    }
     const double e = meter_.add(s);
     if (rows_) rows_(s, e);
     // The shaped command against the plan.

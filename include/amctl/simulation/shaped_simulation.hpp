@@ -116,6 +116,7 @@ class ShapedStreamingSimulation {
   std::deque<double> pending_modal_;  // 2 x modes per pending sample
   std::size_t front_k_ = 0;     // combined index of pending_.front()
   std::size_t emitted_ = 0;
+  std::size_t next_end_ = 0;    // first move whose residual has not been reported
   double last_t_ = 0.0;
   // corner junctions (plan times) for SmoothingFigures::max_at_corners_mm
   std::deque<double> corner_times_;
