@@ -200,9 +200,26 @@ void do_simulate(const SimulateArgs& a) {
   shapers.x = axis_shaper_from_flags(a, false, shapers.names_x);
   shapers.y = axis_shaper_from_flags(a, true, shapers.names_y);
   if (shapers.any() && a.no_shaper) throw Error("--no-shaper and a --shaper flag contradict each other");
-  if (!shapers.any() && !a.no_shaper) {  // the machine's [input_shaper], when it shapes
-    shapers.x = axis_shaper_from_machine(mach, false, shapers.names_x);
-    shapers.y = axis_shaper_from_machine(mach, true, shapers.names_y);
+  if (!a.no_shaper) {
+    // Precedence: flags, then the machine's [input_shaper], then M593 before the first move.
+    const auto m593 = simulation::m593_before_first_move(a.file, mach);
+    const bool from_flags = shapers.any();
+    if (!shapers.any()) {
+      shapers.x = axis_shaper_from_machine(mach, false, shapers.names_x);
+      shapers.y = axis_shaper_from_machine(mach, true, shapers.names_y);
+    }
+    if (!m593.empty()) {
+      if (shapers.any()) {
+        shapers.warnings.push_back(fmt::format("M593 before the first move (line {}) overridden by {}",
+                                               m593.front().line,
+                                               from_flags ? "the --shaper flags" : "the machine's [input_shaper]"));
+      } else {
+        shapers = simulation::shapers_from_m593(m593);
+      }
+    }
+    if (!shapers.any()) {
+      for (const auto& w : shapers.warnings) std::cerr << "warning: " << w << "\n";
+    }
   }
   if (shapers.any() || a.compare_shaper) {
     if (!shapers.any()) throw Error("--compare-shaper needs a shaper: --shaper T --shaper-freq-hz F");

@@ -42,17 +42,111 @@ shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double rate_hz, con
   }
 }
 
+std::vector<gcode::InputShapingCommand> m593_before_first_move(const std::string& path,
+                                                              const machine::Machine& machine) {
+  std::vector<gcode::InputShapingCommand> out;
+  if (path == "-") return out;
+  plan::PlanSource source(path, machine);
+  plan::PlanBatch batch;
+  while (source.next(batch)) {
+    for (const plan::PlanEvent& e : batch.events) {
+      if (e.before_move > 0) return out;
+      if (e.kind == plan::PlanEvent::Kind::input_shaping) out.push_back(e.shaping);
+    }
+    if (!batch.moves.empty()) return out;
+  }
+  return out;
+}
+
+ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> commands) {
+  ShaperSettings r;
+  struct Axis {
+    std::optional<double> freq_hz;
+    double zeta = 0.15;  // Marlin SHAPING_ZETA_X / _Y default
+    bool zeta_set = false;
+    std::uint64_t line = 0;
+  } axes[2];
+  for (const gcode::InputShapingCommand& c : commands) {
+    const bool sel[2] = {c.x, c.y};
+    if (c.type) {
+      r.warnings.push_back(fmt::format("line {}: M593 T{:g} ignored (Marlin documents the shaper "
+                                       "type as not implemented; its stepper shaping is ZV)",
+                                       c.line, *c.type));
+    }
+    if (c.damping_ratio) {
+      const double z = *c.damping_ratio;
+      if (std::isfinite(z) && z >= 0.0 && z <= 1.0) {
+        for (int a = 0; a < 2; ++a) {
+          if (!sel[a]) continue;
+          axes[a].zeta = z;
+          axes[a].zeta_set = true;
+          axes[a].line = c.line;
+        }
+      } else {
+        r.warnings.push_back(fmt::format("line {}: M593 D{} rejected, as Marlin does (range 0-1)", c.line, z));
+      }
+    }
+    if (c.freq_hz) {
+      const double f = *c.freq_hz;
+      if (std::isfinite(f) && f >= 0.0) {
+        for (int a = 0; a < 2; ++a) {
+          if (!sel[a]) continue;
+          axes[a].freq_hz = f;
+          axes[a].line = c.line;
+        }
+      } else {
+        r.warnings.push_back(fmt::format("line {}: M593 F{} rejected, as Marlin does (F must be > 0, or 0 to disable)",
+                                         c.line, f));
+      }
+    }
+  }
+  for (int a = 0; a < 2; ++a) {
+    const char ax = a == 0 ? 'X' : 'Y';
+    if (!axes[a].freq_hz) {
+      if (axes[a].zeta_set) {
+        r.warnings.push_back(fmt::format("M593 sets the {} damping ratio but no frequency: the "
+                                         "firmware's compiled-in frequency is not in the file, {} is not shaped",
+                                         ax, ax));
+      }
+      continue;
+    }
+    if (*axes[a].freq_hz == 0.0) continue;  // F0: off
+    AxisShaperSetting s;
+    s.type = "zv";
+    s.freq_hz = *axes[a].freq_hz;
+    s.damping_ratio = axes[a].zeta;
+    s.source = fmt::format("M593 line {}", axes[a].line);
+    (a == 0 ? r.x : r.y) = s;
+    ShaperParamNames& n = a == 0 ? r.names_x : r.names_y;
+    n.type = fmt::format("M593 {}", ax);
+    n.freq = fmt::format("M593 {} F", ax);
+    n.damping = fmt::format("M593 {} D", ax);
+  }
+  return r;
+}
+
 namespace {
 
 class ShapedSink final : public plan::Sink {
  public:
-  ShapedSink(ShapedStreamingSimulation& sim) : sim_(sim) {}
+  ShapedSink(ShapedStreamingSimulation& sim, std::vector<std::string>& warnings)
+      : sim_(sim), warnings_(warnings) {}
   void consume(const plan::PlanBatch& batch) override {
-    for (const plan::PlannedMove& m : batch.moves) {
-      used_features_.insert(m.feature);
-      sim_.push(m);
-    }
-    moves_ += batch.moves.size();
+    plan::for_each_in_order(
+        batch,
+        [&](const plan::PlannedMove& m) {
+          used_features_.insert(m.feature);
+          sim_.push(m);
+          ++moves_;
+        },
+        [&](const plan::PlanEvent& e) {
+          if (e.kind != plan::PlanEvent::Kind::input_shaping || moves_ == 0) return;
+          if (warnings_.size() < 100) {
+            warnings_.push_back(fmt::format("line {}: M593 at print time {:.3f} s changes input shaping "
+                                            "after the first move: not modelled (the simulation keeps "
+                                            "the shaping it started with)", e.line, e.time_s));
+          }
+        });
   }
   void finish(const plan::StreamSummary& summary) override {
     if (moves_ == 0) throw Error(fmt::format("{}: no moves to simulate", summary.file));
@@ -63,6 +157,7 @@ class ShapedSink final : public plan::Sink {
     }
   }
   ShapedStreamingSimulation& sim_;
+  std::vector<std::string>& warnings_;
   dy::QualityReport report_;
   std::size_t moves_ = 0;
   std::set<std::uint16_t> used_features_;
@@ -151,7 +246,8 @@ ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::
   dy::SimulationSink plain(model_x, model_y, plain_opt, options.metrics);
   ShapedStreamingSimulation stream(model_x, model_y, options.simulation, options.metrics, taps,
                                    std::move(rows));
-  ShapedSink shaped(stream);
+  r.warnings = shapers.warnings;
+  ShapedSink shaped(stream, r.warnings);
   plan::ProfilePeaksSink peaks;
   plan::Sink* sinks[] = {&plain, &shaped, &peaks};
   plan::run_pipeline(source, sinks);

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/gcode/interpreter.hpp"
+#include "amctl/machine/machine.hpp"
 #include "amctl/shaping/shaped_trajectory.hpp"
 #include "amctl/trajectory/build.hpp"
 #include "rk45.hpp"
@@ -296,6 +298,87 @@ TEST(ShapedSimulate, ShaperSettingsAreChecked) {
   EXPECT_NE(msg({"zv", -3.0, 0.1, "t"}).find("--shaper-freq-hz"), std::string::npos);
   EXPECT_NE(msg({"zv", 500.0, 0.1, "t"}).find("Nyquist"), std::string::npos);
   EXPECT_NE(msg({"zv", 40.0, 1.0, "t"}).find("--shaper-damping-ratio"), std::string::npos);
+}
+
+
+struct ShapingCapture final : gcode::EventSink {
+  std::vector<gcode::InputShapingCommand> cmds;
+  void on_move(const gcode::MoveRequest&) override {}
+  void on_input_shaping(const gcode::InputShapingCommand& c) override { cmds.push_back(c); }
+};
+
+TEST(ShapedSimulate, InterpreterReportsM593AndStillCountsItAsIgnored) {
+  gcode::Interpreter in({}, "t.gcode");
+  ShapingCapture sink;
+  in.feed("M593 F40 D0.07", 1, sink);
+  in.feed("M593 X F35", 2, sink);
+  in.feed("M593 Y D0.2 T1", 3, sink);
+  ASSERT_EQ(sink.cmds.size(), 3u);
+  EXPECT_TRUE(sink.cmds[0].x && sink.cmds[0].y);
+  EXPECT_EQ(sink.cmds[0].freq_hz, 40.0);
+  EXPECT_EQ(sink.cmds[0].damping_ratio, 0.07);
+  EXPECT_TRUE(sink.cmds[1].x && !sink.cmds[1].y);
+  EXPECT_EQ(sink.cmds[1].freq_hz, 35.0);
+  EXPECT_FALSE(sink.cmds[1].damping_ratio.has_value());
+  EXPECT_TRUE(!sink.cmds[2].x && sink.cmds[2].y);
+  EXPECT_EQ(sink.cmds[2].type, 1.0);
+  EXPECT_EQ(sink.cmds[2].line, 3u);
+  EXPECT_EQ(in.ignored_commands().at("M593"), 3u);  // as before: estimate output unchanged
+  EXPECT_TRUE(in.unknown_commands().empty());
+}
+
+TEST(ShapedSimulate, M593FollowsMarlinsRules) {
+  auto cmd = [](bool x, bool y, std::optional<double> f, std::optional<double> d, std::uint64_t line) {
+    gcode::InputShapingCommand c;
+    c.x = x;
+    c.y = y;
+    c.freq_hz = f;
+    c.damping_ratio = d;
+    c.line = line;
+    return c;
+  };
+  // F for both, then X's damping; Marlin's default zeta 0.15 where D never came.
+  std::vector<gcode::InputShapingCommand> a{cmd(true, true, 40.0, std::nullopt, 3),
+                                            cmd(true, false, std::nullopt, 0.05, 4)};
+  ShaperSettings s = shapers_from_m593(a);
+  ASSERT_TRUE(s.x && s.y);
+  EXPECT_EQ(s.x->type, "zv");
+  EXPECT_EQ(s.x->freq_hz, 40.0);
+  EXPECT_EQ(s.x->damping_ratio, 0.05);
+  EXPECT_EQ(s.y->damping_ratio, 0.15);
+  EXPECT_EQ(s.x->source, "M593 line 4");
+  EXPECT_TRUE(s.warnings.empty());
+  // F0 turns an axis off; out-of-range values are rejected with a warning, as Marlin does.
+  std::vector<gcode::InputShapingCommand> b{cmd(true, true, 40.0, 0.1, 1), cmd(false, true, 0.0, std::nullopt, 2),
+                                            cmd(true, true, -3.0, 1.5, 3)};
+  s = shapers_from_m593(b);
+  ASSERT_TRUE(s.x.has_value());
+  EXPECT_FALSE(s.y.has_value());
+  EXPECT_EQ(s.x->freq_hz, 40.0);
+  EXPECT_EQ(s.x->damping_ratio, 0.1);
+  EXPECT_EQ(s.warnings.size(), 2u);
+  // Damping without a frequency: not shaped, with a warning.
+  std::vector<gcode::InputShapingCommand> c{cmd(true, true, std::nullopt, 0.1, 1)};
+  s = shapers_from_m593(c);
+  EXPECT_FALSE(s.any());
+  EXPECT_EQ(s.warnings.size(), 2u);
+}
+
+TEST(ShapedSimulate, M593BeforeTheFirstMoveIsFoundAndLaterOnesAreWarned) {
+  const std::string path = std::string(AMCTL_SOURCE_DIR) + "/tests/simulation/m593_corner.gcode";
+  machine::Machine m;
+  const auto before = m593_before_first_move(path, m);
+  ASSERT_EQ(before.size(), 1u);
+  EXPECT_EQ(before[0].line, 3u);
+  const ShaperSettings s = shapers_from_m593(before);
+  ASSERT_TRUE(s.x && s.y);
+  dy::PrintSimulationOptions o;
+  o.metrics.keep_per_move = false;
+  const auto belt = dy::AxisModel::belt(40.0, 0.05);
+  const ShapedPrintResult r = simulate_shaped_print(path, m, belt, belt, o, s);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("line 6"), std::string::npos);
+  EXPECT_LT(r.shaped.report.max_residual_vibration_mm, 0.05 * r.without.report.max_residual_vibration_mm);
 }
 
 }  // namespace

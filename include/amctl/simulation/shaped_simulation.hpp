@@ -30,6 +30,8 @@
 #include "amctl/dynamics/model.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/dynamics/simulate.hpp"
+#include "amctl/gcode/events.hpp"
+#include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
 #include "amctl/shaping/shaper.hpp"
 #include "amctl/trajectory/trajectory.hpp"
@@ -147,6 +149,7 @@ struct ShaperParamNames {
 struct ShaperSettings {
   std::optional<AxisShaperSetting> x, y;
   ShaperParamNames names_x, names_y;  ///< for messages
+  std::vector<std::string> warnings;  ///< found while resolving them (M593)
   [[nodiscard]] bool any() const { return x.has_value() || y.has_value(); }
 };
 
@@ -155,6 +158,19 @@ struct ShaperSettings {
 /// samples the shaped command at sample_rate_hz), a damping ratio outside [0, 1).
 [[nodiscard]] shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double sample_rate_hz,
                                                const ShaperParamNames& names = {});
+
+/// The M593 commands of `path` (planned on `machine`) that come before its first move: a
+/// pre-pass over the first batch of the plan stream. Empty for standard input ("-").
+[[nodiscard]] std::vector<gcode::InputShapingCommand> m593_before_first_move(const std::string& path,
+                                                                            const machine::Machine& machine);
+
+/// Marlin's input shaping after `commands` (M593, in order), from Marlin's M593.cpp: the
+/// stepper shaping is ZV; D sets the damping ratio (accepted in [0, 1], Marlin's default
+/// SHAPING_ZETA 0.15), F the frequency (0 = off; negative: rejected), X / Y select the axes
+/// (neither: both); T is documented as not implemented and ignored. A rejected value, an
+/// axis given a damping ratio but never a frequency (the firmware's compiled-in default is not
+/// in the file) and a T word are reported in `warnings`. Source "M593 line N".
+[[nodiscard]] ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> commands);
 
 struct ShapedPrintResult {
   dynamics::PrintSimulationResult shaped;   ///< the shaped nozzle against the planned path
@@ -167,7 +183,8 @@ struct ShapedPrintResult {
 };
 
 /// Plans `path` on `machine` and simulates it once with and once without the shapers (one
-/// pass over the plan). The CSV of `options` gets the shaped run. Throws amctl::Error as
+/// pass over the plan). The CSV of `options` gets the shaped run. An M593 after the first
+/// move is reported in `warnings` (a change of shaping mid-print is not modelled). Throws amctl::Error as
 /// dynamics::simulate_print, and for bad shaper settings (make_axis_shaper, command_taps).
 [[nodiscard]] ShapedPrintResult simulate_shaped_print(const std::string& path,
                                                       const machine::Machine& machine,
