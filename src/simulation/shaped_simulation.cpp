@@ -73,7 +73,7 @@ ShapedStreamingSimulation::ShapedStreamingSimulation(const dy::AxisModel& m0, co
                                                      const dy::SimulationOptions& so,
                                                      dy::MetricsOptions mo, std::vector<CommandTap> taps,
                                                      RowSink rows, std::size_t window_moves)
-    : sim_opt_(so), metrics_opt_(mo), meter_(mo), cmd_meter_(mo), rows_(std::move(rows)),
+    : sim_opt_(so), metrics_opt_(mo), meter_(mo), rows_(std::move(rows)),
       window_(std::max<std::size_t>(window_moves, 80)) {
   AMCTL_CHECK(!taps.empty(), "a shaped simulation needs at least one tap");
   dy::require_above_nyquist(so.sample_rate_hz, {&m0, &m1});
@@ -183,12 +183,12 @@ void ShapedStreamingSimulation::emit(trajectory::Cursor& plan_cursor, bool flush
     }
     const double e = meter_.add(s);
     if (rows_) rows_(s, e);
-    // The shaped command against the plan.
-    dy::SimSample c = s;
-    c.sim_mm = p.cmd_mm;
-    c.vibration_mm = {0.0, 0.0};
-    const double dc = cmd_meter_.add(c);
-    if (!std::isnan(dc)) {
+    // The shaped command against the plan (the same measuring range as the nozzle: e is NaN
+    // outside it), searched along the path as the meter does.
+    if (!std::isnan(e)) {
+      const double lx = p.cmd_mm[0] - s.cmd_mm[0], ly = p.cmd_mm[1] - s.cmd_mm[1];
+      const double dc = dy::distance_to_path(buf_, loc.move_index, p.cmd_mm[0], p.cmd_mm[1],
+                                             2.0 * std::sqrt(lx * lx + ly * ly) + 0.05);
       smoothing_.max_mm = std::max(smoothing_.max_mm, dc);
       sum_sq_smoothing_ += dc * dc;
       ++smoothing_.samples;
@@ -211,7 +211,6 @@ void ShapedStreamingSimulation::emit(trajectory::Cursor& plan_cursor, bool flush
 void ShapedStreamingSimulation::run(double t_stop, bool final) {
   if (buf_.empty()) return;
   meter_.set_window(buf_, base_);
-  cmd_meter_.set_window(buf_, base_);
   trajectory::Cursor plan_cursor(buf_);
   auto advance_all = [&](double tc, bool fin) {
     for (std::size_t i = 0; i < taps_.size(); ++i) {
@@ -283,7 +282,6 @@ dy::QualityReport ShapedStreamingSimulation::finish() {
   run(std::numeric_limits<double>::infinity(), true);
   smoothing_.rms_mm =
       smoothing_.samples ? std::sqrt(sum_sq_smoothing_ / static_cast<double>(smoothing_.samples)) : 0.0;
-  (void)cmd_meter_.finish();
   return meter_.finish();
 }
 

@@ -14,8 +14,8 @@
 // so the combination is exact too: no resampling.
 //
 // The quality meter sees the PLANNED path (the G-code path) as the command and the shaped
-// nozzle as the simulated position, so the shaper's smoothing counts as contour error. A second
-// meter measures the shaped command itself against the plan (the smoothing).
+// nozzle as the simulated position, so the shaper's smoothing counts as contour error. The
+// distance to the planned path measures the shaped command itself against the plan (the smoothing).
 #include <array>
 #include <cstddef>
 #include <deque>
@@ -100,7 +100,7 @@ class ShapedStreamingSimulation {
   dynamics::MetricsOptions metrics_opt_;
   std::vector<std::unique_ptr<Tap>> taps_;
   std::vector<int> mode_axes_;
-  dynamics::QualityMeter meter_, cmd_meter_;
+  dynamics::QualityMeter meter_;
   RowSink rows_;
   std::size_t window_;
   double h_ = 0.0;
