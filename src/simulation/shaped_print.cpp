@@ -181,6 +181,12 @@ class ShapedCsv {
   }
   ShapedCsv(const ShapedCsv&) = delete;
   ShapedCsv& operator=(const ShapedCsv&) = delete;
+  /// Rows fall on the same times as without the shaper: sample k of the shaped run is
+  /// `first_step + k` steps from the first move's start.
+  void set_first_step(long long first_step) {
+    const auto d = static_cast<long long>(decim_);
+    k_ = static_cast<std::size_t>(((first_step % d) + d) % d);
+  }
   void row(const dy::SimSample& s, double e) {
     if (k_++ % decim_ != 0 || std::isnan(e)) return;
     out_ << fmt::format("{:.6f},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6g},{:.6g},{}\n", s.t_s, s.cmd_mm[0],
@@ -246,6 +252,7 @@ ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::
   dy::SimulationSink plain(model_x, model_y, plain_opt, options.metrics);
   ShapedStreamingSimulation stream(model_x, model_y, options.simulation, options.metrics, taps,
                                    std::move(rows));
+  if (csv) csv->set_first_step(stream.grid_start_steps());
   r.warnings = shapers.warnings;
   ShapedSink shaped(stream, r.warnings);
   plan::ProfilePeaksSink peaks;

@@ -88,6 +88,9 @@ class ShapedStreamingSimulation {
   [[nodiscard]] dynamics::SimulationStats stats() const;
   [[nodiscard]] std::size_t max_window_moves() const { return max_buffer_; }
   [[nodiscard]] std::size_t simulators() const;
+  /// The first combined sample is this many steps from the first move's start (<= 0): the
+  /// shaped command starts moving min_delay early.
+  [[nodiscard]] long long grid_start_steps() const { return k_start_; }
 
  private:
   struct Tap;
