@@ -73,7 +73,7 @@ ShapedStreamingSimulation::ShapedStreamingSimulation(const dy::AxisModel& m0, co
                                                      const dy::SimulationOptions& so,
                                                      dy::MetricsOptions mo, std::vector<CommandTap> taps,
                                                      RowSink rows, std::size_t window_moves)
-    : sim_opt_(so), metrics_opt_(mo), meter_(mo), rows_(std::move(rows)),
+    : metrics_opt_(mo), meter_(mo), rows_(std::move(rows)),
       window_(std::max<std::size_t>(window_moves, 80)) {
   AMCTL_CHECK(!taps.empty(), "a shaped simulation needs at least one tap");
   dy::require_above_nyquist(so.sample_rate_hz, {&m0, &m1});

@@ -99,7 +99,6 @@ class ShapedStreamingSimulation {
   void contribute(std::size_t tap, const dynamics::SimSample& s, std::span<const double> modal);
   void emit(trajectory::Cursor& plan_cursor, bool flush);
 
-  dynamics::SimulationOptions sim_opt_;
   dynamics::MetricsOptions metrics_opt_;
   std::vector<std::unique_ptr<Tap>> taps_;
   std::vector<int> mode_axes_;
