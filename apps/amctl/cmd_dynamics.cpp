@@ -2,6 +2,8 @@
 //   amctl simulate FILE --machine SPEC --natural-frequency-hz F --damping-ratio Z [--json]
 //                  [--sample-rate-hz R] [--csv OUT --csv-rate-hz C] [--t-begin/--t-end S]
 //                  [--layer-begin/--layer-end N] [--profile P --jerk J] [--motor-space]
+//                  [--shaper T --shaper-freq-hz F | --shaper-x T --shaper-freq-x-hz F
+//                   --shaper-y T --shaper-freq-y-hz F] [--shaper-damping-ratio Z]
 //   amctl sweep [--json]   seed 000 tables 3.2/3.3 with real look-ahead and zero junction speed
 // The work is dynamics::simulate_print and dynamics::seed000_sweep; this file parses flags
 // and prints.
@@ -16,6 +18,7 @@
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/dynamics/seed000_sweep.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/simulation/shaped_simulation.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
 
@@ -72,7 +75,102 @@ struct SimulateArgs {
   bool json_out = false;
   std::size_t worst = 10;
   double corner_window_s = 0.25;
+  // input shaping
+  std::optional<std::string> shaper, shaper_x, shaper_y;
+  std::optional<double> shaper_freq, shaper_freq_x, shaper_freq_y;
+  double shaper_damping = 0.1;
+  bool compare_shaper = false;
+  bool no_shaper = false;
 };
+
+// The shaper of one axis from the machine's [input_shaper] (frequency 0: not shaped).
+std::optional<simulation::AxisShaperSetting> axis_shaper_from_machine(const machine::Machine& m, bool y,
+                                                                      simulation::ShaperParamNames& names) {
+  const machine::InputShaper& in = m.input_shaper;
+  const double f = y ? in.shaper_freq_y_hz : in.shaper_freq_x_hz;
+  if (f <= 0.0) return std::nullopt;
+  const char* ax = y ? "y" : "x";
+  names.type = fmt::format("[input_shaper] shaper_type_{}", ax);
+  names.freq = fmt::format("[input_shaper] shaper_freq_{}", ax);
+  names.damping = fmt::format("[input_shaper] damping_ratio_{}", ax);
+  simulation::AxisShaperSetting s;
+  s.type = y ? in.shaper_type_y : in.shaper_type_x;
+  s.freq_hz = f;
+  s.damping_ratio = y ? in.damping_ratio_y : in.damping_ratio_x;
+  s.source = fmt::format("machine {}", m.name);
+  return s;
+}
+
+// The shaper of one axis from the flags; nothing when no flag names the axis.
+std::optional<simulation::AxisShaperSetting> axis_shaper_from_flags(const SimulateArgs& a, bool y,
+                                                                    simulation::ShaperParamNames& names) {
+  const auto& type_axis = y ? a.shaper_y : a.shaper_x;
+  const auto& freq_axis = y ? a.shaper_freq_y : a.shaper_freq_x;
+  const std::optional<std::string> type = type_axis ? type_axis : a.shaper;
+  const std::optional<double> freq = freq_axis ? freq_axis : a.shaper_freq;
+  if (!type && !freq) return std::nullopt;
+  names.type = type_axis ? (y ? "--shaper-y" : "--shaper-x") : "--shaper";
+  names.freq = freq_axis ? (y ? "--shaper-freq-y-hz" : "--shaper-freq-x-hz") : "--shaper-freq-hz";
+  names.damping = "--shaper-damping-ratio";
+  if (!freq) {
+    throw Error(fmt::format("{} needs a frequency: --shaper-freq-hz or {}", names.type,
+                            y ? "--shaper-freq-y-hz" : "--shaper-freq-x-hz"));
+  }
+  simulation::AxisShaperSetting s;
+  s.type = type.value_or("mzv");
+  s.freq_hz = *freq;
+  s.damping_ratio = a.shaper_damping;
+  s.source = "flags";
+  return s;
+}
+
+void print_report(const dy::QualityReport& rep) {
+  std::cout << fmt::format("contour error: max {:.4f} mm, RMS {:.4f} mm (printing: max {:.4f}, RMS {:.4f})\n",
+                           rep.max_contour_error_mm, rep.rms_contour_error_mm,
+                           rep.max_contour_error_printing_mm, rep.rms_contour_error_printing_mm);
+  std::cout << fmt::format("corners {}: max overshoot {:.4f} mm; ringing wavelength {:.3f} mm, amplitude {:.4f} mm\n",
+                           rep.corner_count, rep.max_corner_overshoot_mm, rep.ringing_wavelength_mm,
+                           rep.ringing_amplitude_mm);
+  std::cout << fmt::format("residual vibration: max {:.4f} mm, at the end {:.4g} mm\n",
+                           rep.max_residual_vibration_mm, rep.final_residual_vibration_mm);
+}
+
+void do_shaped(const SimulateArgs& a, const machine::Machine& mach, const dy::AxisModel& mx,
+               const dy::AxisModel& my, const dy::PrintSimulationOptions& o,
+               const simulation::ShaperSettings& shapers) {
+  const simulation::ShapedPrintResult r = simulation::simulate_shaped_print(a.file, mach, mx, my, o, shapers);
+  const bool peaks = mach.profile != machine::VelocityProfile::trapezoid || !a.profile.empty();
+  if (a.json_out) {
+    std::cout << simulation::to_json(r, peaks).dump(2) << "\n";
+    return;
+  }
+  const dy::QualityReport& rep = r.shaped.report;
+  std::cout << fmt::format("{}: {} moves, motion {:.3f} s, profile {}\n", a.file, r.shaped.moves,
+                           rep.motion_time_s, r.shaped.profile);
+  auto axis = [](const char* name, const std::optional<shaping::Shaper>& s,
+                 const std::optional<simulation::AxisShaperSetting>& set) {
+    if (!s) return fmt::format("{} none", name);
+    return fmt::format("{} {} {:g} Hz damping {:g} ({}; {:.1f} ms)", name, shaping::to_string(s->spec),
+                       s->freq_hz, s->damping_ratio, set->source, 1e3 * s->duration_s());
+  };
+  std::cout << fmt::format("input shaper: {}; {} ({} simulators, measured against the planned path)\n",
+                           axis("X", r.shaper_x, r.settings.x), axis("Y", r.shaper_y, r.settings.y),
+                           r.simulators);
+  for (const auto& w : r.warnings) std::cout << "warning: " << w << "\n";
+  std::cout << "with the shaper:\n";
+  print_report(rep);
+  std::cout << fmt::format("shaped command vs plan (smoothing): max {:.4f} mm, RMS {:.4f} mm, at corners max {:.4f} mm\n",
+                           r.smoothing.max_mm, r.smoothing.rms_mm, r.smoothing.max_at_corners_mm);
+  std::cout << "without the shaper:\n";
+  print_report(r.without.report);
+  std::cout << "worst places (shaped):\n";
+  for (const auto& w : rep.worst) {
+    std::cout << fmt::format("  line {:>8}  layer {:>4}  t {:9.3f} s  ({:8.3f}, {:8.3f})  {:.4f} mm\n",
+                             w.line, w.layer, w.t_s, w.x_mm, w.y_mm, w.contour_error_mm);
+  }
+  std::cout << fmt::format("simulated {} samples in {:.3f} s (plan and unshaped run included)\n", rep.samples,
+                           r.shaped.compute_time_s);
+}
 
 void do_simulate(const SimulateArgs& a) {
   machine::Machine mach = resolve_machine(a.machine);
@@ -98,6 +196,36 @@ void do_simulate(const SimulateArgs& a) {
   if (a.layer_end) o.metrics.layer_end = *a.layer_end;
   o.csv_path = a.csv;
   o.csv_rate_hz = a.csv_rate_hz;
+  simulation::ShaperSettings shapers;
+  shapers.x = axis_shaper_from_flags(a, false, shapers.names_x);
+  shapers.y = axis_shaper_from_flags(a, true, shapers.names_y);
+  if (shapers.any() && a.no_shaper) throw Error("--no-shaper and a --shaper flag contradict each other");
+  if (!a.no_shaper) {
+    // Precedence: flags, then the machine's [input_shaper], then M593 before the first move.
+    const auto m593 = simulation::m593_before_first_move(a.file, mach);
+    const bool from_flags = shapers.any();
+    if (!shapers.any()) {
+      shapers.x = axis_shaper_from_machine(mach, false, shapers.names_x);
+      shapers.y = axis_shaper_from_machine(mach, true, shapers.names_y);
+    }
+    if (!m593.empty()) {
+      if (shapers.any()) {
+        shapers.warnings.push_back(fmt::format("M593 before the first move (line {}) overridden by {}",
+                                               m593.front().line,
+                                               from_flags ? "the --shaper flags" : "the machine's [input_shaper]"));
+      } else {
+        shapers = simulation::shapers_from_m593(m593);
+      }
+    }
+    if (!shapers.any()) {
+      for (const auto& w : shapers.warnings) std::cerr << "warning: " << w << "\n";
+    }
+  }
+  if (shapers.any() || a.compare_shaper) {
+    if (!shapers.any()) throw Error("--compare-shaper needs a shaper: --shaper T --shaper-freq-hz F");
+    do_shaped(a, mach, mx, my, o, shapers);
+    return;
+  }
   const dy::PrintSimulationResult r = dy::simulate_print(a.file, mach, mx, my, o);
   const bool peaks = mach.profile != machine::VelocityProfile::trapezoid || !a.profile.empty();
   if (a.json_out) {
@@ -171,6 +299,15 @@ void register_dynamics(CLI::App& app) {
   sim->add_flag("--motor-space", a->motor_space, "apply the belt models to the motors (corexy A, B)");
   sim->add_option("--worst", a->worst, "how many worst places to list (default 10)");
   sim->add_option("--corner-window-s", a->corner_window_s, "time watched after each corner [s]");
+  sim->add_option("--shaper", a->shaper, "input shaper type of X and Y (as `amctl shaper show`: zv, mzv, ei, ...)");
+  sim->add_option("--shaper-freq-hz", a->shaper_freq, "input shaper frequency of X and Y [Hz]");
+  sim->add_option("--shaper-x", a->shaper_x, "input shaper type of X");
+  sim->add_option("--shaper-freq-x-hz", a->shaper_freq_x, "input shaper frequency of X [Hz]");
+  sim->add_option("--shaper-y", a->shaper_y, "input shaper type of Y");
+  sim->add_option("--shaper-freq-y-hz", a->shaper_freq_y, "input shaper frequency of Y [Hz]");
+  sim->add_option("--shaper-damping-ratio", a->shaper_damping, "damping ratio the shapers are designed for (default 0.1)");
+  sim->add_flag("--no-shaper", a->no_shaper, "ignore the machine's [input_shaper] (and M593): simulate the plan unshaped");
+  sim->add_flag("--compare-shaper", a->compare_shaper, "report with and without the shaper (always done when a shaper is given)");
   sim->add_flag("--json", a->json_out, "print one JSON object");
   sim->callback([a] { do_simulate(*a); });
 

@@ -77,6 +77,11 @@ Simulator::Simulator(const AxisModel& m0, const AxisModel& m1, const SimulationO
   h_ = 1.0 / opt.sample_rate_hz;
   settle_ = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
   require_finite("settle_s", settle_);
+  require_finite("grid_offset_s", opt.grid_offset_s);
+  require_finite("extra_settle_s", opt.extra_settle_s);
+  if (opt.grid_offset_s > 0.0) throw Error("grid_offset_s must be <= 0");
+  if (opt.extra_settle_s < 0.0) throw Error("extra_settle_s must be >= 0");
+  if (opt.extra_settle_s > 0.0) settle_ += opt.extra_settle_s;
   for (int axis = 0; axis < 2; ++axis) {
     for (const Mode& mode : (axis == 0 ? m0 : m1).modes()) {
       Run r;
@@ -87,9 +92,16 @@ Simulator::Simulator(const AxisModel& m0, const AxisModel& m1, const SimulationO
     }
   }
   sub_.resize(runs_.size());
+  if (opt.modal_state_per_sample) modal_state_.assign(2 * runs_.size(), 0.0);
 }
 
 Simulator::~Simulator() = default;
+
+std::vector<int> Simulator::mode_axes() const {
+  std::vector<int> a;
+  for (const Run& r : runs_) a.push_back(r.axis);
+  return a;
+}
 
 void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t base,
                         double t_stop, bool final, const SampleSink& sink,
@@ -102,8 +114,8 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   SimulationStats& stats = stats_;
   if (!started_) {
     started_ = true;
-    t0_ = moves.front().start_time_s;
-    motion_end_ = t0_;
+    motion_end_ = moves.front().start_time_s;
+    t0_ = opt.grid_offset_s < 0.0 ? motion_end_ + opt.grid_offset_s : motion_end_;
     stats.start_time_s = t0_;
   }
   for (const auto& m : moves) motion_end_ = std::max(motion_end_, m.end_time_s());
@@ -200,6 +212,14 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
     const auto xy = trajectory::from_motor(kin, c0 + err[0], c1 + err[1]);
     s.sim_mm = {xy[0], xy[1]};
     if (opt.vibration_per_sample) s.vibration_mm = vibration(terms);
+    if (opt.modal_state_per_sample) {
+      for (std::size_t r = 0; r < runs.size(); ++r) {
+        const Run& rr = runs[r];
+        const double a = terms > 0 ? u[rr.axis][0] : 0.0;
+        modal_state_[2 * r] = rr.e - rr.step.pi[0][0] * a;
+        modal_state_[2 * r + 1] = rr.q - rr.step.pi[1][0] * a;
+      }
+    }
     sink(s);
     ++stats.samples;
     if (final && k >= n_steps) {

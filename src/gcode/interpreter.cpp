@@ -281,6 +281,20 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
       case 208:
         set_firmware_retraction(code, params());
         return;
+      case 593: {  // Marlin input shaping: passed on, and counted as ignored as before
+        const Params& p = params();
+        InputShapingCommand c;
+        const bool sx = p.has('X'), sy = p.has('Y');
+        c.x = sx || !sy;
+        c.y = sy || !sx;
+        if (p.has('F')) c.freq_hz = p.get('F');
+        if (p.has('D')) c.damping_ratio = p.get('D');
+        if (p.has('T')) c.type = p.get('T');
+        c.line = line_no;
+        note_ignored(cmd.name);
+        sink.on_input_shaping(c);
+        return;
+      }
       default:
         break;
     }

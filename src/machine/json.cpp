@@ -64,6 +64,16 @@ Json to_json(const Machine& m) {
       {"unretract_speed", m.firmware_retraction.unretract_speed_mm_s},
       {"lift_z", m.firmware_retraction.lift_z_mm},
   };
+  if (!(m.input_shaper == InputShaper{})) {  // only when configured: the default is off
+    j["input_shaper"] = {
+        {"shaper_type_x", m.input_shaper.shaper_type_x},
+        {"shaper_type_y", m.input_shaper.shaper_type_y},
+        {"shaper_freq_x", m.input_shaper.shaper_freq_x_hz},
+        {"shaper_freq_y", m.input_shaper.shaper_freq_y_hz},
+        {"damping_ratio_x", m.input_shaper.damping_ratio_x},
+        {"damping_ratio_y", m.input_shaper.damping_ratio_y},
+    };
+  }
   Json steppers = Json::object();
   for (const auto& [name, s] : m.steppers) {
     steppers[name] = {{"rotation_distance", s.rotation_distance_mm},

@@ -449,6 +449,24 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     fr.unretract_extra_length_mm = r.get_float("unretract_extra_length", 0.0, {.minval = 0.0});
     fr.unretract_speed_mm_s = r.get_float("unretract_speed", 10.0, {.minval = 1.0});
   }
+  if (CfgSection* is = doc.find("input_shaper")) {
+    // input_shaper.py: shaper_type (mzv) is the default of shaper_type_x/_y (lower-cased);
+    // damping_ratio_x/_y 0.1 in [0, 1]; shaper_freq_x/_y 0 (off), >= 0. amctl also needs
+    // damping < 1 (a shaper is not defined at 1).
+    const Section sh(is, "input_shaper", file_loc);
+    InputShaper& in = m.input_shaper;
+    const std::string both = sh.has("shaper_type") ? sh.require_text("shaper_type") : "mzv";
+    auto lower = [](std::string t) {
+      for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      return t;
+    };
+    in.shaper_type_x = lower(sh.has("shaper_type_x") ? sh.require_text("shaper_type_x") : both);
+    in.shaper_type_y = lower(sh.has("shaper_type_y") ? sh.require_text("shaper_type_y") : both);
+    in.shaper_freq_x_hz = sh.get_float("shaper_freq_x", 0.0, {.minval = 0.0});
+    in.shaper_freq_y_hz = sh.get_float("shaper_freq_y", 0.0, {.minval = 0.0});
+    in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});
+    in.damping_ratio_y = sh.get_float("damping_ratio_y", 0.1, {.minval = 0.0, .below = 1.0});
+  }
   for (CfgSection& s : doc.sections) {
     if (s.name.rfind("stepper_", 0) != 0) continue;
     const std::string name = s.name.substr(8);

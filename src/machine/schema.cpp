@@ -22,7 +22,7 @@ constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "juncti
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
 
 constexpr std::string_view kSections[] = {"printer", "marlin", "extruder", "arcs",
-                                          "firmware_retraction"};
+                                          "firmware_retraction", "input_shaper"};
 
 const std::vector<KeyDef>& key_table() {
   static const std::vector<KeyDef> keys = [] {
@@ -157,6 +157,27 @@ const std::vector<KeyDef>& key_table() {
     add({"firmware_retraction", "lift_z", Kind::number, Bound::non_negative, "mm",
          "Z hop of G10 (Marlin M207 Z / RETRACT_ZRAISE; Klipper has none).",
          AMCTL_NUM(firmware_retraction.lift_z_mm)});
+    // ---- [input_shaper] ----
+    add({"input_shaper", "shaper_type_x", Kind::text, Bound::finite, "",
+         "Input shaper of X as `amctl shaper show --type` accepts it (Klipper shaper_type_x; "
+         "shaper_type sets both). Used by `amctl simulate`.",
+         nullptr, nullptr, nullptr, nullptr,
+         [](Machine& m) -> std::string& { return m.input_shaper.shaper_type_x; }});
+    add({"input_shaper", "shaper_type_y", Kind::text, Bound::finite, "",
+         "Input shaper of Y (Klipper shaper_type_y).", nullptr, nullptr, nullptr, nullptr,
+         [](Machine& m) -> std::string& { return m.input_shaper.shaper_type_y; }});
+    add({"input_shaper", "shaper_freq_x", Kind::number, Bound::non_negative, "Hz",
+         "Input shaper frequency of X; 0 = X not shaped (Klipper shaper_freq_x).",
+         AMCTL_NUM(input_shaper.shaper_freq_x_hz)});
+    add({"input_shaper", "shaper_freq_y", Kind::number, Bound::non_negative, "Hz",
+         "Input shaper frequency of Y; 0 = Y not shaped (Klipper shaper_freq_y).",
+         AMCTL_NUM(input_shaper.shaper_freq_y_hz)});
+    add({"input_shaper", "damping_ratio_x", Kind::number, Bound::ratio, "",
+         "Damping ratio the X shaper is designed for (Klipper damping_ratio_x).",
+         AMCTL_NUM(input_shaper.damping_ratio_x)});
+    add({"input_shaper", "damping_ratio_y", Kind::number, Bound::ratio, "",
+         "Damping ratio the Y shaper is designed for (Klipper damping_ratio_y).",
+         AMCTL_NUM(input_shaper.damping_ratio_y)});
     return k;
   }();
   return keys;

@@ -383,6 +383,8 @@ std::string to_toml(const Machine& machine) {
       "# amctl machine description. Units: mm, s, mm/s, mm/s^2; every key is documented in\n"
       "# docs/machine.md.\n";
   for (std::string_view section : detail::machine_sections()) {
+    // [input_shaper] is written only when it says something (Klipper's defaults: off).
+    if (section == "input_shaper" && m.input_shaper == InputShaper{}) continue;
     out += fmt::format("\n[{}]\n", section);
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;

@@ -121,6 +121,7 @@ void EstimateSink::add_event(const PlanEvent& e) {
       break;
     case PlanEvent::Kind::progress:
     case PlanEvent::Kind::fan:
+    case PlanEvent::Kind::input_shaping:  // no effect on print time
       break;
   }
 }

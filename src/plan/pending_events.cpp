@@ -42,6 +42,14 @@ PendingEvent PendingEvent::make_untimed(std::string_view name, std::uint64_t lin
   return e;
 }
 
+PendingEvent PendingEvent::make_input_shaping(const gcode::InputShapingCommand& cmd) {
+  PendingEvent e;
+  e.kind = Kind::input_shaping;
+  e.shaping = cmd;
+  e.line = cmd.line;
+  return e;
+}
+
 void PendingEvents::release(std::uint64_t through_seq, double time_s, PlanSink& sink) {
   while (!queue_.empty() && queue_.front().after_seq <= through_seq) {
     queue_.front().fire(time_s, sink);
@@ -56,6 +64,7 @@ void PendingEvent::fire(double time_s, PlanSink& sink) const {
     case Kind::progress: sink.on_progress(time_s, progress); break;
     case Kind::layer: sink.on_layer_change(time_s, layer, line); break;
     case Kind::untimed: sink.on_untimed(time_s, name, line); break;
+    case Kind::input_shaping: sink.on_input_shaping(time_s, shaping); break;
   }
 }
 

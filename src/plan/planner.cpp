@@ -259,6 +259,9 @@ void Planner::on_heater(const gcode::HeaterCommand& cmd) { core_->on_heater(cmd)
 void Planner::on_fan(double fraction, std::uint64_t line) {
   core_->post(detail::PendingEvent::make_fan(fraction, line));
 }
+void Planner::on_input_shaping(const gcode::InputShapingCommand& cmd) {
+  core_->post(detail::PendingEvent::make_input_shaping(cmd));
+}
 void Planner::on_progress(const gcode::ProgressMarker& m) {
   core_->post(detail::PendingEvent::make_progress(m));
 }

@@ -32,6 +32,9 @@ class BatchWriter final : public PlanSink {
   void on_fan(double time_s, double fraction, std::uint64_t line) override {
     event(PlanEvent::Kind::fan, time_s, line).fan_fraction = fraction;
   }
+  void on_input_shaping(double time_s, const gcode::InputShapingCommand& cmd) override {
+    event(PlanEvent::Kind::input_shaping, time_s, cmd.line).shaping = cmd;
+  }
 
  private:
   PlanEvent& event(PlanEvent::Kind kind, double time_s, std::uint64_t line) {

@@ -134,6 +134,34 @@ TEST(KlipperCfg, ExtruderAndArcAndRetractionSectionsAreRead) {
   EXPECT_DOUBLE_EQ(m.firmware_retraction.unretract_speed_mm_s, 25);
 }
 
+TEST(KlipperCfg, InputShaperSectionIsReadWithKlippersDefaults) {
+  // input_shaper.py: shaper_type (mzv) is the default of shaper_type_x/_y, lower-cased;
+  // damping_ratio_x/_y 0.1; shaper_freq_x/_y 0 = off.
+  EXPECT_EQ(cfg(kMinimal).input_shaper, InputShaper{});
+  EXPECT_FALSE(cfg(kMinimal).input_shaper.active());
+  const Machine m = cfg(kMinimal + "[input_shaper]\nshaper_type: EI\nshaper_type_y: 2HUMP_EI\n"
+                                   "shaper_freq_x: 52.4\nshaper_freq_y: 41\ndamping_ratio_y: 0.07\n");
+  EXPECT_EQ(m.input_shaper.shaper_type_x, "ei");
+  EXPECT_EQ(m.input_shaper.shaper_type_y, "2hump_ei");
+  EXPECT_DOUBLE_EQ(m.input_shaper.shaper_freq_x_hz, 52.4);
+  EXPECT_DOUBLE_EQ(m.input_shaper.shaper_freq_y_hz, 41.0);
+  EXPECT_DOUBLE_EQ(m.input_shaper.damping_ratio_x, 0.1);
+  EXPECT_DOUBLE_EQ(m.input_shaper.damping_ratio_y, 0.07);
+  EXPECT_TRUE(m.input_shaper.active());
+  const Machine only_x = cfg(kMinimal + "[input_shaper]\nshaper_freq_x: 40\n");
+  EXPECT_EQ(only_x.input_shaper.shaper_type_x, "mzv");
+  EXPECT_EQ(only_x.input_shaper.shaper_freq_y_hz, 0.0);
+  EXPECT_NE(cfg_error(kMinimal + "[input_shaper]\nshaper_freq_x: -1\n").find("shaper_freq_x"),
+            std::string::npos);
+  EXPECT_NE(cfg_error(kMinimal + "[input_shaper]\ndamping_ratio_x: 1.5\n").find("damping_ratio_x"),
+            std::string::npos);
+  // The TOML form carries it, and only when set.
+  const std::string toml = to_toml(m);
+  EXPECT_NE(toml.find("[input_shaper]"), std::string::npos);
+  EXPECT_EQ(to_toml(cfg(kMinimal)).find("[input_shaper]"), std::string::npos);
+  EXPECT_EQ(parse_machine_toml(toml, "m.toml").input_shaper, m.input_shaper);
+}
+
 TEST(KlipperCfg, ExtruderOmissionsGetKlippersDerivedDefaults) {
   const Machine m = cfg(kMinimal + "[extruder]\nnozzle_diameter: 0.4\nfilament_diameter: 1.75\n");
   EXPECT_FALSE(m.extruder.max_extrude_only_velocity_mm_s.has_value());

@@ -34,6 +34,16 @@ struct SimulationOptions {
   bool motor_space = false;
   /// Fill SimSample::vibration_mm on every sample (costs two square roots per sample).
   bool vibration_per_sample = false;
+  /// Keep the free-vibration state of every mode of the current sample for
+  /// Simulator::modal_state() (read it from the sample sink).
+  bool modal_state_per_sample = false;
+  /// First sample at the first move's start plus this [s] (<= 0: the tool is at rest on the
+  /// commanded path before the first move). A shaped simulation runs one Simulator per
+  /// shaper delay d on the same plan with offset -d (plus whole steps), so that its samples
+  /// fall at t_k - d.
+  double grid_offset_s = 0.0;
+  /// Simulated beyond motion end + settle [s] (>= 0).
+  double extra_settle_s = 0.0;
 };
 
 /// One output sample.
@@ -81,6 +91,13 @@ class Simulator {
   void advance(std::span<const plan::PlannedMove> window, std::size_t base, double t_stop,
                bool final, const SampleSink& sink, const MoveEndSink& move_end = nullptr);
   [[nodiscard]] const SimulationStats& stats() const { return stats_; }
+  /// With SimulationOptions::modal_state_per_sample, during the sample sink: per mode (in
+  /// the order of model_0's modes, then model_1's) the free-vibration state
+  /// (e_i + g_i a / w_i^2, e_i' / w_i) [mm] of the sample, two numbers per mode. Linear in the
+  /// command, so the state of a weighted sum of commands is the weighted sum of the states.
+  [[nodiscard]] std::span<const double> modal_state() const { return modal_state_; }
+  /// Axis (0 or 1) of each mode in modal_state() order.
+  [[nodiscard]] std::vector<int> mode_axes() const;
   struct Run;
 
  private:
@@ -94,6 +111,7 @@ class Simulator {
   bool have_left_ = false;
   std::size_t next_end_ = 0;
   SimulationStats stats_;
+  std::vector<double> modal_state_;
 };
 
 /// Simulates the moves (time-ordered) from the first move's start, the nozzle at rest on

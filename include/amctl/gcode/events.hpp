@@ -51,6 +51,15 @@ struct ProgressMarker {
   std::uint64_t line = 0;
 };
 
+/// Marlin M593 (input shaping): F frequency [Hz] (0 = off), D damping ratio, X / Y the axes
+/// (neither: both), T a type number (documented by Marlin as "not implemented yet"). Values
+/// as written; it changes neither the plan nor the print time (amctl simulate reads it).
+struct InputShapingCommand {
+  bool x = true, y = true;
+  std::optional<double> freq_hz, damping_ratio, type;
+  std::uint64_t line = 0;
+};
+
 class EventSink {
  public:
   virtual ~EventSink() = default;
@@ -71,6 +80,8 @@ class EventSink {
   virtual void on_layer_change(std::int32_t layer, std::uint64_t line) { (void)layer; (void)line; }
   /// A command that takes real time amctl cannot know (homing, bed probing, filament change).
   virtual void on_untimed(std::string_view name, std::uint64_t line) { (void)name; (void)line; }
+  /// M593 (input shaping). Also counted in Interpreter::ignored_commands(): no effect on time.
+  virtual void on_input_shaping(const InputShapingCommand& cmd) { (void)cmd; }
 };
 
 }  // namespace amctl::gcode

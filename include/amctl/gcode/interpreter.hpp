@@ -2,7 +2,7 @@
 // Turns G-code text into EventSink events: G0/G1, G2/G3 (I/J and R forms), G4, G10/G11,
 // G17-G19, G20/G21, G28, G90/G91, M82/M83, G92, M73, M104/M109/M140/M190/M141/M191,
 // M106/M107, M201/M203/M204/M205, M220/M221, M400, M566, Klipper's SET_VELOCITY_LIMIT,
-// SET_KINEMATIC_POSITION, TEMPERATURE_WAIT, and slicer annotations for layers and features
+// SET_KINEMATIC_POSITION, TEMPERATURE_WAIT, M593 (input shaping, passed on as an event), and slicer annotations for layers and features
 // (PrusaSlicer/SuperSlicer, Cura, OrcaSlicer/Bambu, ideaMaker).
 #include <array>
 #include <cstdint>

@@ -87,6 +87,23 @@ struct FirmwareRetraction {
   bool operator==(const FirmwareRetraction&) const = default;
 };
 
+/// Input shaping as configured on the printer: Klipper [input_shaper] (Marlin sets it with
+/// M593 in the G-code instead). It does not change the plan or the print time; `amctl
+/// simulate` applies it to the commanded motion (docs/dynamics.md, "Input shaping"). A
+/// frequency of 0 leaves that axis unshaped (Klipper's default). Defaults are Klipper's
+/// (input_shaper.py: type mzv, damping ratio 0.1).
+struct InputShaper {
+  std::string shaper_type_x = "mzv";  ///< a type as `amctl shaper show` accepts it
+  std::string shaper_type_y = "mzv";
+  double shaper_freq_x_hz = 0.0;
+  double shaper_freq_y_hz = 0.0;
+  double damping_ratio_x = 0.1;
+  double damping_ratio_y = 0.1;
+  /// true when any axis has a frequency > 0.
+  [[nodiscard]] bool active() const { return shaper_freq_x_hz > 0.0 || shaper_freq_y_hz > 0.0; }
+  bool operator==(const InputShaper&) const = default;
+};
+
 struct Machine {
   std::string name = "default";
   Firmware firmware = Firmware::klipper;
@@ -124,6 +141,7 @@ struct Machine {
   Extruder extruder;
   Arcs arcs;
   FirmwareRetraction firmware_retraction;
+  InputShaper input_shaper;
   /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis).
   /// rotation_distance_mm is per motor revolution (any gear_ratio is folded in).
   std::map<std::string, Stepper> steppers;

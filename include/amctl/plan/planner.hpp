@@ -54,6 +54,10 @@ class PlanSink {
   virtual void on_fan(double time_s, double fraction, std::uint64_t line) {
     (void)time_s; (void)fraction; (void)line;
   }
+  /// M593 taking effect at print time `time_s` (after the moves before it).
+  virtual void on_input_shaping(double time_s, const gcode::InputShapingCommand& cmd) {
+    (void)time_s; (void)cmd;
+  }
 };
 
 struct PlannerOptions {
@@ -95,6 +99,7 @@ class Planner final : public gcode::EventSink {
   void on_limits(const gcode::LimitsCommand& cmd) override;
   void on_heater(const gcode::HeaterCommand& cmd) override;
   void on_fan(double fraction, std::uint64_t line) override;
+  void on_input_shaping(const gcode::InputShapingCommand& cmd) override;
   void on_progress(const gcode::ProgressMarker& m) override;
   void on_layer_change(std::int32_t layer, std::uint64_t line) override;
   void on_untimed(std::string_view name, std::uint64_t line) override;

@@ -34,7 +34,7 @@ namespace amctl::plan {
 
 /// A non-motion event of the plan, at its print time.
 struct PlanEvent {
-  enum class Kind : std::uint8_t { dwell, heater, progress, untimed, layer, fan };
+  enum class Kind : std::uint8_t { dwell, heater, progress, untimed, layer, fan, input_shaping };
   Kind kind = Kind::dwell;
   /// Number of the batch's moves that come before this event (events sit between moves).
   std::size_t before_move = 0;
@@ -46,6 +46,7 @@ struct PlanEvent {
   gcode::HeaterCommand heater{};
   gcode::ProgressMarker progress{};
   std::string name;             ///< untimed command (G28, probing, ...)
+  gcode::InputShapingCommand shaping{};  ///< input_shaping (M593)
 };
 
 /// One piece of the stream: moves in time order and the events between them.

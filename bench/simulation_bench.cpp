@@ -1,0 +1,95 @@
+// Hot path of the input-shaped simulation (`amctl simulate --shaper ...`).
+//   BM_ShapedSimulationTwoHourPrint/<shaper>  a synthetic 2-hour print (segments of 0.3..20 mm turning by
+//                                   random angles, 150 mm/s, 5000 mm/s^2) simulated at 1 kHz
+//                                   through a 40 Hz belt on X and Y with the shaper on both
+//                                   axes at 40 Hz, moves pushed one by one with the contour,
+//                                   residual and smoothing metrics (what simulate runs for the
+//                                   shaped half of its report). Issue 9 target: < 3 s.
+//   BM_UnshapedSimulationTwoHourPrint         the same print without a shaper through the same code
+//                                   (one simulator at delay 0), for the cost per simulator.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "amctl/plan/velocity_profile.hpp"
+#include "amctl/simulation/shaped_simulation.hpp"
+#include "amctl/trajectory/build.hpp"
+
+namespace {
+
+using namespace amctl;
+
+// Deterministic synthetic print (seeded), 7200 s of motion.
+const std::vector<plan::PlannedMove>& shaped_bench_print() {
+  static const std::vector<plan::PlannedMove> moves = [] {
+    std::mt19937_64 rng(20261122);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    std::vector<plan::PlannedMove> out;
+    std::array<double, 4> at{150, 150, 0.2, 0};
+    double t = 0.0, v = 0.0, heading = 0.0;
+    const double accel = 5000.0, vmax = 150.0;
+    std::uint64_t line = 1;
+    while (t < 7200.0) {
+      const double len = 0.3 * std::pow(20.0 / 0.3, u01(rng));
+      const double turn = (u01(rng) < 0.3) ? (u01(rng) - 0.5) * 3.2 : (u01(rng) - 0.5) * 0.4;
+      heading += turn;
+      std::array<double, 4> to = at;
+      to[0] += len * std::cos(heading);
+      to[1] += len * std::sin(heading);
+      if (to[0] < 10 || to[0] > 290 || to[1] < 10 || to[1] > 290) {
+        heading += 3.14159;
+        continue;
+      }
+      to[3] += 0.03 * len;
+      const double jv = std::min(vmax, 5.0 / std::max(0.05, std::abs(std::sin(0.5 * turn))));
+      const double reach = plan::max_reachable_speed_mm_s(plan::VelocityProfile::trapezoid, v, len, accel);
+      const double brake = std::sqrt(std::max(0.0, v * v - 2.0 * accel * len));
+      trajectory::MoveSpec spec{to, vmax, std::max(brake, std::min({jv, reach, vmax})), line++,
+                                static_cast<std::int32_t>(t / 60.0), 0};
+      out.push_back(trajectory::timed_move(at, spec, v, t, accel, plan::VelocityProfile::trapezoid, 0.0));
+      t = out.back().end_time_s();
+      v = out.back().end_v_mm_s;
+      at = to;
+    }
+    return out;
+  }();
+  return moves;
+}
+
+void run(benchmark::State& state, const std::vector<simulation::CommandTap>& taps) {
+  const auto& moves = shaped_bench_print();
+  const dynamics::AxisModel m = dynamics::AxisModel::belt(40.0, 0.1);
+  dynamics::SimulationOptions o;
+  o.sample_rate_hz = 1000.0;
+  dynamics::MetricsOptions mo;
+  mo.keep_per_move = false;
+  for (auto _ : state) {
+    simulation::ShapedStreamingSimulation s(m, m, o, mo, taps);
+    for (const auto& mv : moves) s.push(mv);
+    const auto r = s.finish();
+    benchmark::DoNotOptimize(r.max_contour_error_mm);
+    state.counters["samples"] = static_cast<double>(s.stats().samples);
+    state.counters["simulators"] = static_cast<double>(s.simulators());
+    state.counters["window_moves"] = static_cast<double>(s.max_window_moves());
+    state.counters["print_s"] = s.stats().motion_end_time_s;
+    state.counters["smoothing_max_mm"] = s.smoothing().max_mm;
+  }
+  state.counters["moves"] = static_cast<double>(moves.size());
+}
+
+void BM_ShapedSimulationTwoHourPrint(benchmark::State& state, const char* type) {
+  const auto shaper = shaping::make_shaper(type, 40.0, 0.1);
+  run(state, simulation::command_taps(shaper, shaper, false));
+}
+BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, zv, "zv")->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, mzv, "mzv")->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, ei, "ei")->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, 3hump_ei, "3hump_ei")->Unit(benchmark::kMillisecond)->Iterations(1);
+
+void BM_UnshapedSimulationTwoHourPrint(benchmark::State& state) {
+  run(state, simulation::command_taps(std::nullopt, std::nullopt, false));
+}
+BENCHMARK(BM_UnshapedSimulationTwoHourPrint)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace

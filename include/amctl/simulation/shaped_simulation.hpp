@@ -1,0 +1,204 @@
+#pragma once
+// The belt dynamics driven by an input-shaped command, exactly (docs/dynamics.md, "Input
+// shaping").
+//
+// The belt model is linear and time invariant and starts at rest on the commanded path. The
+// shaped command of an axis is x_s(t) = sum_i a_i x(t - d_i) (shaping::applied_pulses: weights
+// sum to 1, centred delays), so the shaped nozzle position is the same weighted sum of the
+// unshaped responses at shifted times:
+//   y_s(t) = sum_i a_i y(t - d_i).
+// One dynamics::Simulator per distinct delay runs over the same plan with its sample grid
+// shifted by -d_i (SimulationOptions::grid_offset_s), the simulators advance in lockstep (in
+// chunks of 0.25 s) and their samples are combined with per-axis weights (an axis without a
+// shaper: weight 1 at delay 0). Every simulator is exact at its sample times (simulate.hpp),
+// so the combination is exact too: no resampling.
+//
+// The quality meter sees the PLANNED path (the G-code path) as the command and the shaped
+// nozzle as the simulated position, so the shaper's smoothing counts as contour error. The
+// distance to the planned path measures the shaped command itself against the plan (the smoothing).
+#include <array>
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "amctl/core/json.hpp"
+#include "amctl/dynamics/metrics.hpp"
+#include "amctl/dynamics/model.hpp"
+#include "amctl/dynamics/print_simulation.hpp"
+#include "amctl/dynamics/simulate.hpp"
+#include "amctl/gcode/events.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planned_move.hpp"
+#include "amctl/shaping/shaper.hpp"
+#include "amctl/trajectory/trajectory.hpp"
+
+namespace amctl::simulation {
+
+/// One delay of the shaped command with its weight on each simulated axis (0: X or motor A,
+/// 1: Y or motor B; 0 where the axis has no impulse at this delay).
+struct CommandTap {
+  double delay_s = 0.0;
+  std::array<double, 2> weight{};
+};
+
+/// The taps of a shaper per axis (nullopt: the axis follows the plan), merged by delay. In
+/// motor space (corexy A, B) both axes must have the same shaper (or none): a different
+/// shaper per axis throws amctl::Error (not supported yet).
+[[nodiscard]] std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
+                                                   const std::optional<shaping::Shaper>& y,
+                                                   bool motor_space);
+
+/// The shaped command's own deviation from the plan.
+struct SmoothingFigures {
+  double max_mm = 0.0;             ///< largest distance of the shaped command from the plan
+  double rms_mm = 0.0;
+  /// Largest distance within [T_c + min_delay, T_c + max_delay] of a corner junction T_c
+  /// (turn above MetricsOptions::corner_angle_deg).
+  double max_at_corners_mm = 0.0;
+  std::uint64_t samples = 0;
+};
+
+/// Simulation and metrics of a move stream with a shaped command, in bounded memory: like
+/// dynamics::StreamingSimulation, moves are pushed one by one and a window of moves is kept
+/// that covers [t - max_delay, t - min_delay] around the simulated time plus the metrics'
+/// neighbours. Residual vibration of a move is the free vibration of the shaped nozzle at the
+/// first sample at or after (move end + max delay), when the shaped command has left the
+/// move (with a single tap at delay 0: at the first sample at or after the move end).
+class ShapedStreamingSimulation {
+ public:
+  using RowSink = dynamics::StreamingSimulation::RowSink;
+  ShapedStreamingSimulation(const dynamics::AxisModel& model_0, const dynamics::AxisModel& model_1,
+                            const dynamics::SimulationOptions& sim_options,
+                            dynamics::MetricsOptions metrics_options, std::vector<CommandTap> taps,
+                            RowSink rows = nullptr, std::size_t window_moves = 256);
+  ~ShapedStreamingSimulation();
+  ShapedStreamingSimulation(const ShapedStreamingSimulation&) = delete;
+  ShapedStreamingSimulation& operator=(const ShapedStreamingSimulation&) = delete;
+
+  void push(const plan::PlannedMove& move);
+  /// Simulates the rest (through the settle time) and returns the nozzle's report.
+  [[nodiscard]] dynamics::QualityReport finish();
+  /// After finish(): the shaped command against the plan.
+  [[nodiscard]] const SmoothingFigures& smoothing() const { return smoothing_; }
+  /// samples: combined samples; axis_state_updates: summed over the simulators.
+  [[nodiscard]] dynamics::SimulationStats stats() const;
+  [[nodiscard]] std::size_t max_window_moves() const { return max_buffer_; }
+  [[nodiscard]] std::size_t simulators() const;
+  /// The first combined sample is this many steps from the first move's start (<= 0): the
+  /// shaped command starts moving min_delay early.
+  [[nodiscard]] long long grid_start_steps() const { return k_start_; }
+
+ private:
+  struct Tap;
+  struct Pending;
+  void run(double t_stop, bool final);
+  void contribute(std::size_t tap, const dynamics::SimSample& s, std::span<const double> modal);
+  void emit(trajectory::Cursor& plan_cursor, bool flush);
+
+  dynamics::MetricsOptions metrics_opt_;
+  std::vector<std::unique_ptr<Tap>> taps_;
+  std::vector<int> mode_axes_;
+  dynamics::QualityMeter meter_;
+  RowSink rows_;
+  std::size_t window_;
+  double h_ = 0.0;
+  double max_delay_s_ = 0.0, min_delay_s_ = 0.0;
+  long long k_start_ = 0;       // combined sample k is at t0 + (k_start_ + k) h
+  std::size_t lookahead_ = 0;   // samples from a sample to the one its residual is read at
+  std::vector<plan::PlannedMove> buf_;
+  std::size_t base_ = 0;
+  std::size_t max_buffer_ = 0;
+  bool started_ = false;
+  double t0_ = 0.0;             // first move's start
+  double motion_end_s_ = 0.0;
+  double t_done_ = 0.0;         // combined time every simulator has reached
+  std::deque<Pending> pending_;
+  std::deque<double> pending_modal_;  // 2 x modes per pending sample
+  std::size_t front_k_ = 0;     // combined index of pending_.front()
+  std::size_t emitted_ = 0;
+  std::size_t next_end_ = 0;    // first move whose residual has not been reported
+  double last_t_ = 0.0;
+  // corner junctions (plan times) for SmoothingFigures::max_at_corners_mm
+  std::deque<double> corner_times_;
+  bool have_dir_ = false;
+  double last_dir_[2] = {0.0, 0.0};
+  double sum_sq_smoothing_ = 0.0;
+  SmoothingFigures smoothing_;
+};
+
+// ------------------------------------------------------------------------------ whole print
+
+/// One axis' shaper as configured: type (shaping::parse_shaper_spec), frequency, damping
+/// ratio, and where it came from ("--shaper", "printer.cfg", "machine", "M593").
+struct AxisShaperSetting {
+  std::string type = "mzv";
+  double freq_hz = 0.0;
+  double damping_ratio = 0.1;
+  std::string source;
+};
+
+/// The names of an axis' shaper parameters in messages (the flags or config keys).
+struct ShaperParamNames {
+  std::string type = "--shaper";
+  std::string freq = "--shaper-freq-hz";
+  std::string damping = "--shaper-damping-ratio";
+};
+
+struct ShaperSettings {
+  std::optional<AxisShaperSetting> x, y;
+  ShaperParamNames names_x, names_y;  ///< for messages
+  std::vector<std::string> warnings;  ///< found while resolving them (M593)
+  [[nodiscard]] bool any() const { return x.has_value() || y.has_value(); }
+};
+
+/// Builds the shaper of one axis. Throws amctl::Error naming the parameter for an unknown
+/// type, a frequency <= 0 or at/above the Nyquist limit of the sample rate (the simulation
+/// samples the shaped command at sample_rate_hz), a damping ratio outside [0, 1).
+[[nodiscard]] shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double sample_rate_hz,
+                                               const ShaperParamNames& names = {});
+
+/// The M593 commands of `path` (planned on `machine`) that come before its first move: a
+/// pre-pass over the first batch of the plan stream. Empty for standard input ("-").
+[[nodiscard]] std::vector<gcode::InputShapingCommand> m593_before_first_move(const std::string& path,
+                                                                            const machine::Machine& machine);
+
+/// Marlin's input shaping after `commands` (M593, in order), from Marlin's M593.cpp: the
+/// stepper shaping is ZV; D sets the damping ratio (accepted in [0, 1], Marlin's default
+/// SHAPING_ZETA 0.15), F the frequency (0 = off; negative: rejected), X / Y select the axes
+/// (neither: both); T is documented as not implemented and ignored. A rejected value, an
+/// axis given a damping ratio but never a frequency (the firmware's compiled-in default is not
+/// in the file) and a T word are reported in `warnings`. Source "M593 line N".
+[[nodiscard]] ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> commands);
+
+struct ShapedPrintResult {
+  dynamics::PrintSimulationResult shaped;   ///< the shaped nozzle against the planned path
+  dynamics::PrintSimulationResult without;  ///< the same plan without a shaper
+  ShaperSettings settings;
+  std::optional<shaping::Shaper> shaper_x, shaper_y;
+  SmoothingFigures smoothing;               ///< the shaped command against the plan
+  std::size_t simulators = 0;               ///< distinct delays
+  std::vector<std::string> warnings;
+};
+
+/// Plans `path` on `machine` and simulates it once with and once without the shapers (one
+/// pass over the plan). The CSV of `options` gets the shaped run. An M593 after the first
+/// move is reported in `warnings` (a change of shaping mid-print is not modelled). Throws amctl::Error as
+/// dynamics::simulate_print, and for bad shaper settings (make_axis_shaper, command_taps).
+[[nodiscard]] ShapedPrintResult simulate_shaped_print(const std::string& path,
+                                                      const machine::Machine& machine,
+                                                      const dynamics::AxisModel& model_x,
+                                                      const dynamics::AxisModel& model_y,
+                                                      const dynamics::PrintSimulationOptions& options,
+                                                      const ShaperSettings& shapers);
+
+/// `amctl simulate --json` with a shaper: dynamics::to_json of the shaped run plus `shaper`
+/// (per axis: type, freq_hz, damping_ratio, source, duration_s, klipper_smoothing_mm at the
+/// machine's accel and scv), `smoothing_mm` (max, rms, max_at_corners) and `without_shaper`
+/// (the same quality keys for the unshaped run).
+[[nodiscard]] Json to_json(const ShapedPrintResult& result, bool with_peaks);
+
+}  // namespace amctl::simulation

@@ -1,0 +1,319 @@
+// A whole print through the belt dynamics with and without input shaping (one plan pass).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/profile_peaks.hpp"
+#include "amctl/plan/stream.hpp"
+#include "amctl/shaping/measures.hpp"
+#include "amctl/simulation/shaped_simulation.hpp"
+
+namespace amctl::simulation {
+
+namespace dy = amctl::dynamics;
+
+shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double rate_hz, const ShaperParamNames& n) {
+  shaping::ShaperSpec spec;
+  try {
+    spec = shaping::parse_shaper_spec(s.type);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{} ({}): {}", n.type, s.source, e.what()));
+  }
+  if (!std::isfinite(s.freq_hz) || s.freq_hz <= 0.0) {
+    throw Error(fmt::format("{} ({}) must be a shaper frequency > 0 Hz, got {}", n.freq, s.source, s.freq_hz));
+  }
+  if (s.freq_hz >= 0.5 * rate_hz) {
+    throw Error(fmt::format("{} ({}) = {} Hz is at or above the Nyquist limit {} Hz of the sample "
+                            "rate (--sample-rate-hz {})", n.freq, s.source, s.freq_hz, 0.5 * rate_hz, rate_hz));
+  }
+  if (!std::isfinite(s.damping_ratio) || s.damping_ratio < 0.0 || s.damping_ratio >= 1.0) {
+    throw Error(fmt::format("{} ({}) must be in [0, 1), got {}", n.damping, s.source, s.damping_ratio));
+  }
+  try {
+    return shaping::make_shaper(spec, s.freq_hz, s.damping_ratio);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{} ({}): {}", n.type, s.source, e.what()));
+  }
+}
+
+std::vector<gcode::InputShapingCommand> m593_before_first_move(const std::string& path,
+                                                              const machine::Machine& machine) {
+  std::vector<gcode::InputShapingCommand> out;
+  if (path == "-") return out;
+  plan::PlanSource source(path, machine);
+  plan::PlanBatch batch;
+  while (source.next(batch)) {
+    for (const plan::PlanEvent& e : batch.events) {
+      if (e.before_move > 0) return out;
+      if (e.kind == plan::PlanEvent::Kind::input_shaping) out.push_back(e.shaping);
+    }
+    if (!batch.moves.empty()) return out;
+  }
+  return out;
+}
+
+ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> commands) {
+  ShaperSettings r;
+  struct Axis {
+    std::optional<double> freq_hz;
+    double zeta = 0.15;  // Marlin SHAPING_ZETA_X / _Y default
+    bool zeta_set = false;
+    std::uint64_t line = 0;
+  } axes[2];
+  for (const gcode::InputShapingCommand& c : commands) {
+    const bool sel[2] = {c.x, c.y};
+    if (c.type) {
+      r.warnings.push_back(fmt::format("line {}: M593 T{:g} ignored (Marlin documents the shaper "
+                                       "type as not implemented; its stepper shaping is ZV)",
+                                       c.line, *c.type));
+    }
+    if (c.damping_ratio) {
+      const double z = *c.damping_ratio;
+      if (std::isfinite(z) && z >= 0.0 && z <= 1.0) {
+        for (int a = 0; a < 2; ++a) {
+          if (!sel[a]) continue;
+          axes[a].zeta = z;
+          axes[a].zeta_set = true;
+          axes[a].line = c.line;
+        }
+      } else {
+        r.warnings.push_back(fmt::format("line {}: M593 D{} rejected, as Marlin does (range 0-1)", c.line, z));
+      }
+    }
+    if (c.freq_hz) {
+      const double f = *c.freq_hz;
+      if (std::isfinite(f) && f >= 0.0) {
+        for (int a = 0; a < 2; ++a) {
+          if (!sel[a]) continue;
+          axes[a].freq_hz = f;
+          axes[a].line = c.line;
+        }
+      } else {
+        r.warnings.push_back(fmt::format("line {}: M593 F{} rejected, as Marlin does (F must be > 0, or 0 to disable)",
+                                         c.line, f));
+      }
+    }
+  }
+  for (int a = 0; a < 2; ++a) {
+    const char ax = a == 0 ? 'X' : 'Y';
+    if (!axes[a].freq_hz) {
+      if (axes[a].zeta_set) {
+        r.warnings.push_back(fmt::format("M593 sets the {} damping ratio but no frequency: the "
+                                         "firmware's compiled-in frequency is not in the file, {} is not shaped",
+                                         ax, ax));
+      }
+      continue;
+    }
+    if (*axes[a].freq_hz == 0.0) continue;  // F0: off
+    AxisShaperSetting s;
+    s.type = "zv";
+    s.freq_hz = *axes[a].freq_hz;
+    s.damping_ratio = axes[a].zeta;
+    s.source = fmt::format("M593 line {}", axes[a].line);
+    (a == 0 ? r.x : r.y) = s;
+    ShaperParamNames& n = a == 0 ? r.names_x : r.names_y;
+    n.type = fmt::format("M593 {}", ax);
+    n.freq = fmt::format("M593 {} F", ax);
+    n.damping = fmt::format("M593 {} D", ax);
+  }
+  return r;
+}
+
+namespace {
+
+class ShapedSink final : public plan::Sink {
+ public:
+  ShapedSink(ShapedStreamingSimulation& sim, std::vector<std::string>& warnings)
+      : sim_(sim), warnings_(warnings) {}
+  void consume(const plan::PlanBatch& batch) override {
+    plan::for_each_in_order(
+        batch,
+        [&](const plan::PlannedMove& m) {
+          used_features_.insert(m.feature);
+          sim_.push(m);
+          ++moves_;
+        },
+        [&](const plan::PlanEvent& e) {
+          if (e.kind != plan::PlanEvent::Kind::input_shaping || moves_ == 0) return;
+          if (warnings_.size() < 100) {
+            warnings_.push_back(fmt::format("line {}: M593 at print time {:.3f} s changes input shaping "
+                                            "after the first move: not modelled (the simulation keeps "
+                                            "the shaping it started with)", e.line, e.time_s));
+          }
+        });
+  }
+  void finish(const plan::StreamSummary& summary) override {
+    if (moves_ == 0) throw Error(fmt::format("{}: no moves to simulate", summary.file));
+    report_ = sim_.finish();
+    feature_names_ = summary.feature_names;
+    for (std::uint16_t f : used_features_) {
+      if (feature_names_.size() <= f) feature_names_.resize(f + 1u, "unknown");
+    }
+  }
+  ShapedStreamingSimulation& sim_;
+  std::vector<std::string>& warnings_;
+  dy::QualityReport report_;
+  std::size_t moves_ = 0;
+  std::set<std::uint16_t> used_features_;
+  std::vector<std::string> feature_names_;
+};
+
+/// The per-sample CSV of the shaped run (same columns as `amctl simulate --csv`), written to
+/// "<path>.part" and renamed into place at the end.
+class ShapedCsv {
+ public:
+  ShapedCsv(const std::string& path, std::size_t decim) : path_(path), tmp_(path + ".part"), decim_(decim) {
+    out_.open(tmp_);
+    if (!out_) throw Error(fmt::format("cannot write CSV file '{}'", path));
+    out_ << "t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,line\n";
+  }
+  ~ShapedCsv() {
+    if (!committed_) {
+      out_.close();
+      std::remove(tmp_.c_str());
+    }
+  }
+  ShapedCsv(const ShapedCsv&) = delete;
+  ShapedCsv& operator=(const ShapedCsv&) = delete;
+  /// Rows fall on the same times as without the shaper: sample k of the shaped run is
+  /// `first_step + k` steps from the first move's start.
+  void set_first_step(long long first_step) {
+    const auto d = static_cast<long long>(decim_);
+    k_ = static_cast<std::size_t>(((first_step % d) + d) % d);
+  }
+  void row(const dy::SimSample& s, double e) {
+    if (k_++ % decim_ != 0 || std::isnan(e)) return;
+    out_ << fmt::format("{:.6f},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6g},{:.6g},{}\n", s.t_s, s.cmd_mm[0],
+                        s.cmd_mm[1], s.cmd_mm[2], s.sim_mm[0], s.sim_mm[1], e,
+                        std::hypot(s.vibration_mm[0], s.vibration_mm[1]), s.line);
+  }
+  void commit() {
+    out_.close();
+    if (!out_ || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
+      throw Error(fmt::format("cannot write CSV file '{}'", path_));
+    }
+    committed_ = true;
+  }
+
+ private:
+  std::string path_, tmp_;
+  std::size_t decim_;
+  std::size_t k_ = 0;
+  std::ofstream out_;
+  bool committed_ = false;
+};
+
+}  // namespace
+
+ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::Machine& machine,
+                                        const dy::AxisModel& model_x, const dy::AxisModel& model_y,
+                                        const dy::PrintSimulationOptions& options,
+                                        const ShaperSettings& shapers) {
+  const double rate = options.simulation.sample_rate_hz;
+  dy::require_above_nyquist(rate, {&model_x, &model_y});
+  const dy::MetricsOptions& mo = options.metrics;
+  if (mo.t_end_s < mo.t_begin_s) {
+    throw Error(fmt::format("empty range: --t-end {} is before --t-begin {}", mo.t_end_s, mo.t_begin_s));
+  }
+  if (mo.layer_end < mo.layer_begin) {
+    throw Error(fmt::format("empty range: --layer-end {} is before --layer-begin {}", mo.layer_end,
+                            mo.layer_begin));
+  }
+  ShapedPrintResult r;
+  r.settings = shapers;
+  if (shapers.x) r.shaper_x = make_axis_shaper(*shapers.x, rate, shapers.names_x);
+  if (shapers.y) r.shaper_y = make_axis_shaper(*shapers.y, rate, shapers.names_y);
+  const std::vector<CommandTap> taps = command_taps(r.shaper_x, r.shaper_y, options.simulation.motor_space);
+
+  std::unique_ptr<ShapedCsv> csv;
+  if (!options.csv_path.empty()) {
+    const double cr = options.csv_rate_hz.value_or(rate);
+    require_positive("csv_rate_hz", cr);
+    const double ratio = rate / cr;
+    const auto decim = static_cast<std::size_t>(std::llround(ratio));
+    if (decim < 1 || std::abs(ratio - static_cast<double>(decim)) > 1e-9 * ratio) {
+      throw Error(fmt::format("--csv-rate-hz {} must divide --sample-rate-hz {} evenly", cr, rate));
+    }
+    csv = std::make_unique<ShapedCsv>(options.csv_path, decim);
+  }
+  ShapedStreamingSimulation::RowSink rows;
+  if (csv) rows = [&csv](const dy::SimSample& s, double e) { csv->row(s, e); };
+
+  const auto t0 = std::chrono::steady_clock::now();
+  plan::PlanSource source(path, machine);
+  dy::SimulationOptions plain_opt = options.simulation;
+  plain_opt.vibration_per_sample = false;
+  dy::SimulationSink plain(model_x, model_y, plain_opt, options.metrics);
+  ShapedStreamingSimulation stream(model_x, model_y, options.simulation, options.metrics, taps,
+                                   std::move(rows));
+  if (csv) csv->set_first_step(stream.grid_start_steps());
+  r.warnings = shapers.warnings;
+  ShapedSink shaped(stream, r.warnings);
+  plan::ProfilePeaksSink peaks;
+  plan::Sink* sinks[] = {&plain, &shaped, &peaks};
+  plan::run_pipeline(source, sinks);
+  if (csv) csv->commit();
+  const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  auto common = [&](dy::PrintSimulationResult& p) {
+    p.compute_time_s = compute_s;
+    p.file = path;
+    p.machine_name = machine.name;
+    p.profile = std::string(machine::to_string(machine.profile));
+    p.model_x = model_x;
+    p.model_y = model_y;
+    p.motor_space = options.simulation.motor_space;
+    p.sample_rate_hz = rate;
+    p.peaks = peaks.peaks();
+  };
+  common(r.shaped);
+  r.shaped.report = shaped.report_;
+  r.shaped.stats = stream.stats();
+  r.shaped.moves = shaped.moves_;
+  r.shaped.max_window_moves = stream.max_window_moves();
+  r.shaped.feature_names = shaped.feature_names_;
+  common(r.without);
+  r.without.report = plain.report();
+  r.without.stats = plain.stats();
+  r.without.moves = plain.moves();
+  r.without.max_window_moves = plain.max_window_moves();
+  r.without.feature_names = plain.feature_names();
+  r.smoothing = stream.smoothing();
+  r.simulators = stream.simulators();
+  return r;
+}
+
+Json to_json(const ShapedPrintResult& r, bool with_peaks) {
+  Json j = dy::to_json(r.shaped, with_peaks);
+  auto axis = [&](const std::optional<AxisShaperSetting>& s, const std::optional<shaping::Shaper>& sh) -> Json {
+    if (!s || !sh) return nullptr;
+    return {{"type", shaping::to_string(sh->spec)},
+            {"freq_hz", json_number(sh->freq_hz)},
+            {"damping_ratio", json_number(sh->damping_ratio)},
+            {"source", s->source},
+            {"duration_s", json_number(sh->duration_s())},
+            {"klipper_smoothing_mm",
+             json_number(shaping::smoothing_mm(*sh, shaping::kKlipperSmoothingAccelMmS2,
+                                               shaping::kKlipperSquareCornerVelocityMmS))}};
+  };
+  j["shaper"] = {{"x", axis(r.settings.x, r.shaper_x)}, {"y", axis(r.settings.y, r.shaper_y)},
+                 {"simulators", r.simulators}};
+  j["smoothing_mm"] = {{"max", json_number(r.smoothing.max_mm)},
+                       {"rms", json_number(r.smoothing.rms_mm)},
+                       {"max_at_corners", json_number(r.smoothing.max_at_corners_mm)}};
+  Json w = dy::to_json(r.without.report, r.without.feature_names);
+  w["axis_state_updates"] = r.without.stats.axis_state_updates;
+  j["without_shaper"] = w;
+  Json warn = Json::array();
+  for (const auto& s : r.warnings) warn.push_back(s);
+  j["shaper_warnings"] = warn;
+  return j;
+}
+
+}  // namespace amctl::simulation
