@@ -178,8 +178,8 @@ AccelFile parse_accel_text(std::string_view text, const std::string& source) {
         out.format = RecordFormat::klipper_psd;
         out.psd.normalized = trimmed.size() > 5;
         names.assign(kPsdColumns.begin(), kPsdColumns.end());
-      } else if (hash && (trimmed.empty() || (trimmed[0] != "time" && trimmed[0] != "time_s"))) {
-        continue;  // a comment line before the header (Klipper skips every '#' line)
+      } else if (hash && line.find(',') == std::string_view::npos) {
+        continue;  // a comment before the header; a '#' line with commas is a header
       } else {
         throw Error(SourceLocation{source, line_no, 0},
                     fmt::format("header '{}', expected {}", shorten(line), kExpectedHeaders));

@@ -25,7 +25,9 @@ std::string synthetic_sweep_csv(const SyntheticSweep& s) {
   auto base = [&](double t) {
     const double u = t - s.lead_s;
     if (u < 0 || u > sweep_s) return 0.0;
-    return s.accel_mm_s2 * std::sin(2.0 * std::numbers::pi * (s.f0_hz * u + 0.5 * s.rate_hz_s * u * u));
+    const double amp = s.accel_per_hz_mm_s2 > 0 ? s.accel_per_hz_mm_s2 * (s.f0_hz + s.rate_hz_s * u)
+                                                : s.accel_mm_s2;
+    return amp * std::sin(2.0 * std::numbers::pi * (s.f0_hz * u + 0.5 * s.rate_hz_s * u * u));
   };
   // state: relative position and velocity
   std::array<double, 2> x{0.0, 0.0};

@@ -79,5 +79,19 @@ TEST(SyntheticSweep, EqualsKlipper) {
   compare(r, ref);
 }
 
+TEST(SyntheticSweep, AccelPerHzEqualsKlipper) {
+  const std::string text = synthetic_sweep_csv(test::reference_synthetic_per_hz());
+  if (const char* out = std::getenv("AMCTL_RESONANCE_WRITE_SYNTHETIC_PER_HZ"); out && *out) {
+    std::ofstream(out) << text;
+  }
+  const auto ref = test::read_json(test::reference_dir() / "synthetic_x_42hz_per_hz.json");
+  CalibrateOptions o;
+  o.axis = 'x';
+  const CalibrationReport r = calibrate(parse_accel_text(text, "synthetic"), "synthetic", o);
+  compare(r, ref);
+  // Excited as Klipper's test excites, the pick lands on the mode.
+  EXPECT_NEAR(r.klipper.recommended.freq_hz, 42.0, 1.0);
+}
+
 }  // namespace
 }  // namespace amctl::resonance

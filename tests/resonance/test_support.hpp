@@ -57,6 +57,13 @@ inline SyntheticSweep reference_synthetic() {
   return s;
 }
 
+/// The same mode excited as Klipper's own test excites it: amplitude 75 mm/s^2 per Hz.
+inline SyntheticSweep reference_synthetic_per_hz() {
+  SyntheticSweep s = reference_synthetic();
+  s.accel_per_hz_mm_s2 = 75.0;
+  return s;
+}
+
 inline std::filesystem::path temp_path(const std::string& name) {
   return std::filesystem::temp_directory_path() / ("amctl_resonance_" + std::to_string(::getpid()) + "_" + name);
 }

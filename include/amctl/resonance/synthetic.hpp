@@ -7,7 +7,8 @@
 namespace amctl::resonance {
 
 /// A single mode (natural frequency f_n, damping ratio zeta) on `axis` driven by a linear
-/// sine sweep of the base acceleration a(t) = A sin(2 pi (f0 t + rate t^2 / 2)) from f0 to f1.
+/// sine sweep of the base acceleration a(t) = A sin(2 pi (f0 t + rate t^2 / 2)) from f0 to f1
+/// (A constant, or accel_per_hz f(t)).
 /// The record is the absolute acceleration of the mass, -(2 zeta w x' + w^2 x) for the
 /// relative motion x'' + 2 zeta w x' + w^2 x = -a(t) (integrated with RK4, 8 steps a sample),
 /// plus 5 % of it on the other horizontal axis, gravity on z, and uniform noise from a
@@ -20,6 +21,9 @@ struct SyntheticSweep {
   double f1_hz = 120.0;
   double rate_hz_s = 10.0;
   double accel_mm_s2 = 3000.0;
+  /// When > 0 the amplitude follows the instantaneous frequency, accel_per_hz * f(t), as in
+  /// Klipper's own test (TEST_RESONANCES' accel_per_hz), and accel_mm_s2 is not used.
+  double accel_per_hz_mm_s2 = 0.0;
   double sample_rate_hz = 3200.0;
   double lead_s = 0.5;       ///< rest before and after the sweep
   double noise_mm_s2 = 50.0; ///< half width of the uniform noise
