@@ -1,4 +1,4 @@
-// `amctl resonance calibrate FILE --axis x|y [--json] [--csv OUT]`: Klipper's input-shaper
+// `amctl resonance calibrate FILE --axis x|y [--sweep F0,F1,RATE,ACCEL] [--json] [--csv OUT]`: Klipper's input-shaper
 // calibration of an accelerometer record or PSD (resonance/calibrate.hpp; docs/resonance.md).
 #include <iostream>
 #include <memory>
@@ -14,6 +14,8 @@ struct CalibrateArgs {
   std::string file;
   std::string axis;
   std::string csv;
+  std::string sweep;
+  std::string response_csv;
   bool json = false;
 };
 
@@ -31,6 +33,12 @@ void register_resonance(CLI::App& app) {
   cal->add_option("--axis", a->axis, "The axis the record excited: x or y")
       ->required()
       ->check(CLI::IsMember({"x", "y"}));
+  cal->add_option("--sweep", a->sweep,
+                  "The commanded sweep F0,F1,RATE,ACCEL (Hz, Hz, Hz/s, mm/s^2): adds the "
+                  "frequency response and a modal fit (natural frequency, damping ratio, gain)");
+  cal->add_option("--response-csv", a->response_csv,
+                  "With --sweep: write the frequency response, its coherence and the model's "
+                  "to this file");
   cal->add_flag("--json", a->json, "Print one JSON object");
   cal->add_option("--csv", a->csv,
                   "Write the PSD (freq,psd_x,psd_y,psd_z,psd_xyz; unnormalised, as Klipper's "
@@ -38,8 +46,10 @@ void register_resonance(CLI::App& app) {
   cal->callback([a] {
     resonance::CalibrateOptions o;
     o.axis = a->axis.front();
+    if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
     const resonance::CalibrationReport r = resonance::calibrate_file(a->file, o);
     if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv);
+    if (!a->response_csv.empty()) resonance::write_response_csv(r, a->response_csv);
     if (a->json) {
       std::cout << resonance::to_json(r).dump(2) << "\n";
     } else {

@@ -243,6 +243,12 @@ CalibrationReport calibrate(const AccelFile& file, const std::string& source,
     r.welch = klipper_psd(file.record);
     r.psd = r.welch->table;
   }
+  if (options.sweep) {
+    if (file.format == RecordFormat::klipper_psd) {
+      throw Error(fmt::format("{}: --sweep needs a time record, not a PSD", source));
+    }
+    r.identification = identify_sweep(file.record, options.axis, *options.sweep);
+  }
   normalize_to_frequencies(r.psd);
   r.klipper = klipper_calibrate(r.psd, options.klipper);
   const double fmax = options.klipper.max_freq_hz;
@@ -326,6 +332,25 @@ Json to_json(const CalibrationReport& r) {
   for (const ShaperFit& f : r.klipper.shapers) shapers.push_back(fit_json(f));
   k["shapers"] = shapers;
   j["klipper"] = k;
+  if (r.identification) {
+    const SweepIdentification& id = *r.identification;
+    const ModalFit& m = id.model;
+    j["model"] = Json{{"kind", std::string(to_string(m.kind))},
+                      {"natural_frequency_hz", json_number(m.natural_frequency_hz)},
+                      {"natural_frequency_std_hz", json_number(m.natural_frequency_std_hz)},
+                      {"damping_ratio", json_number(m.damping_ratio)},
+                      {"damping_ratio_std", json_number(m.damping_ratio_std)},
+                      {"gain", json_number(m.gain)},
+                      {"gain_std", json_number(m.gain_std)},
+                      {"rms_residual", json_number(m.rms_residual)},
+                      {"bins_used", m.bins_used},
+                      {"sweep_start_s", json_number(id.sweep_start_s)},
+                      {"alignment_peak", json_number(id.alignment_peak)},
+                      {"sweep_time_scale", json_number(id.time_scale)},
+                      {"natural_frequency_sweep_clock_hz",
+                       json_number(m.natural_frequency_hz / id.time_scale)},
+                      {"segment_samples", id.segment_samples}};
+  }
   return j;
 }
 
@@ -355,8 +380,45 @@ std::string to_text(const CalibrationReport& r) {
   }
   s += fmt::format("\n  recommended (Klipper's rule): {} at {:.1f} Hz\n", r.klipper.recommended.name,
                    r.klipper.recommended.freq_hz);
+  if (r.identification) {
+    const SweepIdentification& id = *r.identification;
+    const ModalFit& m = id.model;
+    s += fmt::format("\n  sweep found at    {:.4f} s (correlation {:.3f}, time scale {:.3f})\n",
+                     id.sweep_start_s, id.alignment_peak, id.time_scale);
+    s += fmt::format("  modal fit         f_n {:.3f} +- {:.3f} Hz, damping ratio {:.4f} +- {:.4f}, "
+                     "gain {:.3f} +- {:.3f} ({} bins, {}, rms residual {:.3g})\n",
+                     m.natural_frequency_hz, m.natural_frequency_std_hz, m.damping_ratio,
+                     m.damping_ratio_std, m.gain, m.gain_std, m.bins_used,
+                     to_string(m.kind), m.rms_residual);
+  }
   return s;
 }
+
+namespace {
+
+/// Writes `text` to path + ".tmp" and renames it over path: whole or not at all.
+void write_whole(const std::string& text, const std::string& path, std::string_view what) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(fmt::format("{}: cannot write the {}", path, what));
+    out << text;
+    out.close();
+    if (!out) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      throw Error(fmt::format("{}: cannot write the {}", path, what));
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(fmt::format("{}: cannot write the {} ({})", path, what, ec.message()));
+  }
+}
+
+}  // namespace
 
 void write_psd_csv(const CalibrationReport& r, const std::string& path) {
   if (!r.welch) {
@@ -365,29 +427,25 @@ void write_psd_csv(const CalibrationReport& r, const std::string& path) {
                             path));
   }
   const PsdTable& t = r.welch->table;
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(fmt::format("{}: cannot write the PSD CSV", path));
-    std::string buf = "freq,psd_x,psd_y,psd_z,psd_xyz\n";
-    for (std::size_t k = 0; k < t.freq_hz.size(); ++k) {
-      buf += fmt::format("{},{},{},{},{}\n", t.freq_hz[k], t.psd_x[k], t.psd_y[k], t.psd_z[k],
-                         t.psd_xyz[k]);
-    }
-    out << buf;
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw Error(fmt::format("{}: cannot write the PSD CSV", path));
-    }
+  std::string buf = "freq,psd_x,psd_y,psd_z,psd_xyz\n";
+  for (std::size_t k = 0; k < t.freq_hz.size(); ++k) {
+    buf += fmt::format("{},{},{},{},{}\n", t.freq_hz[k], t.psd_x[k], t.psd_y[k], t.psd_z[k],
+                       t.psd_xyz[k]);
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(fmt::format("{}: cannot write the PSD CSV ({})", path, ec.message()));
+  write_whole(buf, path, "PSD CSV");
+}
+
+void write_response_csv(const CalibrationReport& r, const std::string& path) {
+  if (!r.identification) {
+    throw Error(fmt::format("{}: no frequency response without --sweep", path));
   }
+  const SweepIdentification& id = *r.identification;
+  std::string buf = "freq_hz,gain,phase_rad,coherence,used,model_gain\n";
+  for (const ResponseBin& b : id.response) {
+    buf += fmt::format("{},{},{},{},{},{}\n", b.freq_hz, b.gain, b.phase_rad, b.coherence,
+                       b.used ? 1 : 0, model_gain(id.model, b.freq_hz));
+  }
+  write_whole(buf, path, "response CSV");
 }
 
 }  // namespace amctl::resonance

@@ -17,6 +17,7 @@
 
 #include "amctl/core/json.hpp"
 #include "amctl/resonance/record.hpp"
+#include "amctl/resonance/sweep.hpp"
 
 namespace amctl::resonance {
 
@@ -83,6 +84,9 @@ struct CalibrateOptions {
   char axis = 'x';  ///< 'x' or 'y': the axis the record excited (the fit, like Klipper's
                     ///< calibrate_shaper.py, uses psd_xyz; the axis picks the peak reported)
   KlipperOptions klipper;
+  /// The commanded sweep, when known: adds the frequency response and the modal fit
+  /// (identify_sweep; time records only).
+  std::optional<SweepExcitation> sweep;
 };
 
 struct CalibrationReport {
@@ -95,6 +99,7 @@ struct CalibrationReport {
   double peak_axis_hz = 0.0;             ///< the normalised PSD's peak on `axis`
   double peak_xyz_hz = 0.0;              ///< the normalised psd_xyz's peak (f <= max freq)
   KlipperCalibration klipper;
+  std::optional<SweepIdentification> identification;  ///< with CalibrateOptions::sweep
 };
 
 /// Reads the file and calibrates. Throws amctl::Error on bad input or options.
@@ -107,7 +112,9 @@ struct CalibrationReport {
 /// JSON keys (an interface): source, format, axis, sample_rate_hz, jitter, gaps, clipping,
 /// record{...}, psd{segment_samples, segments, bin_hz, peak_axis_hz, peak_xyz_hz},
 /// klipper{recommended{name, freq_hz}, shapers[{name, freq_hz, vibrations, smoothing,
-/// max_accel_mm_s2, score}], damping_ratio, test_damping_ratios, scv_mm_s}.
+/// max_accel_mm_s2, score}]}; with a sweep, model{natural_frequency_hz,
+/// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std,
+/// rms_residual, bins_used, sweep_start_s, alignment_peak, segment_samples}.
 [[nodiscard]] Json to_json(const CalibrationReport& report);
 [[nodiscard]] std::string to_text(const CalibrationReport& report);
 
@@ -117,5 +124,10 @@ struct CalibrationReport {
 /// Throws amctl::Error naming the path when it cannot be written, or when the report only
 /// holds a normalised table.
 void write_psd_csv(const CalibrationReport& report, const std::string& path);
+
+/// Writes the measured frequency response of a --sweep identification as CSV
+/// `freq_hz,gain,phase_rad,coherence,used,model_gain`, whole or not at all
+/// (as write_psd_csv). Throws amctl::Error when the report has no identification.
+void write_response_csv(const CalibrationReport& report, const std::string& path);
 
 }  // namespace amctl::resonance
