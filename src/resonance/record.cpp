@@ -136,6 +136,7 @@ std::string_view to_string(RecordFormat format) {
 }
 
 AccelFile parse_accel_text(std::string_view text, const std::string& source) {
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // a UTF-8 byte-order mark
   if (trim(text).find_first_not_of("\r\n\t ") == std::string_view::npos) {
     throw Error(fmt::format("{}: empty file, expected an accelerometer CSV with header {}",
                             source, kExpectedHeaders));

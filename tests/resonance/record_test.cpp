@@ -51,6 +51,12 @@ TEST(Reader, TellsTheThreeFormatsApart) {
   EXPECT_TRUE(shaped.psd.normalized);
 }
 
+TEST(Reader, AcceptsAByteOrderMark) {
+  const AccelFile f = parse_accel_text(
+      "\xEF\xBB\xBF" + sine_csv("#time_s,accel_x_mm_s2,accel_y_mm_s2,accel_z_mm_s2", 1500, 1600), "bom");
+  EXPECT_EQ(f.format, RecordFormat::corpus);
+}
+
 TEST(Reader, SkipsCommentsBlankLinesAndCrLf) {
   const AccelFile f = parse_accel_text(
       "# recorded by x\r\n#time,accel_x,accel_y,accel_z\r\n\r\n" +
