@@ -6,7 +6,6 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
-#include <sstream>
 
 #include <fmt/format.h>
 
@@ -58,20 +57,6 @@ bool columns_are(const std::vector<std::string_view>& cols, const std::array<std
   for (std::size_t i = 0; i < N; ++i)
     if (cols[i] != want[i]) return false;
   return true;
-}
-
-/// Rejects a file that is not text: a NUL or another control byte (but tab, CR, LF, FF).
-void require_text(std::string_view text, const std::string& source) {
-  const std::size_t n = std::min<std::size_t>(text.size(), 65536);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r' && c != '\f') {
-      throw Error(fmt::format(
-          "{}: binary file (byte 0x{:02x} at offset {}), expected an accelerometer CSV with "
-          "header {}",
-          source, c, i, kExpectedHeaders));
-    }
-  }
 }
 
 double parse_number(std::string_view field, std::string_view column, std::size_t col_index,
@@ -135,32 +120,73 @@ std::string_view to_string(RecordFormat format) {
   return "?";
 }
 
-AccelFile parse_accel_text(std::string_view text, const std::string& source) {
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // a UTF-8 byte-order mark
-  if (trim(text).find_first_not_of("\r\n\t ") == std::string_view::npos) {
-    throw Error(fmt::format("{}: empty file, expected an accelerometer CSV with header {}",
-                            source, kExpectedHeaders));
-  }
-  require_text(text, source);
+namespace {
 
-  AccelFile out;
-  std::uint64_t line_no = 0;
-  std::size_t pos = 0;
-  bool have_header = false;
-  std::size_t ncols = 0;
-  std::vector<std::string_view> names;
-  std::uint64_t last_data_line = 0;
-  double prev_t = 0.0;
-  std::uint64_t prev_line = 0;
+/// Reads a file line by line: nothing but the parsed columns is kept (bounded by the record).
+class RecordParser {
+ public:
+  explicit RecordParser(std::string source) : source_(std::move(source)) {}
 
-  while (pos < text.size()) {
-    std::size_t eol = text.find('\n', pos);
-    if (eol == std::string_view::npos) eol = text.size();
-    const std::string_view line = trim(text.substr(pos, eol - pos));
-    pos = eol + 1;
+  /// One line (without its '\n'); `offset` is the byte offset of its first character.
+  void feed(std::string_view raw, std::uint64_t offset) {
     ++line_no;
-    if (line.empty()) continue;
+    if (line_no == 1 && raw.substr(0, 3) == "\xEF\xBB\xBF") {  // a UTF-8 byte-order mark
+      raw.remove_prefix(3);
+      offset += 3;
+    }
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+      const auto c = static_cast<unsigned char>(raw[i]);
+      if (c < 0x20 && c != '\t' && c != '\r' && c != '\f') {
+        throw Error(fmt::format(
+            "{}: binary file (byte 0x{:02x} at offset {}), expected an accelerometer CSV with "
+            "header {}",
+            source_, c, offset + i, kExpectedHeaders));
+      }
+    }
+    const std::string_view line = trim(raw);
+    if (line.empty()) return;
+    any_text = true;
+    feed_line(line);
+  }
 
+  AccelFile finish() {
+    if (!any_text) {
+      throw Error(fmt::format("{}: empty file, expected an accelerometer CSV with header {}",
+                              source_, kExpectedHeaders));
+    }
+    if (!have_header) {
+      throw Error(fmt::format("{}: no header, expected {}", source_, kExpectedHeaders));
+    }
+    const std::uint64_t where = last_data_line != 0 ? last_data_line : line_no;
+    if (out.format == RecordFormat::klipper_psd) {
+      if (out.psd.freq_hz.size() < 2) {
+        throw Error(SourceLocation{source_, where, 0},
+                    fmt::format("{} PSD row{}, expected at least 2", out.psd.freq_hz.size(),
+                                out.psd.freq_hz.size() == 1 ? "" : "s"));
+      }
+      return out;
+    }
+    out.record.source = source_;
+    const std::size_t n = out.record.size();
+    if (n < 2) {
+      throw Error(SourceLocation{source_, where, 0},
+                  fmt::format("{} sample{}, expected more than one Welch segment of {} s",
+                              n, n == 1 ? "" : "s", kKlipperWindowS));
+    }
+    const double duration = out.record.time_s.back() - out.record.time_s.front();
+    const double fs = static_cast<double>(n) / duration;
+    const std::size_t m = klipper_segment_samples(fs);
+    if (n <= m || m < 4) {
+      throw Error(SourceLocation{source_, where, 0},
+                  fmt::format("{} samples over {:.6g} s ({:.6g} Hz), expected more than {} (one "
+                              "Welch segment of {} s, as Klipper needs)",
+                              n, duration, fs, std::max<std::size_t>(m, 4), kKlipperWindowS));
+    }
+    return out;
+  }
+
+ private:
+  void feed_line(std::string_view line) {
     if (!have_header) {
       const bool hash = line.front() == '#';
       const std::vector<std::string_view> cols = split(hash ? line.substr(1) : line);
@@ -180,16 +206,16 @@ AccelFile parse_accel_text(std::string_view text, const std::string& source) {
         out.psd.normalized = trimmed.size() > 5;
         names.assign(kPsdColumns.begin(), kPsdColumns.end());
       } else if (hash && line.find(',') == std::string_view::npos) {
-        continue;  // a comment before the header; a '#' line with commas is a header
+        return;  // a comment before the header; a '#' line with commas is a header
       } else {
-        throw Error(SourceLocation{source, line_no, 0},
+        throw Error(SourceLocation{source_, line_no, 0},
                     fmt::format("header '{}', expected {}", shorten(line), kExpectedHeaders));
       }
       ncols = names.size();
       have_header = true;
-      continue;
+      return;
     }
-    if (line.front() == '#') continue;  // comments between rows, as numpy.loadtxt skips them
+    if (line.front() == '#') return;  // comments between rows, as numpy.loadtxt skips them
 
     const std::vector<std::string_view> fields = split(line);
     const bool psd = out.format == RecordFormat::klipper_psd;
@@ -198,14 +224,14 @@ AccelFile parse_accel_text(std::string_view text, const std::string& source) {
         (psd && !out.psd.normalized && fields.size() > ncols)) {
       std::string want;
       for (std::size_t i = 0; i < names.size(); ++i) want += (i ? "," : "") + std::string(names[i]);
-      throw Error(SourceLocation{source, line_no, 0},
+      throw Error(SourceLocation{source_, line_no, 0},
                   fmt::format("{} column{}, expected {} ({})", fields.size(),
                               fields.size() == 1 ? "" : "s", ncols, want));
     }
     std::array<double, 5> v{};
-    for (std::size_t i = 0; i < ncols; ++i) v[i] = parse_number(fields[i], names[i], i, source, line_no);
+    for (std::size_t i = 0; i < ncols; ++i) v[i] = parse_number(fields[i], names[i], i, source_, line_no);
     if (last_data_line != 0 && !(v[0] > prev_t)) {
-      throw Error(SourceLocation{source, line_no, 0},
+      throw Error(SourceLocation{source_, line_no, 0},
                   fmt::format("{} {} is not after {} on line {}, expected {} to increase",
                               names[0], v[0], prev_t, prev_line, psd ? "frequency" : "time"));
     }
@@ -224,46 +250,46 @@ AccelFile parse_accel_text(std::string_view text, const std::string& source) {
       out.record.accel_y_mm_s2.push_back(v[2]);
       out.record.accel_z_mm_s2.push_back(v[3]);
     }
-  }
-  if (!have_header) {
-    throw Error(fmt::format("{}: no header, expected {}", source, kExpectedHeaders));
-  }
-  const std::uint64_t where = last_data_line != 0 ? last_data_line : line_no;
-  if (out.format == RecordFormat::klipper_psd) {
-    if (out.psd.freq_hz.size() < 2) {
-      throw Error(SourceLocation{source, where, 0},
-                  fmt::format("{} PSD row{}, expected at least 2", out.psd.freq_hz.size(),
-                              out.psd.freq_hz.size() == 1 ? "" : "s"));
     }
-    return out;
+
+  std::string source_;
+  AccelFile out;
+  std::uint64_t line_no = 0;
+  bool any_text = false;
+  bool have_header = false;
+  std::size_t ncols = 0;
+  std::vector<std::string_view> names;
+  std::uint64_t last_data_line = 0;
+  double prev_t = 0.0;
+  std::uint64_t prev_line = 0;
+};
+
+}  // namespace
+
+AccelFile parse_accel_text(std::string_view text, const std::string& source) {
+  RecordParser parser(source);
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string_view::npos) eol = text.size();
+    parser.feed(text.substr(pos, eol - pos), pos);
+    pos = eol + 1;
   }
-  out.record.source = source;
-  const std::size_t n = out.record.size();
-  if (n < 2) {
-    throw Error(SourceLocation{source, where, 0},
-                fmt::format("{} sample{}, expected more than one Welch segment of {} s",
-                            n, n == 1 ? "" : "s", kKlipperWindowS));
-  }
-  const double duration = out.record.time_s.back() - out.record.time_s.front();
-  const double fs = static_cast<double>(n) / duration;
-  const std::size_t m = klipper_segment_samples(fs);
-  if (n <= m || m < 4) {
-    throw Error(SourceLocation{source, where, 0},
-                fmt::format("{} samples over {:.6g} s ({:.6g} Hz), expected more than {} (one "
-                            "Welch segment of {} s, as Klipper needs)",
-                            n, duration, fs, std::max<std::size_t>(m, 4), kKlipperWindowS));
-  }
-  return out;
+  return parser.finish();
 }
 
 AccelFile read_accel_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open the file", path));
-  std::ostringstream ss;
-  ss << in.rdbuf();
+  RecordParser parser(path);
+  std::string line;
+  std::uint64_t offset = 0;
+  while (std::getline(in, line)) {
+    parser.feed(line, offset);
+    offset += line.size() + 1;
+  }
   if (in.bad()) throw Error(fmt::format("{}: cannot read the file", path));
-  const std::string text = std::move(ss).str();
-  return parse_accel_text(text, path);
+  return parser.finish();
 }
 
 RecordQuality assess_record(const AccelRecord& record) {
