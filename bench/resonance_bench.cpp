@@ -4,11 +4,13 @@
 //                           3.2 kHz (96 000 samples), already in memory: the issue's < 50 ms.
 //   BM_ReadAndCalibrate30s  the same from the CSV text (parsing included).
 //   BM_WelchPsd30s          the Welch PSD alone.
+//   BM_IdentifySweep30s     --sweep: alignment (start and clock scale), H1, the modal fit.
 #include <benchmark/benchmark.h>
 
 #include <string>
 
 #include "amctl/resonance/calibrate.hpp"
+#include "amctl/resonance/sweep.hpp"
 #include "amctl/resonance/synthetic.hpp"
 
 namespace {
@@ -66,5 +68,15 @@ void BM_WelchPsd30s(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_WelchPsd30s)->Unit(benchmark::kMillisecond);
+
+void BM_IdentifySweep30s(benchmark::State& state) {
+  const AccelFile& f = record();
+  const SweepExcitation sweep{5.0, 150.0, 5.0, 3000.0};
+  for (auto _ : state) {
+    SweepIdentification id = identify_sweep(f.record, 'x', sweep);
+    benchmark::DoNotOptimize(id);
+  }
+}
+BENCHMARK(BM_IdentifySweep30s)->Unit(benchmark::kMillisecond);
 
 }  // namespace
