@@ -9,5 +9,6 @@ void register_all(CLI::App& app) {
   register_process(app);
   register_machine(app);
   register_shaper(app);
+  register_resonance(app);
 }
 }  // namespace amctl::cli

@@ -27,4 +27,6 @@ void run_empirical_estimate(const std::string& file, const std::string& params_j
 void register_machine(CLI::App& app);
 /// `amctl shaper show` (cmd_shaper.cpp).
 void register_shaper(CLI::App& app);
+/// `amctl resonance calibrate` (cmd_resonance.cpp).
+void register_resonance(CLI::App& app);
 }  // namespace amctl::cli

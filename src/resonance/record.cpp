@@ -1,0 +1,335 @@
+#include "amctl/resonance/record.hpp"
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/resonance/calibrate.hpp"
+
+namespace amctl::resonance {
+namespace {
+
+constexpr std::array<std::string_view, 4> kRawColumns{"time", "accel_x", "accel_y", "accel_z"};
+constexpr std::array<std::string_view, 4> kCorpusColumns{"time_s", "accel_x_mm_s2",
+                                                         "accel_y_mm_s2", "accel_z_mm_s2"};
+constexpr std::array<std::string_view, 5> kPsdColumns{"freq", "psd_x", "psd_y", "psd_z",
+                                                      "psd_xyz"};
+
+constexpr std::string_view kExpectedHeaders =
+    "'#time,accel_x,accel_y,accel_z' (Klipper raw), "
+    "'#time_s,accel_x_mm_s2,accel_y_mm_s2,accel_z_mm_s2' (corpus) or "
+    "'freq,psd_x,psd_y,psd_z,psd_xyz' (Klipper PSD)";
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+std::vector<std::string_view> split(std::string_view line) {
+  std::vector<std::string_view> out;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', start);
+    if (comma == std::string_view::npos) {
+      out.push_back(trim(line.substr(start)));
+      return out;
+    }
+    out.push_back(trim(line.substr(start, comma - start)));
+    start = comma + 1;
+  }
+}
+
+std::string shorten(std::string_view s) {
+  if (s.size() <= 40) return std::string(s);
+  return std::string(s.substr(0, 37)) + "...";
+}
+
+template <std::size_t N>
+bool columns_are(const std::vector<std::string_view>& cols, const std::array<std::string_view, N>& want) {
+  if (cols.size() != N) return false;
+  for (std::size_t i = 0; i < N; ++i)
+    if (cols[i] != want[i]) return false;
+  return true;
+}
+
+double parse_number(std::string_view field, std::string_view column, std::size_t col_index,
+                    const std::string& source, std::uint64_t line) {
+  double v = 0.0;
+  const char* first = field.data();
+  const char* last = field.data() + field.size();
+  if (!field.empty() && *first == '+') ++first;
+  const auto [ptr, ec] = std::from_chars(first, last, v);
+  if (field.empty() || ec != std::errc() || ptr != last) {
+    throw Error(SourceLocation{source, line, 0},
+                fmt::format("column {} ({}) is '{}', expected a number", col_index + 1, column,
+                            shorten(field)));
+  }
+  if (!std::isfinite(v)) {
+    throw Error(SourceLocation{source, line, 0},
+                fmt::format("column {} ({}) is '{}', expected a finite number", col_index + 1,
+                            column, shorten(field)));
+  }
+  return v;
+}
+
+AxisClipping clipping_of(const std::vector<double>& v) {
+  AxisClipping c;
+  if (v.empty()) return c;
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  c.min_mm_s2 = *lo;
+  c.max_mm_s2 = *hi;
+  if (c.min_mm_s2 == c.max_mm_s2) {  // a constant signal: one run at both extremes
+    if (v.size() >= kClipRunSamples) {
+      c.runs = 1;
+      c.samples = v.size();
+    }
+    return c;
+  }
+  std::size_t i = 0;
+  while (i < v.size()) {
+    if (v[i] != c.min_mm_s2 && v[i] != c.max_mm_s2) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j < v.size() && v[j] == v[i]) ++j;
+    if (j - i >= kClipRunSamples) {
+      ++c.runs;
+      c.samples += j - i;
+    }
+    i = j;
+  }
+  return c;
+}
+
+}  // namespace
+
+std::string_view to_string(RecordFormat format) {
+  switch (format) {
+    case RecordFormat::klipper_raw: return "klipper_raw";
+    case RecordFormat::corpus: return "corpus";
+    case RecordFormat::klipper_psd: return "klipper_psd";
+  }
+  return "?";
+}
+
+namespace {
+
+/// Reads a file line by line: nothing but the parsed columns is kept (bounded by the record).
+class RecordParser {
+ public:
+  explicit RecordParser(std::string source) : source_(std::move(source)) {}
+
+  /// One line (without its '\n'); `offset` is the byte offset of its first character.
+  void feed(std::string_view raw, std::uint64_t offset) {
+    ++line_no;
+    if (line_no == 1 && raw.substr(0, 3) == "\xEF\xBB\xBF") {  // a UTF-8 byte-order mark
+      raw.remove_prefix(3);
+      offset += 3;
+    }
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+      const auto c = static_cast<unsigned char>(raw[i]);
+      if (c < 0x20 && c != '\t' && c != '\r' && c != '\f') {
+        throw Error(fmt::format(
+            "{}: binary file (byte 0x{:02x} at offset {}), expected an accelerometer CSV with "
+            "header {}",
+            source_, c, offset + i, kExpectedHeaders));
+      }
+    }
+    const std::string_view line = trim(raw);
+    if (line.empty()) return;
+    any_text = true;
+    feed_line(line);
+  }
+
+  AccelFile finish() {
+    if (!any_text) {
+      throw Error(fmt::format("{}: empty file, expected an accelerometer CSV with header {}",
+                              source_, kExpectedHeaders));
+    }
+    if (!have_header) {
+      throw Error(fmt::format("{}: no header, expected {}", source_, kExpectedHeaders));
+    }
+    const std::uint64_t where = last_data_line != 0 ? last_data_line : line_no;
+    if (out.format == RecordFormat::klipper_psd) {
+      if (out.psd.freq_hz.size() < 2) {
+        throw Error(SourceLocation{source_, where, 0},
+                    fmt::format("{} PSD row{}, expected at least 2", out.psd.freq_hz.size(),
+                                out.psd.freq_hz.size() == 1 ? "" : "s"));
+      }
+      return out;
+    }
+    out.record.source = source_;
+    const std::size_t n = out.record.size();
+    if (n < 2) {
+      throw Error(SourceLocation{source_, where, 0},
+                  fmt::format("{} sample{}, expected more than one Welch segment of {} s",
+                              n, n == 1 ? "" : "s", kKlipperWindowS));
+    }
+    const double duration = out.record.time_s.back() - out.record.time_s.front();
+    const double fs = static_cast<double>(n) / duration;
+    const std::size_t m = klipper_segment_samples(fs);
+    if (n <= m || m < 4) {
+      throw Error(SourceLocation{source_, where, 0},
+                  fmt::format("{} samples over {:.6g} s ({:.6g} Hz), expected more than {} (one "
+                              "Welch segment of {} s, as Klipper needs)",
+                              n, duration, fs, std::max<std::size_t>(m, 4), kKlipperWindowS));
+    }
+    return out;
+  }
+
+ private:
+  void feed_line(std::string_view line) {
+    if (!have_header) {
+      const bool hash = line.front() == '#';
+      const std::vector<std::string_view> cols = split(hash ? line.substr(1) : line);
+      std::vector<std::string_view> trimmed = cols;
+      if (!trimmed.empty()) trimmed[0] = trim(trimmed[0]);
+      if (hash && columns_are(trimmed, kRawColumns)) {
+        out.format = RecordFormat::klipper_raw;
+        names.assign(kRawColumns.begin(), kRawColumns.end());
+      } else if (hash && columns_are(trimmed, kCorpusColumns)) {
+        out.format = RecordFormat::corpus;
+        names.assign(kCorpusColumns.begin(), kCorpusColumns.end());
+      } else if (!hash && trimmed.size() >= 5 &&
+                 columns_are(std::vector<std::string_view>(trimmed.begin(), trimmed.begin() + 5),
+                             kPsdColumns) &&
+                 (trimmed.size() == 5 || trimmed[5] == "shapers:")) {
+        out.format = RecordFormat::klipper_psd;
+        out.psd.normalized = trimmed.size() > 5;
+        names.assign(kPsdColumns.begin(), kPsdColumns.end());
+      } else if (hash && line.find(',') == std::string_view::npos) {
+        return;  // a comment before the header; a '#' line with commas is a header
+      } else {
+        throw Error(SourceLocation{source_, line_no, 0},
+                    fmt::format("header '{}', expected {}", shorten(line), kExpectedHeaders));
+      }
+      ncols = names.size();
+      have_header = true;
+      return;
+    }
+    if (line.front() == '#') return;  // comments between rows, as numpy.loadtxt skips them
+
+    const std::vector<std::string_view> fields = split(line);
+    const bool psd = out.format == RecordFormat::klipper_psd;
+    // A `,shapers:` PSD file has an empty column and one value per shaper after psd_xyz.
+    if (fields.size() < ncols || (!psd && fields.size() > ncols) ||
+        (psd && !out.psd.normalized && fields.size() > ncols)) {
+      std::string want;
+      for (std::size_t i = 0; i < names.size(); ++i) want += (i ? "," : "") + std::string(names[i]);
+      throw Error(SourceLocation{source_, line_no, 0},
+                  fmt::format("{} column{}, expected {} ({})", fields.size(),
+                              fields.size() == 1 ? "" : "s", ncols, want));
+    }
+    std::array<double, 5> v{};
+    for (std::size_t i = 0; i < ncols; ++i) v[i] = parse_number(fields[i], names[i], i, source_, line_no);
+    if (last_data_line != 0 && !(v[0] > prev_t)) {
+      throw Error(SourceLocation{source_, line_no, 0},
+                  fmt::format("{} {} is not after {} on line {}, expected {} to increase",
+                              names[0], v[0], prev_t, prev_line, psd ? "frequency" : "time"));
+    }
+    prev_t = v[0];
+    prev_line = line_no;
+    last_data_line = line_no;
+    if (psd) {
+      out.psd.freq_hz.push_back(v[0]);
+      out.psd.psd_x.push_back(v[1]);
+      out.psd.psd_y.push_back(v[2]);
+      out.psd.psd_z.push_back(v[3]);
+      out.psd.psd_xyz.push_back(v[4]);
+    } else {
+      out.record.time_s.push_back(v[0]);
+      out.record.accel_x_mm_s2.push_back(v[1]);
+      out.record.accel_y_mm_s2.push_back(v[2]);
+      out.record.accel_z_mm_s2.push_back(v[3]);
+    }
+    }
+
+  std::string source_;
+  AccelFile out;
+  std::uint64_t line_no = 0;
+  bool any_text = false;
+  bool have_header = false;
+  std::size_t ncols = 0;
+  std::vector<std::string_view> names;
+  std::uint64_t last_data_line = 0;
+  double prev_t = 0.0;
+  std::uint64_t prev_line = 0;
+};
+
+}  // namespace
+
+AccelFile parse_accel_text(std::string_view text, const std::string& source) {
+  RecordParser parser(source);
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string_view::npos) eol = text.size();
+    parser.feed(text.substr(pos, eol - pos), pos);
+    pos = eol + 1;
+  }
+  return parser.finish();
+}
+
+AccelFile read_accel_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open the file", path));
+  RecordParser parser(path);
+  std::string line;
+  std::uint64_t offset = 0;
+  while (std::getline(in, line)) {
+    parser.feed(line, offset);
+    offset += line.size() + 1;
+  }
+  if (in.bad()) throw Error(fmt::format("{}: cannot read the file", path));
+  return parser.finish();
+}
+
+RecordQuality assess_record(const AccelRecord& record) {
+  const std::size_t n = record.size();
+  if (n < 2) throw Error(fmt::format("{}: {} samples, expected at least 2", record.source, n));
+  RecordQuality q;
+  q.samples = n;
+  q.duration_s = record.time_s.back() - record.time_s.front();
+  q.mean_sample_rate_hz = static_cast<double>(n) / q.duration_s;
+  std::vector<double> dt(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) dt[i] = record.time_s[i + 1] - record.time_s[i];
+  std::vector<double> sorted = dt;
+  const std::size_t mid = sorted.size() / 2;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(mid), sorted.end());
+  double median = sorted[mid];
+  if (sorted.size() % 2 == 0) {
+    const double lower = *std::max_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(mid));
+    median = 0.5 * (median + lower);
+  }
+  q.median_interval_s = median;
+  q.sample_rate_hz = 1.0 / median;
+  double sum_sq = 0.0;
+  std::size_t regular = 0;
+  for (const double d : dt) {
+    if (d > kGapFactor * median) {
+      ++q.gaps;
+      q.largest_gap_s = std::max(q.largest_gap_s, d);
+      q.missing_s += d - median;
+      continue;
+    }
+    const double rel = (d - median) / median;
+    sum_sq += rel * rel;
+    q.max_interval_deviation = std::max(q.max_interval_deviation, std::abs(rel));
+    ++regular;
+  }
+  q.jitter = regular > 0 ? std::sqrt(sum_sq / static_cast<double>(regular)) : 0.0;
+  q.clip_x = clipping_of(record.accel_x_mm_s2);
+  q.clip_y = clipping_of(record.accel_y_mm_s2);
+  q.clip_z = clipping_of(record.accel_z_mm_s2);
+  return q;
+}
+
+}  // namespace amctl::resonance
