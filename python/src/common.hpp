@@ -37,5 +37,6 @@ template <class T>
 void register_plan(py::module_& m);
 void register_simulate(py::module_& m);
 void register_studies(py::module_& m);
+void register_shaping(py::module_& m);
 
 }  // namespace amctl::py_bind

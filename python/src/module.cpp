@@ -253,4 +253,5 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
   register_plan(m);
   register_simulate(m);
   register_studies(m);
+  register_shaping(m);
 }

@@ -1,0 +1,68 @@
+"""Input shapers and resonance calibration (docs/shaping.md, docs/resonance.md)."""
+
+import numbers
+
+from . import _amctl
+from . import _args
+
+
+def shaper_show(type, freq_hz, damping_ratio=0.1, *, residual_at_hz=None, test_damping_ratio=None):
+    """A shaper's impulses and Klipper's measures of it.
+
+    The dict of ``amctl shaper show --type T --freq-hz F --damping-ratio Z --json``:
+    ``amplitudes`` and ``times_s`` [s] (as Klipper's definitions give them, unnormalised),
+    ``smoothing_mm`` [mm] (at 5000 mm/s^2 and square corner velocity 5 mm/s),
+    ``max_accel_mm_s2`` [mm/s^2] (smoothing 0.12 mm at scv 5), ``residual_vibration``
+    (fraction of the vibration left at each of ``residual_at_hz``), ``duration_s``, ...
+
+    Args:
+        type: zv, mzv, zvd, ei, 2hump_ei, 3hump_ei, zvdd, zvddd, or Klipper's
+              mzv(n=N, t=T) / ei(v_tol=V) spellings.
+        freq_hz: design frequency [Hz], > 0.
+        damping_ratio: design damping ratio, in [0, 1).
+        residual_at_hz: frequencies [Hz] at which to report the remaining vibration
+              (default: the design frequency).
+        test_damping_ratio: damping ratio of the vibrating mode for the residual (default:
+              damping_ratio).
+    """
+    t = _args.text(type, "type")
+    f = _args.number(freq_hz, "freq_hz", "Hz")
+    z = _args.number(damping_ratio, "damping_ratio")
+    at = []
+    if residual_at_hz is not None:
+        if isinstance(residual_at_hz, numbers.Real):
+            residual_at_hz = [residual_at_hz]
+        at = [_args.number(x, "residual_at_hz", "Hz") for x in residual_at_hz]
+    tz = None if test_damping_ratio is None else _args.number(test_damping_ratio, "test_damping_ratio")
+    return _amctl._shaper_show(t, f, z, at, tz)
+
+
+def resonance_calibrate(path, axis="x", *, sweep=None):
+    """Klipper's shaper calibration of an accelerometer record, and the modal fit of a known
+    sweep.
+
+    The dict of ``amctl resonance calibrate FILE --axis A --json``: the record's
+    ``sample_rate_hz``, jitter, gaps and clipping; ``klipper.recommended.{name, freq_hz}`` and
+    ``klipper.shapers`` (``name``, ``freq_hz``, ``vibrations`` (fraction), ``smoothing``,
+    ``max_accel_mm_s2``), equal to Klipper's calibrate_shaper.py; with ``sweep``, ``model``
+    (``natural_frequency_hz``, ``damping_ratio``, gain, uncertainties).
+
+    Args:
+        path: Klipper raw accelerometer CSV (#time,accel_x,accel_y,accel_z), Klipper PSD CSV
+              (freq,psd_x,psd_y,psd_z,psd_xyz) or the corpus CSV (#time_s,accel_x_mm_s2,...).
+        axis: 'x' or 'y', the axis the record excited.
+        sweep: the commanded sine sweep, (f0_hz, f1_hz, rate_hz_s, accel_mm_s2) or the
+              command line's "F0,F1,RATE,ACCEL".
+    """
+    p = _args.path(path, "path")
+    a = _args.text(axis, "axis")
+    s = ""
+    if sweep is not None:
+        if isinstance(sweep, str):
+            s = sweep
+        else:
+            vals = [_args.number(v, "sweep") for v in sweep]
+            if len(vals) != 4:
+                raise TypeError("sweep must be (f0_hz, f1_hz, rate_hz_s, accel_mm_s2)")
+            s = ",".join(repr(v) for v in vals)
+    return _amctl._resonance_calibrate(p, a, s)

@@ -1,0 +1,63 @@
+// Input shapers and resonance calibration: each binding calls the one library function the
+// matching command calls (apps/amctl/cmd_shaper.cpp, cmd_resonance.cpp) with the GIL released
+// and returns its JSON form as a dict.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <pybind11/stl.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/resonance/calibrate.hpp"
+#include "amctl/resonance/sweep.hpp"
+#include "amctl/shaping/report.hpp"
+#include "common.hpp"
+
+namespace amctl::py_bind {
+namespace {
+
+py::object shaper_show(const std::string& type, double freq_hz, double damping_ratio,
+                       const std::vector<double>& residual_at_hz,
+                       std::optional<double> test_damping_ratio) {
+  shaping::ShaperReportOptions o;
+  o.type = type;
+  o.freq_hz = freq_hz;
+  o.damping_ratio = damping_ratio;
+  o.residual_at_hz = residual_at_hz;
+  o.test_damping_ratio = test_damping_ratio;
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    j = shaping::to_json(shaping::shaper_report(o));
+  }
+  return to_python(j);
+}
+
+py::object resonance_calibrate(const std::string& path, const std::string& axis,
+                               const std::string& sweep) {
+  resonance::CalibrateOptions o;
+  if (axis != "x" && axis != "y" && axis != "X" && axis != "Y") {
+    throw Error("axis must be 'x' or 'y', got '" + axis + "'");
+  }
+  o.axis = static_cast<char>(axis[0] | 0x20);
+  if (!sweep.empty()) o.sweep = resonance::parse_sweep(sweep);
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    j = resonance::to_json(resonance::calibrate_file(path, o));
+  }
+  return to_python(j);
+}
+
+}  // namespace
+
+void register_shaping(py::module_& m) {
+  m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
+        py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
+        "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");
+  m.def("_resonance_calibrate", &resonance_calibrate, py::arg("path"), py::arg("axis"), py::arg("sweep"),
+        "amctl resonance calibrate --json (resonance::calibrate_file + to_json); see "
+        "amctl.resonance_calibrate.");
+}
+
+}  // namespace amctl::py_bind

@@ -1,0 +1,54 @@
+"""amctl.shaper_show and amctl.resonance_calibrate: closed forms and the CLI's JSON."""
+
+import math
+
+import pytest
+
+import amctl
+
+
+def test_zv_closed_form_and_the_cli(cli):
+    # ZV: A = [1, K], K = exp(-zeta pi / sqrt(1 - zeta^2)), at t = [0, 1 / (2 f_d)],
+    # f_d = f sqrt(1 - zeta^2).
+    f, z = 40.0, 0.1
+    r = amctl.shaper_show("zv", f, z, residual_at_hz=[30, 40, 60])
+    k = math.exp(-z * math.pi / math.sqrt(1 - z * z))
+    assert r["amplitudes"] == pytest.approx([1.0, k], rel=1e-15)
+    assert r["times_s"] == pytest.approx([0.0, 0.5 / (f * math.sqrt(1 - z * z))], rel=1e-15)
+    assert r["residual_vibration"][1] == pytest.approx(0.0, abs=1e-12)  # at the design frequency
+    ref = cli.json("shaper", "show", "--type", "zv", "--freq-hz", "40", "--damping-ratio", "0.1",
+                   "--residual-at-hz", "30,40,60", "--json")
+    assert r == ref
+
+
+def test_shaper_errors():
+    with pytest.raises(amctl.Error, match="freq"):
+        amctl.shaper_show("mzv", 0.0)
+    with pytest.raises(amctl.Error, match="foo"):
+        amctl.shaper_show("foo", 40.0)
+    with pytest.raises(TypeError, match="freq_hz"):
+        amctl.shaper_show("mzv", "40")
+
+
+def test_resonance_calibration_equals_the_cli(cli, source_dir, tmp_path):
+    # A synthetic record made here: a 42 Hz mode rung by white noise would need a random
+    # generator; a Klipper PSD CSV with a single resonance peak is enough to check that Python
+    # and the CLI run the same calibration.
+    psd = tmp_path / "psd.csv"
+    lines = ["freq,psd_x,psd_y,psd_z,psd_xyz"]
+    f0, z = 42.0, 0.08
+    f = 5.0
+    while f <= 200.0 + 1e-9:
+        h = 1.0 / ((1 - (f / f0) ** 2) ** 2 + (2 * z * f / f0) ** 2)
+        lines.append(f"{f:.3f},{h:.6e},{h * 0.01:.6e},{h * 0.01:.6e},{h * 1.02:.6e}")
+        f += 0.390625
+    psd.write_text("\n".join(lines) + "\n")
+    r = amctl.resonance_calibrate(str(psd), axis="x")
+    ref = cli.json("resonance", "calibrate", str(psd), "--axis", "x", "--json")
+    assert r == ref
+    # The recommended shaper sits near the mode (Klipper's rule with a PSD normalised as given).
+    assert 20.0 < r["klipper"]["recommended"]["freq_hz"] < 80.0
+    with pytest.raises(amctl.Error):
+        amctl.resonance_calibrate(str(psd), axis="z")
+    with pytest.raises(TypeError):
+        amctl.resonance_calibrate(str(psd), sweep=(5, 80, 1))
