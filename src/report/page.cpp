@@ -257,10 +257,14 @@ $("layers").addEventListener("click", (e) => { const r = $("layers").getBounding
 const TP = D.toolpath, Q = D.quality;
 const layersTP = TP.layers.map((l) => { const n = l.dx.length, x = new Float64Array(n), y = new Float64Array(n); let px = 0, py = 0;
   for (let i = 0; i < n; i++) { px += l.dx[i]; py += l.dy[i]; x[i] = px / 100; y[i] = py / 100; } return {meta: l, x, y}; });
+// One frame for every layer: the extrusions of the layers above the first (a purge line or
+// a wide brim on the first layer would shrink the part), with a margin; the first layer may clip.
 let bb = [Infinity, Infinity, -Infinity, -Infinity], vMaxTP = 1, eMaxTP = 0;
-layersTP.forEach((L) => { const k = L.meta.kind; for (let i = 1; i < k.length; i++) if (k[i] >= 0) {
-  for (const j of [i - 1, i]) { bb[0] = Math.min(bb[0], L.x[j]); bb[1] = Math.min(bb[1], L.y[j]); bb[2] = Math.max(bb[2], L.x[j]); bb[3] = Math.max(bb[3], L.y[j]); }
+const upper = layersTP.some((L) => L.meta.layer >= 1);
+layersTP.forEach((L) => { const k = L.meta.kind, inFrame = !upper || L.meta.layer >= 1; for (let i = 1; i < k.length; i++) if (k[i] >= 0) {
+  if (inFrame) for (const j of [i - 1, i]) { bb[0] = Math.min(bb[0], L.x[j]); bb[1] = Math.min(bb[1], L.y[j]); bb[2] = Math.max(bb[2], L.x[j]); bb[3] = Math.max(bb[3], L.y[j]); }
   vMaxTP = Math.max(vMaxTP, L.meta.speed[i]); if (L.meta.error_um) eMaxTP = Math.max(eMaxTP, L.meta.error_um[i]); } });
+if (isFinite(bb[0])) { const mx = 0.08 * Math.max(bb[2] - bb[0], bb[3] - bb[1], 1); bb = [bb[0] - mx, bb[1] - mx, bb[2] + mx, bb[3] + mx]; }
 if (!isFinite(bb[0])) layersTP.forEach((L) => { for (let i = 0; i < L.x.length; i++) { bb[0] = Math.min(bb[0], L.x[i]); bb[1] = Math.min(bb[1], L.y[i]); bb[2] = Math.max(bb[2], L.x[i]); bb[3] = Math.max(bb[3], L.y[i]); } });
 if (Q) { const o = el("option", {value: "error"}, "colour: contour error"); $("cmode").append(o); $("cmode").value = "error"; }
 const qLayer = new Map(); if (Q) (Q.layers || []).forEach((l) => qLayer.set(l.layer, l));
@@ -276,6 +280,7 @@ function drawToolpath() {
   const X = (x) => ox + (x - bb[0]) * s, Y = (y) => h - oy - (y - bb[1]) * s;
   g.fillStyle = "#fbfcfd"; g.fillRect(X(bb[0]) - 4, Y(bb[3]) - 4, s * sx + 8, s * sy + 8);
   g.strokeStyle = "#e1e4ea"; g.strokeRect(X(bb[0]) - 4.5, Y(bb[3]) - 4.5, s * sx + 9, s * sy + 9);
+  g.save(); g.beginPath(); g.rect(X(bb[0]) - 4, Y(bb[3]) - 4, s * sx + 8, s * sy + 8); g.clip();
   g.lineCap = "round"; g.lineJoin = "round";
   // travel first, thin and grey
   g.strokeStyle = "#b8bec8"; g.lineWidth = 0.6; g.beginPath();
@@ -289,6 +294,7 @@ function drawToolpath() {
     g.strokeStyle = byErr && val < 0 ? "#c8ccd4" : ramp(val / top);
     g.beginPath(); g.moveTo(X(L.x[i - 1]), Y(L.y[i - 1])); g.lineTo(X(L.x[i]), Y(L.y[i])); g.stroke();
   }
+  g.restore();
   $("grad").style.background = gradCss;
   $("gmin").textContent = byErr ? "0 \u00b5m" : "0 mm/s";
   $("gmax").textContent = byErr ? (top / 1000).toFixed(3) + " mm contour error" : top.toFixed(0) + " mm/s";

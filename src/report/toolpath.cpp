@@ -82,22 +82,20 @@ void ToolpathSink::fix_cursor() {
 void ToolpathSink::commit(ToolpathVertex v) {
   ToolpathLayer& layer = layers_.back();
   if (layer.truncated) return;
-  if (v.kind != kStart && carry_error_mm_ >= 0.0F) {
-    v.error_mm = std::max(v.error_mm, carry_error_mm_);
-    carry_error_mm_ = -1.0F;
-  }
-  layer.vertices.push_back(v);
-  ++total_points_;
-  if (layer.vertices.size() > options_.max_points_per_layer) {
+  // Make room before adding, so that neither cap is ever exceeded.
+  if (layer.vertices.size() >= options_.max_points_per_layer) {
     capped_ = true;
     for (int i = 0; i < kMaxDoublings && layer.vertices.size() > options_.max_points_per_layer / 2; ++i) {
       layer.tolerance_mm *= 2.0;
       redecimate(layer);
     }
-    if (layer.vertices.size() >= options_.max_points_per_layer) layer.truncated = true;
     fix_cursor();
+    if (layer.vertices.size() >= options_.max_points_per_layer) {
+      layer.truncated = true;
+      return;
+    }
   }
-  if (total_points_ > options_.max_points) {
+  if (total_points_ >= options_.max_points) {
     capped_ = true;
     for (int i = 0; i < kMaxDoublings && total_points_ > options_.max_points * 3 / 4; ++i) {
       global_tolerance_mm_ *= 2.0;
@@ -108,11 +106,18 @@ void ToolpathSink::commit(ToolpathVertex v) {
         }
       }
     }
+    fix_cursor();
     if (total_points_ >= options_.max_points) {
       for (ToolpathLayer& l : layers_) l.truncated = true;
+      return;
     }
-    fix_cursor();
   }
+  if (v.kind != kStart && carry_error_mm_ >= 0.0F) {
+    v.error_mm = std::max(v.error_mm, carry_error_mm_);
+    carry_error_mm_ = -1.0F;
+  }
+  layer.vertices.push_back(v);
+  ++total_points_;
 }
 
 void ToolpathSink::flush_pending() {
@@ -187,12 +192,29 @@ void ToolpathSink::consume(const plan::PlanBatch& batch) {
 void ToolpathSink::finish(const plan::StreamSummary& summary) {
   (void)summary;
   flush_pending();
+  finished_ = true;
 }
 
 void ToolpathSink::add_error_sample(double t_s, double error_mm) {
   if (std::isnan(error_mm)) return;
   const auto e = static_cast<float>(error_mm);
   last_sample_t_s_ = t_s;
+  // The segment a sample belongs to: the first vertex whose segment ends at or after t_s.
+  // A sample between segments (a Z move, a retraction, a dwell, the settling after the last
+  // move) goes to the segment that ended last: the nozzle is still there, ringing.
+  auto previous_segment = [&]() -> ToolpathVertex* {
+    std::size_t l = cursor_layer_, i = std::min(cursor_vertex_, layers_[l].vertices.size());
+    while (true) {  // back over start vertices (at most one per polyline) to a segment
+      if (i == 0) {
+        if (l == 0) return nullptr;
+        --l;
+        i = layers_[l].vertices.size();
+        continue;
+      }
+      --i;
+      if (layers_[l].vertices[i].kind != kStart) return &layers_[l].vertices[i];
+    }
+  };
   while (cursor_layer_ < layers_.size()) {
     std::vector<ToolpathVertex>& vs = layers_[cursor_layer_].vertices;
     if (cursor_vertex_ >= vs.size()) {
@@ -208,7 +230,17 @@ void ToolpathSink::add_error_sample(double t_s, double error_mm) {
       ++cursor_vertex_;
       continue;
     }
-    if (v.kind != kStart && t_s >= v.t0_s) v.error_mm = std::max(v.error_mm, e);
+    if (v.kind != kStart && t_s >= v.t0_s) {
+      v.error_mm = std::max(v.error_mm, e);
+    } else if (ToolpathVertex* p = previous_segment()) {
+      p->error_mm = std::max(p->error_mm, e);
+    }
+    return;
+  }
+  if (finished_ && !layers_.empty()) {
+    cursor_layer_ = layers_.size() - 1;
+    // After the last move: the settling of the nozzle at the end of the last segment.
+    if (ToolpathVertex* p = previous_segment()) p->error_mm = std::max(p->error_mm, e);
     return;
   }
   // Past every committed vertex: the segment still pending.

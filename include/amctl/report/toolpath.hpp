@@ -51,8 +51,9 @@ class ToolpathSink final : public plan::Sink {
   void consume(const plan::PlanBatch& batch) override;
   void finish(const plan::StreamSummary& summary) override;
 
-  /// A simulated sample at print time t_s with contour error error_mm (NaN: ignored). Samples
-  /// must come in time order and after the moves they belong to were consumed.
+  /// A simulated sample at print time t_s with contour error error_mm (NaN: ignored), folded
+  /// into the segment it was taken on, or between segments into the one that ended last.
+  /// Samples must come in time order and after the moves they belong to were consumed.
   void add_error_sample(double t_s, double error_mm);
 
   [[nodiscard]] const std::vector<ToolpathLayer>& layers() const { return layers_; }
@@ -84,6 +85,7 @@ class ToolpathSink final : public plan::Sink {
   std::size_t cursor_vertex_ = 0;
   float carry_error_mm_ = -1.0F;
   double last_sample_t_s_ = 0.0;
+  bool finished_ = false;
 };
 
 /// Radial-distance decimation of one polyline (used for the caps; exposed for tests): keeps
