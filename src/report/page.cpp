@@ -237,7 +237,7 @@ function drawLayers() {
   g.strokeStyle = "#e1e4ea"; g.fillStyle = "#5d6675"; g.textAlign = "right";
   for (let v = 0; v <= top + 1e-9; v += st) { const y = Math.round(P.t + ph - v / top * ph) + 0.5; g.beginPath(); g.moveTo(P.l, y); g.lineTo(P.l + pw, y); g.stroke(); g.fillText(fmtTime(v), P.l - 4, y + 4); }
   const bw = pw / Math.max(1, L.length);
-  L.forEach((l, i) => { const bh = l.time_s / top * ph; g.fillStyle = i === selLayer ? "#d62728" : "#1f77b4"; g.fillRect(P.l + i * bw, P.t + ph - bh, Math.max(1, bw - (bw > 3 ? 1 : 0)), bh); });
+  L.forEach((l, i) => { const bh = l.time_s / top * ph; g.fillStyle = i === selLayer ? "#d62728" : "#5a8dc0"; g.fillRect(P.l + i * bw, P.t + ph - bh, Math.max(1, bw - (bw > 3 ? 1 : 0)), bh); });
   g.fillStyle = "#5d6675"; g.textAlign = "center";
   const ls = Math.max(1, niceStep(L.length, Math.max(2, pw / 60)));
   for (let i = 0; i < L.length; i += ls) g.fillText(String(L[i].layer), P.l + (i + 0.5) * bw, P.t + ph + 14);
