@@ -76,7 +76,7 @@ constexpr std::string_view kTail = R"PAGE(</script>
 const D = JSON.parse(document.getElementById("data").textContent);
 const E = D.estimate, FN = D.feature_names || [];
 const $ = (id) => document.getElementById(id);
-const PALETTE = ["#1f77b4","#ff7f0e","#2ca02c","#d62728","#9467bd","#8c564b","#e377c2","#17becf","#bcbd22","#7f7f7f","#393b79","#637939","#8c6d31","#843c39","#7b4173"];
+const PALETTE = ["#ff7f0e","#2ca02c","#d62728","#9467bd","#8c564b","#e377c2","#17becf","#bcbd22","#7f7f7f","#393b79","#637939","#8c6d31","#843c39","#7b4173","#6baed6"];
 const fcolor = (f) => f < 0 ? "#cfd3da" : PALETTE[f % PALETTE.length];
 const fname = (f) => f < 0 ? "travel" : (FN[f] !== undefined ? FN[f] : "feature " + f);
 function el(tag, attrs, text) { const e = document.createElement(tag); if (attrs) for (const k in attrs) e.setAttribute(k, attrs[k]); if (text !== undefined) e.textContent = text; return e; }

@@ -42,7 +42,7 @@ struct ToolpathLayer {
 struct ToolpathOptions {
   double tolerance_mm = 0.1;
   std::size_t max_points_per_layer = 8000;
-  std::size_t max_points = 250000;
+  std::size_t max_points = 150000;
 };
 
 class ToolpathSink final : public plan::Sink {
