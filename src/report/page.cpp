@@ -53,6 +53,7 @@ input[type=range] { flex: 1 1 200px; min-width: 140px; }
 <div class="bar"><button id="zin" title="zoom in">+</button><button id="zout" title="zoom out">&minus;</button><button id="left" title="earlier">&larr;</button><button id="right" title="later">&rarr;</button><button id="zreset">whole print</button><span class="sub" id="zinfo"></span></div>
 <div class="plot"><canvas id="speed" height="300"></canvas></div>
 <div class="legend" id="flegend"></div>
+<p class="sub mono" id="sread">&nbsp;</p>
 </section>
 <section id="time-section"><h2>Time per layer and per feature</h2>
 <div class="two"><div><div class="plot"><canvas id="layers" height="220"></canvas></div><p class="sub" id="layerinfo"></p></div><div id="features"></div></div>
@@ -97,8 +98,8 @@ function fmtClock(s, span) {
 function card(parent, k, v, n) { const c = el("div", {class: "card"}); c.append(el("div", {class: "k"}, k), el("div", {class: "v"}, v)); if (n) c.append(el("div", {class: "n"}, n)); parent.append(c); }
 function note(text, big) { $("notes").append(el("div", {class: big ? "note big" : "note"}, text)); }
 // Canvas sized to its box in device pixels; returns the 2D context in CSS pixels.
-function prep(cv) {
-  const dpr = window.devicePixelRatio || 1, w = cv.clientWidth, h = cv.height / (cv._dpr || 1);
+function prep(cv, hCss) {
+  const dpr = window.devicePixelRatio || 1, w = cv.clientWidth, h = hCss || cv.height / (cv._dpr || 1);
   cv._dpr = dpr; cv.width = Math.max(1, Math.round(w * dpr)); cv.height = Math.round(h * dpr);
   cv.style.height = h + "px";
   const g = cv.getContext("2d"); g.setTransform(dpr, 0, 0, dpr, 0, 0); g.clearRect(0, 0, w, h);
@@ -151,6 +152,9 @@ const S = D.speed, NB = S.max_speed.length, BW = S.bucket_s, TEND = Math.max(S.e
 let vTop = 10; for (let k = 0; k < NB; k++) vTop = Math.max(vTop, S.max_speed[k] / 10);
 vTop = Math.ceil(vTop / niceStep(vTop, 5)) * niceStep(vTop, 5);
 const view = {t0: 0, t1: Math.max(TEND, 1e-3)};
+// An address ending in #t=A-B opens the speed plot on print times A..B [s] (a view to share).
+const hashView = /^#t=([0-9.]+)-([0-9.]+)$/.exec(window.location.hash);
+if (hashView && Number(hashView[2]) > Number(hashView[1])) { view.t0 = Number(hashView[1]); view.t1 = Number(hashView[2]); }
 const minSpan = Math.max(BW * 16, 1e-3);
 function clampView() {
   let span = Math.min(Math.max(view.t1 - view.t0, minSpan), Math.max(TEND, minSpan));
@@ -186,7 +190,7 @@ function drawSpeed() {
       let lo = Infinity, hi = -Infinity, best = -1, bestHi = -1;
       for (let k = ka; k <= kb; k++) { lo = Math.min(lo, S.min_speed[k]); hi = Math.max(hi, S.max_speed[k]); if (S.max_speed[k] > bestHi) { bestHi = S.max_speed[k]; best = S.feature[k]; } }
       const ya = yOf(hi / 10), yb = yOf(lo / 10);
-      g.fillStyle = "#1f77b4"; g.fillRect(PAD.l + px, ya, 1, Math.max(1, yb - ya));
+      g.fillStyle = "#1f77b4"; g.fillRect(PAD.l + px, ya - 1, 1, Math.max(2, yb - ya + 1));
       g.fillStyle = fcolor(S.feature[ka] >= 0 ? S.feature[ka] : best); g.fillRect(PAD.l + px, PAD.t + ph + 2, 1, 9);
     }
   }
@@ -198,6 +202,15 @@ function drawSpeed() {
   g.fillText("print time (h:mm:ss); strip: the feature printed", PAD.l + pw / 2, h - 3);
   $("zinfo").textContent = fmtClock(view.t0, span) + " \u2013 " + fmtClock(view.t1, span) + " (" + fmtTime(span) + " shown; " + NB + " buckets of " + fmtTime(BW) + ")";
 }
+// What is under the pointer: the bucket's time, speeds, feature and layer.
+function readout(clientX) {
+  const t = timeAtX(clientX), k = Math.floor(t / BW);
+  if (!(k >= 0 && k < NB) || t > TEND) { $("sread").textContent = "\u00a0"; return; }
+  const li = E.layers.findIndex((l) => t >= l.start_s && t < l.start_s + l.time_s);
+  $("sread").textContent = "at " + fmtClock(t, 1) + ": " + (S.min_speed[k] / 10).toFixed(1) + "\u2013" + (S.max_speed[k] / 10).toFixed(1) + " mm/s, " +
+    (S.feature[k] >= 0 ? fname(S.feature[k]) : "standing still") + (li >= 0 ? ", layer " + E.layers[li].layer : "");
+}
+clampView();
 function zoomAt(t, f) { const a = view.t0, b = view.t1; view.t0 = t - (t - a) * f; view.t1 = t + (b - t) * f; clampView(); drawSpeed(); }
 const spc = $("speed");
 function timeAtX(clientX) { const r = spc.getBoundingClientRect(), pw = r.width - PAD.l - PAD.r; return view.t0 + (clientX - r.left - PAD.l) / pw * (view.t1 - view.t0); }
@@ -211,6 +224,7 @@ $("right").onclick = () => { const s = view.t1 - view.t0; view.t0 += s / 3; view
 const ptrs = new Map(); let pinch0 = null;
 spc.addEventListener("pointerdown", (e) => { spc.setPointerCapture(e.pointerId); ptrs.set(e.pointerId, {x: e.clientX, t0: view.t0, t1: view.t1, tx: timeAtX(e.clientX)}); pinch0 = null; });
 spc.addEventListener("pointermove", (e) => {
+  readout(e.clientX);
   const p = ptrs.get(e.pointerId); if (!p) return;
   p.cx = e.clientX;
   const r = spc.getBoundingClientRect(), pw = r.width - PAD.l - PAD.r;
@@ -272,7 +286,7 @@ const slider = $("lslider"); slider.max = String(Math.max(0, layersTP.length - 1
 let cur = Math.floor(layersTP.length / 2); slider.value = String(cur);
 function selectLayerNumber(n) { const i = layersTP.findIndex((L) => L.meta.layer === n); if (i >= 0) { cur = i; slider.value = String(i); drawToolpath(); } }
 function drawToolpath() {
-  const cv = $("toolpath"); const {g, w, h} = prep(cv);
+  const cv = $("toolpath"); const {g, w, h} = prep(cv, Math.round(Math.min(560, Math.max(260, cv.clientWidth * 0.8))));
   if (!layersTP.length) { g.fillStyle = "#5d6675"; g.font = "16px system-ui, sans-serif"; g.textAlign = "center"; g.fillText("no XY moves: no toolpath to draw", w / 2, h / 2); $("linfo").textContent = ""; return; }
   const L = layersTP[cur], m = L.meta, byErr = $("cmode").value === "error" && m.error_um;
   const sx = bb[2] - bb[0] || 1, sy = bb[3] - bb[1] || 1, pad = 14;

@@ -1,12 +1,13 @@
 #!/usr/bin/python3
 """Checks a headless-Chromium screenshot of an amctl report as a person would look at it.
 
-Usage: check_page_screenshot.py SCREENSHOT.png CHROMIUM_LOG DUMPED_DOM
+Usage: check_page_screenshot.py SCREENSHOT.png CHROMIUM_LOG DUMPED_DOM [ZOOMED.png]
 
 - the speed plot is drawn: a wide, tall region of its band colour (#1f77b4), well filled;
 - the time-per-layer bars are drawn (#5a8dc0);
 - the toolpath is drawn below them in several colours of the speed scale;
 - the page's script ran to its end (data-drawn="yes" in the DOM Chromium dumped);
+- zoomed in (the page opened at #t=A-B), the speed plot is drawn again from the buckets;
 - the console shows no blocked request (Content-Security-Policy), no script error and no URL.
 The PNG is decoded here with zlib (filters undone by hand); no imaging library needed.
 """
@@ -62,13 +63,21 @@ def main():
     png, log, dom = sys.argv[1:4]
     w, h, bpp, rows = read_png(png)
     failures = []
+    band = bytes((31, 119, 180))
+    if len(sys.argv) > 4:
+        zw, zh, zbpp, zrows = read_png(sys.argv[4])
+        xs = [x for row in zrows for x in range(zw) if row[x * zbpp:x * zbpp + 3] == band]
+        span = (max(xs) - min(xs) + 1) if xs else 0
+        print(f"zoomed speed band: {len(xs)} px over {span} px")
+        if span < zw // 2 or len(xs) < 5000:
+            failures.append("zoomed in, the speed plot is not drawn")
 
     def pixels():
         for y, row in enumerate(rows):
             for x in range(w):
                 yield x, y, row[x * bpp:x * bpp + 3]
 
-    band, bars = bytes((31, 119, 180)), bytes((90, 141, 192))
+    bars = bytes((90, 141, 192))
     band_box, band_n, bars_n, bars_bottom = [w, h, -1, -1], 0, 0, -1
     colours = {}
     for x, y, c in pixels():
