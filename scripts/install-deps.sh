@@ -9,6 +9,7 @@ pkgs=(
   libcli11-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   pybind11-dev python3-dev python3-numpy python3-scipy python3-distributed python3-pandas python3-pytest
+  chromium  # the report page's test: headless screenshot (tests/report/page_screenshot_test.sh)
 )
 # The real-slicer tests slice a model with Debian's prusa-slicer.
 if [[ "${1:-}" == "--with-slicer" ]]; then

@@ -4,6 +4,7 @@ namespace amctl::cli {
 void register_all(CLI::App& app) {
   register_estimate(app);
   register_plan(app);
+  register_report(app);
   register_dynamics(app);
   register_thermal(app);
   register_process(app);

@@ -13,6 +13,8 @@ void register_all(CLI::App& app);
 void register_estimate(CLI::App& app);
 /// `amctl plan`: the planned moves as CSV (cmd_plan.cpp).
 void register_plan(CLI::App& app);
+/// `amctl report`: one self-contained HTML page about a print (cmd_report.cpp).
+void register_report(CLI::App& app);
 /// `amctl simulate`, `amctl sweep` (cmd_dynamics.cpp).
 void register_dynamics(CLI::App& app);
 /// `amctl thermal ...` (cmd_thermal.cpp).

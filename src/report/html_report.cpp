@@ -1,0 +1,221 @@
+#include "amctl/report/html_report.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/dynamics/print_simulation.hpp"
+#include "amctl/plan/estimate.hpp"
+#include "amctl/plan/report_json.hpp"
+#include "amctl/plan/stream.hpp"
+#include "amctl/report/speed_lod.hpp"
+#include "page.hpp"
+
+namespace amctl::report {
+namespace {
+
+/// The simulation, skipped for a stream without moves (the page then says there are none).
+class OptionalSimulation final : public plan::Sink {
+ public:
+  OptionalSimulation(const dynamics::AxisModel& mx, const dynamics::AxisModel& my,
+                     const dynamics::SimulationOptions& so, const dynamics::MetricsOptions& mo,
+                     dynamics::StreamingSimulation::RowSink rows)
+      : sim_(mx, my, so, mo, std::move(rows)) {}
+  void consume(const plan::PlanBatch& batch) override {
+    if (!batch.moves.empty()) any_ = true;
+    sim_.consume(batch);
+  }
+  void finish(const plan::StreamSummary& summary) override {
+    if (any_) sim_.finish(summary);
+  }
+  [[nodiscard]] bool ran() const { return any_; }
+  [[nodiscard]] const dynamics::SimulationSink& sim() const { return sim_; }
+
+ private:
+  dynamics::SimulationSink sim_;
+  bool any_ = false;
+};
+
+std::int64_t round_to(double v, double unit) {
+  return std::isfinite(v) ? std::llround(v / unit) : 0;
+}
+
+Json speed_json(const SpeedLodSink& lod) {
+  Json vmin = Json::array(), vmax = Json::array(), feat = Json::array();
+  for (const SpeedBucket& b : lod.buckets()) {
+    vmin.push_back(round_to(b.min_speed_mm_s, 0.1));
+    vmax.push_back(round_to(b.max_speed_mm_s, 0.1));
+    feat.push_back(b.dominant_feature());
+  }
+  return Json{{"bucket_s", lod.bucket_s()},
+              {"max_buckets", lod.max_buckets()},
+              {"end_time_s", lod.end_time_s()},
+              {"unit", "0.1 mm/s"},
+              {"min_speed", std::move(vmin)},
+              {"max_speed", std::move(vmax)},
+              {"feature", std::move(feat)}};
+}
+
+Json toolpath_json(const ToolpathSink& tp, bool with_error) {
+  Json layers = Json::array();
+  for (const ToolpathLayer& l : tp.layers()) {
+    Json x = Json::array(), y = Json::array(), v = Json::array(), k = Json::array(),
+         e = Json::array();
+    std::int64_t px = 0, py = 0;
+    for (const ToolpathVertex& p : l.vertices) {
+      const std::int64_t qx = round_to(p.x_mm, 0.01), qy = round_to(p.y_mm, 0.01);
+      x.push_back(qx - px);
+      y.push_back(qy - py);
+      px = qx;
+      py = qy;
+      v.push_back(round_to(p.speed_mm_s, 1.0));
+      k.push_back(p.kind);
+      if (with_error) e.push_back(p.error_mm < 0.0F ? -1 : round_to(p.error_mm, 0.001));
+    }
+    Json j{{"layer", l.layer},     {"z_mm", l.z_mm}, {"tolerance_mm", l.tolerance_mm},
+           {"truncated", l.truncated}, {"moves", l.moves}, {"dx", std::move(x)},
+           {"dy", std::move(y)},   {"speed", std::move(v)}, {"kind", std::move(k)}};
+    if (with_error) j["error_um"] = std::move(e);
+    layers.push_back(std::move(j));
+  }
+  const ToolpathOptions& o = tp.options();
+  return Json{{"units", {{"xy", "0.01 mm, delta from the previous vertex"},
+                         {"speed", "mm/s"},
+                         {"error", "um, -1 = no sample"},
+                         {"kind", "-2 start of a polyline, -1 travel, else feature index"}}},
+              {"tolerance_mm", o.tolerance_mm},
+              {"max_points_per_layer", o.max_points_per_layer},
+              {"max_points", o.max_points},
+              {"points", tp.points()},
+              {"moves", tp.moves()},
+              {"capped", tp.capped()},
+              {"layers", std::move(layers)}};
+}
+
+}  // namespace
+
+Json report_data(const std::string& path, const machine::Machine& machine,
+                 const ReportOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  plan::SourceOptions so;
+  so.strict = options.strict;
+  plan::PlanSource source(path, machine, so);
+  plan::EstimateSink estimate(machine);
+  SpeedLodSink lod(options.speed_buckets);
+  ToolpathSink toolpath(options.toolpath);
+  std::vector<plan::Sink*> sinks{&estimate, &lod, &toolpath};
+
+  std::unique_ptr<OptionalSimulation> sim;
+  std::optional<dynamics::AxisModel> model;
+  if (options.belt) {
+    model = dynamics::AxisModel::belt(options.belt->natural_frequency_hz, options.belt->damping_ratio);
+    dynamics::require_above_nyquist(options.sample_rate_hz, {&*model});
+    dynamics::SimulationOptions sim_o;
+    sim_o.sample_rate_hz = options.sample_rate_hz;
+    sim_o.kinematics = machine.kinematics;
+    dynamics::MetricsOptions met_o;
+    met_o.keep_per_move = false;  // bounded memory
+    // The toolpath sink comes before the simulation in `sinks`, so it has seen every move
+    // of a batch before the simulation emits that batch's samples.
+    sim = std::make_unique<OptionalSimulation>(
+        *model, *model, sim_o, met_o,
+        [&toolpath](const dynamics::SimSample& s, double e) { toolpath.add_error_sample(s.t_s, e); });
+    sinks.push_back(sim.get());
+  }
+  const plan::StreamSummary& summary = plan::run_pipeline(source, sinks);
+  const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  Json d;
+  d["format"] = "amctl-report-1";
+  d["file"] = path;
+  d["estimate"] = plan::to_json(estimate.report(), machine, compute_s);
+  d["feature_names"] = summary.feature_names;
+  d["speed"] = speed_json(lod);
+  const bool simulated = sim && sim->ran();
+  d["toolpath"] = toolpath_json(toolpath, simulated);
+  d["no_moves"] = estimate.report().moves == 0;
+  if (simulated) {
+    Json q = dynamics::to_json(sim->sim().report(), sim->sim().feature_names());
+    q["natural_frequency_hz"] = options.belt->natural_frequency_hz;
+    q["damping_ratio"] = options.belt->damping_ratio;
+    q["sample_rate_hz"] = options.sample_rate_hz;
+    d["quality"] = std::move(q);
+  } else {
+    d["quality"] = nullptr;
+  }
+  return d;
+}
+
+std::string render_html(const Json& data) {
+  const std::string json = data.dump();
+  std::string safe;
+  safe.reserve(json.size() + json.size() / 64);
+  for (const char c : json) {
+    if (c == '<') {
+      safe += "\\u003c";
+    } else {
+      safe += c;
+    }
+  }
+  std::string page;
+  page.reserve(safe.size() + 64 * 1024);
+  page += page_head();
+  page += safe;
+  page += page_tail();
+  return page;
+}
+
+ReportResult write_report(const std::string& path, const machine::Machine& machine,
+                          const std::string& output_path, const ReportOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Json data = report_data(path, machine, options);
+  const std::string page = render_html(data);
+  const std::string tmp = output_path + ".part";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(fmt::format("cannot write report '{}'", output_path));
+    out.write(page.data(), static_cast<std::streamsize>(page.size()));
+    out.close();
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw Error(fmt::format("cannot write report '{}'", output_path));
+    }
+  }
+  if (std::rename(tmp.c_str(), output_path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw Error(fmt::format("cannot rename '{}' onto '{}'", tmp, output_path));
+  }
+  ReportResult r;
+  r.file = path;
+  r.output = output_path;
+  r.bytes = page.size();
+  r.moves = data["estimate"]["moves"].get<std::uint64_t>();
+  r.layers = data["estimate"]["layers"].size();
+  r.toolpath_points = data["toolpath"]["points"].get<std::size_t>();
+  r.toolpath_capped = data["toolpath"]["capped"].get<bool>();
+  r.speed_buckets = data["speed"]["max_speed"].size();
+  r.simulated = !data["quality"].is_null();
+  r.compute_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+Json to_json(const ReportResult& r) {
+  return Json{{"file", r.file},
+              {"output", r.output},
+              {"bytes", r.bytes},
+              {"moves", r.moves},
+              {"layers", r.layers},
+              {"toolpath_points", r.toolpath_points},
+              {"toolpath_capped", r.toolpath_capped},
+              {"speed_buckets", r.speed_buckets},
+              {"simulated", r.simulated},
+              {"compute_time_s", r.compute_time_s}};
+}
+
+}  // namespace amctl::report

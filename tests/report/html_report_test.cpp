@@ -1,0 +1,144 @@
+// The page: self-contained (no URL in any src or href, a CSP that forbids every request),
+// its JSON parses back and holds the estimate's totals; a file without moves still gets a
+// page that says so; bad input is an amctl::Error with file:line:col.
+#include "amctl/report/html_report.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/plan/estimate.hpp"
+#include "test_util.hpp"
+
+namespace amctl::report {
+namespace {
+
+std::string read_all(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The JSON between <script type="application/json" id="data"> and </script>.
+Json embedded_json(const std::string& page) {
+  const std::string open = "<script type=\"application/json\" id=\"data\">";
+  const std::size_t a = page.find(open);
+  EXPECT_NE(a, std::string::npos);
+  const std::size_t b = page.find("</script>", a);
+  EXPECT_NE(b, std::string::npos);
+  return Json::parse(page.substr(a + open.size(), b - a - open.size()));
+}
+
+TEST(HtmlReport, PageIsSelfContainedAndItsJsonHoldsTheTotals) {
+  const machine::Machine m = test::klipper();
+  const std::string gcode = test::write_temp("poly.gcode", test::polygons(12, 20));
+  const std::string out = ::testing::TempDir() + "/amctl_report_poly.html";
+  const ReportResult r = write_report(gcode, m, out, ReportOptions{});
+  const std::string page = read_all(out);
+  EXPECT_EQ(r.bytes, page.size());
+  EXPECT_EQ(page.find("http://"), std::string::npos);
+  EXPECT_EQ(page.find("https://"), std::string::npos);
+  // No src or href attribute that names any URL (none at all, in fact).
+  EXPECT_FALSE(std::regex_search(page, std::regex(R"((src|href)\s*=\s*["']?[^"'\s>]*//)", std::regex::icase)));
+  EXPECT_FALSE(std::regex_search(page, std::regex(R"(<(link|iframe|img|object|embed)\b)", std::regex::icase)));
+  EXPECT_NE(page.find("<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; "
+                      "script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src data:\">"),
+            std::string::npos);
+  EXPECT_EQ(std::remove((out + ".part").c_str()), -1);  // no temporary left behind
+
+  const Json d = embedded_json(page);
+  const plan::EstimateReport e = plan::estimate_file(gcode, m);
+  EXPECT_DOUBLE_EQ(d["estimate"]["total_time_s"].get<double>(), e.total_time_s);
+  EXPECT_DOUBLE_EQ(d["estimate"]["filament_mm"].get<double>(), e.filament_mm);
+  EXPECT_EQ(d["estimate"]["moves"].get<std::uint64_t>(), e.moves);
+  EXPECT_EQ(d["estimate"]["layers"].size(), 12u);
+  EXPECT_EQ(r.moves, e.moves);
+  EXPECT_EQ(r.layers, 12u);
+  EXPECT_FALSE(d["no_moves"].get<bool>());
+  EXPECT_TRUE(d["quality"].is_null());
+  // Speed buckets cover the print and no bucket is faster than the top speed.
+  const Json& s = d["speed"];
+  EXPECT_GE(s["bucket_s"].get<double>() * static_cast<double>(s["max_speed"].size()), e.total_time_s - 1e-9);
+  EXPECT_LE(s["max_speed"].size(), 4096u);
+  for (const auto& v : s["max_speed"]) EXPECT_LE(v.get<double>() / 10.0, e.max_speed_mm_s + 0.05);
+  // Toolpath: 12 layers whose vertices add up to the count, decoded back to the polygon.
+  const Json& tp = d["toolpath"];
+  ASSERT_EQ(tp["layers"].size(), 12u);
+  std::size_t n = 0;
+  for (const auto& l : tp["layers"]) {
+    n += l["dx"].size();
+    EXPECT_EQ(l["dy"].size(), l["dx"].size());
+    EXPECT_EQ(l["speed"].size(), l["dx"].size());
+    EXPECT_EQ(l["kind"].size(), l["dx"].size());
+  }
+  EXPECT_EQ(n, tp["points"].get<std::size_t>());
+  const Json& l1 = tp["layers"][1];
+  long x = 0, y = 0;
+  for (std::size_t i = 0; i < l1["dx"].size(); ++i) {
+    x += l1["dx"][i].get<long>();
+    y += l1["dy"][i].get<long>();
+  }
+  EXPECT_NEAR(x / 100.0, 120.0, 0.011);  // the polygon closes where it started
+  EXPECT_NEAR(y / 100.0, 100.0, 0.011);
+}
+
+TEST(HtmlReport, JsonCannotCloseTheScriptElement) {
+  Json d = {{"file", "</script><script>alert(1)</script>"}};
+  const std::string page = render_html(d);
+  const std::size_t a = page.find("id=\"data\">");
+  const std::size_t b = page.find("</script>", a);
+  EXPECT_EQ(Json::parse(page.substr(a + 10, b - a - 10))["file"], d["file"]);
+}
+
+TEST(HtmlReport, WithABeltModelTheToolpathCarriesContourErrors) {
+  const machine::Machine m = test::klipper();
+  const std::string gcode = test::write_temp("poly_sim.gcode", test::polygons(4, 8));
+  ReportOptions o;
+  o.belt = BeltModelOptions{30.0, 0.1};
+  const Json d = report_data(gcode, m, o);
+  ASSERT_FALSE(d["quality"].is_null());
+  const double max_mm = d["quality"]["max_contour_error_mm"].get<double>();
+  EXPECT_GT(max_mm, 0.0);
+  long top_um = -1;
+  for (const auto& l : d["toolpath"]["layers"]) {
+    ASSERT_TRUE(l.contains("error_um"));
+    for (const auto& e : l["error_um"]) top_um = std::max(top_um, e.get<long>());
+  }
+  // The largest per-segment error is the simulation's maximum (rounded to a micrometre).
+  EXPECT_NEAR(static_cast<double>(top_um), max_mm * 1000.0, 1.0);
+}
+
+TEST(HtmlReport, FileWithoutMovesStillGetsAPageThatSaysSo) {
+  const std::string gcode = test::write_temp("nomoves.gcode", "; nothing here\nM104 S200\nG90\n");
+  const std::string out = ::testing::TempDir() + "/amctl_report_nomoves.html";
+  ReportOptions o;
+  o.belt = BeltModelOptions{40.0, 0.1};  // and no simulation error for want of moves
+  const ReportResult r = write_report(gcode, test::klipper(), out, o);
+  EXPECT_EQ(r.moves, 0u);
+  const Json d = embedded_json(read_all(out));
+  EXPECT_TRUE(d["no_moves"].get<bool>());
+  EXPECT_TRUE(d["quality"].is_null());
+  EXPECT_NE(read_all(out).find("This file has no moves"), std::string::npos);
+}
+
+TEST(HtmlReport, BadInputNamesFileLineAndColumnAndWritesNothing) {
+  const std::string gcode = test::write_temp("bad.gcode", "G90\nG1 X10 Y10 F3000\nG1 X1.2.3\n");
+  const std::string out = ::testing::TempDir() + "/amctl_report_bad.html";
+  std::remove(out.c_str());
+  try {
+    (void)write_report(gcode, test::klipper(), out, ReportOptions{});
+    FAIL() << "expected amctl::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.gcode:3:"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::ifstream(out).good());
+}
+
+}  // namespace
+}  // namespace amctl::report
