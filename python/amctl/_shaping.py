@@ -66,3 +66,27 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
                 raise TypeError("sweep must be (f0_hz, f1_hz, rate_hz_s, accel_mm_s2)")
             s = ",".join(repr(v) for v in vals)
     return _amctl._resonance_calibrate(p, a, s)
+
+
+def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=None,
+           damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False):
+    """Writes the self-contained HTML report of a print (``amctl report``, docs/report.md) and
+    returns the dict of ``amctl report --json``: ``output`` (the page's path), ``bytes``,
+    ``moves``, ``layers``, ``toolpath_points``, ``speed_buckets``, ``simulated``, ...
+
+    Args:
+        path: G-code file.
+        machine, set: as for amctl.estimate.
+        output: the page to write (default report.html, as the command line).
+        natural_frequency_hz, damping_ratio: a belt model [Hz, -]: simulate and colour the
+            toolpath by contour error.
+        sample_rate_hz: simulation rate [Hz] with a belt model.
+        lenient: skip malformed lines instead of raising.
+    """
+    p = _args.path(path, "path")
+    m = _args.machine(machine, set)
+    out = _args.path("report.html" if output is None else output, "output")
+    f = None if natural_frequency_hz is None else _args.number(natural_frequency_hz, "natural_frequency_hz", "Hz")
+    z = _args.number(damping_ratio, "damping_ratio")
+    r = _args.number(sample_rate_hz, "sample_rate_hz", "Hz")
+    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"))

@@ -1,5 +1,5 @@
-// Input shapers and resonance calibration: each binding calls the one library function the
-// matching command calls (apps/amctl/cmd_shaper.cpp, cmd_resonance.cpp) with the GIL released
+// Input shapers, resonance calibration and the HTML report: each binding calls the one library function the
+// matching command calls (apps/amctl/cmd_shaper.cpp, cmd_resonance.cpp, cmd_report.cpp) with the GIL released
 // and returns its JSON form as a dict.
 #include <optional>
 #include <string>
@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/report/html_report.hpp"
 #include "amctl/resonance/calibrate.hpp"
 #include "amctl/resonance/sweep.hpp"
 #include "amctl/shaping/report.hpp"
@@ -49,9 +50,27 @@ py::object resonance_calibrate(const std::string& path, const std::string& axis,
   return to_python(j);
 }
 
+py::object write_report(const std::string& path, const MachineValue& mv, const std::string& output,
+                        std::optional<double> natural_frequency_hz, double damping_ratio,
+                        double sample_rate_hz, bool strict) {
+  report::ReportOptions o;
+  if (natural_frequency_hz) o.belt = report::BeltModelOptions{*natural_frequency_hz, damping_ratio};
+  o.sample_rate_hz = sample_rate_hz;
+  o.strict = strict;
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    j = report::to_json(report::write_report(path, mv.m, output, o));
+  }
+  return to_python(j);
+}
+
 }  // namespace
 
 void register_shaping(py::module_& m) {
+  m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
+        py::arg("natural_frequency_hz"), py::arg("damping_ratio"), py::arg("sample_rate_hz"),
+        py::arg("strict"), "amctl report --json (report::write_report + to_json); see amctl.report.");
   m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
         py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
         "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");

@@ -52,3 +52,23 @@ def test_resonance_calibration_equals_the_cli(cli, source_dir, tmp_path):
         amctl.resonance_calibrate(str(psd), axis="z")
     with pytest.raises(TypeError):
         amctl.resonance_calibrate(str(psd), sweep=(5, 80, 1))
+
+
+def test_report_equals_the_cli_and_writes_one_self_contained_page(cli, source_dir, tmp_path):
+    g = str(source_dir / "examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode")
+    mine = tmp_path / "py.html"
+    r = amctl.report(g, machine="voron24", output=str(mine))
+    ref = cli.json("report", g, "--machine", "voron24", "-o", str(tmp_path / "cli.html"), "--json")
+    for k in ref:
+        if k not in ("compute_time_s", "output"):
+            assert r[k] == ref[k], k
+    assert r["moves"] == amctl.estimate(g, machine="voron24")["moves"]
+    import re
+    clock = re.compile(r'"compute_time_s":[-+0-9.eE]+')
+    page = mine.read_text()
+    # The same bytes, but for the wall-clock times embedded in the page's data.
+    assert clock.sub("", page) == clock.sub("", (tmp_path / "cli.html").read_text())
+    assert "Content-Security-Policy" in page and "https://" not in page
+    with pytest.raises(amctl.Error):
+        amctl.report(str(tmp_path / "missing.gcode"), output=str(tmp_path / "x.html"))
+    assert not (tmp_path / "x.html").exists()
