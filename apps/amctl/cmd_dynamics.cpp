@@ -83,47 +83,6 @@ struct SimulateArgs {
   bool no_shaper = false;
 };
 
-// The shaper of one axis from the machine's [input_shaper] (frequency 0: not shaped).
-std::optional<simulation::AxisShaperSetting> axis_shaper_from_machine(const machine::Machine& m, bool y,
-                                                                      simulation::ShaperParamNames& names) {
-  const machine::InputShaper& in = m.input_shaper;
-  const double f = y ? in.shaper_freq_y_hz : in.shaper_freq_x_hz;
-  if (f <= 0.0) return std::nullopt;
-  const char* ax = y ? "y" : "x";
-  names.type = fmt::format("[input_shaper] shaper_type_{}", ax);
-  names.freq = fmt::format("[input_shaper] shaper_freq_{}", ax);
-  names.damping = fmt::format("[input_shaper] damping_ratio_{}", ax);
-  simulation::AxisShaperSetting s;
-  s.type = y ? in.shaper_type_y : in.shaper_type_x;
-  s.freq_hz = f;
-  s.damping_ratio = y ? in.damping_ratio_y : in.damping_ratio_x;
-  s.source = fmt::format("machine {}", m.name);
-  return s;
-}
-
-// The shaper of one axis from the flags; nothing when no flag names the axis.
-std::optional<simulation::AxisShaperSetting> axis_shaper_from_flags(const SimulateArgs& a, bool y,
-                                                                    simulation::ShaperParamNames& names) {
-  const auto& type_axis = y ? a.shaper_y : a.shaper_x;
-  const auto& freq_axis = y ? a.shaper_freq_y : a.shaper_freq_x;
-  const std::optional<std::string> type = type_axis ? type_axis : a.shaper;
-  const std::optional<double> freq = freq_axis ? freq_axis : a.shaper_freq;
-  if (!type && !freq) return std::nullopt;
-  names.type = type_axis ? (y ? "--shaper-y" : "--shaper-x") : "--shaper";
-  names.freq = freq_axis ? (y ? "--shaper-freq-y-hz" : "--shaper-freq-x-hz") : "--shaper-freq-hz";
-  names.damping = "--shaper-damping-ratio";
-  if (!freq) {
-    throw Error(fmt::format("{} needs a frequency: --shaper-freq-hz or {}", names.type,
-                            y ? "--shaper-freq-y-hz" : "--shaper-freq-x-hz"));
-  }
-  simulation::AxisShaperSetting s;
-  s.type = type.value_or("mzv");
-  s.freq_hz = *freq;
-  s.damping_ratio = a.shaper_damping;
-  s.source = "flags";
-  return s;
-}
-
 void print_report(const dy::QualityReport& rep) {
   std::cout << fmt::format("contour error: max {:.4f} mm, RMS {:.4f} mm (printing: max {:.4f}, RMS {:.4f})\n",
                            rep.max_contour_error_mm, rep.rms_contour_error_mm,
@@ -196,30 +155,18 @@ void do_simulate(const SimulateArgs& a) {
   if (a.layer_end) o.metrics.layer_end = *a.layer_end;
   o.csv_path = a.csv;
   o.csv_rate_hz = a.csv_rate_hz;
-  simulation::ShaperSettings shapers;
-  shapers.x = axis_shaper_from_flags(a, false, shapers.names_x);
-  shapers.y = axis_shaper_from_flags(a, true, shapers.names_y);
-  if (shapers.any() && a.no_shaper) throw Error("--no-shaper and a --shaper flag contradict each other");
-  if (!a.no_shaper) {
-    // Precedence: flags, then the machine's [input_shaper], then M593 before the first move.
-    const auto m593 = simulation::m593_before_first_move(a.file, mach);
-    const bool from_flags = shapers.any();
-    if (!shapers.any()) {
-      shapers.x = axis_shaper_from_machine(mach, false, shapers.names_x);
-      shapers.y = axis_shaper_from_machine(mach, true, shapers.names_y);
-    }
-    if (!m593.empty()) {
-      if (shapers.any()) {
-        shapers.warnings.push_back(fmt::format("M593 before the first move (line {}) overridden by {}",
-                                               m593.front().line,
-                                               from_flags ? "the --shaper flags" : "the machine's [input_shaper]"));
-      } else {
-        shapers = simulation::shapers_from_m593(m593);
-      }
-    }
-    if (!shapers.any()) {
-      for (const auto& w : shapers.warnings) std::cerr << "warning: " << w << "\n";
-    }
+  simulation::ShaperRequest req;
+  req.type = a.shaper;
+  req.type_x = a.shaper_x;
+  req.type_y = a.shaper_y;
+  req.freq_hz = a.shaper_freq;
+  req.freq_x_hz = a.shaper_freq_x;
+  req.freq_y_hz = a.shaper_freq_y;
+  req.damping_ratio = a.shaper_damping;
+  req.none = a.no_shaper;
+  const simulation::ShaperSettings shapers = simulation::resolve_shapers(req, mach, a.file);
+  if (!shapers.any()) {
+    for (const auto& w : shapers.warnings) std::cerr << "warning: " << w << "\n";
   }
   if (shapers.any() || a.compare_shaper) {
     if (!shapers.any()) throw Error("--compare-shaper needs a shaper: --shaper T --shaper-freq-hz F");

@@ -174,6 +174,32 @@ struct ShaperSettings {
 /// in the file) and a T word are reported in `warnings`. Source "M593 line N".
 [[nodiscard]] ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> commands);
 
+/// What a user asked for (the `simulate` flags, or the Python keywords): a shaper for X and
+/// Y or per axis, or none at all.
+struct ShaperRequest {
+  std::optional<std::string> type, type_x, type_y;
+  std::optional<double> freq_hz, freq_x_hz, freq_y_hz;
+  double damping_ratio = 0.1;  ///< Klipper's default
+  bool none = false;           ///< no shaper, whatever the machine or the file says
+  /// How the caller spells these parameters, for messages.
+  std::string type_name = "--shaper", type_x_name = "--shaper-x", type_y_name = "--shaper-y";
+  std::string freq_name = "--shaper-freq-hz", freq_x_name = "--shaper-freq-x-hz",
+              freq_y_name = "--shaper-freq-y-hz", damping_name = "--shaper-damping-ratio",
+              none_name = "--no-shaper";
+  [[nodiscard]] bool any() const {
+    return type || type_x || type_y || freq_hz || freq_x_hz || freq_y_hz;
+  }
+};
+
+/// The shapers a simulation of `path` on `machine` runs with, by precedence: the request,
+/// then the machine's [input_shaper] (a frequency of 0 leaves an axis unshaped), then
+/// Marlin's M593 before the first move of the file (a later M593 is a warning). A type without
+/// a frequency is an error naming the parameter; `none` with a shaper asked is an error.
+/// Resolution warnings (an M593 overridden, ignored words) are in `warnings`.
+[[nodiscard]] ShaperSettings resolve_shapers(const ShaperRequest& request,
+                                             const machine::Machine& machine,
+                                             const std::string& path);
+
 struct ShapedPrintResult {
   dynamics::PrintSimulationResult shaped;   ///< the shaped nozzle against the planned path
   dynamics::PrintSimulationResult without;  ///< the same plan without a shaper
