@@ -55,7 +55,9 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
              stiffness_n_per_m=None, damping_n_s_per_m=None, modes=None, model_x=None,
              model_y=None, sample_rate_hz=1000.0, t_begin=None, t_end=None, layer_begin=None,
              layer_end=None, profile=None, jerk_mm_s3=None, motor_space=False, worst=10,
-             corner_window_s=0.25, samples=False, samples_rate_hz=None, jerk=None):
+             corner_window_s=0.25, samples=False, samples_rate_hz=None, jerk=None,
+             shaper=None, shaper_freq_hz=None, shaper_x=None, shaper_freq_x_hz=None,
+             shaper_y=None, shaper_freq_y_hz=None, shaper_damping_ratio=0.1, no_shaper=False):
     """Simulates the nozzle through the belt dynamics of X and Y and measures print quality.
 
     Returns the dict of ``amctl simulate FILE --json`` (``dynamics::simulate_print`` +
@@ -93,6 +95,14 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
         samples_rate_hz: keep every (sample_rate_hz / samples_rate_hz)-th sample [Hz]; must
             divide sample_rate_hz (default: every sample).
 
+    Input shaping, as ``amctl simulate --shaper ...`` (docs/dynamics.md section 7):
+        shaper (type, e.g. 'mzv') and shaper_freq_hz [Hz] for X and Y, or per axis shaper_x /
+        shaper_freq_x_hz and shaper_y / shaper_freq_y_hz; shaper_damping_ratio (default 0.1).
+        Without them the machine's [input_shaper] applies, then an M593 before the first
+        move; no_shaper=True simulates without any. With a shaper the dict has ``shaper``,
+        ``smoothing_mm`` figures and ``without_shaper`` (the same metrics unshaped), and the
+        trace is the shaped nozzle against the planned path.
+
     The GIL is released while the simulation runs. Raises amctl.Error for bad input.
     """
     jerk_mm_s3 = _args.alias(jerk_mm_s3, "jerk_mm_s3", jerk, "jerk", None)
@@ -119,4 +129,13 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
         _args.optional_number(t_begin, "t_begin", "s"), _args.optional_number(t_end, "t_end", "s"),
         _args.optional_integer(layer_begin, "layer_begin"), _args.optional_integer(layer_end, "layer_end"),
         with_peaks, _args.boolean(samples, "samples"),
-        _args.optional_number(samples_rate_hz, "samples_rate_hz", "Hz"))
+        _args.optional_number(samples_rate_hz, "samples_rate_hz", "Hz"),
+        _amctl._shaper_request(
+            None if shaper is None else _args.text(shaper, "shaper"),
+            None if shaper_x is None else _args.text(shaper_x, "shaper_x"),
+            None if shaper_y is None else _args.text(shaper_y, "shaper_y"),
+            _args.optional_number(shaper_freq_hz, "shaper_freq_hz", "Hz"),
+            _args.optional_number(shaper_freq_x_hz, "shaper_freq_x_hz", "Hz"),
+            _args.optional_number(shaper_freq_y_hz, "shaper_freq_y_hz", "Hz"),
+            _args.number(shaper_damping_ratio, "shaper_damping_ratio"),
+            _args.boolean(no_shaper, "no_shaper")))

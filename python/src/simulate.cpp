@@ -9,6 +9,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
+#include "amctl/simulation/shaped_simulation.hpp"
 #include "common.hpp"
 
 namespace amctl::py_bind {
@@ -68,7 +69,8 @@ py::object simulate(const std::string& path, const MachineValue& mach_value, con
                     const dy::AxisModel& my, double sample_rate_hz, bool motor_space, std::size_t worst,
                     double corner_window_s, std::optional<double> t_begin, std::optional<double> t_end,
                     std::optional<std::int32_t> layer_begin, std::optional<std::int32_t> layer_end,
-                    bool with_peaks, bool samples, std::optional<double> samples_rate_hz) {
+                    bool with_peaks, bool samples, std::optional<double> samples_rate_hz,
+                    const simulation::ShaperRequest& shaper_request) {
   const machine::Machine& mach = mach_value.m;
   dy::PrintSimulationOptions o;
   o.simulation.sample_rate_hz = sample_rate_hz;
@@ -90,8 +92,15 @@ py::object simulate(const std::string& path, const MachineValue& mach_value, con
   Json j;
   {
     py::gil_scoped_release nogil;
-    const dy::PrintSimulationResult r = dy::simulate_print(path, mach, mx, my, o);
-    j = dy::to_json(r, with_peaks);
+    // The shapers as `amctl simulate` resolves them: requested, else the machine's
+    // [input_shaper], else M593 before the first move.
+    const simulation::ShaperSettings shapers = simulation::resolve_shapers(shaper_request, mach, path);
+    if (shapers.any()) {
+      j = simulation::to_json(simulation::simulate_shaped_print(path, mach, mx, my, o, shapers), with_peaks);
+    } else {
+      const dy::PrintSimulationResult r = dy::simulate_print(path, mach, mx, my, o);
+      j = dy::to_json(r, with_peaks);
+    }
   }
   py::dict out(to_python(j));
   if (samples) out["trace"] = rows.arrays();  // "samples" is the count of the metrics
@@ -148,8 +157,36 @@ driven by the commanded acceleration (docs/dynamics.md). An immutable value.)")
   m.def("_simulate", &simulate, py::arg("path"), py::arg("machine"), py::arg("model_x"), py::arg("model_y"),
         py::arg("sample_rate_hz"), py::arg("motor_space"), py::arg("worst"), py::arg("corner_window_s"),
         py::arg("t_begin"), py::arg("t_end"), py::arg("layer_begin"), py::arg("layer_end"),
-        py::arg("with_peaks"), py::arg("samples"), py::arg("samples_rate_hz"),
-        "amctl simulate --json (dynamics::simulate_print + to_json); see amctl.simulate.");
+        py::arg("with_peaks"), py::arg("samples"), py::arg("samples_rate_hz"), py::arg("shaper"),
+        "amctl simulate --json (dynamics::simulate_print, or simulation::simulate_shaped_print "
+        "with a shaper, + to_json); see amctl.simulate.");
+  m.def("_shaper_request",
+        [](std::optional<std::string> type, std::optional<std::string> type_x, std::optional<std::string> type_y,
+           std::optional<double> freq_hz, std::optional<double> freq_x_hz, std::optional<double> freq_y_hz,
+           double damping_ratio, bool none) {
+          simulation::ShaperRequest r;
+          r.type = std::move(type);
+          r.type_x = std::move(type_x);
+          r.type_y = std::move(type_y);
+          r.freq_hz = freq_hz;
+          r.freq_x_hz = freq_x_hz;
+          r.freq_y_hz = freq_y_hz;
+          r.damping_ratio = damping_ratio;
+          r.none = none;
+          // The Python spelling of each parameter, for messages.
+          r.type_name = "shaper";
+          r.type_x_name = "shaper_x";
+          r.type_y_name = "shaper_y";
+          r.freq_name = "shaper_freq_hz";
+          r.freq_x_name = "shaper_freq_x_hz";
+          r.freq_y_name = "shaper_freq_y_hz";
+          r.damping_name = "shaper_damping_ratio";
+          r.none_name = "no_shaper";
+          return r;
+        },
+        py::arg("type"), py::arg("type_x"), py::arg("type_y"), py::arg("freq_hz"), py::arg("freq_x_hz"),
+        py::arg("freq_y_hz"), py::arg("damping_ratio"), py::arg("none"));
+  py::class_<simulation::ShaperRequest>(m, "_ShaperRequest");
 }
 
 }  // namespace amctl::py_bind

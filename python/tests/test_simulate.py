@@ -151,3 +151,32 @@ def test_the_gil_is_released_while_simulating(source_dir):
     t.join()
     inside = [s for s in stamps if t0 < s < t1]
     assert len(inside) >= 2, (len(inside), t1 - t0)  # a loaded CI machine may schedule it rarely
+
+
+def test_shaped_simulation_equals_the_cli_and_follows_the_machine_config(source_dir, cli):
+    # The bundled Voron config has [input_shaper] (mzv 90/75 Hz): without shaper arguments
+    # Python applies it, as the CLI does; no_shaper=True is the plain run.
+    g = str(source_dir / "examples/30_seed000_corner.gcode")
+    cfg = str(source_dir / "configs/klipper-voron-v0.cfg")
+    def drop(d):  # every wall-clock time, at any depth
+        if isinstance(d, dict):
+            return {k: drop(v) for k, v in d.items() if k != "compute_time_s"}
+        return [drop(v) for v in d] if isinstance(d, list) else d
+    r = amctl.simulate(g, machine=cfg, natural_frequency_hz=40, damping_ratio=0.05)
+    ref = cli.json("simulate", g, "--machine", cfg, "--natural-frequency-hz", "40",
+                   "--damping-ratio", "0.05", "--json")
+    assert "shaper" in r and r["shaper"]["x"]["freq_hz"] == 90.0
+    assert drop(r) == drop(ref)
+    plain = amctl.simulate(g, machine=cfg, natural_frequency_hz=40, damping_ratio=0.05, no_shaper=True)
+    assert "shaper" not in plain
+    assert plain["max_contour_error_mm"] == r["without_shaper"]["max_contour_error_mm"]
+    # ZV at the belt's frequency removes the residual vibration (docs/dynamics.md section 7).
+    zv = amctl.simulate(g, machine=cfg, natural_frequency_hz=40, damping_ratio=0.05,
+                        shaper="zv", shaper_freq_hz=40, shaper_damping_ratio=0.05, samples=True)
+    assert zv["final_residual_vibration_mm"] < 1e-9 < plain["final_residual_vibration_mm"]
+    assert len(zv["trace"]["t_s"]) == zv["samples"]
+    with pytest.raises(amctl.Error, match="shaper_freq_hz"):
+        amctl.simulate(g, machine=cfg, natural_frequency_hz=40, shaper="mzv")
+    with pytest.raises(amctl.Error, match="no_shaper"):
+        amctl.simulate(g, machine=cfg, natural_frequency_hz=40, shaper="mzv", shaper_freq_hz=40,
+                       no_shaper=True)

@@ -243,7 +243,12 @@ ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::
     csv = std::make_unique<ShapedCsv>(options.csv_path, decim);
   }
   ShapedStreamingSimulation::RowSink rows;
-  if (csv) rows = [&csv](const dy::SimSample& s, double e) { csv->row(s, e); };
+  if (csv || options.rows) {
+    rows = [&csv, &options](const dy::SimSample& s, double e) {
+      if (csv) csv->row(s, e);
+      if (options.rows) options.rows(s, e);
+    };
+  }
 
   const auto t0 = std::chrono::steady_clock::now();
   plan::PlanSource source(path, machine);
