@@ -20,6 +20,8 @@ struct ReportArgs {
   MachineOptions machine;
   std::string output = "report.html";
   std::optional<double> f_hz, zeta;
+  std::string accel;
+  std::string accel_axis = "x";
   double rate_hz = 1000.0;
   bool json = false;
   bool lenient = false;
@@ -32,6 +34,11 @@ void run_report(const ReportArgs& a) {
   o.sample_rate_hz = a.rate_hz;
   if (a.zeta && !a.f_hz) throw Error("--damping-ratio needs --natural-frequency-hz");
   if (a.f_hz) o.belt = report::BeltModelOptions{*a.f_hz, a.zeta.value_or(0.1)};
+  o.accel_path = a.accel;
+  if (a.accel_axis != "x" && a.accel_axis != "y") {
+    throw Error(fmt::format("--accel-axis must be x or y, got '{}'", a.accel_axis));
+  }
+  o.accel_axis = a.accel_axis[0];
   const report::ReportResult r = report::write_report(a.file, m, a.output, o);
   if (a.json) {
     std::cout << report::to_json(r).dump(2) << "\n";
@@ -54,6 +61,10 @@ void register_report(CLI::App& app) {
                   "belt natural frequency of X and Y [Hz]: simulate and colour the toolpath by contour error");
   sub->add_option("--damping-ratio", a->zeta, "belt damping ratio of X and Y (default 0.1)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "simulation rate [Hz] (default 1000)");
+  sub->add_option("--accel", a->accel,
+                  "accelerometer record (Klipper raw or PSD CSV): adds the PSD, Klipper's shaper fit "
+                  "and the shaper curves (docs/resonance.md)");
+  sub->add_option("--accel-axis", a->accel_axis, "the axis the record excited: x or y (default x)");
   sub->add_flag("--json", a->json, "Print a JSON summary (file, output, bytes, moves, layers)");
   sub->add_flag("--lenient", a->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->callback([a] { run_report(*a); });

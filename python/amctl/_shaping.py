@@ -69,7 +69,7 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
 
 
 def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=None,
-           damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False):
+           damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False, accel=None, accel_axis="x"):
     """Writes the self-contained HTML report of a print (``amctl report``, docs/report.md) and
     returns the dict of ``amctl report --json``: ``output`` (the page's path), ``bytes``,
     ``moves``, ``layers``, ``toolpath_points``, ``speed_buckets``, ``simulated``, ...
@@ -82,6 +82,8 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
             toolpath by contour error.
         sample_rate_hz: simulation rate [Hz] with a belt model.
         lenient: skip malformed lines instead of raising.
+        accel, accel_axis: an accelerometer record and the axis it excited: adds the
+            resonance section (Klipper's calibration, the PSD and the shaper curves).
     """
     p = _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -89,4 +91,6 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
     f = None if natural_frequency_hz is None else _args.number(natural_frequency_hz, "natural_frequency_hz", "Hz")
     z = _args.number(damping_ratio, "damping_ratio")
     r = _args.number(sample_rate_hz, "sample_rate_hz", "Hz")
-    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"))
+    acc = "" if accel is None else _args.path(accel, "accel")
+    ax = _args.text(accel_axis, "accel_axis")
+    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax)

@@ -1,3 +1,6 @@
+#include "amctl/resonance/calibrate.hpp"
+#include "amctl/shaping/measures.hpp"
+#include "amctl/shaping/shaper.hpp"
 #include "amctl/report/html_report.hpp"
 
 #include <chrono>
@@ -100,6 +103,49 @@ Json toolpath_json(const ToolpathSink& tp, bool with_error) {
 
 }  // namespace
 
+/// The resonance section: resonance::calibrate_file (Klipper's calibration) and, for the
+/// plot, the normalised PSD up to Klipper's 200 Hz, each fitted shaper's remaining-vibration
+/// curve (Klipper's estimate at the design damping ratio) and psd_xyz after the recommended
+/// shaper (the PSD times its curve, as Klipper's graph draws it).
+Json accel_json(const ReportOptions& options) {
+  resonance::CalibrateOptions co;
+  co.axis = options.accel_axis;
+  const resonance::CalibrationReport r = resonance::calibrate_file(options.accel_path, co);
+  Json a = resonance::to_json(r);
+  const resonance::PsdTable& p = r.psd;
+  std::vector<double> f;
+  std::size_t n = 0;
+  while (n < p.freq_hz.size() && p.freq_hz[n] <= co.klipper.max_freq_hz) ++n;
+  std::size_t first = 0;  // Klipper's grid starts above 0 Hz; the curves need f > 0
+  while (first < n && !(p.freq_hz[first] > 0.0)) ++first;
+  f.assign(p.freq_hz.begin() + static_cast<std::ptrdiff_t>(first), p.freq_hz.begin() + static_cast<std::ptrdiff_t>(n));
+  auto slice = [&](const std::vector<double>& v) {
+    return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(first), v.begin() + static_cast<std::ptrdiff_t>(n));
+  };
+  Json plot;
+  plot["freq_hz"] = f;
+  plot["psd_x"] = slice(p.psd_x);
+  plot["psd_y"] = slice(p.psd_y);
+  plot["psd_z"] = slice(p.psd_z);
+  plot["psd_xyz"] = slice(p.psd_xyz);
+  Json curves = Json::array();
+  std::vector<double> after;
+  for (const resonance::ShaperFit& s : r.klipper.shapers) {
+    const shaping::Shaper sh = shaping::make_shaper(s.name, s.freq_hz, co.klipper.damping_ratio);
+    const shaping::VibrationCurve c = shaping::vibration_curve(sh, f, co.klipper.damping_ratio);
+    curves.push_back({{"name", s.name}, {"freq_hz", s.freq_hz}, {"remaining", c.remaining_fraction}});
+    if (s.name == r.klipper.recommended.name) {
+      after.resize(f.size());
+      for (std::size_t i = 0; i < f.size(); ++i) after[i] = p.psd_xyz[first + i] * c.remaining_fraction[i];
+    }
+  }
+  plot["curves"] = std::move(curves);
+  plot["after_recommended"] = after;
+  a["plot"] = std::move(plot);
+  a["file"] = options.accel_path;
+  return a;
+}
+
 Json report_data(const std::string& path, const machine::Machine& machine,
                  const ReportOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -149,6 +195,7 @@ Json report_data(const std::string& path, const machine::Machine& machine,
   } else {
     d["quality"] = nullptr;
   }
+  d["accel"] = options.accel_path.empty() ? Json(nullptr) : accel_json(options);
   return d;
 }
 

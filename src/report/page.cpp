@@ -66,6 +66,8 @@ input[type=range] { flex: 1 1 200px; min-width: 140px; }
 <div class="plot"><canvas id="toolpath" height="520"></canvas></div>
 </section>
 <section id="quality-section" hidden><h2>Contour error (belt model)</h2><div class="cards" id="qcards"></div><div id="qtable"></div></section>
+<section id="accel-section" hidden><h2>Resonances (accelerometer record)</h2><div class="cards" id="acards"></div>
+<div class="plot"><canvas id="accel" height="320"></canvas></div><div class="legend" id="alegend"></div><div id="atable"></div></section>
 <p class="sub" id="footer"></p>
 </main>
 <script type="application/json" id="data">)PAGE";
@@ -339,7 +341,56 @@ if (Q) {
 }
 $("footer").textContent = "Speed: " + NB + " buckets (min and max per bucket); toolpath: " + TP.points + " points from " + TP.moves + " XY moves, decimated at " + TP.tolerance_mm + " mm. Computed in " + E.compute_time_s.toFixed(3) + " s.";
 
-function drawAll() { drawSpeed(); drawLayers(); drawToolpath(); }
+// The accelerometer section (D.accel, from resonance::calibrate_file): the normalised PSD of
+// each axis and their sum (left scale), every shaper Klipper fitted as the fraction of
+// vibration it leaves (right scale, 0-100 %), and psd_xyz after the recommended shaper.
+const A = D.accel;
+if (A) {
+  $("accel-section").hidden = false;
+  const rec = A.klipper.recommended;
+  card($("acards"), "Klipper recommends", rec.name + " @ " + rec.freq_hz.toFixed(1) + " Hz", "calibrate_shaper.py's rule");
+  if (A.psd) card($("acards"), "PSD peak", A.psd.peak_xyz_hz.toFixed(1) + " Hz", "x+y+z; axis " + A.axis + ": " + A.psd.peak_axis_hz.toFixed(1) + " Hz");
+  if (A.sample_rate_hz) card($("acards"), "Record", A.sample_rate_hz.toFixed(0) + " samples/s", A.source);
+  if (A.model) card($("acards"), "Modal fit (sweep)", A.model.natural_frequency_hz.toFixed(2) + " Hz", "\u03b6 " + A.model.damping_ratio.toFixed(3));
+  const t = el("table"); const hr = el("tr");
+  ["shaper", "frequency [Hz]", "vibrations left", "smoothing [mm]", "max accel [mm/s\u00b2]"].forEach((x) => hr.append(el("th", null, x))); t.append(hr);
+  A.klipper.shapers.forEach((s) => { const r = el("tr"); r.append(el("td", null, s.name + (s.name === rec.name ? " (recommended)" : "")), el("td", null, s.freq_hz.toFixed(1)), el("td", null, (s.vibrations * 100).toFixed(1) + " %"), el("td", null, s.smoothing.toFixed(3)), el("td", null, s.max_accel_mm_s2.toFixed(0))); t.append(r); });
+  $("atable").append(t);
+  const lg = $("alegend");
+  const item = (c, name, dash) => { const s = el("span"); const i = el("i"); i.style.background = c; if (dash) i.style.opacity = "0.6"; s.append(i, document.createTextNode(name)); lg.append(s); };
+  [["#1f77b4", "PSD x"], ["#2ca02c", "PSD y"], ["#d62728", "PSD z"], ["#7f7f7f", "PSD x+y+z"], ["#000000", "x+y+z after " + rec.name]].forEach(([c, n]) => item(c, n));
+  A.plot.curves.forEach((c, i) => item(PALETTE[(i + 3) % PALETTE.length], c.name + " @ " + c.freq_hz.toFixed(1) + " Hz (vibration left, right scale)", true));
+}
+function drawAccel() {
+  if (!A) return;
+  const P = A.plot, f = P.freq_hz;
+  const {g, w, h} = prep($("accel"), 320);
+  if (!f.length) return;
+  const L = 64, R = 48, T = 10, B = 32, pw = w - L - R, ph = h - T - B, fmax = f[f.length - 1];
+  let pmax = 0;
+  for (const k of ["psd_x", "psd_y", "psd_z", "psd_xyz"]) for (const v of P[k]) if (v > pmax) pmax = v;
+  if (!(pmax > 0)) pmax = 1;
+  const X = (x) => L + x / fmax * pw, Y = (v) => T + ph - v / pmax * ph, Y2 = (v) => T + ph - Math.min(1, v) * ph;
+  g.font = "11px system-ui, sans-serif"; g.lineWidth = 1;
+  const fs = niceStep(fmax, Math.max(4, Math.floor(pw / 70)));
+  for (let x = 0; x <= fmax + 1e-9; x += fs) { g.strokeStyle = "#e6e9ee"; g.beginPath(); g.moveTo(X(x), T); g.lineTo(X(x), T + ph); g.stroke(); g.fillStyle = "#5d6675"; g.textAlign = "center"; g.fillText(String(Math.round(x)), X(x), T + ph + 14); }
+  const ps = niceStep(pmax, 5);
+  for (let v = 0; v <= pmax * 1.0001; v += ps) { g.strokeStyle = "#e6e9ee"; g.beginPath(); g.moveTo(L, Y(v)); g.lineTo(L + pw, Y(v)); g.stroke(); g.fillStyle = "#5d6675"; g.textAlign = "right"; g.fillText(v.toExponential(1), L - 4, Y(v) + 4); }
+  g.textAlign = "left"; for (let v = 0; v <= 1.0001; v += 0.25) g.fillText((v * 100).toFixed(0) + " %", L + pw + 4, Y2(v) + 4);
+  g.textAlign = "center"; g.fillText("frequency [Hz]", L + pw / 2, h - 4);
+  g.save(); g.translate(12, T + ph / 2); g.rotate(-Math.PI / 2); g.fillText("normalised PSD", 0, 0); g.restore();
+  const line = (ys, Yf, color, width, dash) => {
+    g.strokeStyle = color; g.lineWidth = width; g.setLineDash(dash || []); g.beginPath();
+    for (let i = 0; i < f.length; i++) { const px = X(f[i]), py = Yf(ys[i]); if (i) g.lineTo(px, py); else g.moveTo(px, py); }
+    g.stroke(); g.setLineDash([]);
+  };
+  P.curves.forEach((c, i) => line(c.remaining, Y2, PALETTE[(i + 3) % PALETTE.length], 1.2, [3, 3]));
+  [["psd_x", "#1f77b4", 1.2], ["psd_y", "#2ca02c", 1.2], ["psd_z", "#d62728", 1.2], ["psd_xyz", "#7f7f7f", 2]].forEach(([k, c, wd]) => line(P[k], Y, c, wd));
+  if (P.after_recommended.length) line(P.after_recommended, Y, "#000000", 1.6, [6, 3]);
+  g.strokeStyle = "#9aa1ab"; g.lineWidth = 1; g.strokeRect(L, T, pw, ph);
+}
+
+function drawAll() { drawSpeed(); drawLayers(); drawToolpath(); drawAccel(); }
 drawAll();
 let rz = null; window.addEventListener("resize", () => { clearTimeout(rz); rz = setTimeout(drawAll, 100); });
 document.body.setAttribute("data-drawn", "yes");

@@ -114,6 +114,57 @@ TEST(HtmlReport, WithABeltModelTheToolpathCarriesContourErrors) {
   EXPECT_NEAR(static_cast<double>(top_um), max_mm * 1000.0, 1.0);
 }
 
+TEST(HtmlReport, AnAccelerometerRecordAddsKlippersCalibrationAndTheShaperCurves) {
+  // A Klipper PSD CSV with one resonance (f0 = 42 Hz, zeta = 0.08: |H|^2 of a second-order
+  // system, the same on x and y): the section holds what resonance::calibrate_file says, the
+  // PSD up to 200 Hz, a remaining-vibration curve per fitted shaper that is ~0 at its own
+  // frequency (ZV-family shapers cancel their design mode exactly; EI leaves its tolerance)
+  // and psd_xyz times the recommended shaper's curve.
+  std::string csv = "freq,psd_x,psd_y,psd_z,psd_xyz\n";
+  for (int i = 0; i <= 600; ++i) {
+    const double f = 1.0 + 0.5 * i, r = f / 42.0;
+    const double h = 1.0 / ((1 - r * r) * (1 - r * r) + (2 * 0.08 * r) * (2 * 0.08 * r));
+    csv += std::to_string(f) + "," + std::to_string(h) + "," + std::to_string(h) + ",0.001," +
+           std::to_string(2 * h + 0.001) + "\n";
+  }
+  const std::string psd = test::write_temp("psd.csv", csv);
+  const std::string gcode = test::write_temp("poly_accel.gcode", test::polygons(2, 6));
+  ReportOptions o;
+  o.accel_path = psd;
+  const Json d = report_data(gcode, test::klipper(), o);
+  ASSERT_FALSE(d["accel"].is_null());
+  const Json& a = d["accel"];
+  const Json& p = a["plot"];
+  const std::size_t n = p["freq_hz"].size();
+  ASSERT_GT(n, 300u);
+  EXPECT_LE(p["freq_hz"].back().get<double>(), 200.0);
+  EXPECT_EQ(p["psd_xyz"].size(), n);
+  ASSERT_EQ(p["curves"].size(), a["klipper"]["shapers"].size());
+  const std::string rec = a["klipper"]["recommended"]["name"];
+  for (const auto& c : p["curves"]) {
+    ASSERT_EQ(c["remaining"].size(), n);
+    if (c["name"] == "zv" || c["name"] == "mzv") {
+      // At the grid point nearest its frequency the curve is far below its value elsewhere.
+      const double fc = c["freq_hz"];
+      std::size_t k = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (std::abs(p["freq_hz"][i].get<double>() - fc) < std::abs(p["freq_hz"][k].get<double>() - fc)) k = i;
+      }
+      EXPECT_LT(c["remaining"][k].get<double>(), 0.05) << c["name"];
+    }
+    if (c["name"] == rec) {
+      for (std::size_t i = 0; i < n; i += 37) {
+        EXPECT_NEAR(p["after_recommended"][i].get<double>(),
+                    p["psd_xyz"][i].get<double>() * c["remaining"][i].get<double>(),
+                    1e-12 * (1 + p["psd_xyz"][i].get<double>()));
+      }
+    }
+  }
+  // A bad record is an error naming it, and no page.
+  o.accel_path = test::write_temp("bad_psd.csv", "freq,psd_x\n1,2\n");
+  EXPECT_THROW((void)report_data(gcode, test::klipper(), o), Error);
+}
+
 TEST(HtmlReport, FileWithoutMovesStillGetsAPageThatSaysSo) {
   const std::string gcode = test::write_temp("nomoves.gcode", "; nothing here\nM104 S200\nG90\n");
   const std::string out = ::testing::TempDir() + "/amctl_report_nomoves.html";

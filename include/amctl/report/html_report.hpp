@@ -32,6 +32,11 @@ struct ReportOptions {
   bool strict = true;                     ///< false: skip malformed lines (counted)
   std::size_t speed_buckets = 4096;       ///< at most this many (at least half) in the page
   ToolpathOptions toolpath;
+  /// An accelerometer record (Klipper raw or PSD CSV, or the corpus CSV): adds the resonance
+  /// section (the normalised PSD, every shaper Klipper fits with its remaining-vibration
+  /// curve, the recommendation and the PSD after it). Empty: none.
+  std::string accel_path;
+  char accel_axis = 'x';  ///< the axis the record excited
 };
 
 struct ReportResult {
