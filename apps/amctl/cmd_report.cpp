@@ -22,6 +22,7 @@ struct ReportArgs {
   std::optional<double> f_hz, zeta;
   std::string accel;
   std::string accel_axis = "x";
+  std::string thermal;
   double rate_hz = 1000.0;
   bool json = false;
   bool lenient = false;
@@ -35,6 +36,7 @@ void run_report(const ReportArgs& a) {
   if (a.zeta && !a.f_hz) throw Error("--damping-ratio needs --natural-frequency-hz");
   if (a.f_hz) o.belt = report::BeltModelOptions{*a.f_hz, a.zeta.value_or(0.1)};
   o.accel_path = a.accel;
+  o.thermal = a.thermal;
   if (a.accel_axis != "x" && a.accel_axis != "y") {
     throw Error(fmt::format("--accel-axis must be x or y, got '{}'", a.accel_axis));
   }
@@ -65,6 +67,10 @@ void register_report(CLI::App& app) {
                   "accelerometer record (Klipper raw or PSD CSV): adds the PSD, Klipper's shaper fit "
                   "and the shaper curves (docs/resonance.md)");
   sub->add_option("--accel-axis", a->accel_axis, "the axis the record excited: x or y (default x)");
+  sub->add_option("--thermal", a->thermal,
+                  "hotend or bed: add the heater loop (autotune, PID, MPC: temperature, set point, "
+                  "effort; docs/thermal.md)")
+      ->check(CLI::IsMember({"hotend", "bed"}));
   sub->add_flag("--json", a->json, "Print a JSON summary (file, output, bytes, moves, layers)");
   sub->add_flag("--lenient", a->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->callback([a] { run_report(*a); });

@@ -69,7 +69,8 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
 
 
 def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=None,
-           damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False, accel=None, accel_axis="x"):
+           damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False, accel=None, accel_axis="x",
+           thermal=None):
     """Writes the self-contained HTML report of a print (``amctl report``, docs/report.md) and
     returns the dict of ``amctl report --json``: ``output`` (the page's path), ``bytes``,
     ``moves``, ``layers``, ``toolpath_points``, ``speed_buckets``, ``simulated``, ...
@@ -84,6 +85,8 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
         lenient: skip malformed lines instead of raising.
         accel, accel_axis: an accelerometer record and the axis it excited: adds the
             resonance section (Klipper's calibration, the PSD and the shaper curves).
+        thermal: "hotend" or "bed": adds the heater loop section (temperature, set point and
+            effort of the tuned PID and the MPC).
     """
     p = _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -93,4 +96,5 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
     r = _args.number(sample_rate_hz, "sample_rate_hz", "Hz")
     acc = "" if accel is None else _args.path(accel, "accel")
     ax = _args.text(accel_axis, "accel_axis")
-    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax)
+    th = "" if thermal is None else _args.text(thermal, "thermal")
+    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th)

@@ -53,8 +53,9 @@ py::object resonance_calibrate(const std::string& path, const std::string& axis,
 py::object write_report(const std::string& path, const MachineValue& mv, const std::string& output,
                         std::optional<double> natural_frequency_hz, double damping_ratio,
                         double sample_rate_hz, bool strict, const std::string& accel,
-                        const std::string& accel_axis) {
+                        const std::string& accel_axis, const std::string& thermal) {
   report::ReportOptions o;
+  o.thermal = thermal;
   o.accel_path = accel;
   if (accel_axis != "x" && accel_axis != "y") {
     throw Error("accel_axis must be 'x' or 'y', got '" + accel_axis + "'");
@@ -76,7 +77,7 @@ py::object write_report(const std::string& path, const MachineValue& mv, const s
 void register_shaping(py::module_& m) {
   m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
         py::arg("natural_frequency_hz"), py::arg("damping_ratio"), py::arg("sample_rate_hz"),
-        py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), "amctl report --json (report::write_report + to_json); see amctl.report.");
+        py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"), "amctl report --json (report::write_report + to_json); see amctl.report.");
   m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
         py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
         "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");

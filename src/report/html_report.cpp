@@ -1,3 +1,4 @@
+#include "amctl/thermal/studies.hpp"
 #include "amctl/resonance/calibrate.hpp"
 #include "amctl/shaping/measures.hpp"
 #include "amctl/shaping/shaper.hpp"
@@ -146,6 +147,35 @@ Json accel_json(const ReportOptions& options) {
   return a;
 }
 
+/// The heater section: the study of `amctl thermal hotend|bed` (its JSON) and, per controller,
+/// the trace decimated to at most 1500 points (every k-th step; the scenario's 0.1 s steps
+/// would be 3600 points a run).
+Json thermal_json(const std::string& which) {
+  if (which != "hotend" && which != "bed") {
+    throw Error(fmt::format("thermal section must be 'hotend' or 'bed', got '{}'", which));
+  }
+  const thermal::HeaterStudy s = thermal::run_heater_study(
+      which == "bed" ? thermal::HeaterStudyOptions::bed_defaults() : thermal::HeaterStudyOptions::hotend());
+  Json t = thermal::to_json(s);
+  t["heater"] = which;
+  t["target_c"] = s.scenario.target_c;
+  t["fan_on_at_s"] = s.scenario.fan_on_at_s;
+  t["flow_start_s"] = s.scenario.flow_start_s;
+  Json traces = Json::array();
+  for (const thermal::HeaterRunStats& r : s.runs) {
+    const std::size_t n = r.t_s.size(), k = std::max<std::size_t>(1, (n + 1499) / 1500);
+    std::vector<double> ts, temp, duty;
+    for (std::size_t i = 0; i < n; i += k) {
+      ts.push_back(r.t_s[i]);
+      temp.push_back(r.measured_c[i]);
+      duty.push_back(r.duty[i]);
+    }
+    traces.push_back({{"controller", r.controller}, {"t_s", ts}, {"measured_c", temp}, {"duty", duty}});
+  }
+  t["traces"] = std::move(traces);
+  return t;
+}
+
 Json report_data(const std::string& path, const machine::Machine& machine,
                  const ReportOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -196,6 +226,7 @@ Json report_data(const std::string& path, const machine::Machine& machine,
     d["quality"] = nullptr;
   }
   d["accel"] = options.accel_path.empty() ? Json(nullptr) : accel_json(options);
+  d["thermal"] = options.thermal.empty() ? Json(nullptr) : thermal_json(options.thermal);
   return d;
 }
 

@@ -68,6 +68,8 @@ input[type=range] { flex: 1 1 200px; min-width: 140px; }
 <section id="quality-section" hidden><h2>Contour error (belt model)</h2><div class="cards" id="qcards"></div><div id="qtable"></div></section>
 <section id="accel-section" hidden><h2>Resonances (accelerometer record)</h2><div class="cards" id="acards"></div>
 <div class="plot"><canvas id="accel" height="320"></canvas></div><div class="legend" id="alegend"></div><div id="atable"></div></section>
+<section id="thermal-section" hidden><h2 id="thtitle">Heater loop</h2><div class="cards" id="thcards"></div>
+<div class="plot"><canvas id="thermal" height="300"></canvas></div><div class="legend" id="thlegend"></div><div id="thtable"></div></section>
 <p class="sub" id="footer"></p>
 </main>
 <script type="application/json" id="data">)PAGE";
@@ -390,7 +392,44 @@ function drawAccel() {
   g.strokeStyle = "#9aa1ab"; g.lineWidth = 1; g.strokeRect(L, T, pw, ph);
 }
 
-function drawAll() { drawSpeed(); drawLayers(); drawToolpath(); drawAccel(); }
+// The heater section (D.thermal, thermal::run_heater_study): temperature of every controller
+// against the set point (left scale) and its heater effort (duty, right scale, dashed).
+const TH = D.thermal;
+if (TH) {
+  $("thermal-section").hidden = false;
+  $("thtitle").textContent = "Heater loop (" + TH.heater + ", set point " + TH.target_c + " \u00b0C; fan at " + TH.fan_on_at_s + " s, flow from " + TH.flow_start_s + " s)";
+  const t = el("table"); const hr = el("tr");
+  ["controller", "heat-up [s]", "overshoot [K]", "fan step max dev. [K]", "flow ripple [K]", "energy [kJ]"].forEach((x) => hr.append(el("th", null, x))); t.append(hr);
+  (TH.runs || []).forEach((r) => { const tr = el("tr"); tr.append(el("td", null, r.controller), el("td", null, Number(r.heat_up_time_s).toFixed(1)), el("td", null, Number(r.overshoot_k).toFixed(2)), el("td", null, Number(r.fan_max_dev_k).toFixed(2)), el("td", null, Number(r.flow_ripple_k).toFixed(2)), el("td", null, (Number(r.energy_j) / 1000).toFixed(1))); t.append(tr); });
+  $("thtable").append(t);
+  TH.traces.forEach((r, i) => { const s = el("span"); const b = el("i"); b.style.background = PALETTE[i % PALETTE.length]; s.append(b, document.createTextNode(r.controller + " (temperature; effort dashed)")); $("thlegend").append(s); });
+  const s = el("span"); const b = el("i"); b.style.background = "#000"; s.append(b, document.createTextNode("set point")); $("thlegend").append(s);
+}
+function drawThermal() {
+  if (!TH || !TH.traces.length) return;
+  const {g, w, h} = prep($("thermal"), 300);
+  const L = 56, R = 48, T = 10, B = 32, pw = w - L - R, ph = h - T - B;
+  let tmax = 0, cmin = 1e9, cmax = -1e9;
+  for (const r of TH.traces) { tmax = Math.max(tmax, r.t_s[r.t_s.length - 1]); for (const c of r.measured_c) { cmin = Math.min(cmin, c); cmax = Math.max(cmax, c); } }
+  cmax = Math.max(cmax, TH.target_c) + 2; cmin = Math.min(cmin, TH.target_c) - 2;
+  const X = (t) => L + t / tmax * pw, Y = (c) => T + ph - (c - cmin) / (cmax - cmin) * ph, Y2 = (d) => T + ph - d * ph;
+  g.font = "11px system-ui, sans-serif";
+  const ts = niceStep(tmax, Math.max(4, Math.floor(pw / 70)));
+  for (let x = 0; x <= tmax + 1e-9; x += ts) { g.strokeStyle = "#e6e9ee"; g.beginPath(); g.moveTo(X(x), T); g.lineTo(X(x), T + ph); g.stroke(); g.fillStyle = "#5d6675"; g.textAlign = "center"; g.fillText(String(Math.round(x)), X(x), T + ph + 14); }
+  const cs = niceStep(cmax - cmin, 6);
+  for (let c = Math.ceil(cmin / cs) * cs; c <= cmax; c += cs) { g.strokeStyle = "#e6e9ee"; g.beginPath(); g.moveTo(L, Y(c)); g.lineTo(L + pw, Y(c)); g.stroke(); g.fillStyle = "#5d6675"; g.textAlign = "right"; g.fillText(c.toFixed(0) + " \u00b0C", L - 4, Y(c) + 4); }
+  g.textAlign = "left"; for (let d = 0; d <= 1.0001; d += 0.25) g.fillText((d * 100).toFixed(0) + " %", L + pw + 4, Y2(d) + 4);
+  g.textAlign = "center"; g.fillText("time [s]", L + pw / 2, h - 4);
+  g.strokeStyle = "#000"; g.lineWidth = 1; g.setLineDash([2, 2]); g.beginPath(); g.moveTo(L, Y(TH.target_c)); g.lineTo(L + pw, Y(TH.target_c)); g.stroke(); g.setLineDash([]);
+  TH.traces.forEach((r, i) => {
+    const c = PALETTE[i % PALETTE.length];
+    g.strokeStyle = c; g.lineWidth = 1.5; g.beginPath(); r.t_s.forEach((t, k) => { const px = X(t), py = Y(r.measured_c[k]); if (k) g.lineTo(px, py); else g.moveTo(px, py); }); g.stroke();
+    g.globalAlpha = 0.5; g.lineWidth = 1; g.setLineDash([4, 3]); g.beginPath(); r.t_s.forEach((t, k) => { const px = X(t), py = Y2(r.duty[k]); if (k) g.lineTo(px, py); else g.moveTo(px, py); }); g.stroke(); g.setLineDash([]); g.globalAlpha = 1;
+  });
+  g.strokeStyle = "#9aa1ab"; g.lineWidth = 1; g.strokeRect(L, T, pw, ph);
+}
+
+function drawAll() { drawSpeed(); drawLayers(); drawToolpath(); drawAccel(); drawThermal(); }
 drawAll();
 let rz = null; window.addEventListener("resize", () => { clearTimeout(rz); rz = setTimeout(drawAll, 100); });
 document.body.setAttribute("data-drawn", "yes");

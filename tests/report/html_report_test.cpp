@@ -165,6 +165,35 @@ TEST(HtmlReport, AnAccelerometerRecordAddsKlippersCalibrationAndTheShaperCurves)
   EXPECT_THROW((void)report_data(gcode, test::klipper(), o), Error);
 }
 
+TEST(HtmlReport, AThermalRunAddsTheHeaterLoopWithBoundedTraces) {
+  const std::string gcode = test::write_temp("poly_thermal.gcode", test::polygons(2, 6));
+  ReportOptions o;
+  o.thermal = "hotend";
+  const Json d = report_data(gcode, test::klipper(), o);
+  ASSERT_FALSE(d["thermal"].is_null());
+  const Json& t = d["thermal"];
+  EXPECT_EQ(t["target_c"].get<double>(), 210.0);
+  ASSERT_EQ(t["traces"].size(), t["runs"].size());
+  ASSERT_GE(t["traces"].size(), 2u);  // the tuned PID and the MPC at least
+  for (const auto& r : t["traces"]) {
+    const std::size_t n = r["t_s"].size();
+    ASSERT_GT(n, 100u);
+    EXPECT_LE(n, 1500u);
+    EXPECT_EQ(r["measured_c"].size(), n);
+    EXPECT_EQ(r["duty"].size(), n);
+    // Every controller holds the set point before the fan step at 180 s (within 2 K).
+    std::size_t k = 0;
+    while (k + 1 < n && r["t_s"][k + 1].get<double>() < 175.0) ++k;
+    EXPECT_NEAR(r["measured_c"][k].get<double>(), 210.0, 2.0) << r["controller"];
+    for (const auto& u : r["duty"]) {
+      EXPECT_GE(u.get<double>(), 0.0);
+      EXPECT_LE(u.get<double>(), 1.0);
+    }
+  }
+  o.thermal = "chamber";
+  EXPECT_THROW((void)report_data(gcode, test::klipper(), o), Error);
+}
+
 TEST(HtmlReport, FileWithoutMovesStillGetsAPageThatSaysSo) {
   const std::string gcode = test::write_temp("nomoves.gcode", "; nothing here\nM104 S200\nG90\n");
   const std::string out = ::testing::TempDir() + "/amctl_report_nomoves.html";

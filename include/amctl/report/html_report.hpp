@@ -37,6 +37,10 @@ struct ReportOptions {
   /// curve, the recommendation and the PSD after it). Empty: none.
   std::string accel_path;
   char accel_axis = 'x';  ///< the axis the record excited
+  /// "hotend" or "bed": adds the heater loop section (thermal::run_heater_study with that
+  /// heater's defaults: temperature, set point and heater effort of every controller). Empty:
+  /// none.
+  std::string thermal;
 };
 
 struct ReportResult {
