@@ -1,11 +1,21 @@
 // `amctl resonance calibrate FILE --axis x|y [--sweep F0,F1,RATE,ACCEL] [--json] [--csv OUT]`: Klipper's input-shaper
 // calibration of an accelerometer record or PSD (resonance/calibrate.hpp; docs/resonance.md).
+// `amctl resonance test-gcode --machine SPEC --axis x|y [-o FILE] [--style klipper|marlin] ...`:
+// resonance-test G-code (resonance/test_gcode.hpp).
+#include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/process/csv.hpp"
 #include "amctl/resonance/calibrate.hpp"
+#include "amctl/resonance/test_gcode.hpp"
 #include "commands.hpp"
+#include "machine_cli.hpp"
 
 namespace amctl::cli {
 namespace {
@@ -18,6 +28,60 @@ struct CalibrateArgs {
   std::string response_csv;
   bool json = false;
 };
+
+struct TestGcodeArgs {
+  MachineOptions machine;
+  std::string axis;
+  std::string output;
+  std::string style = "klipper";
+  std::optional<double> freq_start, freq_end, accel_per_hz, accel, hz_per_sec;
+  std::string point;
+};
+
+void run_test_gcode(const TestGcodeArgs& a) {
+  const machine::Machine m = resolve_machine(a.machine);
+  resonance::TestGcodeOptions o = resonance::default_test_options(
+      a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper);
+  o.axis = a.axis.front();
+  if (a.freq_start) o.freq_start_hz = *a.freq_start;
+  if (a.freq_end) o.freq_end_hz = *a.freq_end;
+  if (a.accel_per_hz) o.accel_per_hz = *a.accel_per_hz;
+  if (a.accel) o.accel_mm_s2 = *a.accel;
+  if (a.hz_per_sec) o.hz_per_sec = *a.hz_per_sec;
+  if (!a.point.empty()) {
+    double v[3];
+    std::size_t start = 0;
+    for (int i = 0; i < 3; ++i) {
+      const std::size_t comma = a.point.find(',', start);
+      if ((i < 2) != (comma != std::string::npos)) {
+        throw Error(fmt::format("--point '{}': expected X,Y,Z", a.point));
+      }
+      const std::string field = a.point.substr(start, i < 2 ? comma - start : std::string::npos);
+      std::size_t used = 0;
+      try {
+        v[i] = std::stod(field, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (field.empty() || used != field.size() || !std::isfinite(v[i])) {
+        throw Error(fmt::format("--point '{}': '{}' is not a number, expected X,Y,Z", a.point, field));
+      }
+      start = comma + 1;
+    }
+    for (int i = 0; i < 3; ++i) o.point_mm[i] = v[i];
+    o.point_given = true;
+  }
+  const std::string text = resonance::test_gcode(o, m);  // whole text first: all or nothing
+  if (a.output.empty() || a.output == "-") {
+    std::cout << text;
+  } else {
+    process::write_file_atomic(a.output, text);
+  }
+  if (!o.point_given) {
+    std::cerr << fmt::format("amctl: note: test point {:g},{:g},{:g} (default; the machine's position limits are not known)\n",
+                             o.point_mm[0], o.point_mm[1], o.point_mm[2]);
+  }
+}
 
 }  // namespace
 
@@ -56,6 +120,23 @@ void register_resonance(CLI::App& app) {
       std::cout << resonance::to_text(r);
     }
   });
+
+  auto t = std::make_shared<TestGcodeArgs>();
+  CLI::App* tg = res->add_subcommand(
+      "test-gcode", "Resonance-test G-code: Klipper's TEST_RESONANCES move pattern or a Marlin-style "
+                    "sweep, as plain G-code");
+  add_machine_options(*tg, t->machine);
+  tg->add_option("--axis", t->axis, "The axis to excite: x or y")->required()->check(CLI::IsMember({"x", "y"}));
+  tg->add_option("-o,--output", t->output, "Write the G-code to this file (atomically; default: standard output)");
+  tg->add_option("--style", t->style, "klipper (accel per Hz, Klipper's defaults) or marlin (constant accel)")
+      ->check(CLI::IsMember({"klipper", "marlin"}));
+  tg->add_option("--freq-start", t->freq_start, "Start frequency [Hz] (default 5)");
+  tg->add_option("--freq-end", t->freq_end, "End frequency [Hz] (default: klipper 135, marlin 80)");
+  tg->add_option("--accel-per-hz", t->accel_per_hz, "klipper style: acceleration per Hz [mm/s^2/Hz] (default 60)");
+  tg->add_option("--accel-mm-s2", t->accel, "marlin style: acceleration amplitude [mm/s^2] (default 4000)");
+  tg->add_option("--hz-per-sec", t->hz_per_sec, "Sweep rate [Hz/s] (default: klipper 1, marlin 4)");
+  tg->add_option("--point", t->point, "Test point X,Y,Z [mm] (default 100,100,20)");
+  tg->callback([t] { run_test_gcode(*t); });
 }
 
 }  // namespace amctl::cli
