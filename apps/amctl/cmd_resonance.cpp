@@ -14,6 +14,7 @@
 #include "amctl/process/csv.hpp"
 #include "amctl/resonance/calibrate.hpp"
 #include "amctl/resonance/test_gcode.hpp"
+#include "amctl/tuning/recommend.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
 
@@ -27,7 +28,24 @@ struct CalibrateArgs {
   std::string sweep;
   std::string response_csv;
   bool json = false;
+  bool recommend = false;
+  MachineOptions machine;
+  std::optional<double> max_smoothing_mm;
 };
+
+struct RecommendArgs {
+  double natural_frequency_hz = 0.0;
+  double damping_ratio = 0.0;
+  MachineOptions machine;
+  std::optional<double> max_smoothing_mm;
+  bool json = false;
+};
+
+tuning::RecommendOptions recommend_options(const std::optional<double>& max_smoothing_mm) {
+  tuning::RecommendOptions o;
+  if (max_smoothing_mm) o.max_smoothing_mm = *max_smoothing_mm;
+  return o;
+}
 
 struct TestGcodeArgs {
   MachineOptions machine;
@@ -107,17 +125,63 @@ void register_resonance(CLI::App& app) {
   cal->add_option("--csv", a->csv,
                   "Write the PSD (freq,psd_x,psd_y,psd_z,psd_xyz; unnormalised, as Klipper's "
                   "TEST_RESONANCES) to this file");
+  cal->add_flag("--recommend", a->recommend,
+                "With --sweep: the shaper and frequency that minimise the simulated contour error of "
+                "the fitted model on a ringing-tower path within the smoothing budget "
+                "(`model_recommendation` in the JSON)");
+  add_machine_options(*cal, a->machine);
+  cal->add_option("--max-smoothing-mm", a->max_smoothing_mm,
+                  "With --recommend: smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
   cal->callback([a] {
     resonance::CalibrateOptions o;
     o.axis = a->axis.front();
     if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
+    if (a->recommend && !o.sweep) throw Error("--recommend needs --sweep (the modal model comes from the sweep's fit)");
+    if (a->max_smoothing_mm && !a->recommend) throw Error("--max-smoothing-mm needs --recommend");
+    const tuning::RecommendOptions ro = recommend_options(a->max_smoothing_mm);
     const resonance::CalibrationReport r = resonance::calibrate_file(a->file, o);
+    std::optional<tuning::Recommendation> rec;
+    if (a->recommend) {
+      const machine::Machine m = resolve_machine(a->machine);
+      const resonance::ModalFit& fit = r.identification->model;
+      rec = tuning::recommend({fit.natural_frequency_hz, fit.damping_ratio}, m, ro, r.klipper.recommended);
+    }
     if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv);
     if (!a->response_csv.empty()) resonance::write_response_csv(r, a->response_csv);
     if (a->json) {
-      std::cout << resonance::to_json(r).dump(2) << "\n";
+      Json j = resonance::to_json(r);
+      if (rec) {
+        Json rj = tuning::to_json(*rec);
+        j["model_recommendation"] = rj["model_recommendation"];
+        rj.erase("model");  // the fit is under "model" already
+        j["recommendation"] = std::move(rj);
+      }
+      std::cout << j.dump(2) << "\n";
     } else {
       std::cout << resonance::to_text(r);
+      if (rec) std::cout << "\nrecommendation from the fitted model (simulated):\n" << tuning::to_text(*rec);
+    }
+  });
+
+  auto ra = std::make_shared<RecommendArgs>();
+  CLI::App* rc = res->add_subcommand(
+      "recommend", "The shaper and frequency that minimise the simulated contour error of a modal model on "
+                   "a ringing-tower path within a smoothing budget, beside Klipper's pick for the model");
+  rc->add_option("--natural-frequency-hz", ra->natural_frequency_hz, "The mode's natural frequency [Hz]")->required();
+  rc->add_option("--damping-ratio", ra->damping_ratio, "The mode's damping ratio")->required();
+  add_machine_options(*rc, ra->machine);
+  rc->add_option("--max-smoothing-mm", ra->max_smoothing_mm,
+                 "Smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
+  rc->add_flag("--json", ra->json, "Print one JSON object");
+  rc->callback([ra] {
+    const machine::Machine m = resolve_machine(ra->machine);
+    const tuning::ModalModel model{ra->natural_frequency_hz, ra->damping_ratio};
+    const tuning::RecommendOptions ro = recommend_options(ra->max_smoothing_mm);
+    const tuning::Recommendation rec = tuning::recommend(model, m, ro, tuning::klipper_pick_for_model(model, ra->max_smoothing_mm));
+    if (ra->json) {
+      std::cout << tuning::to_json(rec).dump(2) << "\n";
+    } else {
+      std::cout << tuning::to_text(rec);
     }
   });
 
