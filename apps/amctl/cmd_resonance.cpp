@@ -61,6 +61,8 @@ void run_test_gcode(const TestGcodeArgs& a) {
   resonance::TestGcodeOptions o = resonance::default_test_options(
       a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper);
   o.axis = a.axis.front();
+  if (a.style == "marlin" && a.accel_per_hz) throw Error("--accel-per-hz applies to --style klipper; use --accel-mm-s2");
+  if (a.style != "marlin" && a.accel) throw Error("--accel-mm-s2 applies to --style marlin; use --accel-per-hz");
   if (a.freq_start) o.freq_start_hz = *a.freq_start;
   if (a.freq_end) o.freq_end_hz = *a.freq_end;
   if (a.accel_per_hz) o.accel_per_hz = *a.accel_per_hz;

@@ -119,35 +119,56 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
       max_v, max_d);
   append(s, "; test point X{:g} Y{:g} Z{:g}{}\n", o.point_mm[0], o.point_mm[1], o.point_mm[2],
       o.point_given ? "" : " (default: the machine's position limits are not known)");
-  append(s, "; machine {}; disable input shaping before running this file\n", m.name);
+  // The commands follow the machine's firmware; the pattern follows the style.
+  const machine::Firmware fw = m.firmware;
+  append(s, "; machine {} ({} commands); disable input shaping before running this file\n", m.name,
+         fw == machine::Firmware::klipper ? "Klipper" : fw == machine::Firmware::marlin ? "Marlin" : "RepRapFirmware");
   // The dwell brings the toolhead to rest at the point: the first half period starts at rest.
   append(s, "G90\nG1 X{:.4f} Y{:.4f} Z{:.4f} F3000\nG4 P500\n", o.point_mm[0], o.point_mm[1], o.point_mm[2]);
-  if (klipper) {
-    // SQUARE_CORNER_VELOCITY=0: a reversal stops (Klipper's own test forces the junction speed).
-    append(s, "SET_VELOCITY_LIMIT VELOCITY={:.0f} ACCEL={:.0f} MINIMUM_CRUISE_RATIO=0 SQUARE_CORNER_VELOCITY=0\n",
-           max_v + 0.5, max_a + 0.5);
-  } else {
-    // Raise the axis limits, no classic-jerk reversal speed and no slow-down of short segments.
-    append(s, "M201 {}{:.0f}\nM203 {}{:.0f}\nM205 X0 Y0 B0\n", axis,
-        std::max(m.max_axis_accel_mm_s2[ai], std::ceil(max_a)), axis,
-        std::max(m.max_feedrate_mm_s[ai], std::ceil(max_v)));
+  const double need_a = std::max(m.max_axis_accel_mm_s2[ai], std::ceil(max_a));
+  const double need_v = std::max(m.max_feedrate_mm_s[ai], std::ceil(max_v));
+  switch (fw) {
+    case machine::Firmware::klipper:
+      // SQUARE_CORNER_VELOCITY=0: a reversal stops (Klipper's own test forces the junction speed).
+      append(s, "SET_VELOCITY_LIMIT VELOCITY={:.0f} ACCEL={:.0f} MINIMUM_CRUISE_RATIO=0 SQUARE_CORNER_VELOCITY=0\n",
+             max_v + 0.5, max_a + 0.5);
+      break;
+    case machine::Firmware::marlin:
+      // Raise the axis limits, no classic-jerk reversal speed, no slow-down of short segments.
+      append(s, "M201 {}{:.0f}\nM203 {}{:.0f}\nM205 X0 Y0 B0\n", axis, need_a, axis, need_v);
+      break;
+    case machine::Firmware::reprap:
+      // RepRapFirmware: M203 and M566 (jerk) in mm/min.
+      append(s, "M201 {}{:.0f}\nM203 {}{:.0f}\nM566 X0 Y0\n", axis, need_a, axis, need_v * 60.0);
+      break;
   }
   double pos = o.point_mm[ai];
   for (const TestHalfPeriod& h : halves) {
-    if (klipper) append(s, "SET_VELOCITY_LIMIT ACCEL={:.3f}\n", h.accel_mm_s2);
-    else append(s, "M204 S{:.3f}\n", h.accel_mm_s2);
+    switch (fw) {
+      case machine::Firmware::klipper: append(s, "SET_VELOCITY_LIMIT ACCEL={:.3f}\n", h.accel_mm_s2); break;
+      case machine::Firmware::marlin: append(s, "M204 S{:.3f}\n", h.accel_mm_s2); break;
+      case machine::Firmware::reprap: append(s, "M204 P{0:.3f} T{0:.3f}\n", h.accel_mm_s2); break;
+    }
     pos += h.direction * h.distance_mm();
     append(s, "G1 {}{:.6f} F{:.4f}\n", axis, pos, ceil4(h.peak_velocity_mm_s() * 60.0));
   }
   append(s, "; restore the machine's limits\n");
-  if (klipper) {
-    append(s, "SET_VELOCITY_LIMIT VELOCITY={:g} ACCEL={:g} MINIMUM_CRUISE_RATIO={:g} SQUARE_CORNER_VELOCITY={:g}\n",
-           m.max_velocity_mm_s, m.max_accel_mm_s2, m.minimum_cruise_ratio, m.square_corner_velocity_mm_s);
-  } else {
-    append(s, "M201 {}{:g}\nM203 {}{:g}\nM204 P{:g} R{:g} T{:g}\nM205 X{:g} Y{:g} B{:.0f}\n", axis,
-        m.max_axis_accel_mm_s2[ai], axis, m.max_feedrate_mm_s[ai], m.print_accel_mm_s2,
-        m.retract_accel_mm_s2, m.travel_accel_mm_s2, m.jerk_mm_s[0], m.jerk_mm_s[1],
-        m.min_segment_time_s * 1e6);
+  switch (fw) {
+    case machine::Firmware::klipper:
+      append(s, "SET_VELOCITY_LIMIT VELOCITY={:g} ACCEL={:g} MINIMUM_CRUISE_RATIO={:g} SQUARE_CORNER_VELOCITY={:g}\n",
+             m.max_velocity_mm_s, m.max_accel_mm_s2, m.minimum_cruise_ratio, m.square_corner_velocity_mm_s);
+      break;
+    case machine::Firmware::marlin:
+      append(s, "M201 {}{:g}\nM203 {}{:g}\nM204 P{:g} R{:g} T{:g}\nM205 X{:g} Y{:g} B{:.0f}\n", axis,
+             m.max_axis_accel_mm_s2[ai], axis, m.max_feedrate_mm_s[ai], m.print_accel_mm_s2,
+             m.retract_accel_mm_s2, m.travel_accel_mm_s2, m.jerk_mm_s[0], m.jerk_mm_s[1],
+             m.min_segment_time_s * 1e6);
+      break;
+    case machine::Firmware::reprap:
+      append(s, "M201 {}{:g}\nM203 {}{:g}\nM204 P{:g} T{:g}\nM566 X{:g} Y{:g}\n", axis, m.max_axis_accel_mm_s2[ai],
+             axis, m.max_feedrate_mm_s[ai] * 60.0, m.print_accel_mm_s2, m.travel_accel_mm_s2,
+             m.jerk_mm_s[0] * 60.0, m.jerk_mm_s[1] * 60.0);
+      break;
   }
   return s;
 }

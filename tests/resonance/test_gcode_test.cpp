@@ -92,6 +92,22 @@ TEST(TestGcode, MarlinSweepPlansAsIntended) {
   check_planned(o, machine::load_machine("ender3"));
 }
 
+// The pattern follows the style, the commands the machine's firmware.
+TEST(TestGcode, EitherStyleOnEitherFirmware) {
+  TestGcodeOptions k = default_test_options(TestStyle::klipper);
+  k.freq_end_hz = 30.0;
+  check_planned(k, machine::load_machine("ender3"));
+  check_planned(k, machine::load_machine("prusa-mk3s"));
+  check_planned(k, machine::load_machine("default", {"printer.firmware=reprap"}));
+  TestGcodeOptions mr = default_test_options(TestStyle::marlin);
+  mr.freq_end_hz = 30.0;
+  check_planned(mr, machine::load_machine("voron24"));
+  check_planned(mr, machine::load_machine("default", {"printer.firmware=reprap"}));
+  EXPECT_NE(test_gcode(k, machine::load_machine("ender3")).find("M204 S300.000\n"), std::string::npos);
+  EXPECT_NE(test_gcode(mr, machine::load_machine("voron24")).find("SET_VELOCITY_LIMIT ACCEL=4000.000\n"),
+            std::string::npos);
+}
+
 TEST(TestGcode, ClosedFormDuration) {
   TestGcodeOptions o = default_test_options(TestStyle::klipper);
   const std::vector<TestHalfPeriod> h = test_half_periods(o);
