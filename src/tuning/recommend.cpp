@@ -174,24 +174,44 @@ Recommendation recommend(const ModalModel& model, const machine::Machine& machin
   r.max_smoothing_mm = o.max_smoothing_mm;
   r.scv_mm_s = o.scv_mm_s;
   r.smoothing_accel_mm_s2 = o.smoothing_accel_mm_s2.value_or(machine_accel(machine));
+  const double fn = model.natural_frequency_hz;
+  // The budget's lower frequency limit per type; a type that the budget pushes above 10 f_n is
+  // not searched (its shaper would be far off the mode).
+  struct Range {
+    std::string type;
+    double lo_hz, hi_hz;
+  };
+  std::vector<Range> ranges;
+  double top_hz = 0.0;
+  for (const std::string& type : o.shapers) {
+    const double f_min = min_frequency_for_smoothing(type, o.shaper_damping_ratio, r.smoothing_accel_mm_s2,
+                                                     o.scv_mm_s, o.max_smoothing_mm);
+    if (f_min > 10.0 * fn) {
+      r.skipped.push_back(type);
+      continue;
+    }
+    // Search from the budget's limit (or 0.5 f_n) up to 2.5 f_n (or 1.5 f_min if the budget
+    // already forces the shaper above that).
+    ranges.push_back({type, std::max(f_min, 0.5 * fn), std::max(2.5 * fn, 1.5 * f_min)});
+    top_hz = std::max(top_hz, ranges.back().hi_hz);
+  }
+  if (ranges.empty()) {
+    throw Error(fmt::format("--max-smoothing-mm {} forces every shaper above 10x the mode's {} Hz",
+                            o.max_smoothing_mm, fn));
+  }
   RecommendOptions opt = o;
   // The simulation must resolve the mode and every candidate frequency.
-  const double f_top = 3.0 * model.natural_frequency_hz;
-  opt.sample_rate_hz = std::max(o.sample_rate_hz, 10.0 * f_top);
+  opt.sample_rate_hz = std::max({o.sample_rate_hz, 30.0 * fn, 8.0 * top_hz});
   Evaluator ev(model, machine, opt, r.smoothing_accel_mm_s2);
+  r.sample_rate_hz = opt.sample_rate_hz;
   r.path_moves = ev.moves().size();
   r.path_time_s = ev.moves().empty() ? 0.0 : ev.moves().back().end_time_s() - ev.moves().front().start_time_s;
   r.unshaped = ev.run("", 0.0);
 
-  const double fn = model.natural_frequency_hz;
   bool have_best = false;
-  for (const std::string& type : o.shapers) {
-    const double f_min = min_frequency_for_smoothing(type, o.shaper_damping_ratio, r.smoothing_accel_mm_s2,
-                                                     o.scv_mm_s, o.max_smoothing_mm);
-    // Search from the budget's limit (or 0.5 f_n) up to 2.5 f_n (or 1.5 f_min if the budget
-    // already forces the shaper above that).
-    const double lo = std::max(f_min, 0.5 * fn);
-    const double hi = std::max(2.5 * fn, 1.5 * f_min);
+  for (const Range& range : ranges) {
+    const std::string& type = range.type;
+    const double lo = range.lo_hz, hi = range.hi_hz;
     const std::size_t n = o.grid_points;
     std::vector<double> grid(n);
     std::vector<Candidate> cand;
@@ -281,6 +301,8 @@ Json to_json(const Recommendation& r) {
           {"search", {{"evaluations", r.evaluations},
                       {"path_moves", r.path_moves},
                       {"path_time_s", json_number(r.path_time_s)},
+                      {"sample_rate_hz", json_number(r.sample_rate_hz)},
+                      {"skipped", r.skipped},
                       {"compute_time_s", json_number(r.compute_time_s)}}}};
 }
 
@@ -298,6 +320,7 @@ std::string to_text(const Recommendation& r) {
   row(r.unshaped, "");
   for (const Candidate& c : r.per_type) row(c, "");
   if (r.klipper) row(*r.klipper, "  (Klipper's pick)");
+  for (const std::string& t : r.skipped) append(s, "{:<10} not searched: the budget needs it above 10x the mode\n", t);
   append(s, "recommended (simulated contour error): {} at {:.2f} Hz\n", r.best.name, r.best.freq_hz);
   append(s, "{} shaped simulations of a {:.1f} s test path ({} moves) in {:.2f} s\n", r.evaluations,
          r.path_time_s, r.path_moves, r.compute_time_s);

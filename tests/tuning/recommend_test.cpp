@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
@@ -74,6 +75,26 @@ TEST(Recommend, TightBudgetForcesHigherFrequency) {
     EXPECT_NEAR(of_type(b, name).smoothing_mm, 0.05, 1e-3) << name;
   }
   EXPECT_GT(b.best.contour_error_mm, a.best.contour_error_mm);
+}
+
+TEST(Recommend, BudgetFarAboveTheModeSkipsTypes) {
+  const machine::Machine m = machine::load_machine("default");
+  RecommendOptions o;
+  o.shapers = {"zv", "3hump_ei"};
+  o.max_smoothing_mm = 0.005;
+  const Recommendation r = recommend({40.0, 0.05}, m, o);
+  ASSERT_EQ(r.per_type.size(), 1u);
+  EXPECT_EQ(r.best.name, "zv");
+  EXPECT_EQ(r.skipped, std::vector<std::string>{"3hump_ei"});
+  EXPECT_GE(r.sample_rate_hz, 8.0 * r.best.freq_hz);
+  expect_within_budget(r);
+  o.max_smoothing_mm = 1e-4;
+  try {
+    (void)recommend({40.0, 0.05}, m, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--max-smoothing-mm"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Recommend, MinFrequencyForSmoothing) {

@@ -59,6 +59,8 @@ struct Recommendation {
   double scv_mm_s = 0.0;
   std::vector<Candidate> evaluated; ///< every shaped simulation of the search, in the order run
   std::size_t evaluations = 0;     ///< shaped simulations of the search (Klipper's pick not counted)
+  std::vector<std::string> skipped; ///< types the budget pushes above 10 f_n (not searched)
+  double sample_rate_hz = 0.0;     ///< of the simulations: max(options', 30 f_n, 8 x highest candidate)
   std::size_t path_moves = 0;
   double path_time_s = 0.0;
   double compute_time_s = 0.0;
