@@ -78,14 +78,13 @@ class Evaluator {
       c.smoothing_mm = shaping::smoothing_mm(*shaper, accel_, opt_.scv_mm_s);
       ++evaluations_;
     }
-    if (!type.empty()) evaluated_.push_back(c);
     simulation::ShapedStreamingSimulation s(model_, model_, sim_, metrics_,
                                             simulation::command_taps(shaper, shaper, false));
     for (const plan::PlannedMove& mv : moves_) s.push(mv);
     const dy::QualityReport q = s.finish();
     c.contour_error_mm = q.max_contour_error_printing_mm;
     c.rms_contour_error_mm = q.rms_contour_error_printing_mm;
-    if (!type.empty()) evaluated_.back() = c;
+    if (!type.empty()) evaluated_.push_back(c);
     return c;
   }
 
