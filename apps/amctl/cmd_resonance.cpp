@@ -1,11 +1,22 @@
 // `amctl resonance calibrate FILE --axis x|y [--sweep F0,F1,RATE,ACCEL] [--json] [--csv OUT]`: Klipper's input-shaper
 // calibration of an accelerometer record or PSD (resonance/calibrate.hpp; docs/resonance.md).
+// `amctl resonance test-gcode --machine SPEC --axis x|y [-o FILE] [--style klipper|marlin] ...`:
+// resonance-test G-code (resonance/test_gcode.hpp).
+#include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/process/csv.hpp"
 #include "amctl/resonance/calibrate.hpp"
+#include "amctl/resonance/test_gcode.hpp"
+#include "amctl/tuning/recommend.hpp"
 #include "commands.hpp"
+#include "machine_cli.hpp"
 
 namespace amctl::cli {
 namespace {
@@ -17,7 +28,80 @@ struct CalibrateArgs {
   std::string sweep;
   std::string response_csv;
   bool json = false;
+  bool recommend = false;
+  MachineOptions machine;
+  std::optional<double> max_smoothing_mm;
 };
+
+struct RecommendArgs {
+  double natural_frequency_hz = 0.0;
+  double damping_ratio = 0.0;
+  MachineOptions machine;
+  std::optional<double> max_smoothing_mm;
+  bool json = false;
+};
+
+tuning::RecommendOptions recommend_options(const std::optional<double>& max_smoothing_mm) {
+  tuning::RecommendOptions o;
+  if (max_smoothing_mm) o.max_smoothing_mm = *max_smoothing_mm;
+  return o;
+}
+
+struct TestGcodeArgs {
+  MachineOptions machine;
+  std::string axis;
+  std::string output;
+  std::string style = "klipper";
+  std::optional<double> freq_start, freq_end, accel_per_hz, accel, hz_per_sec;
+  std::string point;
+};
+
+void run_test_gcode(const TestGcodeArgs& a) {
+  const machine::Machine m = resolve_machine(a.machine);
+  resonance::TestGcodeOptions o = resonance::default_test_options(
+      a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper);
+  o.axis = a.axis.front();
+  if (a.style == "marlin" && a.accel_per_hz) throw Error("--accel-per-hz applies to --style klipper; use --accel-mm-s2");
+  if (a.style != "marlin" && a.accel) throw Error("--accel-mm-s2 applies to --style marlin; use --accel-per-hz");
+  if (a.freq_start) o.freq_start_hz = *a.freq_start;
+  if (a.freq_end) o.freq_end_hz = *a.freq_end;
+  if (a.accel_per_hz) o.accel_per_hz = *a.accel_per_hz;
+  if (a.accel) o.accel_mm_s2 = *a.accel;
+  if (a.hz_per_sec) o.hz_per_sec = *a.hz_per_sec;
+  if (!a.point.empty()) {
+    double v[3];
+    std::size_t start = 0;
+    for (int i = 0; i < 3; ++i) {
+      const std::size_t comma = a.point.find(',', start);
+      if ((i < 2) != (comma != std::string::npos)) {
+        throw Error(fmt::format("--point '{}': expected X,Y,Z", a.point));
+      }
+      const std::string field = a.point.substr(start, i < 2 ? comma - start : std::string::npos);
+      std::size_t used = 0;
+      try {
+        v[i] = std::stod(field, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (field.empty() || used != field.size() || !std::isfinite(v[i])) {
+        throw Error(fmt::format("--point '{}': '{}' is not a number, expected X,Y,Z", a.point, field));
+      }
+      start = comma + 1;
+    }
+    for (int i = 0; i < 3; ++i) o.point_mm[i] = v[i];
+    o.point_given = true;
+  }
+  const std::string text = resonance::test_gcode(o, m);  // whole text first: all or nothing
+  if (a.output.empty() || a.output == "-") {
+    std::cout << text;
+  } else {
+    process::write_file_atomic(a.output, text);
+  }
+  if (!o.point_given) {
+    std::cerr << fmt::format("amctl: note: test point {:g},{:g},{:g} (default; the machine's position limits are not known)\n",
+                             o.point_mm[0], o.point_mm[1], o.point_mm[2]);
+  }
+}
 
 }  // namespace
 
@@ -43,19 +127,82 @@ void register_resonance(CLI::App& app) {
   cal->add_option("--csv", a->csv,
                   "Write the PSD (freq,psd_x,psd_y,psd_z,psd_xyz; unnormalised, as Klipper's "
                   "TEST_RESONANCES) to this file");
+  cal->add_flag("--recommend", a->recommend,
+                "With --sweep: the shaper and frequency that minimise the simulated contour error of "
+                "the fitted model on a ringing-tower path within the smoothing budget "
+                "(`model_recommendation` in the JSON)");
+  add_machine_options(*cal, a->machine);
+  cal->add_option("--max-smoothing-mm", a->max_smoothing_mm,
+                  "With --recommend: smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
   cal->callback([a] {
     resonance::CalibrateOptions o;
     o.axis = a->axis.front();
     if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
+    if (a->recommend && !o.sweep) throw Error("--recommend needs --sweep (the modal model comes from the sweep's fit)");
+    if (a->max_smoothing_mm && !a->recommend) throw Error("--max-smoothing-mm needs --recommend");
+    const tuning::RecommendOptions ro = recommend_options(a->max_smoothing_mm);
     const resonance::CalibrationReport r = resonance::calibrate_file(a->file, o);
+    std::optional<tuning::Recommendation> rec;
+    if (a->recommend) {
+      const machine::Machine m = resolve_machine(a->machine);
+      const resonance::ModalFit& fit = r.identification->model;
+      rec = tuning::recommend({fit.natural_frequency_hz, fit.damping_ratio}, m, ro, r.klipper.recommended);
+    }
     if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv);
     if (!a->response_csv.empty()) resonance::write_response_csv(r, a->response_csv);
     if (a->json) {
-      std::cout << resonance::to_json(r).dump(2) << "\n";
+      Json j = resonance::to_json(r);
+      if (rec) {
+        Json rj = tuning::to_json(*rec);
+        j["model_recommendation"] = rj["model_recommendation"];
+        rj.erase("model");  // the fit is under "model" already
+        j["recommendation"] = std::move(rj);
+      }
+      std::cout << j.dump(2) << "\n";
     } else {
       std::cout << resonance::to_text(r);
+      if (rec) std::cout << "\nrecommendation from the fitted model (simulated):\n" << tuning::to_text(*rec);
     }
   });
+
+  auto ra = std::make_shared<RecommendArgs>();
+  CLI::App* rc = res->add_subcommand(
+      "recommend", "The shaper and frequency that minimise the simulated contour error of a modal model on "
+                   "a ringing-tower path within a smoothing budget, beside Klipper's pick for the model");
+  rc->add_option("--natural-frequency-hz", ra->natural_frequency_hz, "The mode's natural frequency [Hz]")->required();
+  rc->add_option("--damping-ratio", ra->damping_ratio, "The mode's damping ratio")->required();
+  add_machine_options(*rc, ra->machine);
+  rc->add_option("--max-smoothing-mm", ra->max_smoothing_mm,
+                 "Smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
+  rc->add_flag("--json", ra->json, "Print one JSON object");
+  rc->callback([ra] {
+    const machine::Machine m = resolve_machine(ra->machine);
+    const tuning::ModalModel model{ra->natural_frequency_hz, ra->damping_ratio};
+    const tuning::RecommendOptions ro = recommend_options(ra->max_smoothing_mm);
+    const tuning::Recommendation rec = tuning::recommend(model, m, ro, tuning::klipper_pick_for_model(model, ra->max_smoothing_mm));
+    if (ra->json) {
+      std::cout << tuning::to_json(rec).dump(2) << "\n";
+    } else {
+      std::cout << tuning::to_text(rec);
+    }
+  });
+
+  auto t = std::make_shared<TestGcodeArgs>();
+  CLI::App* tg = res->add_subcommand(
+      "test-gcode", "Resonance-test G-code: Klipper's TEST_RESONANCES move pattern or a Marlin-style "
+                    "sweep, as plain G-code");
+  add_machine_options(*tg, t->machine);
+  tg->add_option("--axis", t->axis, "The axis to excite: x or y")->required()->check(CLI::IsMember({"x", "y"}));
+  tg->add_option("-o,--output", t->output, "Write the G-code to this file (atomically; default: standard output)");
+  tg->add_option("--style", t->style, "klipper (accel per Hz, Klipper's defaults) or marlin (constant accel)")
+      ->check(CLI::IsMember({"klipper", "marlin"}));
+  tg->add_option("--freq-start", t->freq_start, "Start frequency [Hz] (default 5)");
+  tg->add_option("--freq-end", t->freq_end, "End frequency [Hz] (default: klipper 135, marlin 80)");
+  tg->add_option("--accel-per-hz", t->accel_per_hz, "klipper style: acceleration per Hz [mm/s^2/Hz] (default 60)");
+  tg->add_option("--accel-mm-s2", t->accel, "marlin style: acceleration amplitude [mm/s^2] (default 4000)");
+  tg->add_option("--hz-per-sec", t->hz_per_sec, "Sweep rate [Hz/s] (default: klipper 1, marlin 4)");
+  tg->add_option("--point", t->point, "Test point X,Y,Z [mm] (default 100,100,20)");
+  tg->callback([t] { run_test_gcode(*t); });
 }
 
 }  // namespace amctl::cli
