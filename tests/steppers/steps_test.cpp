@@ -222,6 +222,44 @@ void check_against_bisection(machine::VelocityProfile p) {
 TEST(Steps, Scurve7CrossingsMatchBisection) { check_against_bisection(machine::VelocityProfile::scurve7); }
 TEST(Steps, Bezier5CrossingsMatchBisection) { check_against_bisection(machine::VelocityProfile::bezier5); }
 
+// A zigzag of short and long moves through corners (motors reverse at speed on CoreXY),
+// with Z hops and retracts: every step on its half-step level, times non-decreasing, and the
+// net step position of each motor equal to its rounded displacement.
+TEST(Steps, RandomZigzagStaysOnTheGrid) {
+  for (const auto k : {machine::Kinematics::cartesian, machine::Kinematics::corexy}) {
+    for (const auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::scurve7,
+                         machine::VelocityProfile::bezier5}) {
+      const Machine m = test_machine(k, p);
+      std::string g = "G1 X5 Y5 F9000\n";
+      std::uint64_t x = 12345;
+      auto rnd = [&x] {  // deterministic LCG in [0, 1)
+        x = x * 6364136223846793005ull + 1442695040888963407ull;
+        return static_cast<double>(x >> 11) / 9007199254740992.0;
+      };
+      double e = 0.0;
+      for (int i = 0; i < 60; ++i) {
+        e += 0.05 * rnd();
+        g += "G1 X" + std::to_string(2.0 + 40.0 * rnd()) + " Y" + std::to_string(2.0 + 40.0 * rnd()) +
+             " E" + std::to_string(e) + " F" + std::to_string(1200 + 12000 * rnd()) + "\n";
+        if (i % 10 == 9) g += "G1 E" + std::to_string(e - 0.8) + " F2400\nG1 Z" + std::to_string(0.2 * i / 9) + "\nG1 E" + std::to_string(e) + "\n";
+      }
+      const StepRun r = run(g, m);
+      expect_on_levels(r, k);
+      const trajectory::Trajectory traj(r.moves);
+      const auto s0 = trajectory::to_motor(k, traj.evaluate(r.moves.front().start_time_s));
+      const auto s1 = trajectory::to_motor(k, traj.evaluate(traj.end_time_s() + 1.0));
+      for (std::uint32_t c = 0; c < 4; ++c) {
+        const std::size_t axis = c;
+        EXPECT_EQ(r.stats[c].position_steps,
+                  std::llround((s1.pos_mm[axis] - s0.pos_mm[axis]) / r.channels[c].step_distance_mm))
+            << r.channels[c].name;
+        EXPECT_EQ(r.stats[c].steps, r.stats[c].steps_positive + r.stats[c].steps_negative);
+      }
+      EXPECT_GT(r.stats[0].steps_negative, 1000u);
+    }
+  }
+}
+
 TEST(Steps, StepDistanceIsKlippers) {
   machine::Stepper s{40.0 / (80.0 / 16.0), 32, 200};  // gear_ratio 80:16 folded in
   EXPECT_DOUBLE_EQ(step_distance_mm(s, "stepper_z"), 40.0 / (200.0 * 32.0 * 5.0));
