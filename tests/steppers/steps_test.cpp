@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "amctl/core/error.hpp"
+#include "amctl/machine/loader.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/kinematics.hpp"
 #include "amctl/trajectory/trajectory.hpp"
@@ -286,6 +287,31 @@ TEST(Steps, BadMachinesNameTheParameter) {
   try { (void)stepper_channels(m); FAIL(); } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("extruder.microsteps"), std::string::npos);
   }
+}
+
+// The whole job on a Klipper reference input: a 20 mm square from (50, 50) and back.
+TEST(Steps, GenerateStepsFileAndJson) {
+  const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) +
+                                          "/tests/reference/klipper/ender3_cartesian.cfg");
+  const StepsReport r = generate_steps_file(
+      std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/syn_square.gcode", m, "");
+  ASSERT_EQ(r.channels.size(), 4u);
+  EXPECT_EQ(r.moves, 4u);
+  for (std::uint32_t c = 0; c < 2; ++c) {
+    const double h = r.channels[c].step_distance_mm;
+    EXPECT_EQ(r.stats[c].steps_positive, static_cast<std::uint64_t>(std::llround(20.0 / h)));
+    EXPECT_EQ(r.stats[c].steps_negative, r.stats[c].steps_positive);
+    EXPECT_EQ(r.stats[c].position_steps, 0);
+  }
+  EXPECT_EQ(r.total_steps(), r.stats[0].steps + r.stats[1].steps);
+  const Json j = to_json(r);
+  EXPECT_EQ(j["steppers"][0]["name"], "stepper_x");
+  EXPECT_EQ(j["steppers"][3]["name"], "extruder");
+  EXPECT_TRUE(j["steppers"][2]["peak_step_rate_steps_s"].is_null());
+  EXPECT_TRUE(j["csv"].is_null());
+  // The peak rate of X is the cruise rate of the fastest straight side: v / h.
+  const double v = j["steppers"][0]["peak_step_rate_steps_s"].get<double>() * r.channels[0].step_distance_mm;
+  EXPECT_NEAR(v, 100.0, 1e-6);
 }
 
 TEST(Steps, CsvWrittenWholeOrNotAtAll) {
