@@ -11,5 +11,6 @@ void register_all(CLI::App& app) {
   register_machine(app);
   register_shaper(app);
   register_resonance(app);
+  register_steps(app);
 }
 }  // namespace amctl::cli

@@ -1,0 +1,71 @@
+// Step generation (amctl::steppers): steps per second on a real print, the plan made once
+// outside the timed loop. The aim is >= 20 M steps/s on one core. docs/steppers.md,
+// "Figures".
+#include <benchmark/benchmark.h>
+
+#include <string>
+#include <vector>
+
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/stream.hpp"
+#include "amctl/steppers/steps.hpp"
+
+namespace {
+
+struct Planned {
+  amctl::machine::Machine machine;
+  std::vector<amctl::plan::PlanBatch> batches;
+};
+
+Planned plan_file(const std::string& gcode, const std::string& cfg) {
+  Planned p{amctl::machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/" + cfg, {}), {}};
+  amctl::plan::PlanSource source(std::string(AMCTL_SOURCE_DIR) + "/" + gcode, p.machine);
+  amctl::plan::PlanBatch b;
+  while (source.next(b)) p.batches.push_back(b);
+  return p;
+}
+
+// Generation only: the callback counts the steps of each move.
+void run_steps(benchmark::State& state, const Planned& p) {
+  const auto channels = amctl::steppers::stepper_channels(p.machine);
+  std::uint64_t steps = 0;
+  for (auto _ : state) {
+    std::uint64_t n = 0;
+    double last = 0.0;
+    amctl::steppers::StepSink sink(channels, [&](std::span<const amctl::steppers::Step> s) {
+      n += s.size();
+      last = s.back().time_s;
+    });
+    for (const auto& b : p.batches) sink.consume(b);
+    benchmark::DoNotOptimize(last);
+    steps = n;
+  }
+  state.counters["steps"] = static_cast<double>(steps);
+  state.SetItemsProcessed(static_cast<std::int64_t>(steps) * state.iterations());
+}
+
+void BM_StepsBoxbossCoreXY(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  run_steps(state, p);
+}
+BENCHMARK(BM_StepsBoxbossCoreXY)->Unit(benchmark::kMillisecond);
+
+void BM_StepsBoxbossScurve7(benchmark::State& state) {
+  static const Planned p = [] {
+    Planned q{amctl::machine::load_machine(
+                  std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg",
+                  {"printer.profile=scurve7", "printer.max_jerk=200000"}),
+              {}};
+    amctl::plan::PlanSource source(
+        std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+        q.machine);
+    amctl::plan::PlanBatch b;
+    while (source.next(b)) q.batches.push_back(b);
+    return q;
+  }();
+  run_steps(state, p);
+}
+BENCHMARK(BM_StepsBoxbossScurve7)->Unit(benchmark::kMillisecond);
+
+}  // namespace

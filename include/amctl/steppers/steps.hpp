@@ -1,0 +1,166 @@
+#pragma once
+// Step generation: the exact step times of every stepper motor from the exact trajectory
+// (docs/steppers.md). Klipper's convention (klippy/chelper/itersolve.c): a stepper sits on a
+// grid of step positions spaced by its step distance and anchored where it starts; it takes
+// a step (+1 or -1) the moment its commanded position reaches the half-step point between its
+// current step position and the next one in the direction of motion. On each polynomial
+// piece of a move the motor position is a monotone polynomial in t, so every crossing time is
+// one root, solved exactly (closed form for degree <= 2, safeguarded Newton/bisection to
+// 1e-13 s above).
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "amctl/core/json.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planned_move.hpp"
+#include "amctl/plan/velocity_profile.hpp"
+#include "amctl/plan/stream.hpp"
+
+namespace amctl::steppers {
+
+/// One motor as step generation sees it.
+struct StepperChannel {
+  std::string name;        ///< Klipper's name: stepper_x, stepper_z1, extruder, ...
+  std::string key;         ///< Machine::steppers key: x, z1, e, ...
+  /// Motor position = row . (X, Y, Z, E) [mm of the motor's own axis].
+  std::array<double, 4> row{};
+  double step_distance_mm = 0.0;
+};
+
+/// Klipper stepper.py: rotation_distance / (full_steps_per_rotation * microsteps), the gear
+/// ratio already folded into rotation_distance by the machine loaders. Throws amctl::Error
+/// naming `label`.rotation_distance / .microsteps / .full_steps_per_rotation when one is not
+/// positive.
+[[nodiscard]] double step_distance_mm(const machine::Stepper& s, const std::string& label);
+
+/// The channels of a machine, in the order stepper_x, stepper_y, stepper_z, stepper_z1, ...,
+/// extruder. Cartesian: stepper_x = X, stepper_y = Y. CoreXY (Klipper corexy.py):
+/// stepper_x = A = X + Y, stepper_y = B = X - Y. stepper_z* = Z, extruder = E. Throws
+/// amctl::Error naming every missing section (x, y, z and e are required) or a bad parameter.
+/// Extra extruders (e1, ...) are not generated (amctl plans one E axis).
+[[nodiscard]] std::vector<StepperChannel> stepper_channels(const machine::Machine& m);
+
+/// One step. Steps are delivered in time order (ties: channel order).
+struct Step {
+  double time_s = 0.0;        ///< print time of the half-step crossing
+  std::uint32_t stepper = 0;  ///< index into the channels
+  std::int32_t direction = 1; ///< +1 or -1
+};
+
+/// Per-stepper figures.
+struct StepperStats {
+  std::uint64_t steps = 0;
+  std::uint64_t steps_positive = 0;
+  std::uint64_t steps_negative = 0;
+  std::int64_t position_steps = 0;  ///< net steps from the start
+  /// Shortest interval between two consecutive steps of this stepper [s] (+inf: < 2 steps).
+  double min_interval_s = std::numeric_limits<double>::infinity();
+  double peak_time_s = 0.0;         ///< time of the later step of that pair
+  [[nodiscard]] double peak_step_rate_steps_s() const { return 1.0 / min_interval_s; }
+};
+
+/// The step engine: feeds on moves in time order, keeps one grid state per channel.
+class StepGenerator {
+ public:
+  explicit StepGenerator(std::vector<StepperChannel> channels);
+
+  /// Appends the steps of `move` to `out`, sorted by time. Moves must come in time order.
+  void add_move(const plan::PlannedMove& move, std::vector<Step>& out);
+
+  [[nodiscard]] const std::vector<StepperChannel>& channels() const { return channels_; }
+  [[nodiscard]] const std::vector<StepperStats>& stats() const { return stats_; }
+
+ private:
+  struct State {
+    bool started = false;
+    double offset_mm = 0.0;    ///< added to row . position (continuity across G92 / homing)
+    double origin_mm = 0.0;    ///< motor position of step 0
+    double last_end_mm = 0.0;  ///< motor position at the end of the previous move
+    std::int64_t n = 0;        ///< current step position
+    double last_step_s = -std::numeric_limits<double>::infinity();
+  };
+  void stepper_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
+
+  std::vector<StepperChannel> channels_;
+  std::vector<State> state_;
+  std::vector<StepperStats> stats_;
+  std::array<plan::PathPiece, 7> pieces_{};
+  std::size_t piece_count_ = 0;
+  std::vector<std::vector<Step>> scratch_;  ///< per channel, one move
+};
+
+/// Time of the crossing s(tau) = s_target on a piece with s non-decreasing on
+/// [lo_s, duration]: closed form for degree <= 2, safeguarded Newton/bisection otherwise
+/// (|error| < 1e-12 s). Returns tau in [lo_s, duration_s].
+[[nodiscard]] double solve_crossing_s(const plan::PathPiece& p, double s_target_mm, double lo_s);
+
+/// A sink of the plan stream: runs a StepGenerator and hands each move's steps (time-ordered)
+/// to a callback. Memory: the steps of one move.
+class StepSink final : public plan::Sink {
+ public:
+  using Callback = std::function<void(std::span<const Step>)>;
+  StepSink(std::vector<StepperChannel> channels, Callback on_steps);
+  void consume(const plan::PlanBatch& batch) override;
+  void finish(const plan::StreamSummary& summary) override { end_time_s_ = summary.end_time_s; }
+  [[nodiscard]] const StepGenerator& generator() const { return gen_; }
+  [[nodiscard]] double end_time_s() const { return end_time_s_; }
+
+ private:
+  StepGenerator gen_;
+  Callback on_steps_;
+  std::vector<Step> buf_;
+  double end_time_s_ = 0.0;
+};
+
+/// The steps CSV (header `stepper,time_s,direction`), written to "<path>.part" and renamed to
+/// `path` by commit(); destroyed without commit, the partial file is removed.
+class StepsCsvFile {
+ public:
+  StepsCsvFile(std::string path, std::vector<std::string> names);
+  ~StepsCsvFile();
+  StepsCsvFile(const StepsCsvFile&) = delete;
+  StepsCsvFile& operator=(const StepsCsvFile&) = delete;
+  void write(std::span<const Step> steps);
+  void commit();
+  [[nodiscard]] std::uint64_t rows() const { return rows_; }
+
+ private:
+  void flush();
+  std::string path_, tmp_;
+  std::vector<std::string> names_;
+  std::FILE* file_ = nullptr;
+  std::string buf_;
+  std::uint64_t rows_ = 0;
+  bool committed_ = false;
+};
+
+/// What `amctl steps` reports.
+struct StepsReport {
+  std::string file;
+  std::string machine_name;
+  std::string kinematics;
+  std::string csv_path;          ///< "" when no CSV was written
+  double print_time_s = 0.0;
+  std::uint64_t moves = 0;
+  std::vector<StepperChannel> channels;
+  std::vector<StepperStats> stats;
+  [[nodiscard]] std::uint64_t total_steps() const;
+};
+
+/// G-code file + machine -> steps (PlanSource -> StepSink), written as CSV to `csv_path`
+/// when it is not empty (whole or not at all).
+[[nodiscard]] StepsReport generate_steps_file(const std::string& gcode_path,
+                                              const machine::Machine& m,
+                                              const std::string& csv_path);
+
+/// JSON form: steppers[] with name, step_distance_mm, steps, steps_positive, steps_negative,
+/// peak_step_rate_steps_s, peak_time_s, min_interval_s (null when fewer than two steps).
+[[nodiscard]] Json to_json(const StepsReport& r);
+
+}  // namespace amctl::steppers

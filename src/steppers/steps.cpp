@@ -1,0 +1,400 @@
+#include "amctl/steppers/steps.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/machine/loader.hpp"
+#include "amctl/trajectory/trajectory.hpp"
+
+namespace amctl::steppers {
+
+using plan::PathPiece;
+using plan::PlannedMove;
+
+// ---------------------------------------------------------------------------------------
+// Channels
+
+double step_distance_mm(const machine::Stepper& s, const std::string& label) {
+  if (!(std::isfinite(s.rotation_distance_mm) && s.rotation_distance_mm > 0.0)) {
+    throw Error(fmt::format("{}.rotation_distance: must be a positive number of mm, got {}", label,
+                            s.rotation_distance_mm));
+  }
+  if (s.microsteps <= 0) {
+    throw Error(fmt::format("{}.microsteps: must be at least 1, got {}", label, s.microsteps));
+  }
+  if (s.full_steps_per_rotation <= 0) {
+    throw Error(fmt::format("{}.full_steps_per_rotation: must be at least 1, got {}", label,
+                            s.full_steps_per_rotation));
+  }
+  // stepper.py: step_dist = rotation_distance / (full_steps * microsteps * gearing); the
+  // machine holds rotation_distance / gearing already.
+  return s.rotation_distance_mm /
+         (static_cast<double>(s.full_steps_per_rotation) * static_cast<double>(s.microsteps));
+}
+
+namespace {
+
+std::string klipper_name(const std::string& key) {
+  if (key[0] == 'e') return "extruder" + key.substr(1);
+  return "stepper_" + key;
+}
+
+// Numeric suffix order: "z" before "z1" before "z2" ... "z10".
+bool key_less(const std::string& a, const std::string& b) {
+  if (a.size() != b.size()) return a.size() < b.size();
+  return a < b;
+}
+
+}  // namespace
+
+std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
+  std::vector<std::string> missing;
+  for (const char* k : {"x", "y", "z", "e"}) {
+    if (m.steppers.find(k) == m.steppers.end()) missing.push_back(klipper_name(k));
+  }
+  if (!missing.empty()) {
+    std::string list;
+    for (const std::string& s : missing) list += (list.empty() ? "" : ", ") + s;
+    throw Error(fmt::format(
+        "machine '{}' has no stepper section for {}: step generation needs rotation_distance "
+        "and microsteps of every motor (a Klipper printer.cfg has [stepper_x], [stepper_y], "
+        "[stepper_z], [extruder]; a machine TOML needs [stepper_x], [stepper_y], [stepper_z], "
+        "[stepper_e])",
+        m.name, list));
+  }
+  std::vector<std::string> keys;
+  for (const auto& [k, s] : m.steppers) {
+    if (k[0] == 'e' && k != "e") continue;  // extra extruders: amctl plans one E axis
+    keys.push_back(k);
+  }
+  const auto rank = [](char c) { return c == 'x' ? 0 : c == 'y' ? 1 : c == 'z' ? 2 : 3; };
+  std::sort(keys.begin(), keys.end(), [&](const std::string& a, const std::string& b) {
+    if (rank(a[0]) != rank(b[0])) return rank(a[0]) < rank(b[0]);
+    return key_less(a, b);
+  });
+  const bool corexy = m.kinematics == machine::Kinematics::corexy;
+  std::vector<StepperChannel> out;
+  for (const std::string& k : keys) {
+    StepperChannel c;
+    c.key = k;
+    c.name = klipper_name(k);
+    c.step_distance_mm = step_distance_mm(m.steppers.at(k), c.name);
+    switch (k[0]) {
+      case 'x': c.row = corexy ? std::array<double, 4>{1, 1, 0, 0} : std::array<double, 4>{1, 0, 0, 0}; break;
+      case 'y': c.row = corexy ? std::array<double, 4>{1, -1, 0, 0} : std::array<double, 4>{0, 1, 0, 0}; break;
+      case 'z': c.row = {0, 0, 1, 0}; break;
+      default: c.row = {0, 0, 0, 1}; break;
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------
+// Root finding on one piece
+
+namespace {
+
+inline double horner(const PathPiece& p, double tau, double& deriv) {
+  double d0 = 0.0, d1 = 0.0;
+  for (int k = p.degree; k >= 0; --k) {
+    d1 = d1 * tau + d0;
+    d0 = d0 * tau + p.c[static_cast<std::size_t>(k)];
+  }
+  deriv = d1;
+  return d0;
+}
+
+}  // namespace
+
+double solve_crossing_s(const PathPiece& p, double s_target, double lo) {
+  const double T = p.duration_s;
+  double tau = lo;
+  if (p.degree == 1) {
+    if (p.c[1] > 0.0) tau = (s_target - p.c[0]) / p.c[1];
+  } else if (p.degree == 2) {
+    // c2 tau^2 + c1 tau - D = 0 with c1 = v(0) >= 0: tau = 2D / (c1 + sqrt(c1^2 + 4 c2 D)),
+    // free of cancellation for both signs of c2.
+    const double D = s_target - p.c[0];
+    const double disc = std::max(0.0, p.c[1] * p.c[1] + 4.0 * p.c[2] * D);
+    const double den = p.c[1] + std::sqrt(disc);
+    if (den > 0.0) tau = 2.0 * D / den;
+  } else if (p.degree >= 3) {
+    double a = lo, b = T, v = 0.0;
+    const double fa = horner(p, a, v) - s_target;
+    if (fa >= 0.0) return a;
+    tau = v > 0.0 ? a - fa / v : 0.5 * (a + b);
+    for (int it = 0; it < 200; ++it) {
+      if (!(tau > a && tau < b)) tau = 0.5 * (a + b);
+      const double f = horner(p, tau, v) - s_target;
+      if (f == 0.0) return tau;
+      if (f > 0.0) b = tau; else a = tau;
+      const double step = v > 0.0 ? f / v : 0.0;
+      const double next = tau - step;
+      if (v > 0.0 && std::abs(step) <= 1e-14 * (1.0 + T)) {
+        tau = std::clamp(next, a, b);
+        break;
+      }
+      if (b - a <= 1e-13) {
+        tau = 0.5 * (a + b);
+        break;
+      }
+      tau = v > 0.0 ? next : 0.5 * (a + b);
+    }
+  }
+  return std::clamp(tau, lo, T);
+}
+
+// ---------------------------------------------------------------------------------------
+// Generator
+
+StepGenerator::StepGenerator(std::vector<StepperChannel> channels)
+    : channels_(std::move(channels)),
+      state_(channels_.size()),
+      stats_(channels_.size()),
+      scratch_(channels_.size()) {
+  for (const StepperChannel& c : channels_) {
+    AMCTL_CHECK(c.step_distance_mm > 0.0, "step distance must be positive");
+  }
+}
+
+void StepGenerator::add_move(const PlannedMove& move, std::vector<Step>& out) {
+  piece_count_ = trajectory::move_pieces(move, pieces_);
+  std::size_t active = 0, last_active = 0;
+  for (std::uint32_t c = 0; c < channels_.size(); ++c) {
+    scratch_[c].clear();
+    stepper_move(c, move, scratch_[c]);
+    if (!scratch_[c].empty()) {
+      ++active;
+      last_active = c;
+    }
+  }
+  if (active == 0) return;
+  if (active == 1) {
+    out.insert(out.end(), scratch_[last_active].begin(), scratch_[last_active].end());
+    return;
+  }
+  // k-way merge by time (ties: channel order); few channels, so a linear scan of the heads.
+  std::array<std::size_t, 16> head_small{};
+  std::vector<std::size_t> head_big;
+  std::size_t* head = head_small.data();
+  if (channels_.size() > head_small.size()) {
+    head_big.assign(channels_.size(), 0);
+    head = head_big.data();
+  }
+  std::size_t total = 0;
+  for (const auto& s : scratch_) total += s.size();
+  out.reserve(out.size() + total);
+  for (std::size_t k = 0; k < total; ++k) {
+    std::size_t best = channels_.size();
+    double best_t = 0.0;
+    for (std::size_t c = 0; c < channels_.size(); ++c) {
+      if (head[c] < scratch_[c].size()) {
+        const double t = scratch_[c][head[c]].time_s;
+        if (best == channels_.size() || t < best_t) {
+          best = c;
+          best_t = t;
+        }
+      }
+    }
+    out.push_back(scratch_[best][head[best]++]);
+  }
+}
+
+void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
+  const StepperChannel& ch = channels_[c];
+  State& st = state_[c];
+  const auto& r = ch.row;
+  const double start = r[0] * move.start_mm[0] + r[1] * move.start_mm[1] +
+                       r[2] * move.start_mm[2] + r[3] * move.start_mm[3];
+  const double k = r[0] * move.axes_r[0] + r[1] * move.axes_r[1] + r[2] * move.axes_r[2] +
+                   r[3] * move.axes_r[3];
+  if (!st.started) {
+    st.started = true;
+    st.origin_mm = start;
+    st.last_end_mm = start;
+  }
+  double base = start + st.offset_mm;
+  // A jump between moves (G92, homing): the motor did not move, so the position stays
+  // continuous and the offset takes the jump. Round-off between moves is left alone.
+  if (std::abs(base - st.last_end_mm) > 1e-9 * (1.0 + std::abs(st.last_end_mm))) {
+    st.offset_mm += st.last_end_mm - base;
+    base = st.last_end_mm;
+  }
+  if (piece_count_ == 0 || k == 0.0) return;
+  double dummy = 0.0;
+  const PathPiece& last = pieces_[piece_count_ - 1];
+  const double s_end = horner(last, last.duration_s, dummy);
+  const double end = base + k * s_end;
+  st.last_end_mm = end;
+  const double step = ch.step_distance_mm;
+  const double u_end = (end - st.origin_mm) / step;
+  const int dir = k > 0.0 ? 1 : -1;
+  std::int64_t n_end = st.n;
+  if (dir > 0) {
+    n_end = std::max<std::int64_t>(st.n, static_cast<std::int64_t>(std::floor(u_end + 0.5)));
+  } else {
+    n_end = std::min<std::int64_t>(st.n, static_cast<std::int64_t>(std::ceil(u_end - 0.5)));
+  }
+  if (n_end == st.n) return;
+  StepperStats& stats = stats_[c];
+  std::size_t pi = 0;
+  double piece_t0 = move.start_time_s;
+  double piece_end_s = horner(pieces_[0], pieces_[0].duration_s, dummy);
+  double lo = 0.0;
+  const double inv_k = 1.0 / k;
+  const std::int64_t count = dir > 0 ? n_end - st.n : st.n - n_end;
+  for (std::int64_t i = 0; i < count; ++i) {
+    // The half-step level between n and n + dir.
+    const double level = static_cast<double>(st.n) + 0.5 * dir;
+    const double s_target = (st.origin_mm + level * step - base) * inv_k;
+    while (pi + 1 < piece_count_ && s_target > piece_end_s) {
+      piece_t0 += pieces_[pi].duration_s;
+      ++pi;
+      piece_end_s = horner(pieces_[pi], pieces_[pi].duration_s, dummy);
+      lo = 0.0;
+    }
+    lo = solve_crossing_s(pieces_[pi], s_target, lo);
+    const double t = piece_t0 + lo;
+    st.n += dir;
+    const double interval = t - st.last_step_s;
+    if (interval < stats.min_interval_s) {
+      stats.min_interval_s = interval;
+      stats.peak_time_s = t;
+    }
+    st.last_step_s = t;
+    out.push_back(Step{t, c, dir});
+  }
+  stats.steps += static_cast<std::uint64_t>(count);
+  if (dir > 0) stats.steps_positive += static_cast<std::uint64_t>(count);
+  else stats.steps_negative += static_cast<std::uint64_t>(count);
+  stats.position_steps = st.n;
+}
+
+// ---------------------------------------------------------------------------------------
+// Sink
+
+StepSink::StepSink(std::vector<StepperChannel> channels, Callback on_steps)
+    : gen_(std::move(channels)), on_steps_(std::move(on_steps)) {}
+
+void StepSink::consume(const plan::PlanBatch& batch) {
+  for (const PlannedMove& m : batch.moves) {
+    buf_.clear();
+    gen_.add_move(m, buf_);
+    if (!buf_.empty() && on_steps_) on_steps_(buf_);
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// CSV
+
+StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names)
+    : path_(std::move(path)), tmp_(path_ + ".part"), names_(std::move(names)) {
+  file_ = std::fopen(tmp_.c_str(), "wb");
+  if (file_ == nullptr) throw Error(fmt::format("cannot write CSV file '{}'", path_));
+  buf_ = "stepper,time_s,direction\n";
+}
+
+StepsCsvFile::~StepsCsvFile() {
+  if (file_ != nullptr) std::fclose(file_);
+  if (!committed_) std::remove(tmp_.c_str());
+}
+
+void StepsCsvFile::flush() {
+  if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), file_) != buf_.size()) {
+    throw Error(fmt::format("cannot write CSV file '{}' (disk full?)", path_));
+  }
+  buf_.clear();
+}
+
+void StepsCsvFile::write(std::span<const Step> steps) {
+  auto it = std::back_inserter(buf_);
+  for (const Step& s : steps) {
+    // "{}" is the shortest form that reads back to the same double.
+    fmt::format_to(it, "{},{},{}\n", names_[s.stepper], s.time_s, s.direction);
+  }
+  rows_ += steps.size();
+  if (buf_.size() > (1u << 20)) flush();
+}
+
+void StepsCsvFile::commit() {
+  flush();
+  const bool ok = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!ok || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
+    throw Error(fmt::format("cannot write CSV file '{}'", path_));
+  }
+  committed_ = true;
+}
+
+// ---------------------------------------------------------------------------------------
+// The whole job
+
+std::uint64_t StepsReport::total_steps() const {
+  std::uint64_t n = 0;
+  for (const StepperStats& s : stats) n += s.steps;
+  return n;
+}
+
+StepsReport generate_steps_file(const std::string& gcode_path, const machine::Machine& m,
+                                const std::string& csv_path) {
+  std::vector<StepperChannel> channels = stepper_channels(m);
+  std::vector<std::string> names;
+  for (const StepperChannel& c : channels) names.push_back(c.name);
+  plan::PlanSource source(gcode_path, m);
+  std::unique_ptr<StepsCsvFile> csv;
+  if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names);
+  std::uint64_t moves = 0;
+  StepSink sink(channels, [&](std::span<const Step> steps) {
+    if (csv) csv->write(steps);
+  });
+  plan::CallbackSink counter([&](const PlannedMove&) { ++moves; });
+  plan::Sink* sinks[] = {&sink, &counter};
+  const plan::StreamSummary& summary = plan::run_pipeline(source, sinks);
+  if (csv) csv->commit();
+  StepsReport r;
+  r.file = gcode_path;
+  r.machine_name = m.name;
+  r.kinematics = std::string(machine::to_string(m.kinematics));
+  r.csv_path = csv_path;
+  r.print_time_s = summary.end_time_s;
+  r.moves = moves;
+  r.channels = sink.generator().channels();
+  r.stats = sink.generator().stats();
+  return r;
+}
+
+Json to_json(const StepsReport& r) {
+  Json steppers = Json::array();
+  for (std::size_t i = 0; i < r.channels.size(); ++i) {
+    const StepperStats& s = r.stats[i];
+    const bool has_pair = std::isfinite(s.min_interval_s);
+    steppers.push_back(Json{
+        {"name", r.channels[i].name},
+        {"step_distance_mm", json_number(r.channels[i].step_distance_mm)},
+        {"steps", s.steps},
+        {"steps_positive", s.steps_positive},
+        {"steps_negative", s.steps_negative},
+        {"final_position_steps", s.position_steps},
+        {"min_interval_s", has_pair ? json_number(s.min_interval_s) : Json(nullptr)},
+        {"peak_step_rate_steps_s",
+         has_pair ? json_number(s.peak_step_rate_steps_s()) : Json(nullptr)},
+        {"peak_time_s", has_pair ? json_number(s.peak_time_s) : Json(nullptr)},
+    });
+  }
+  return Json{{"file", r.file},
+              {"machine", r.machine_name},
+              {"kinematics", r.kinematics},
+              {"csv", r.csv_path.empty() ? Json(nullptr) : Json(r.csv_path)},
+              {"print_time_s", json_number(r.print_time_s)},
+              {"moves", r.moves},
+              {"total_steps", r.total_steps()},
+              {"steppers", steppers}};
+}
+
+}  // namespace amctl::steppers
