@@ -98,3 +98,18 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
     ax = _args.text(accel_axis, "accel_axis")
     th = "" if thermal is None else _args.text(thermal, "thermal")
     return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th)
+
+
+def steps(path, machine=None, set=None, *, csv=None):
+    """Exact step times of every stepper (``amctl steps``, docs/steppers.md): Klipper's
+    convention (a step when the commanded motor position crosses a half-step point), cartesian
+    and corexy, Z and the extruder, from the machine's [stepper_*] / [extruder] sections.
+
+    Returns the dict of ``amctl steps --json``: per stepper the step count, the peak step rate
+    [steps/s] and its time [s], ... With ``csv`` the steps are written there
+    (``stepper,time_s,direction``, whole or not at all); without it they are only counted.
+    """
+    p = _args.path(path, "path")
+    m = _args.machine(machine, set)
+    out = "" if csv is None else _args.path(csv, "csv")
+    return _amctl._steps(p, m, out)

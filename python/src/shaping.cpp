@@ -12,6 +12,7 @@
 #include "amctl/resonance/calibrate.hpp"
 #include "amctl/resonance/sweep.hpp"
 #include "amctl/shaping/report.hpp"
+#include "amctl/steppers/steps.hpp"
 #include "common.hpp"
 
 namespace amctl::py_bind {
@@ -72,9 +73,20 @@ py::object write_report(const std::string& path, const MachineValue& mv, const s
   return to_python(j);
 }
 
+py::object steps(const std::string& path, const MachineValue& mv, const std::string& csv) {
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    j = steppers::to_json(steppers::generate_steps_file(path, mv.m, csv));
+  }
+  return to_python(j);
+}
+
 }  // namespace
 
 void register_shaping(py::module_& m) {
+  m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"),
+        "amctl steps --json (steppers::generate_steps_file + to_json); see amctl.steps.");
   m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
         py::arg("natural_frequency_hz"), py::arg("damping_ratio"), py::arg("sample_rate_hz"),
         py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"), "amctl report --json (report::write_report + to_json); see amctl.report.");

@@ -72,3 +72,22 @@ def test_report_equals_the_cli_and_writes_one_self_contained_page(cli, source_di
     with pytest.raises(amctl.Error):
         amctl.report(str(tmp_path / "missing.gcode"), output=str(tmp_path / "x.html"))
     assert not (tmp_path / "x.html").exists()
+
+
+def test_steps_equal_the_cli(cli, source_dir, tmp_path):
+    g = str(source_dir / "tests/reference/klipper/syn_square.gcode")
+    cfg = str(source_dir / "tests/reference/klipper/v0_corexy.cfg")
+    out = tmp_path / "steps.csv"
+    r = amctl.steps(g, machine=cfg, csv=str(out))
+    ref = cli.json("steps", g, "--machine", cfg, "--csv", str(tmp_path / "cli.csv"), "--json")
+    drop = lambda d: {k: v for k, v in d.items() if k not in ("compute_time_s", "csv")}
+    assert drop(r) == drop(ref)
+    assert out.read_text() == (tmp_path / "cli.csv").read_text()
+    lines = out.read_text().splitlines()
+    assert lines[0] == "stepper,time_s,direction"
+    # Every step is +1 or -1 and the times never go back.
+    times = [float(l.split(",")[1]) for l in lines[1:]]
+    assert all(l.split(",")[2] in ("1", "-1") for l in lines[1:])
+    assert times == sorted(times)
+    with pytest.raises(amctl.Error):
+        amctl.steps(g)  # the default preset has no [stepper_*] sections
