@@ -25,3 +25,8 @@ r = amctl.estimate('$gcode', machine='configs/klipper-voron-v0.cfg')
 moves = amctl.plan('$gcode', machine='configs/klipper-voron-v0.cfg')
 print(f\"total {r['total_time_s']:.1f} s; {len(moves)} moves, {int((moves['cruise_v_mm_s'] > 200).sum())} cruise above 200 mm/s\")"
 fi
+echo
+echo "== the print as a page: speed over time, layers, toolpath coloured by contour error (belt at 40 Hz)"
+"$amctl" report "$gcode" --machine configs/klipper-voron-v0.cfg --natural-frequency-hz 40 \
+  --damping-ratio 0.1 -o "$build/demo_report.html"
+echo "   open $build/demo_report.html in a browser (self-contained, no network)"
