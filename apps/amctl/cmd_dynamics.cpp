@@ -182,14 +182,7 @@ void do_simulate(const SimulateArgs& a) {
   const dy::QualityReport& rep = r.report;
   std::cout << fmt::format("{}: {} moves, motion {:.3f} s, profile {}\n", a.file, r.moves,
                            rep.motion_time_s, r.profile);
-  std::cout << fmt::format("contour error: max {:.4f} mm, RMS {:.4f} mm (printing: max {:.4f}, RMS {:.4f})\n",
-                           rep.max_contour_error_mm, rep.rms_contour_error_mm,
-                           rep.max_contour_error_printing_mm, rep.rms_contour_error_printing_mm);
-  std::cout << fmt::format("corners {}: max overshoot {:.4f} mm; ringing wavelength {:.3f} mm, amplitude {:.4f} mm\n",
-                           rep.corner_count, rep.max_corner_overshoot_mm, rep.ringing_wavelength_mm,
-                           rep.ringing_amplitude_mm);
-  std::cout << fmt::format("residual vibration: max {:.4f} mm, at the end {:.4g} mm\n",
-                           rep.max_residual_vibration_mm, rep.final_residual_vibration_mm);
+  print_report(rep);
   std::cout << "worst places:\n";
   for (const auto& w : rep.worst) {
     std::cout << fmt::format("  line {:>8}  layer {:>4}  t {:9.3f} s  ({:8.3f}, {:8.3f})  {:.4f} mm\n",

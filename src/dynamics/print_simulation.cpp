@@ -1,5 +1,7 @@
 #include "amctl/dynamics/print_simulation.hpp"
 
+#include "amctl/dynamics/sample_csv.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -64,63 +66,6 @@ void SimulationSink::finish(const plan::StreamSummary& summary) {
   }
 }
 
-// ------------------------------------------------------------------------------ CSV rows
-namespace {
-
-/// The per-sample CSV, written to "<path>.part" and renamed into place by commit().
-class SampleCsv {
- public:
-  SampleCsv(const std::string& path, std::size_t decimation) : path_(path), decim_(decimation) {
-    tmp_ = path + ".part";
-    out_.open(tmp_);
-    if (!out_) throw Error(fmt::format("cannot write CSV file '{}'", path));
-    out_ << "t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,line\n";
-  }
-  ~SampleCsv() {
-    if (!committed_) {
-      out_.close();
-      std::remove(tmp_.c_str());
-    }
-  }
-  SampleCsv(const SampleCsv&) = delete;
-  SampleCsv& operator=(const SampleCsv&) = delete;
-
-  void row(const SimSample& s, double e) {
-    if (k_++ % decim_ != 0 || std::isnan(e)) return;
-    out_ << fmt::format("{:.6f},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6g},{:.6g},{}\n", s.t_s,
-                        s.cmd_mm[0], s.cmd_mm[1], s.cmd_mm[2], s.sim_mm[0], s.sim_mm[1], e,
-                        std::hypot(s.vibration_mm[0], s.vibration_mm[1]), s.line);
-  }
-  void commit() {
-    out_.close();
-    if (!out_ || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-      throw Error(fmt::format("cannot write CSV file '{}'", path_));
-    }
-    committed_ = true;
-  }
-
- private:
-  std::string path_, tmp_;
-  std::size_t decim_;
-  std::size_t k_ = 0;
-  std::ofstream out_;
-  bool committed_ = false;
-};
-
-std::size_t csv_decimation(const PrintSimulationOptions& o) {
-  const double rate = o.simulation.sample_rate_hz;
-  const double cr = o.csv_rate_hz.value_or(rate);
-  require_positive("csv_rate_hz", cr);
-  const double ratio = rate / cr;
-  const auto decim = static_cast<std::size_t>(std::llround(ratio));
-  if (decim < 1 || std::abs(ratio - static_cast<double>(decim)) > 1e-9 * ratio) {
-    throw Error(fmt::format("--csv-rate-hz {} must divide --sample-rate-hz {} evenly", cr, rate));
-  }
-  return decim;
-}
-
-}  // namespace
-
 PrintSimulationResult simulate_print(const std::string& path, const machine::Machine& machine,
                                      const AxisModel& model_x, const AxisModel& model_y,
                                      const PrintSimulationOptions& options) {
@@ -133,9 +78,10 @@ PrintSimulationResult simulate_print(const std::string& path, const machine::Mac
     throw Error(fmt::format("empty range: --layer-end {} is before --layer-begin {}", mo.layer_end,
                             mo.layer_begin));
   }
-  std::unique_ptr<SampleCsv> csv;
+  std::unique_ptr<SampleCsvFile> csv;
   if (!options.csv_path.empty()) {
-    csv = std::make_unique<SampleCsv>(options.csv_path, csv_decimation(options));
+    csv = std::make_unique<SampleCsvFile>(
+        options.csv_path, csv_decimation(options.simulation.sample_rate_hz, options.csv_rate_hz));
   }
   StreamingSimulation::RowSink rows;
   if (csv && options.rows) {

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/dynamics/sample_csv.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/profile_peaks.hpp"
@@ -164,51 +165,6 @@ class ShapedSink final : public plan::Sink {
   std::vector<std::string> feature_names_;
 };
 
-/// The per-sample CSV of the shaped run (same columns as `amctl simulate --csv`), written to
-/// "<path>.part" and renamed into place at the end.
-class ShapedCsv {
- public:
-  ShapedCsv(const std::string& path, std::size_t decim) : path_(path), tmp_(path + ".part"), decim_(decim) {
-    out_.open(tmp_);
-    if (!out_) throw Error(fmt::format("cannot write CSV file '{}'", path));
-    out_ << "t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,line\n";
-  }
-  ~ShapedCsv() {
-    if (!committed_) {
-      out_.close();
-      std::remove(tmp_.c_str());
-    }
-  }
-  ShapedCsv(const ShapedCsv&) = delete;
-  ShapedCsv& operator=(const ShapedCsv&) = delete;
-  /// Rows fall on the same times as without the shaper: sample k of the shaped run is
-  /// `first_step + k` steps from the first move's start.
-  void set_first_step(long long first_step) {
-    const auto d = static_cast<long long>(decim_);
-    k_ = static_cast<std::size_t>(((first_step % d) + d) % d);
-  }
-  void row(const dy::SimSample& s, double e) {
-    if (k_++ % decim_ != 0 || std::isnan(e)) return;
-    out_ << fmt::format("{:.6f},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6g},{:.6g},{}\n", s.t_s, s.cmd_mm[0],
-                        s.cmd_mm[1], s.cmd_mm[2], s.sim_mm[0], s.sim_mm[1], e,
-                        std::hypot(s.vibration_mm[0], s.vibration_mm[1]), s.line);
-  }
-  void commit() {
-    out_.close();
-    if (!out_ || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-      throw Error(fmt::format("cannot write CSV file '{}'", path_));
-    }
-    committed_ = true;
-  }
-
- private:
-  std::string path_, tmp_;
-  std::size_t decim_;
-  std::size_t k_ = 0;
-  std::ofstream out_;
-  bool committed_ = false;
-};
-
 }  // namespace
 
 ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::Machine& machine,
@@ -231,16 +187,9 @@ ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::
   if (shapers.y) r.shaper_y = make_axis_shaper(*shapers.y, rate, shapers.names_y);
   const std::vector<CommandTap> taps = command_taps(r.shaper_x, r.shaper_y, options.simulation.motor_space);
 
-  std::unique_ptr<ShapedCsv> csv;
+  std::unique_ptr<dy::SampleCsvFile> csv;
   if (!options.csv_path.empty()) {
-    const double cr = options.csv_rate_hz.value_or(rate);
-    require_positive("csv_rate_hz", cr);
-    const double ratio = rate / cr;
-    const auto decim = static_cast<std::size_t>(std::llround(ratio));
-    if (decim < 1 || std::abs(ratio - static_cast<double>(decim)) > 1e-9 * ratio) {
-      throw Error(fmt::format("--csv-rate-hz {} must divide --sample-rate-hz {} evenly", cr, rate));
-    }
-    csv = std::make_unique<ShapedCsv>(options.csv_path, decim);
+    csv = std::make_unique<dy::SampleCsvFile>(options.csv_path, dy::csv_decimation(rate, options.csv_rate_hz));
   }
   ShapedStreamingSimulation::RowSink rows;
   if (csv || options.rows) {
