@@ -31,4 +31,6 @@ void register_machine(CLI::App& app);
 void register_shaper(CLI::App& app);
 /// `amctl resonance calibrate` (cmd_resonance.cpp).
 void register_resonance(CLI::App& app);
+/// `amctl compensate` (cmd_compensate.cpp).
+void register_compensate(CLI::App& app);
 }  // namespace amctl::cli
