@@ -63,6 +63,21 @@ struct InverseRun {
 InverseRun run_inverse(std::span<const plan::PlannedMove> moves, const InverseFilter& fx,
                        const InverseFilter& fy, const Grid& grid, CompensationResult& r);
 
+/// Polynomial pieces of the cardinal B-spline of `degree`: element i holds the ascending
+/// coefficients in u of B(i + u), 0 <= u < 1, i = 0..degree (support [0, degree + 1]).
+std::vector<std::vector<double>> cardinal_bspline_pieces(int degree);
+
+/// The first basis function N_0(t) = B_p(t / T), T = q h, sampled at m h, m = 0 .. (p+1) q.
+struct Basis {
+  int p = 3, q = 1;              ///< degree, samples per knot
+  double T = 0.0, h = 0.0;       ///< knot spacing, sample step [s]
+  std::vector<double> val, acc;  ///< N_0 and N_0'' [1/s^2] at the samples
+};
+Basis make_basis(int p, int q, double h);
+/// The model's nozzle response to the command N_0 (from rest) at samples m h, exact, truncated
+/// once the vibration after the support has decayed below 1e-12 of its peak.
+std::vector<double> filtered_response(const dynamics::AxisModel& model, const Basis& b);
+
 /// FBF: fills the grid, the command and the basis fields of r.
 void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
              double auto_tail_s, Grid& grid, CompensationResult& r);
