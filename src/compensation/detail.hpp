@@ -75,7 +75,7 @@ struct Basis {
 };
 Basis make_basis(int p, int q, double h);
 /// The model's nozzle response to the command N_0 (from rest) at samples m h, exact, truncated
-/// once the vibration after the support has decayed below 1e-12 of its peak.
+/// once the vibration after the support has decayed below 1e-10 of its peak.
 std::vector<double> filtered_response(const dynamics::AxisModel& model, const Basis& b);
 
 /// FBF: fills the grid, the command and the basis fields of r.

@@ -91,7 +91,7 @@ Basis make_basis(int p, int q, double h) {
 
 /// R_0 = L[N_0] - N_0's own value is included: the nozzle's response at samples m = 0..,
 /// exact (the input x_b'' is a polynomial between knots, knots on samples), truncated once the
-/// vibration after the spline's support has decayed below 1e-12 of the peak.
+/// vibration after the spline's support has decayed below 1e-10 of the peak.
 std::vector<double> filtered_response(const dynamics::AxisModel& model, const Basis& b) {
   const int p = b.p, q = b.q;
   const auto pieces = cardinal_bspline_pieces(p);
@@ -115,7 +115,7 @@ std::vector<double> filtered_response(const dynamics::AxisModel& model, const Ba
     const double y = (m < support ? b.val[static_cast<std::size_t>(m)] : 0.0) + C * e;
     R.push_back(y);
     peak = std::max(peak, std::abs(y));
-    if (m >= support && e.norm() < 1e-12 * peak) break;
+    if (m >= support && e.norm() < 1e-10 * peak) break;
     // Advance one step: input derivatives at the step start.
     u.setZero();
     if (m < support && p >= 2) {
@@ -198,21 +198,43 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
     for (int j = J; j < M; ++j)
       for (std::size_t m = 0; m < R.size() && column_row(j, m) < K; ++m)
         rhs(static_cast<Eigen::Index>(column_row(j, m))) -= (x1 - x0) * R[m];
+    // Normal equations G c = Phi^T rhs. Column j of Phi is R shifted by j q rows (cut at the
+    // grid's end), so G_ij (j = i + l) = sum_{m < n_j} R[m] R[m + l q] with
+    // n_j = min(len - l q, K - j q): a prefix sum of one autocorrelation per lag. G is banded
+    // (l q < len) and Toeplitz except for the last columns.
+    const std::size_t len = R.size();
+    const int L = static_cast<int>((len - 1) / static_cast<std::size_t>(q));
+    std::vector<std::vector<double>> prefix(static_cast<std::size_t>(L) + 1);
+    for (int l = 0; l <= L; ++l) {
+      const std::size_t shift = static_cast<std::size_t>(l) * static_cast<std::size_t>(q);
+      auto& pf = prefix[static_cast<std::size_t>(l)];
+      pf.assign(len - shift + 1, 0.0);
+      for (std::size_t m = 0; m + shift < len; ++m) pf[m + 1] = pf[m] + R[m] * R[m + shift];
+    }
     std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(static_cast<std::size_t>(J) * R.size());
-    for (int j = 0; j < J; ++j)
-      for (std::size_t m = 0; m < R.size() && column_row(j, m) < K; ++m)
-        trip.emplace_back(static_cast<int>(column_row(j, m)), j, R[m]);
-    Eigen::SparseMatrix<double> Phi(static_cast<Eigen::Index>(K), J);
-    Phi.setFromTriplets(trip.begin(), trip.end());
-    Eigen::SparseMatrix<double> NtN = (Phi.transpose() * Phi).pruned();
+    trip.reserve(static_cast<std::size_t>(J) * (2 * static_cast<std::size_t>(L) + 1));
     double tr = 0.0;
-    for (int j = 0; j < J; ++j) tr += NtN.coeff(j, j);
+    for (int j = 0; j < J; ++j) {
+      const std::size_t rows_left = K - column_row(j, 0);
+      for (int l = 0; l <= L && l <= j; ++l) {
+        const auto& pf = prefix[static_cast<std::size_t>(l)];
+        const double g = pf[std::min(pf.size() - 1, rows_left)];
+        trip.emplace_back(j, j - l, g);
+        if (l > 0) trip.emplace_back(j - l, j, g);
+        else tr += g;
+      }
+    }
+    Eigen::SparseMatrix<double> NtN(J, J);
+    NtN.setFromTriplets(trip.begin(), trip.end());
     for (int j = 0; j < J; ++j) NtN.coeffRef(j, j) += 1e-13 * tr / J;  // numerical floor only
+    Eigen::VectorXd Ptb = Eigen::VectorXd::Zero(J);
+    for (int j = 0; j < J; ++j)
+      for (std::size_t m = 0; m < len && column_row(j, m) < K; ++m)
+        Ptb(j) += R[m] * rhs(static_cast<Eigen::Index>(column_row(j, m)));
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(NtN);
     if (ldlt.info() != Eigen::Success)
       throw InternalError("fbf: the normal equations are not positive definite");
-    const Eigen::VectorXd c = ldlt.solve(Phi.transpose() * rhs);
+    const Eigen::VectorXd c = ldlt.solve(Ptb);
     // The command and its acceleration at the samples.
     std::vector<double>& xb = *cmd[a];
     xb.assign(K, x0);

@@ -101,6 +101,7 @@ TEST(Fbf, SeedBaseCaseTrapezoidWithinTenPercentOfUncompensated) {
   EXPECT_NEAR(r.uncompensated_max_tracking_error_mm, 0.469, 0.01);
   EXPECT_LT(r.max_tracking_error_mm, 0.10 * r.uncompensated_max_tracking_error_mm);
   EXPECT_LT(r.max_tracking_error_mm, 0.01);  // measured 0.0063 mm (docs/compensation.md)
+  EXPECT_GT(r.max_tracking_error_mm, 0.001) << "the check simulation must see the basis error";
   EXPECT_GT(r.lead_in_s, 0.0);
   EXPECT_TRUE(std::isfinite(r.peak_command_accel_mm_s2));
   // At rest at the start and the end.
@@ -132,5 +133,19 @@ TEST(Fbf, BadKnotSpacingIsNamed) {
   }
 }
 
+}  // namespace
+}  // namespace amctl::compensation
+
+namespace amctl::compensation {
+namespace {
+TEST(Fbf, RepeatedCallsGiveTheSameResult) {
+  const auto moves = seed_plan();
+  const CompensationResult a = compensate(moves, seed_fbf());
+  CompensationResult b;
+  for (int i = 0; i < 3; ++i) b = compensate(moves, seed_fbf());
+  EXPECT_EQ(a.max_tracking_error_mm, b.max_tracking_error_mm);
+  EXPECT_EQ(a.x_cmd_mm, b.x_cmd_mm);
+  EXPECT_EQ(a.x_sim_mm, b.x_sim_mm);
+}
 }  // namespace
 }  // namespace amctl::compensation
