@@ -168,12 +168,22 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     if (run.unbounded_accel) {
       r.status = "unbounded_command_acceleration";
       r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
+      const int rd = std::min(fx.relative_degree(), fy.relative_degree());
+      std::string cause, fix = "plan a jerk-limited profile (--set printer.profile=scurve7)";
+      if (run.velocity_jump) {
+        cause = "velocity steps (corners taken at speed: set square_corner_velocity to 0 or plan "
+                "a jerk-limited profile)";
+      } else if (run.accel_jump && rd < 2) {
+        cause = fmt::format("acceleration steps (a trapezoid), which the inverse (relative degree {}) "
+                            "turns into command {} steps", rd, rd == 0 ? "position" : "velocity");
+      } else {
+        cause = "jerk steps, which the inverse of an undamped mode (x_b = x + x''/w^2) turns into "
+                "command velocity steps";
+        fix = "plan a profile with continuous jerk (--set printer.profile=bezier5)";
+      }
       r.message = fmt::format(
           "the exact inverse of this model demands unbounded base acceleration: the plan has {}; "
-          "the sampled command is written and checked, but for a bounded command plan a "
-          "jerk-limited profile (--set printer.profile=scurve7)",
-          run.velocity_jump ? "velocity steps (corners taken at speed)"
-                            : "acceleration steps (a trapezoid) and the inverse adds only one order of smoothness");
+          "the sampled command is written and checked, but for a bounded command {}", cause, fix);
     } else {
       r.status = "ok";
       r.message = run.unbounded_jerk ? "command acceleration bounded; command jerk has steps or impulses" : "";

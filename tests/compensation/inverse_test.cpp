@@ -150,3 +150,40 @@ TEST(Methods, NotYetImplementedMethodsSaySo) {
 
 }  // namespace
 }  // namespace amctl::compensation
+
+namespace amctl::compensation {
+namespace {
+
+TEST(Invert, TwoDampedModesAreInvertedExactly) {
+  // N(s) = D - s^2 P of two damped modes (participations 0.6 and 0.4): relative degree 1.
+  CompensationOptions o = seed_options(Method::invert, 100000.0);
+  o.model_x = o.model_y = o.plant_x = o.plant_y =
+      dynamics::AxisModel::from_modes({{15.9, 0.5, 0.6}, {40.0, 0.3, 0.4}});
+  const CompensationResult r = compensate(seed_plan({"printer.profile=scurve7"}), o);
+  EXPECT_EQ(r.status, "ok") << r.message;
+  EXPECT_LT(r.max_tracking_error_mm, 1e-6);
+  EXPECT_GT(r.uncompensated_max_tracking_error_mm, 0.2);
+}
+
+TEST(Invert, UndampedModeNeedsContinuousJerk) {
+  // zeta = 0: x_b = x + x''/w^2 (relative degree 0). scurve7's jerk steps become command
+  // velocity steps (status says so and points to bezier5); bezier5 is bounded.
+  CompensationOptions o = seed_options(Method::invert, 1000.0);
+  o.model_x = o.model_y = o.plant_x = o.plant_y = dynamics::AxisModel::belt_rad_s(kW, 0.0);
+  const CompensationResult s = compensate(seed_plan({"printer.profile=scurve7"}), o);
+  EXPECT_EQ(s.status, "unbounded_command_acceleration");
+  EXPECT_NE(s.message.find("bezier5"), std::string::npos) << s.message;
+  const CompensationResult b = compensate(seed_plan({"printer.profile=bezier5"}), o);
+  EXPECT_EQ(b.status, "ok") << b.message;
+  // Undamped: x_b - x = x''/w^2 exactly at every sample.
+  const trajectory::Trajectory traj(seed_plan({"printer.profile=bezier5"}));
+  double worst = 0.0;
+  for (std::size_t k = 0; k < b.t_s.size(); ++k) {
+    const trajectory::AxisState a = traj.evaluate(b.t_s[k]);
+    worst = std::max(worst, std::abs(b.x_cmd_mm[k] - (a.pos_mm[0] + a.acc_mm_s2[0] / (kW * kW))));
+  }
+  EXPECT_LT(worst, 1e-9);
+}
+
+}  // namespace
+}  // namespace amctl::compensation
