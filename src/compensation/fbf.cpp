@@ -9,12 +9,11 @@
 // response R_0 = L[N_0] by whole knots, computed once, exactly (the B-spline is a polynomial
 // between knots and knots fall on samples). The weights minimise the sum over the grid of the
 // squared tracking error: a banded least-squares problem (column j of the design matrix is
-// nonzero on the rows of R_0's support shifted by j q), solved by sparse normal equations.
+// nonzero on the rows of R_0's support shifted by j q), solved by a banded Cholesky factorisation of the normal equations.
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Sparse>
 #include <fmt/format.h>
 
 #include "amctl/control/discretize.hpp"
@@ -211,30 +210,54 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
       pf.assign(len - shift + 1, 0.0);
       for (std::size_t m = 0; m + shift < len; ++m) pf[m + 1] = pf[m] + R[m] * R[m + shift];
     }
-    std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(static_cast<std::size_t>(J) * (2 * static_cast<std::size_t>(L) + 1));
+    // Lower band of G, row-wise: band[j (L+1) + (i - j + L)] = G(j, i), j - L <= i <= j.
+    const std::size_t W = static_cast<std::size_t>(L) + 1;
+    std::vector<double> band(static_cast<std::size_t>(J) * W, 0.0);
     double tr = 0.0;
     for (int j = 0; j < J; ++j) {
       const std::size_t rows_left = K - column_row(j, 0);
       for (int l = 0; l <= L && l <= j; ++l) {
         const auto& pf = prefix[static_cast<std::size_t>(l)];
-        const double g = pf[std::min(pf.size() - 1, rows_left)];
-        trip.emplace_back(j, j - l, g);
-        if (l > 0) trip.emplace_back(j - l, j, g);
-        else tr += g;
+        band[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L - l)] =
+            pf[std::min(pf.size() - 1, rows_left)];
+      }
+      tr += band[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L)];
+    }
+    for (int j = 0; j < J; ++j)
+      band[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L)] += 1e-13 * tr / J;  // round-off floor
+    // Banded Cholesky in place (G = L L^T; rows contiguous, so each entry is one dot product).
+    for (int j = 0; j < J; ++j) {
+      double* rj = &band[static_cast<std::size_t>(j) * W];
+      const int i0 = std::max(0, j - L);
+      for (int i = i0; i <= j; ++i) {
+        const double* ri = &band[static_cast<std::size_t>(i) * W];
+        const int k0 = std::max(i0, i - L);  // common columns k0 .. i-1
+        double sum = rj[i - j + L];
+        for (int k = k0; k < i; ++k) sum -= rj[k - j + L] * ri[k - i + L];
+        if (i < j) {
+          rj[i - j + L] = sum / ri[L];
+        } else {
+          if (!(sum > 0.0)) throw InternalError("fbf: the normal equations are not positive definite");
+          rj[L] = std::sqrt(sum);
+        }
       }
     }
-    Eigen::SparseMatrix<double> NtN(J, J);
-    NtN.setFromTriplets(trip.begin(), trip.end());
-    for (int j = 0; j < J; ++j) NtN.coeffRef(j, j) += 1e-13 * tr / J;  // numerical floor only
-    Eigen::VectorXd Ptb = Eigen::VectorXd::Zero(J);
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(J);
     for (int j = 0; j < J; ++j)
       for (std::size_t m = 0; m < len && column_row(j, m) < K; ++m)
-        Ptb(j) += R[m] * rhs(static_cast<Eigen::Index>(column_row(j, m)));
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(NtN);
-    if (ldlt.info() != Eigen::Success)
-      throw InternalError("fbf: the normal equations are not positive definite");
-    const Eigen::VectorXd c = ldlt.solve(Ptb);
+        c(j) += R[m] * rhs(static_cast<Eigen::Index>(column_row(j, m)));
+    for (int j = 0; j < J; ++j) {  // L y = Phi^T rhs
+      const double* rj = &band[static_cast<std::size_t>(j) * W];
+      double sum = c(j);
+      for (int k = std::max(0, j - L); k < j; ++k) sum -= rj[k - j + L] * c(k);
+      c(j) = sum / rj[L];
+    }
+    for (int j = J - 1; j >= 0; --j) {  // L^T c = y
+      const double v = c(j) / band[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L)];
+      c(j) = v;
+      const double* rj = &band[static_cast<std::size_t>(j) * W];
+      for (int k = std::max(0, j - L); k < j; ++k) c(k) -= rj[k - j + L] * v;
+    }
     // The command and its acceleration at the samples.
     std::vector<double>& xb = *cmd[a];
     xb.assign(K, x0);
