@@ -171,8 +171,9 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
       const int rd = std::min(fx.relative_degree(), fy.relative_degree());
       std::string cause, fix = "plan a jerk-limited profile (--set printer.profile=scurve7)";
       if (run.velocity_jump) {
-        cause = "velocity steps (corners taken at speed: set square_corner_velocity to 0 or plan "
-                "a jerk-limited profile)";
+        cause = "velocity steps (corners taken at speed, which no profile smooths)";
+        fix = "stop at corners (--set printer.square_corner_velocity=0) and plan a jerk-limited "
+              "profile (--set printer.profile=scurve7)";
       } else if (run.accel_jump && rd < 2) {
         cause = fmt::format("acceleration steps (a trapezoid), which the inverse (relative degree {}) "
                             "turns into command {} steps", rd, rd == 0 ? "position" : "velocity");

@@ -187,3 +187,17 @@ TEST(Invert, UndampedModeNeedsContinuousJerk) {
 
 }  // namespace
 }  // namespace amctl::compensation
+
+namespace amctl::compensation {
+namespace {
+
+TEST(Invert, CornerVelocityStepsAreNamed) {
+  const CompensationResult r = compensate(
+      seed_plan({"printer.profile=scurve7", "printer.square_corner_velocity=5"}),
+      seed_options(Method::invert, 1000.0));
+  EXPECT_EQ(r.status, "unbounded_command_acceleration");
+  EXPECT_NE(r.message.find("square_corner_velocity=0"), std::string::npos) << r.message;
+}
+
+}  // namespace
+}  // namespace amctl::compensation
