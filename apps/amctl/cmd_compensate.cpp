@@ -26,10 +26,10 @@ struct CompensateArgs {
   std::string method = "invert";
   std::optional<double> f_hz, zeta, plant_f_hz, plant_zeta;
   std::vector<std::string> modes;
-  double knot_spacing_s = -1.0;
+  std::optional<double> knot_spacing_s;
   int degree = 3;
   double rate_hz = 1000.0;
-  double lead_in_s = -1.0;
+  std::optional<double> lead_in_s;
   std::string csv;
   bool json = false;
 };
@@ -65,9 +65,13 @@ void run_compensate(const CompensateArgs& a) {
                                                       a.plant_zeta.value_or(m.damping_ratio));
   }
   o.sample_rate_hz = a.rate_hz;
-  o.knot_spacing_s = a.knot_spacing_s;
+  if (a.knot_spacing_s && !(*a.knot_spacing_s > 0.0))
+    throw Error(fmt::format("--knot-spacing-s {} must be > 0", *a.knot_spacing_s));
+  if (a.lead_in_s && !(*a.lead_in_s >= 0.0))
+    throw Error(fmt::format("--lead-in-s {} must be >= 0", *a.lead_in_s));
+  o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
   o.degree = a.degree;
-  o.lead_in_s = a.lead_in_s;
+  o.lead_in_s = a.lead_in_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);
   const cp::CompensationResult r = cp::compensate_file(a.file, m, o);
   cp::write_csv(r, a.csv);
