@@ -158,8 +158,10 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   if (options.method == Method::invert) {
     detail::InverseFilter fx(options.model_x), fy(options.model_y);
     const double lead = options.lead_in_s >= 0.0 ? options.lead_in_s : h;
-    double tail = options.tail_s >= 0.0 ? options.tail_s : std::max(auto_tail, std::min(fx.settle_s(), 5.0));
-    tail = std::max(tail, std::min(fy.settle_s(), 5.0) * (options.tail_s >= 0.0 ? 0.0 : 1.0));
+    // Automatic tail: the plant settled and the inverse's own transient decayed (e^-30).
+    const double tail = options.tail_s >= 0.0
+                            ? options.tail_s
+                            : std::max(auto_tail, std::min(std::max(fx.settle_s(), fy.settle_s()), 5.0));
     grid.lead_steps = static_cast<std::size_t>(std::ceil(lead / h - 1e-9));
     grid.t0 = t_begin - static_cast<double>(grid.lead_steps) * h;
     grid.count = static_cast<std::size_t>(std::ceil((t_end + tail - grid.t0) / h - 1e-9)) + 1;
