@@ -6,6 +6,7 @@ void register_all(CLI::App& app) {
   register_plan(app);
   register_report(app);
   register_dynamics(app);
+  register_compensate(app);
   register_thermal(app);
   register_process(app);
   register_machine(app);

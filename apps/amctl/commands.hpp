@@ -33,4 +33,6 @@ void register_shaper(CLI::App& app);
 void register_resonance(CLI::App& app);
 /// `amctl steps`: exact step times per stepper (cmd_steps.cpp).
 void register_steps(CLI::App& app);
+/// `amctl compensate` (cmd_compensate.cpp).
+void register_compensate(CLI::App& app);
 }  // namespace amctl::cli

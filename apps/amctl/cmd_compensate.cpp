@@ -1,0 +1,120 @@
+// `amctl compensate FILE --machine M --method invert|fbf --natural-frequency-hz F
+//  --damping-ratio Z [--mode F,Z[,G] ...] [--plant-natural-frequency-hz F2 --plant-damping-ratio Z2]
+//  [--knot-spacing-s T --degree D] [--sample-rate-hz R] --csv OUT.csv [--json]`:
+// feedforward compensation of the belt model (compensation::compensate_file,
+// docs/compensation.md).
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "amctl/compensation/compensate.hpp"
+#include "amctl/core/error.hpp"
+#include "amctl/dynamics/print_simulation.hpp"
+#include "commands.hpp"
+#include "machine_cli.hpp"
+
+namespace amctl::cli {
+namespace {
+
+struct CompensateArgs {
+  std::string file;
+  MachineOptions machine;
+  std::string method = "invert";
+  std::optional<double> f_hz, zeta, plant_f_hz, plant_zeta;
+  std::vector<std::string> modes;
+  std::optional<double> knot_spacing_s;
+  int degree = 3;
+  double rate_hz = 1000.0;
+  std::optional<double> lead_in_s;
+  std::string csv;
+  bool json = false;
+};
+
+void run_compensate(const CompensateArgs& a) {
+  namespace cp = compensation;
+  cp::CompensationOptions o;
+  o.method = cp::parse_method(a.method);
+  if (!a.modes.empty()) {
+    if (a.f_hz) throw Error("--mode replaces --natural-frequency-hz; give one or the other");
+    std::vector<dynamics::Mode> modes;
+    for (const auto& t : a.modes) modes.push_back(dynamics::parse_mode_spec(t));
+    o.model_x = o.model_y = dynamics::AxisModel::from_modes(modes);
+  } else {
+    if (!a.f_hz) throw Error("--natural-frequency-hz is required (or --mode F,Z[,G])");
+    if (!(*a.f_hz > 0.0))
+      throw Error(fmt::format("--natural-frequency-hz {} must be > 0", *a.f_hz));
+    const double z = a.zeta.value_or(0.1);
+    if (!(z >= 0.0)) throw Error(fmt::format("--damping-ratio {} must be >= 0", z));
+    o.model_x = o.model_y = dynamics::AxisModel::belt(*a.f_hz, z);
+  }
+  o.plant_x = o.model_x;
+  o.plant_y = o.model_y;
+  if (a.plant_f_hz || a.plant_zeta) {
+    if (a.plant_f_hz && !(*a.plant_f_hz > 0.0))
+      throw Error(fmt::format("--plant-natural-frequency-hz {} must be > 0", *a.plant_f_hz));
+    if (a.plant_zeta && !(*a.plant_zeta >= 0.0))
+      throw Error(fmt::format("--plant-damping-ratio {} must be >= 0", *a.plant_zeta));
+    if (o.model_x.modes().size() != 1)
+      throw Error("--plant-natural-frequency-hz needs a one-mode model (--natural-frequency-hz)");
+    const dynamics::Mode& m = o.model_x.modes()[0];
+    o.plant_x = o.plant_y = dynamics::AxisModel::belt(a.plant_f_hz.value_or(m.natural_frequency_hz),
+                                                      a.plant_zeta.value_or(m.damping_ratio));
+  }
+  o.sample_rate_hz = a.rate_hz;
+  if (a.knot_spacing_s && !(*a.knot_spacing_s > 0.0))
+    throw Error(fmt::format("--knot-spacing-s {} must be > 0", *a.knot_spacing_s));
+  if (a.lead_in_s && !(*a.lead_in_s >= 0.0))
+    throw Error(fmt::format("--lead-in-s {} must be >= 0", *a.lead_in_s));
+  o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
+  o.degree = a.degree;
+  o.lead_in_s = a.lead_in_s.value_or(-1.0);
+  const machine::Machine m = resolve_machine(a.machine);
+  const cp::CompensationResult r = cp::compensate_file(a.file, m, o);
+  cp::write_csv(r, a.csv);
+  if (a.json) {
+    std::cout << cp::to_json(r).dump(2) << "\n";
+    return;
+  }
+  std::cout << fmt::format(
+      "{}: {} over {:.4f} s of motion, {} samples at {} Hz -> {}\n"
+      "  status {}{}{}\n"
+      "  max tracking error {:.6g} mm (uncompensated {:.6g} mm), max contour error {:.6g} mm\n"
+      "  peak command accel {:.6g} mm/s^2, lead-in {:.4f} s, tail {:.4f} s\n"
+      "  compute {:.4f} s, {:.1f}x real time\n",
+      a.file, r.method, r.motion_time_s, r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
+      r.message.empty() ? "" : ": ", r.message, r.max_tracking_error_mm,
+      r.uncompensated_max_tracking_error_mm, r.max_contour_error_mm, r.peak_command_accel_mm_s2,
+      r.lead_in_s, r.tail_s, r.compute_time_s, r.real_time_factor);
+}
+
+}  // namespace
+
+void register_compensate(CLI::App& app) {
+  auto a = std::make_shared<CompensateArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "compensate", "Feedforward compensation of the belt model: the motor-side command as CSV");
+  sub->add_option("file", a->file, "G-code file")->required();
+  add_machine_options(*sub, a->machine);
+  sub->add_option("--method", a->method,
+                  "invert (exact model inverse) | fbf (filtered B-splines); lpfbf, rfbf and "
+                  "collocation are not implemented yet");
+  sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]");
+  sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
+  sub->add_option("--mode", a->modes, "model mode F,Z[,G] (repeatable) instead of the belt flags");
+  sub->add_option("--plant-natural-frequency-hz", a->plant_f_hz,
+                  "plant simulated to check the command [Hz] (default: the model)");
+  sub->add_option("--plant-damping-ratio", a->plant_zeta, "plant damping ratio (default: the model)");
+  sub->add_option("--knot-spacing-s", a->knot_spacing_s, "fbf: B-spline knot spacing [s] (default: auto)");
+  sub->add_option("--degree", a->degree, "fbf: B-spline degree (default 3)");
+  sub->add_option("--lead-in-s", a->lead_in_s, "command time before the first move [s] (default: auto)");
+  sub->add_option("--sample-rate-hz", a->rate_hz, "command step [Hz] (default 1000)");
+  sub->add_option("--csv", a->csv, "command CSV (written whole or not at all)")->required();
+  sub->add_flag("--json", a->json, "Print a JSON summary");
+  sub->callback([a] { run_compensate(*a); });
+}
+
+}  // namespace amctl::cli

@@ -1,0 +1,87 @@
+// Feedforward compensation (docs/compensation.md, "Figures"): the exact inverse and FBF on the
+// seed 000 base case, and FBF on a 5 s window of a real sliced file (layer 2 of the box boss,
+// PrusaSlicer 2.5, Voron V0 config, 40 Hz / zeta 0.1 belts). Each run includes the check
+// simulation of the command and the uncompensated simulation.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "amctl/compensation/compensate.hpp"
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/stream.hpp"
+
+namespace {
+
+namespace cp = amctl::compensation;
+
+std::vector<amctl::plan::PlannedMove> plan_file(const std::string& file, const std::string& cfg,
+                                                const std::vector<std::string>& overrides) {
+  const amctl::machine::Machine m = amctl::machine::load_machine(cfg, overrides);
+  amctl::plan::PlanSource source(file, m);
+  amctl::plan::CollectSink collect;
+  std::vector<amctl::plan::Sink*> sinks{&collect};
+  amctl::plan::run_pipeline(source, sinks);
+  return collect.moves;
+}
+
+void run(benchmark::State& state, const std::vector<amctl::plan::PlannedMove>& moves,
+         const cp::CompensationOptions& o) {
+  cp::CompensationResult r;
+  for (auto _ : state) {
+    r = cp::compensate(moves, o);
+    // (DoNotOptimize on the double itself, "+r" on this GCC, wrote garbage back into it.)
+    benchmark::DoNotOptimize(r.x_cmd_mm.data());
+  }
+  state.counters["motion_s"] = r.motion_time_s;
+  state.counters["max_err_um"] = 1e3 * r.max_tracking_error_mm;
+  state.counters["uncomp_err_um"] = 1e3 * r.uncompensated_max_tracking_error_mm;
+  state.counters["rt_factor"] = benchmark::Counter(r.motion_time_s * static_cast<double>(state.iterations()),
+                                                   benchmark::Counter::kIsRate);
+  state.counters["samples"] = static_cast<double>(r.t_s.size());
+  state.SetLabel(r.status);
+}
+
+cp::CompensationOptions options(cp::Method m, double w_rad_s, double z) {
+  cp::CompensationOptions o;
+  o.method = m;
+  o.model_x = o.model_y = o.plant_x = o.plant_y = amctl::dynamics::AxisModel::belt_rad_s(w_rad_s, z);
+  return o;
+}
+
+const std::string kSource = AMCTL_BENCH_SOURCE_DIR;
+
+void BM_CompensateSeedFbf(benchmark::State& state) {
+  static const auto moves = plan_file(kSource + "/examples/30_seed000_corner.gcode",
+                                      kSource + "/examples/30_seed000_printer.cfg", {});
+  run(state, moves, options(cp::Method::fbf, 100.0, 0.5));
+}
+BENCHMARK(BM_CompensateSeedFbf)->Unit(benchmark::kMillisecond);
+
+void BM_CompensateSeedInvertScurve(benchmark::State& state) {
+  static const auto moves = plan_file(kSource + "/examples/30_seed000_corner.gcode",
+                                      kSource + "/examples/30_seed000_printer.cfg",
+                                      {"printer.profile=scurve7"});
+  run(state, moves, options(cp::Method::invert, 100.0, 0.5));
+}
+BENCHMARK(BM_CompensateSeedInvertScurve)->Unit(benchmark::kMillisecond);
+
+void BM_CompensateRealWindowFbf(benchmark::State& state) {
+  static const auto moves = [] {
+    const auto all = plan_file(kSource + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                               kSource + "/configs/klipper-voron-v0.cfg", {});
+    std::vector<amctl::plan::PlannedMove> w;
+    for (const auto& m : all) {
+      if (m.layer != 2) continue;
+      if (!w.empty() && m.end_time_s() - w.front().start_time_s > 5.0) break;
+      w.push_back(m);
+    }
+    return w;
+  }();
+  const double w = 2.0 * 3.141592653589793 * 40.0;
+  run(state, moves, options(cp::Method::fbf, w, 0.1));
+}
+BENCHMARK(BM_CompensateRealWindowFbf)->Unit(benchmark::kMillisecond);
+
+}  // namespace

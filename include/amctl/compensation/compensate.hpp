@@ -1,0 +1,103 @@
+#pragma once
+// Feedforward compensation of the belt model (seed 000, issue 10): the motor-side (base)
+// command x_b(t) per axis such that the simulated nozzle x(t) follows the planned path.
+//
+// Methods (docs/compensation.md):
+//  - invert: the exact inverse of the modal belt model for the planned trajectory. With
+//    G(s) = X/X_b = 1 - sum_i g_i s^2 / D_i(s), D_i = s^2 + 2 z_i w_i s + w_i^2, the command is
+//        x_b = x + H(s) x'',  H(s) = [sum_i g_i prod_{j!=i} D_j] / N(s),  N = D - s^2 sum(...)
+//    (one mode: x_b = x + f / (2 z w), f' = -(w / 2z) f + x''), integrated exactly on the
+//    piecewise-polynomial plan. Where the plan's steps (acceleration steps of a trapezoid,
+//    velocity jumps at corners) make the inverse demand unbounded base acceleration, the
+//    status says so.
+//  - fbf: filtered basis functions (Ramani et al. 2017), uniform B-splines filtered through
+//    the model, weights by banded least squares on the tracking error.
+// Every command is checked by simulating it (dynamics::Simulator on the sampled command,
+// linear between samples) through the plant model; the reported errors are the simulated ones.
+#include <span>
+#include <string>
+#include <vector>
+
+#include "amctl/core/json.hpp"
+#include "amctl/dynamics/model.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planned_move.hpp"
+
+namespace amctl::compensation {
+
+enum class Method { invert, fbf };
+
+/// "invert" | "fbf"; throws amctl::Error naming --method otherwise ("not implemented yet" for
+/// the methods of issue 10 still to come: lpfbf, rfbf, collocation).
+Method parse_method(const std::string& name);
+const char* method_name(Method m);
+
+struct CompensationOptions {
+  Method method = Method::invert;
+  /// The model the method uses (X, Y).
+  dynamics::AxisModel model_x = dynamics::AxisModel::rigid();
+  dynamics::AxisModel model_y = dynamics::AxisModel::rigid();
+  /// The plant the result is simulated on (X, Y); usually equal to the model.
+  dynamics::AxisModel plant_x = dynamics::AxisModel::rigid();
+  dynamics::AxisModel plant_y = dynamics::AxisModel::rigid();
+  double sample_rate_hz = 1000.0;  ///< command step 1 / rate [Hz]
+  /// Command time before the first move's start [s]; < 0: automatic (invert: 0; fbf: the
+  /// model's settling, 4 / (z w) of the slowest mode, rounded up to whole knots).
+  double lead_in_s = -1.0;
+  /// Command time after the last move's end [s]; < 0: automatic (5 time constants of the
+  /// slowest mode of model and plant, clamped to [0.05, 1] s).
+  double tail_s = -1.0;
+  /// FBF: knot spacing [s] (< 0: automatic, a quarter of the fastest mode's period) and the
+  /// B-spline degree.
+  double knot_spacing_s = -1.0;
+  int degree = 3;
+};
+
+struct CompensationResult {
+  std::string method;
+  std::string status;   ///< "ok" or "unbounded_command_acceleration"
+  std::string message;  ///< what the status means and what to do
+  double motion_time_s = 0.0;
+  double compute_time_s = 0.0;       ///< the method and its check simulation
+  double real_time_factor = 0.0;     ///< motion_time_s / compute_time_s
+  double max_tracking_error_mm = 0.0;  ///< max |simulated nozzle - planned path| at the samples
+  double rms_tracking_error_mm = 0.0;
+  double max_contour_error_mm = 0.0;   ///< max distance of the simulated nozzle to the path
+  double uncompensated_max_tracking_error_mm = 0.0;  ///< the plan itself as the command
+  double uncompensated_max_contour_error_mm = 0.0;
+  /// Peak |(x_b'', y_b'')| of the exact command; +inf (JSON null) when unbounded.
+  double peak_command_accel_mm_s2 = 0.0;
+  double lead_in_s = 0.0;
+  double tail_s = 0.0;
+  double sample_rate_hz = 0.0;
+  // FBF only
+  double knot_spacing_s = 0.0;
+  int degree = 0;
+  std::size_t basis_functions = 0;
+  // The command and its check, one entry per sample time.
+  std::vector<double> t_s, x_cmd_mm, y_cmd_mm, x_des_mm, y_des_mm, x_sim_mm, y_sim_mm;
+};
+
+/// Compensates a time-ordered plan (XY). Throws amctl::Error for bad options (naming them).
+CompensationResult compensate(std::span<const plan::PlannedMove> moves,
+                              const CompensationOptions& options);
+
+/// Plans `path` for `machine` and compensates the whole plan.
+CompensationResult compensate_file(const std::string& path, const machine::Machine& machine,
+                                   const CompensationOptions& options);
+
+/// Simulates a sampled XY command (uniform step, linear between samples: constant-velocity
+/// moves through dynamics::Simulator) on the plant and returns the nozzle at the sample times.
+void simulate_command(const std::vector<double>& t_s, const std::vector<double>& x_cmd_mm,
+                      const std::vector<double>& y_cmd_mm, const dynamics::AxisModel& plant_x,
+                      const dynamics::AxisModel& plant_y, double sample_rate_hz,
+                      std::vector<double>& x_sim_mm, std::vector<double>& y_sim_mm);
+
+/// The summary as JSON (no sample arrays). Non-finite numbers are null.
+Json to_json(const CompensationResult& r);
+
+/// time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm; written to a temporary file
+/// and renamed (whole or not at all).
+void write_csv(const CompensationResult& r, const std::string& path);
+
+}  // namespace amctl::compensation

@@ -1,0 +1,292 @@
+#include "amctl/compensation/compensate.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/dynamics/simulate.hpp"
+#include "amctl/plan/stream.hpp"
+#include "amctl/trajectory/trajectory.hpp"
+#include "detail.hpp"
+
+namespace amctl::compensation {
+
+Method parse_method(const std::string& name) {
+  if (name == "invert") return Method::invert;
+  if (name == "fbf") return Method::fbf;
+  if (name == "lpfbf" || name == "rfbf" || name == "collocation")
+    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf)", name));
+  throw Error(fmt::format("--method: '{}' is not a method; expected invert or fbf", name));
+}
+
+const char* method_name(Method m) { return m == Method::invert ? "invert" : "fbf"; }
+
+namespace detail {
+
+double slowest_decay_rate_per_s(const dynamics::AxisModel& m) {
+  double r = std::numeric_limits<double>::infinity();
+  for (const dynamics::Mode& mode : m.modes())
+    r = std::min(r, mode.damping_ratio * 2.0 * M_PI * mode.natural_frequency_hz);
+  return r;
+}
+
+std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves) {
+  std::vector<Segment> s;
+  s.reserve(moves.size());
+  for (const plan::PlannedMove& m : moves) {
+    Segment g;
+    g.x0 = m.start_mm[0];
+    g.y0 = m.start_mm[1];
+    g.x1 = m.start_mm[0] + m.axes_r[0] * m.distance_mm;
+    g.y1 = m.start_mm[1] + m.axes_r[1] * m.distance_mm;
+    s.push_back(g);
+  }
+  return s;
+}
+
+double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y) {
+  if (segs.empty()) return 0.0;
+  const std::size_t lo = around > 64 ? around - 64 : 0;
+  const std::size_t hi = std::min(segs.size(), around + 65);
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = lo; i < hi; ++i) {
+    const Segment& g = segs[i];
+    const double dx = g.x1 - g.x0, dy = g.y1 - g.y0;
+    const double l2 = dx * dx + dy * dy;
+    double u = l2 > 0.0 ? ((x - g.x0) * dx + (y - g.y0) * dy) / l2 : 0.0;
+    u = std::clamp(u, 0.0, 1.0);
+    best = std::min(best, std::hypot(x - (g.x0 + u * dx), y - (g.y0 + u * dy)));
+  }
+  return best;
+}
+
+}  // namespace detail
+
+void simulate_command(const std::vector<double>& t_s, const std::vector<double>& x_cmd_mm,
+                      const std::vector<double>& y_cmd_mm, const dynamics::AxisModel& plant_x,
+                      const dynamics::AxisModel& plant_y, double sample_rate_hz,
+                      std::vector<double>& x_sim_mm, std::vector<double>& y_sim_mm) {
+  const std::size_t n = t_s.size();
+  x_sim_mm.assign(x_cmd_mm.begin(), x_cmd_mm.end());
+  y_sim_mm.assign(y_cmd_mm.begin(), y_cmd_mm.end());
+  if (n < 2) return;
+  const double h = 1.0 / sample_rate_hz;
+  // The command, linear between samples, as constant-velocity moves (a still interval is a
+  // gap: the simulator holds the command there). Velocity steps at the junctions are applied
+  // exactly by the simulator.
+  std::vector<plan::PlannedMove> moves;
+  moves.reserve(n);
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double dx = x_cmd_mm[k + 1] - x_cmd_mm[k], dy = y_cmd_mm[k + 1] - y_cmd_mm[k];
+    const double d = std::hypot(dx, dy);
+    if (!(d > 0.0)) continue;
+    plan::PlannedMove m;
+    m.start_time_s = t_s[k];
+    m.start_mm = {x_cmd_mm[k], y_cmd_mm[k], 0.0, 0.0};
+    m.axes_r = {dx / d, dy / d, 0.0, 0.0};
+    m.distance_mm = d;
+    m.start_v_mm_s = m.cruise_v_mm_s = m.end_v_mm_s = d / h;
+    m.accel_mm_s2 = 1.0;
+    m.cruise_t_s = h;
+    m.line = k + 1;
+    moves.push_back(m);
+  }
+  if (moves.empty()) return;
+  dynamics::SimulationOptions o;
+  o.sample_rate_hz = sample_rate_hz;
+  o.settle_s = std::max(0.0, t_s.back() - moves.back().end_time_s()) + h;
+  // Start one step before the first segment, at rest: the simulator then applies the first
+  // segment's velocity step (starting on it would start the nozzle moving with it).
+  o.grid_offset_s = -h;
+  dynamics::simulate(moves, plant_x, plant_y, o, [&](const dynamics::SimSample& s) {
+    const long k = std::lround((s.t_s - t_s.front()) * sample_rate_hz);
+    if (k < 0 || static_cast<std::size_t>(k) >= n) return;
+    x_sim_mm[static_cast<std::size_t>(k)] = s.sim_mm[0];
+    y_sim_mm[static_cast<std::size_t>(k)] = s.sim_mm[1];
+  });
+}
+
+namespace {
+
+void validate(const CompensationOptions& o) {
+  if (!(o.sample_rate_hz > 0.0) || !std::isfinite(o.sample_rate_hz))
+    throw Error(fmt::format("--sample-rate-hz {} must be > 0", o.sample_rate_hz));
+  if (o.model_x.is_rigid() || o.model_y.is_rigid())
+    throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
+  dynamics::require_above_nyquist(o.sample_rate_hz,
+                                  {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
+  if (o.method == Method::fbf) {
+    if (o.degree < 1 || o.degree > 7)
+      throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
+  }
+}
+
+}  // namespace
+
+CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
+                              const CompensationOptions& options) {
+  validate(options);
+  std::vector<plan::PlannedMove> moves;
+  for (const plan::PlannedMove& m : all_moves)
+    if (!m.extrude_only && m.distance_mm > 0.0) moves.push_back(m);
+  if (moves.empty()) throw Error("compensate: the plan has no XY motion");
+
+  const auto clock0 = std::chrono::steady_clock::now();
+  const double h = 1.0 / options.sample_rate_hz;
+  const double t_begin = moves.front().start_time_s, t_end = moves.back().end_time_s();
+
+  CompensationResult r;
+  r.method = method_name(options.method);
+  r.sample_rate_hz = options.sample_rate_hz;
+  r.motion_time_s = t_end - t_begin;
+
+  double decay = std::min({detail::slowest_decay_rate_per_s(options.model_x),
+                           detail::slowest_decay_rate_per_s(options.model_y),
+                           detail::slowest_decay_rate_per_s(options.plant_x),
+                           detail::slowest_decay_rate_per_s(options.plant_y)});
+  const double auto_tail = std::isfinite(decay) && decay > 0 ? std::clamp(5.0 / decay, 0.05, 1.0) : 1.0;
+
+  detail::Grid grid;
+  grid.h = h;
+  if (options.method == Method::invert) {
+    detail::InverseFilter fx(options.model_x), fy(options.model_y);
+    const double lead = options.lead_in_s >= 0.0 ? options.lead_in_s : h;
+    // Automatic tail: the plant settled and the inverse's own transient decayed (e^-30).
+    const double tail = options.tail_s >= 0.0
+                            ? options.tail_s
+                            : std::max(auto_tail, std::min(std::max(fx.settle_s(), fy.settle_s()), 5.0));
+    grid.lead_steps = static_cast<std::size_t>(std::ceil(lead / h - 1e-9));
+    grid.t0 = t_begin - static_cast<double>(grid.lead_steps) * h;
+    grid.count = static_cast<std::size_t>(std::ceil((t_end + tail - grid.t0) / h - 1e-9)) + 1;
+    const detail::InverseRun run = detail::run_inverse(moves, fx, fy, grid, r);
+    r.peak_command_accel_mm_s2 = run.peak_accel_mm_s2;
+    if (run.unbounded_accel) {
+      r.status = "unbounded_command_acceleration";
+      r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
+      const int rd = std::min(fx.relative_degree(), fy.relative_degree());
+      std::string cause, fix = "plan a jerk-limited profile (--set printer.profile=scurve7)";
+      if (run.velocity_jump) {
+        cause = "velocity steps (corners taken at speed, which no profile smooths)";
+        fix = "stop at corners (--set printer.square_corner_velocity=0) and plan a jerk-limited "
+              "profile (--set printer.profile=scurve7)";
+      } else if (run.accel_jump && rd < 2) {
+        cause = fmt::format("acceleration steps (a trapezoid), which the inverse (relative degree {}) "
+                            "turns into command {} steps", rd, rd == 0 ? "position" : "velocity");
+      } else {
+        cause = "jerk steps, which the inverse of an undamped mode (x_b = x + x''/w^2) turns into "
+                "command velocity steps";
+        fix = "plan a profile with continuous jerk (--set printer.profile=bezier5)";
+      }
+      r.message = fmt::format(
+          "the exact inverse of this model demands unbounded base acceleration: the plan has {}; "
+          "the sampled command is written and checked, but for a bounded command {}", cause, fix);
+    } else {
+      r.status = "ok";
+      r.message = run.unbounded_jerk ? "command acceleration bounded; command jerk has steps or impulses" : "";
+    }
+  } else {
+    detail::run_fbf(moves, options, auto_tail, grid, r);
+  }
+
+  // The check: the sampled command simulated on the plant.
+  simulate_command(r.t_s, r.x_cmd_mm, r.y_cmd_mm, options.plant_x, options.plant_y,
+                   options.sample_rate_hz, r.x_sim_mm, r.y_sim_mm);
+  const auto clock1 = std::chrono::steady_clock::now();
+  r.compute_time_s = std::chrono::duration<double>(clock1 - clock0).count();
+  r.real_time_factor = r.compute_time_s > 0.0 ? r.motion_time_s / r.compute_time_s : 0.0;
+
+  const std::vector<detail::Segment> segs = detail::xy_segments(moves);
+  trajectory::Cursor cur(moves);
+  double sum2 = 0.0;
+  for (std::size_t k = 0; k < r.t_s.size(); ++k) {
+    const double e = std::hypot(r.x_sim_mm[k] - r.x_des_mm[k], r.y_sim_mm[k] - r.y_des_mm[k]);
+    if (!std::isfinite(e)) r.status = "non_finite_command";
+    r.max_tracking_error_mm = std::max(r.max_tracking_error_mm, e);
+    sum2 += e * e;
+    const std::size_t mi = cur.locate(r.t_s[k]).move_index;
+    r.max_contour_error_mm =
+        std::max(r.max_contour_error_mm, detail::contour_distance_mm(segs, mi, r.x_sim_mm[k], r.y_sim_mm[k]));
+  }
+  r.rms_tracking_error_mm = r.t_s.empty() ? 0.0 : std::sqrt(sum2 / static_cast<double>(r.t_s.size()));
+
+  // Uncompensated: the plan itself as the command, the same plant, the same grid.
+  dynamics::SimulationOptions so;
+  so.sample_rate_hz = options.sample_rate_hz;
+  so.settle_s = std::max(0.0, r.t_s.empty() ? 0.0 : r.t_s.back() - t_end);
+  dynamics::simulate(moves, options.plant_x, options.plant_y, so, [&](const dynamics::SimSample& s) {
+    r.uncompensated_max_tracking_error_mm = std::max(
+        r.uncompensated_max_tracking_error_mm, std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]));
+    r.uncompensated_max_contour_error_mm = std::max(
+        r.uncompensated_max_contour_error_mm,
+        detail::contour_distance_mm(segs, s.move_index, s.sim_mm[0], s.sim_mm[1]));
+  });
+  return r;
+}
+
+CompensationResult compensate_file(const std::string& path, const machine::Machine& machine,
+                                   const CompensationOptions& options) {
+  plan::PlanSource source(path, machine);
+  plan::CollectSink collect;
+  std::vector<plan::Sink*> sinks{&collect};
+  plan::run_pipeline(source, sinks);
+  return compensate(collect.moves, options);
+}
+
+Json to_json(const CompensationResult& r) {
+  Json j;
+  j["method"] = r.method;
+  j["status"] = r.status;
+  j["message"] = r.message;
+  j["motion_time_s"] = json_number(r.motion_time_s);
+  j["compute_time_s"] = json_number(r.compute_time_s);
+  j["real_time_factor"] = json_number(r.real_time_factor);
+  j["max_tracking_error_mm"] = json_number(r.max_tracking_error_mm);
+  j["rms_tracking_error_mm"] = json_number(r.rms_tracking_error_mm);
+  j["max_contour_error_mm"] = json_number(r.max_contour_error_mm);
+  j["uncompensated_max_tracking_error_mm"] = json_number(r.uncompensated_max_tracking_error_mm);
+  j["uncompensated_max_contour_error_mm"] = json_number(r.uncompensated_max_contour_error_mm);
+  j["peak_command_accel_mm_s2"] = json_number(r.peak_command_accel_mm_s2);
+  j["lead_in_s"] = json_number(r.lead_in_s);
+  j["tail_s"] = json_number(r.tail_s);
+  j["sample_rate_hz"] = json_number(r.sample_rate_hz);
+  j["samples"] = r.t_s.size();
+  if (r.method == "fbf") {
+    j["knot_spacing_s"] = json_number(r.knot_spacing_s);
+    j["degree"] = r.degree;
+    j["basis_functions"] = r.basis_functions;
+  }
+  return j;
+}
+
+void write_csv(const CompensationResult& r, const std::string& path) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::trunc);
+    if (!f) throw Error(fmt::format("--csv {}: cannot open for writing", path));
+    f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm\n";
+    for (std::size_t k = 0; k < r.t_s.size(); ++k)
+      f << fmt::format("{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}\n", r.t_s[k],
+                       r.x_cmd_mm[k], r.y_cmd_mm[k], r.x_des_mm[k], r.y_des_mm[k], r.x_sim_mm[k],
+                       r.y_sim_mm[k]);
+    f.flush();
+    if (!f) {
+      std::remove(tmp.c_str());
+      throw Error(fmt::format("--csv {}: write failed", path));
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    throw Error(fmt::format("--csv {}: {}", path, ec.message()));
+  }
+}
+
+}  // namespace amctl::compensation

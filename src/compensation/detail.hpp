@@ -1,0 +1,85 @@
+#pragma once
+// Internals of amctl::compensation (not installed): the exact inverse filter, the sample grid,
+// the FBF solver and the contour distance.
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "amctl/compensation/compensate.hpp"
+#include "amctl/control/discretize.hpp"
+
+namespace amctl::compensation::detail {
+
+/// Uniform command grid t_k = t0 + k h, k < count; the first move starts at lead_steps.
+struct Grid {
+  double t0 = 0.0, h = 0.0;
+  std::size_t count = 0, lead_steps = 0;
+  [[nodiscard]] double t(std::size_t k) const { return t0 + static_cast<double>(k) * h; }
+};
+
+struct Segment {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves);
+/// Distance from (x, y) to the moves' XY polyline, searched 64 moves either side of `around`.
+double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y);
+/// Smallest z w over the modes [1/s] (+inf for a rigid model).
+double slowest_decay_rate_per_s(const dynamics::AxisModel& m);
+
+/// x_b = x + d x'' + C z,  z' = A z + B x''  (the proper rational H(s) of compensate.hpp in
+/// controllable canonical form, frequency-scaled for conditioning). Throws amctl::Error if
+/// H is unstable or marginally stable (the inverse does not exist as a bounded signal).
+class InverseFilter {
+ public:
+  explicit InverseFilter(const dynamics::AxisModel& model);
+  [[nodiscard]] int states() const { return static_cast<int>(A_.rows()); }
+  /// deg N - deg P: 0 = feedthrough (an undamped mode), 1 = one damped mode, ...
+  [[nodiscard]] int relative_degree() const { return relative_degree_; }
+  /// Time for the inverse's slowest pole to decay by e^-30 [s].
+  [[nodiscard]] double settle_s() const { return settle_s_; }
+  const Eigen::MatrixXd& A() const { return A_; }
+  const Eigen::VectorXd& B() const { return B_; }
+  const Eigen::RowVectorXd& C() const { return C_; }
+  double d() const { return d_; }
+
+ private:
+  Eigen::MatrixXd A_;
+  Eigen::VectorXd B_;
+  Eigen::RowVectorXd C_;
+  double d_ = 0.0;
+  int relative_degree_ = 0;
+  double settle_s_ = 0.0;
+};
+
+struct InverseRun {
+  double peak_accel_mm_s2 = 0.0;  ///< over the samples (right limits)
+  bool velocity_jump = false, accel_jump = false, jerk_jump = false;
+  bool unbounded_accel = false, unbounded_jerk = false;
+};
+
+/// Fills r.t_s, x/y_cmd_mm, x/y_des_mm, lead_in_s, tail_s over `grid`.
+InverseRun run_inverse(std::span<const plan::PlannedMove> moves, const InverseFilter& fx,
+                       const InverseFilter& fy, const Grid& grid, CompensationResult& r);
+
+/// Polynomial pieces of the cardinal B-spline of `degree`: element i holds the ascending
+/// coefficients in u of B(i + u), 0 <= u < 1, i = 0..degree (support [0, degree + 1]).
+std::vector<std::vector<double>> cardinal_bspline_pieces(int degree);
+
+/// The first basis function N_0(t) = B_p(t / T), T = q h, sampled at m h, m = 0 .. (p+1) q.
+struct Basis {
+  int p = 3, q = 1;              ///< degree, samples per knot
+  double T = 0.0, h = 0.0;       ///< knot spacing, sample step [s]
+  std::vector<double> val, acc;  ///< N_0 and N_0'' [1/s^2] at the samples
+};
+Basis make_basis(int p, int q, double h);
+/// The model's nozzle response to the command N_0 (from rest) at samples m h, exact, truncated
+/// once the vibration after the support has decayed below 1e-10 of its peak.
+std::vector<double> filtered_response(const dynamics::AxisModel& model, const Basis& b);
+
+/// FBF: fills the grid, the command and the basis fields of r.
+void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+             double auto_tail_s, Grid& grid, CompensationResult& r);
+
+}  // namespace amctl::compensation::detail
