@@ -113,3 +113,50 @@ def steps(path, machine=None, set=None, *, csv=None):
     m = _args.machine(machine, set)
     out = "" if csv is None else _args.path(csv, "csv")
     return _amctl._steps(p, m, out)
+
+
+def compensate(path, machine=None, set=None, *, method="invert", natural_frequency_hz=None,
+               damping_ratio=0.1, plant_natural_frequency_hz=None, plant_damping_ratio=None,
+               model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,
+               knot_spacing_s=None, degree=3, csv=None):
+    """Feedforward compensation of the belt model (``amctl compensate``, docs/compensation.md).
+
+    Returns the dict of ``amctl compensate --json`` (``max_tracking_error_mm``,
+    ``uncompensated_max_tracking_error_mm``, ``peak_command_accel_mm_s2`` (None when
+    unbounded), ``lead_in_s``, ``status``, ...) plus ``trace``: numpy arrays ``t_s`` [s],
+    ``x_cmd_mm``, ``y_cmd_mm`` (the motor-side command), ``x_des_mm``, ``y_des_mm`` (the
+    planned path), ``x_sim_mm``, ``y_sim_mm`` (the plant driven by the command).
+
+    Args:
+        method: "invert" (the exact inverse of the model) or "fbf" (filtered B-splines).
+        natural_frequency_hz [Hz], damping_ratio: the model the method uses (X and Y), or
+            model_x / model_y as amctl.AxisModel.
+        plant_natural_frequency_hz, plant_damping_ratio: the plant the result is simulated
+            on (default: the model).
+        sample_rate_hz [Hz]: the command's time step; lead_in_s, tail_s [s] (None: automatic);
+        knot_spacing_s [s] (None: automatic) and degree: FBF's B-splines.
+        csv: also write the command as ``amctl compensate --csv`` does.
+    """
+    p = _args.path(path, "path")
+    m = _args.machine(machine, set)
+    if model_x is None:
+        if natural_frequency_hz is None:
+            raise TypeError("give natural_frequency_hz (with damping_ratio) or model_x/model_y")
+        f = _args.number(natural_frequency_hz, "natural_frequency_hz", "Hz")
+        z = _args.number(damping_ratio, "damping_ratio")
+        model_x = _amctl.AxisModel.belt(f, z)
+    if model_y is None:
+        model_y = model_x
+    if plant_natural_frequency_hz is None:
+        plant_x, plant_y = model_x, model_y
+    else:
+        pf = _args.number(plant_natural_frequency_hz, "plant_natural_frequency_hz", "Hz")
+        pz = _args.number(damping_ratio if plant_damping_ratio is None else plant_damping_ratio,
+                          "plant_damping_ratio")
+        plant_x = plant_y = _amctl.AxisModel.belt(pf, pz)
+    opt = lambda v, name, unit: -1.0 if v is None else _args.number(v, name, unit)
+    return _amctl._compensate(p, m, _args.text(method, "method"), model_x, model_y, plant_x, plant_y,
+                              _args.number(sample_rate_hz, "sample_rate_hz", "Hz"),
+                              opt(lead_in_s, "lead_in_s", "s"), opt(tail_s, "tail_s", "s"),
+                              opt(knot_spacing_s, "knot_spacing_s", "s"), _args.integer(degree, "degree"),
+                              "" if csv is None else _args.path(csv, "csv"))

@@ -7,6 +7,7 @@
 
 #include <pybind11/stl.h>
 
+#include "amctl/compensation/compensate.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/report/html_report.hpp"
 #include "amctl/resonance/calibrate.hpp"
@@ -82,9 +83,52 @@ py::object steps(const std::string& path, const MachineValue& mv, const std::str
   return to_python(j);
 }
 
+py::object compensate(const std::string& path, const MachineValue& mv, const std::string& method,
+                      const dynamics::AxisModel& model_x, const dynamics::AxisModel& model_y,
+                      const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
+                      double sample_rate_hz, double lead_in_s, double tail_s, double knot_spacing_s,
+                      int degree, const std::string& csv) {
+  compensation::CompensationOptions o;
+  o.method = compensation::parse_method(method);
+  o.model_x = model_x;
+  o.model_y = model_y;
+  o.plant_x = plant_x;
+  o.plant_y = plant_y;
+  o.sample_rate_hz = sample_rate_hz;
+  o.lead_in_s = lead_in_s;
+  o.tail_s = tail_s;
+  o.knot_spacing_s = knot_spacing_s;
+  o.degree = degree;
+  std::optional<compensation::CompensationResult> r;
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    r = compensation::compensate_file(path, mv.m, o);
+    if (!csv.empty()) compensation::write_csv(*r, csv);
+    j = compensation::to_json(*r);
+  }
+  py::dict out(to_python(j));
+  py::dict trace;
+  trace["t_s"] = adopt(std::move(r->t_s));
+  trace["x_cmd_mm"] = adopt(std::move(r->x_cmd_mm));
+  trace["y_cmd_mm"] = adopt(std::move(r->y_cmd_mm));
+  trace["x_des_mm"] = adopt(std::move(r->x_des_mm));
+  trace["y_des_mm"] = adopt(std::move(r->y_des_mm));
+  trace["x_sim_mm"] = adopt(std::move(r->x_sim_mm));
+  trace["y_sim_mm"] = adopt(std::move(r->y_sim_mm));
+  out["trace"] = trace;
+  return out;
+}
+
 }  // namespace
 
 void register_shaping(py::module_& m) {
+  m.def("_compensate", &compensate, py::arg("path"), py::arg("machine"), py::arg("method"),
+        py::arg("model_x"), py::arg("model_y"), py::arg("plant_x"), py::arg("plant_y"),
+        py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),
+        py::arg("degree"), py::arg("csv"),
+        "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
+        "arrays; see amctl.compensate.");
   m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"),
         "amctl steps --json (steppers::generate_steps_file + to_json); see amctl.steps.");
   m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
