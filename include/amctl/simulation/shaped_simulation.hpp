@@ -39,18 +39,29 @@
 namespace amctl::simulation {
 
 /// One delay of the shaped command with its weight on each simulated axis (0: X or motor A,
-/// 1: Y or motor B; 0 where the axis has no impulse at this delay).
+/// 1: Y or motor B; 0 where the axis has no impulse at this delay), and the part of the plan
+/// its simulator runs on: the whole plan (-1), or only its X (0) or Y (1) part, the other
+/// cartesian axis held at 0 (the motor-space split of docs/dynamics.md section 7).
 struct CommandTap {
   double delay_s = 0.0;
   std::array<double, 2> weight{};
+  int plan_axis = -1;
 };
 
 /// The taps of a shaper per axis (nullopt: the axis follows the plan), merged by delay. In
-/// motor space (corexy A, B) both axes must have the same shaper (or none): a different
-/// shaper per axis throws amctl::Error (not supported yet).
+/// motor space (corexy A, B) with the same shaper (or none) on both axes, the same; with a
+/// different shaper per axis, split_command_taps.
 [[nodiscard]] std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
                                                    const std::optional<shaping::Shaper>& y,
                                                    bool motor_space);
+
+/// The shaped command split by cartesian axis: for X, a tap per delay d_i of its shaper
+/// (weight a_i on both simulated axes) running on the plan's X part; for Y the same with its
+/// own shaper on the Y part (an unshaped axis: weight 1 at delay 0). Exact for any linear
+/// motor map (corexy: the motors' commands A = X_s + Y_s, B = X_s - Y_s hold both shapers),
+/// at the cost of one simulator per (axis, delay) pair.
+[[nodiscard]] std::vector<CommandTap> split_command_taps(const std::optional<shaping::Shaper>& x,
+                                                         const std::optional<shaping::Shaper>& y);
 
 /// The shaped command's own deviation from the plan.
 struct SmoothingFigures {
@@ -110,6 +121,9 @@ class ShapedStreamingSimulation {
   long long k_start_ = 0;       // combined sample k is at t0 + (k_start_ + k) h
   std::size_t lookahead_ = 0;   // samples from a sample to the one its residual is read at
   std::vector<plan::PlannedMove> buf_;
+  /// With split taps: buf_'s moves with only their X (0) or Y (1) part, else empty.
+  std::array<std::vector<plan::PlannedMove>, 2> part_buf_;
+  bool split_ = false;
   std::size_t base_ = 0;
   std::size_t max_buffer_ = 0;
   bool started_ = false;
