@@ -11,7 +11,9 @@
 // shifted by -d_i (SimulationOptions::grid_offset_s), the simulators advance in lockstep (in
 // chunks of 0.25 s) and their samples are combined with per-axis weights (an axis without a
 // shaper: weight 1 at delay 0). Every simulator is exact at its sample times (simulate.hpp),
-// so the combination is exact too: no resampling.
+// so the combination is exact too: no resampling. In corexy motor space with different X and
+// Y shapers, one simulator per (axis, delay) runs on the plan's X or Y part instead
+// (split_command_taps), and the same sum holds by linearity.
 //
 // The quality meter sees the PLANNED path (the G-code path) as the command and the shaped
 // nozzle as the simulated position, so the shaper's smoothing counts as contour error. The
@@ -220,7 +222,7 @@ struct ShapedPrintResult {
   ShaperSettings settings;
   std::optional<shaping::Shaper> shaper_x, shaper_y;
   SmoothingFigures smoothing;               ///< the shaped command against the plan
-  std::size_t simulators = 0;               ///< distinct delays
+  std::size_t simulators = 0;               ///< distinct delays (or (axis, delay) pairs)
   std::vector<std::string> warnings;
 };
 
