@@ -27,6 +27,7 @@ struct CalibrateArgs {
   std::string csv;
   std::string sweep;
   std::string response_csv;
+  std::optional<int> modes;
   bool json = false;
   bool recommend = false;
   MachineOptions machine;
@@ -120,6 +121,8 @@ void register_resonance(CLI::App& app) {
   cal->add_option("--sweep", a->sweep,
                   "The commanded sweep F0,F1,RATE,ACCEL (Hz, Hz, Hz/s, mm/s^2): adds the "
                   "frequency response and a modal fit (natural frequency, damping ratio, gain)");
+  cal->add_option("--modes", a->modes,
+                  "With --sweep: the number of modes fitted, 1 to 3 (default: chosen by BIC)");
   cal->add_option("--response-csv", a->response_csv,
                   "With --sweep: write the frequency response, its coherence and the model's "
                   "to this file");
@@ -138,6 +141,13 @@ void register_resonance(CLI::App& app) {
     resonance::CalibrateOptions o;
     o.axis = a->axis.front();
     if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
+    if (a->modes) {
+      if (!o.sweep) throw Error("--modes needs --sweep (the modes are fitted to the sweep's response)");
+      if (*a->modes < 1 || *a->modes > resonance::kMaxModes) {
+        throw Error(fmt::format("--modes must be 1 to {}, got {}", resonance::kMaxModes, *a->modes));
+      }
+      o.modes = *a->modes;
+    }
     if (a->recommend && !o.sweep) throw Error("--recommend needs --sweep (the modal model comes from the sweep's fit)");
     if (a->max_smoothing_mm && !a->recommend) throw Error("--max-smoothing-mm needs --recommend");
     const tuning::RecommendOptions ro = recommend_options(a->max_smoothing_mm);

@@ -247,7 +247,7 @@ CalibrationReport calibrate(const AccelFile& file, const std::string& source,
     if (file.format == RecordFormat::klipper_psd) {
       throw Error(fmt::format("{}: --sweep needs a time record, not a PSD", source));
     }
-    r.identification = identify_sweep(file.record, options.axis, *options.sweep);
+    r.identification = identify_sweep(file.record, options.axis, *options.sweep, options.modes);
   }
   normalize_to_frequencies(r.psd);
   r.klipper = klipper_calibrate(r.psd, options.klipper);
@@ -350,6 +350,23 @@ Json to_json(const CalibrationReport& r) {
                       {"natural_frequency_sweep_clock_hz",
                        json_number(m.natural_frequency_hz / id.time_scale)},
                       {"segment_samples", id.segment_samples}};
+    Json modes = Json::array();
+    for (const ModeEstimate& e : m.modes) {
+      modes.push_back(Json{{"natural_frequency_hz", json_number(e.natural_frequency_hz)},
+                           {"natural_frequency_std_hz", json_number(e.natural_frequency_std_hz)},
+                           {"damping_ratio", json_number(e.damping_ratio)},
+                           {"damping_ratio_std", json_number(e.damping_ratio_std)},
+                           {"gain", json_number(e.gain)},
+                           {"gain_std", json_number(e.gain_std)},
+                           {"peak_gain", json_number(e.peak_gain)}});
+    }
+    Json bic = Json::array();
+    for (const double b : m.bic) bic.push_back(json_number(b));
+    j["model"]["modes"] = modes;
+    j["model"]["mode_count"] = m.modes.size();
+    j["model"]["dominant_mode"] = m.dominant_mode;
+    j["model"]["mode_selection"] = std::string(to_string(m.selection));
+    j["model"]["bic"] = bic;
   }
   return j;
 }
@@ -390,6 +407,15 @@ std::string to_text(const CalibrationReport& r) {
                      m.natural_frequency_hz, m.natural_frequency_std_hz, m.damping_ratio,
                      m.damping_ratio_std, m.gain, m.gain_std, m.bins_used,
                      to_string(m.kind), m.rms_residual);
+    if (m.modes.size() > 1) {
+      s += fmt::format("  modes             {} ({}); the figures above are the dominant mode's\n",
+                       m.modes.size(), m.selection == ModeSelection::bic ? "chosen by BIC" : "asked");
+      for (const ModeEstimate& e : m.modes) {
+        s += fmt::format("    f_n {:.3f} +- {:.3f} Hz, damping ratio {:.4f} +- {:.4f}, gain {:.3f} +- {:.3f}, peak gain {:.3f}\n",
+                         e.natural_frequency_hz, e.natural_frequency_std_hz, e.damping_ratio,
+                         e.damping_ratio_std, e.gain, e.gain_std, e.peak_gain);
+      }
+    }
   }
   return s;
 }

@@ -8,6 +8,7 @@
 #include <charconv>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <memory>
 #include <numbers>
 
@@ -268,6 +269,188 @@ std::pair<double, int> levenberg_marquardt(const FitData& d, Params& p) {
   return {cost, it};
 }
 
+// ---- Several modes: H(f) = sum_i g_i h_i(f), parameters (f_i, zeta_i, ln g_i) per mode. ----
+
+/// h(f) for unit gain (complex), the form of `kind`.
+cd unit_response(double fn, double zeta, double f, ModeKind kind) {
+  const double w = kTwoPi * fn;
+  const cd s(0.0, kTwoPi * f);
+  const cd num = kind == ModeKind::base_damped ? 2.0 * zeta * w * s + w * w : cd(w * w, 0.0);
+  return num / (s * s + 2.0 * zeta * w * s + w * w);
+}
+
+double multi_model_gain(const Eigen::VectorXd& p, double f, ModeKind kind) {
+  cd h(0.0, 0.0);
+  for (Eigen::Index i = 0; i + 2 < p.size(); i += 3) h += std::exp(p(i + 2)) * unit_response(p(i), p(i + 1), f, kind);
+  return std::abs(h);
+}
+
+Eigen::VectorXd multi_residuals(const FitData& d, const Eigen::VectorXd& p) {
+  Eigen::VectorXd r(static_cast<Eigen::Index>(d.f.size()));
+  for (std::size_t k = 0; k < d.f.size(); ++k) {
+    r(static_cast<Eigen::Index>(k)) =
+        (std::log(std::max(multi_model_gain(p, d.f[k], d.kind), 1e-300)) - d.log_gain[k]) * d.sqrt_w[k];
+  }
+  return r;
+}
+
+Eigen::MatrixXd multi_jacobian(const FitData& d, const Eigen::VectorXd& p) {
+  Eigen::MatrixXd j(static_cast<Eigen::Index>(d.f.size()), p.size());
+  for (Eigen::Index c = 0; c < p.size(); ++c) {
+    const double step = 1e-6 * std::max(std::abs(p(c)), 1e-3);
+    Eigen::VectorXd a = p, b = p;
+    a(c) += step;
+    b(c) -= step;
+    j.col(c) = (multi_residuals(d, a) - multi_residuals(d, b)) / (2.0 * step);
+  }
+  return j;
+}
+
+/// Bounds: f_n in [0.5 f_min, 2 f_max] of the fitted band, zeta in [1e-4, 0.95], |ln g| <= 30.
+void multi_clamp(Eigen::VectorXd& p, double f_lo, double f_hi) {
+  for (Eigen::Index i = 0; i + 2 < p.size(); i += 3) {
+    p(i) = std::clamp(p(i), f_lo, f_hi);
+    p(i + 1) = std::clamp(p(i + 1), 1e-4, 0.95);
+    p(i + 2) = std::clamp(p(i + 2), -30.0, 30.0);
+  }
+}
+
+/// Levenberg-Marquardt as levenberg_marquardt, on any number of modes.
+std::pair<double, int> multi_levenberg_marquardt(const FitData& d, Eigen::VectorXd& p, double f_lo,
+                                                 double f_hi) {
+  double lambda = 1e-3;
+  multi_clamp(p, f_lo, f_hi);
+  Eigen::VectorXd r = multi_residuals(d, p);
+  double cost = r.squaredNorm();
+  if (!std::isfinite(cost)) return {cost, 0};
+  int it = 0;
+  for (; it < 300; ++it) {
+    const Eigen::MatrixXd j = multi_jacobian(d, p);
+    const Eigen::MatrixXd jtj = j.transpose() * j;
+    const Eigen::VectorXd g = j.transpose() * r;
+    bool improved = false;
+    for (int tries = 0; tries < 30; ++tries) {
+      Eigen::MatrixXd a = jtj;
+      for (Eigen::Index c = 0; c < p.size(); ++c) a(c, c) += lambda * std::max(jtj(c, c), 1e-12);
+      const Eigen::VectorXd delta = a.ldlt().solve(-g);
+      Eigen::VectorXd q = p + delta;
+      multi_clamp(q, f_lo, f_hi);
+      const Eigen::VectorXd rq = multi_residuals(d, q);
+      const double cq = rq.squaredNorm();
+      if (std::isfinite(cq) && cq < cost) {
+        const double rel = (cost - cq) / std::max(cost, 1e-300);
+        p = q;
+        r = rq;
+        cost = cq;
+        lambda = std::max(lambda / 3.0, 1e-12);
+        improved = true;
+        if (rel < 1e-13) return {cost, it + 1};
+        break;
+      }
+      lambda *= 4.0;
+    }
+    if (!improved) break;
+  }
+  return {cost, it};
+}
+
+struct MultiFit {
+  ModeKind kind = ModeKind::base_damped;
+  Eigen::VectorXd p;
+  double cost = std::numeric_limits<double>::infinity();
+  int iterations = 0;
+};
+
+/// The N-mode fit from the (N-1)-mode one of the same kind: a new mode started at each of
+/// the four largest local maxima of the log-gain excess (measured over model), with damping
+/// ratios 0.02, 0.06, 0.15 and 0.3 and the gain that makes its peak the excess; plus a start
+/// with a mode at each of the N highest local maxima of the measured gain. Each refined by
+/// Levenberg-Marquardt; the lowest cost kept (of the fits whose modes are resolved, when
+/// asked: the automatic choice).
+/// Whether the modes of p are told apart: every pair further apart than the sum of their
+/// half-power half-bandwidths (zeta_i f_i + zeta_j f_j), each half-power band 2 zeta f at
+/// least two bins wide (2 df), each natural frequency inside the fitted band [f_first, f_last],
+/// and each peak gain at least 5 % of the largest. A fit that
+/// splits one mode into two close ones (to follow a slight misfit of its shape), puts a spike
+/// between two bins, bends the roll-off with a mode outside the band, or adds a mode of no
+/// consequence is not counted as more modes.
+bool modes_resolved(const Eigen::VectorXd& p, ModeKind kind, double df, double f_first, double f_last) {
+  const Eigen::Index n = p.size() / 3;
+  std::vector<double> peak(static_cast<std::size_t>(n), 0.0);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double fi = p(3 * i), zi = p(3 * i + 1), gi = std::exp(p(3 * i + 2));
+    if (2.0 * zi * fi < 2.0 * df || fi < f_first || fi > f_last) return false;
+    for (int g = 0; g <= 1800; ++g) {
+      const double f = fi * (0.2 + 0.001 * g);
+      peak[static_cast<std::size_t>(i)] = std::max(peak[static_cast<std::size_t>(i)], gi * std::abs(unit_response(fi, zi, f, kind)));
+    }
+    for (Eigen::Index j = 0; j < i; ++j) {
+      const double fj = p(3 * j), zj = p(3 * j + 1);
+      if (std::abs(fi - fj) <= zi * fi + zj * fj) return false;
+    }
+  }
+  const double top = *std::max_element(peak.begin(), peak.end());
+  for (const double v : peak)
+    if (v < 0.05 * top) return false;
+  return true;
+}
+
+MultiFit fit_next_mode(const FitData& d, const MultiFit& prev, double f_lo, double f_hi, double df,
+                       bool require_resolved) {
+  const std::size_t n = d.f.size();
+  const auto modes = static_cast<std::size_t>(prev.p.size() / 3) + 1;
+  std::vector<double> excess(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    excess[k] = d.log_gain[k] - std::log(std::max(multi_model_gain(prev.p, d.f[k], d.kind), 1e-300));
+  }
+  auto local_maxima = [n](const std::vector<double>& v) {
+    std::vector<std::size_t> idx;
+    for (std::size_t k = 0; k < n; ++k) {
+      const bool left = k == 0 || v[k] >= v[k - 1];
+      const bool right = k + 1 == n || v[k] >= v[k + 1];
+      if (left && right) idx.push_back(k);
+    }
+    std::stable_sort(idx.begin(), idx.end(), [&v](std::size_t a, std::size_t b) { return v[a] > v[b]; });
+    return idx;
+  };
+  std::vector<Eigen::VectorXd> starts;
+  const std::vector<std::size_t> ex_peaks = local_maxima(excess);
+  for (std::size_t c = 0; c < std::min<std::size_t>(4, ex_peaks.size()); ++c) {
+    const std::size_t k = ex_peaks[c];
+    const double measured = std::exp(d.log_gain[k]);
+    const double model = multi_model_gain(prev.p, d.f[k], d.kind);
+    const double extra = std::max(measured - model, 0.05 * measured);
+    for (const double zeta : {0.02, 0.06, 0.15, 0.3}) {
+      Eigen::VectorXd q(prev.p.size() + 3);
+      q.head(prev.p.size()) = prev.p;
+      q.tail(3) << d.f[k], zeta, std::log(extra * 2.0 * zeta);
+      starts.push_back(q);
+    }
+  }
+  const std::vector<std::size_t> peaks = local_maxima(d.log_gain);
+  if (peaks.size() >= modes) {
+    Eigen::VectorXd q(static_cast<Eigen::Index>(3 * modes));
+    for (std::size_t i = 0; i < modes; ++i) {
+      const std::size_t k = peaks[i];
+      q.segment(static_cast<Eigen::Index>(3 * i), 3) << d.f[k], 0.08,
+          std::log(std::exp(d.log_gain[k]) * 2.0 * 0.08 / static_cast<double>(modes));
+    }
+    starts.push_back(q);
+  }
+  MultiFit best;
+  best.kind = d.kind;
+  for (Eigen::VectorXd q : starts) {
+    const auto [cost, it] = multi_levenberg_marquardt(d, q, f_lo, f_hi);
+    if (require_resolved && !modes_resolved(q, d.kind, df, d.f.front(), d.f.back())) continue;
+    if (std::isfinite(cost) && cost < best.cost) {
+      best.cost = cost;
+      best.p = q;
+      best.iterations = it;
+    }
+  }
+  return best;
+}
+
 double parse_field(std::string_view field, std::string_view text) {
   double v = 0.0;
   while (!field.empty() && field.front() == ' ') field.remove_prefix(1);
@@ -284,7 +467,14 @@ double parse_field(std::string_view field, std::string_view text) {
 }  // namespace
 
 double model_gain(const ModalFit& f, double freq_hz) {
-  return f.gain * unit_gain(f.natural_frequency_hz, f.damping_ratio, freq_hz, f.kind);
+  if (f.modes.size() <= 1) return f.gain * unit_gain(f.natural_frequency_hz, f.damping_ratio, freq_hz, f.kind);
+  cd h(0.0, 0.0);
+  for (const ModeEstimate& m : f.modes) h += m.gain * unit_response(m.natural_frequency_hz, m.damping_ratio, freq_hz, f.kind);
+  return std::abs(h);
+}
+
+std::string_view to_string(ModeSelection selection) {
+  return selection == ModeSelection::asked ? "asked" : "bic";
 }
 
 std::string_view to_string(ModeKind kind) {
@@ -313,8 +503,12 @@ SweepExcitation parse_sweep(std::string_view text) {
   return s;
 }
 
-SweepIdentification identify_sweep(const AccelRecord& record, char axis, const SweepExcitation& sweep) {
+SweepIdentification identify_sweep(const AccelRecord& record, char axis, const SweepExcitation& sweep,
+                                   int mode_count) {
   if (axis != 'x' && axis != 'y') throw Error(fmt::format("axis must be x or y, got '{}'", axis));
+  if (mode_count < 0 || mode_count > kMaxModes) {
+    throw Error(fmt::format("--modes must be 1 to {} (or automatic), got {}", kMaxModes, mode_count));
+  }
   const RecordQuality q = assess_record(record);
   const double fs = q.sample_rate_hz;
   if (sweep.f1_hz >= 0.5 * fs) {
@@ -471,10 +665,16 @@ SweepIdentification identify_sweep(const AccelRecord& record, char axis, const S
   Params best_p{};
   int best_it = 0;
   ModeKind best_kind = ModeKind::base_damped;
+  std::array<MultiFit, 2> one_mode;  // per kind: the seeds of the fits with more modes
   for (const ModeKind kind : {ModeKind::base_damped, ModeKind::ground_damped}) {
     data.kind = kind;
     Params p = grid_start(data, data.f[peak], df);
     const auto [cost, it] = levenberg_marquardt(data, p);
+    MultiFit& seed = one_mode[kind == ModeKind::base_damped ? 0 : 1];
+    seed.kind = kind;
+    seed.p = Eigen::Vector3d(p[0], p[1], p[2]);
+    seed.cost = cost;
+    seed.iterations = it;
     if (cost < best_cost) {
       best_cost = cost;
       best_p = p;
@@ -498,6 +698,94 @@ SweepIdentification identify_sweep(const AccelRecord& record, char axis, const S
   fit.natural_frequency_std_hz = std::sqrt(std::max(0.0, cov(0, 0)));
   fit.damping_ratio_std = std::sqrt(std::max(0.0, cov(1, 1)));
   fit.gain_std = fit.gain * std::sqrt(std::max(0.0, cov(2, 2)));
+  fit.modes.push_back(ModeEstimate{fit.natural_frequency_hz, fit.natural_frequency_std_hz, fit.damping_ratio,
+                                   fit.damping_ratio_std, fit.gain, fit.gain_std, 0.0});
+  {
+    double peak_gain = 0.0;  // max over f of g |h(f)|, on a 0.1 % grid from 0.2 f_n to 2 f_n
+    for (int i = 0; i <= 1800; ++i) {
+      const double f = fit.natural_frequency_hz * (0.2 + 0.001 * i);
+      peak_gain = std::max(peak_gain, fit.gain * unit_gain(fit.natural_frequency_hz, fit.damping_ratio, f, fit.kind));
+    }
+    fit.modes.front().peak_gain = peak_gain;
+  }
+  // 4. More modes: N = 2..max from N - 1 (per kind), BIC(N) = n ln(RSS / n) + 3 N ln n; the
+  // automatic choice only counts fits whose modes are resolved (modes_resolved).
+  const auto n_bins = static_cast<double>(data.f.size());
+  auto bic = [n_bins](double cost, int modes) {
+    return n_bins * std::log(std::max(cost, 1e-300) / n_bins) + 3.0 * modes * std::log(n_bins);
+  };
+  fit.selection = mode_count == 0 ? ModeSelection::bic : ModeSelection::asked;
+  fit.bic.push_back(bic(best_cost, 1));
+  const int max_modes = mode_count == 0 ? kMaxModes : mode_count;
+  const double f_lo = 0.5 * data.f.front();
+  const double f_hi = 2.0 * data.f.back();
+  std::array<MultiFit, 2> prev = one_mode;
+  MultiFit chosen;
+  int chosen_modes = 1;
+  double chosen_bic = fit.bic.front();
+  for (int nm = 2; nm <= max_modes; ++nm) {
+    // A fit needs more bins than parameters (and some to spare for its residual).
+    if (data.f.size() < static_cast<std::size_t>(3 * nm + 5)) break;
+    MultiFit best_n;
+    for (std::size_t kk = 0; kk < 2; ++kk) {
+      data.kind = prev[kk].kind;
+      MultiFit f = fit_next_mode(data, prev[kk], f_lo, f_hi, df, mode_count == 0);
+      if (f.p.size() == 0) f = prev[kk];  // no start: keep the smaller model's
+      prev[kk] = f;
+      if (f.p.size() == Eigen::Index{3} * nm && f.cost < best_n.cost) best_n = f;
+    }
+    if (best_n.p.size() != Eigen::Index{3} * nm) break;
+    const double b = bic(best_n.cost, nm);
+    fit.bic.push_back(b);
+    if (mode_count == nm || (mode_count == 0 && b < chosen_bic)) {
+      chosen = best_n;
+      chosen_modes = nm;
+      chosen_bic = b;
+    }
+  }
+  if (mode_count > 1 && chosen_modes != mode_count) {
+    throw Error(fmt::format("{}: {} coherent bins are too few for --modes {}", record.source,
+                            data.f.size(), mode_count));
+  }
+  if (chosen_modes > 1) {
+    data.kind = chosen.kind;
+    const Eigen::Index np = chosen.p.size();
+    const double dof_n = std::max(1.0, n_bins - static_cast<double>(np));
+    const double s2_n = chosen.cost / dof_n;
+    const Eigen::MatrixXd jn = multi_jacobian(data, chosen.p);
+    const Eigen::MatrixXd cov_n = (jn.transpose() * jn).completeOrthogonalDecomposition().pseudoInverse() * s2_n;
+    fit.modes.clear();
+    for (Eigen::Index i = 0; i < np; i += 3) {
+      ModeEstimate m;
+      m.natural_frequency_hz = chosen.p(i);
+      m.damping_ratio = chosen.p(i + 1);
+      m.gain = std::exp(chosen.p(i + 2));
+      m.natural_frequency_std_hz = std::sqrt(std::max(0.0, cov_n(i, i)));
+      m.damping_ratio_std = std::sqrt(std::max(0.0, cov_n(i + 1, i + 1)));
+      m.gain_std = m.gain * std::sqrt(std::max(0.0, cov_n(i + 2, i + 2)));
+      for (int g = 0; g <= 1800; ++g) {
+        const double f = m.natural_frequency_hz * (0.2 + 0.001 * g);
+        m.peak_gain = std::max(m.peak_gain, m.gain * unit_gain(m.natural_frequency_hz, m.damping_ratio, f, chosen.kind));
+      }
+      fit.modes.push_back(m);
+    }
+    std::sort(fit.modes.begin(), fit.modes.end(), [](const ModeEstimate& a, const ModeEstimate& b) {
+      return a.natural_frequency_hz < b.natural_frequency_hz;
+    });
+    fit.dominant_mode = 0;
+    for (std::size_t i = 1; i < fit.modes.size(); ++i)
+      if (fit.modes[i].peak_gain > fit.modes[fit.dominant_mode].peak_gain) fit.dominant_mode = i;
+    const ModeEstimate& dom = fit.modes[fit.dominant_mode];
+    fit.kind = chosen.kind;
+    fit.natural_frequency_hz = dom.natural_frequency_hz;
+    fit.natural_frequency_std_hz = dom.natural_frequency_std_hz;
+    fit.damping_ratio = dom.damping_ratio;
+    fit.damping_ratio_std = dom.damping_ratio_std;
+    fit.gain = dom.gain;
+    fit.gain_std = dom.gain_std;
+    fit.rms_residual = std::sqrt(s2_n);
+    fit.iterations = chosen.iterations;
+  }
   return out;
 }
 

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -18,6 +19,11 @@ std::string synthetic_sweep_csv(const SyntheticSweep& s) {
   if (!(s.f1_hz > s.f0_hz)) throw Error("f1_hz must be above f0_hz");
   require_non_negative("lead_s", s.lead_s);
   if (!(s.damping_ratio >= 0 && s.damping_ratio < 1)) throw Error("damping_ratio must be in [0, 1)");
+  for (const SyntheticMode& m : s.extra_modes) {
+    require_positive("extra_modes.natural_freq_hz", m.natural_freq_hz);
+    if (!(m.damping_ratio >= 0 && m.damping_ratio < 1)) throw Error("extra_modes.damping_ratio must be in [0, 1)");
+    if (!std::isfinite(m.gain)) throw Error("extra_modes.gain must be finite");
+  }
   const double w = 2.0 * std::numbers::pi * s.natural_freq_hz;
   const double sweep_s = (s.f1_hz - s.f0_hz) / s.rate_hz_s;
   const double total_s = sweep_s + 2.0 * s.lead_s;
@@ -31,6 +37,7 @@ std::string synthetic_sweep_csv(const SyntheticSweep& s) {
   };
   // state: relative position and velocity
   std::array<double, 2> x{0.0, 0.0};
+  std::vector<std::array<double, 2>> extra(s.extra_modes.size(), std::array<double, 2>{0.0, 0.0});
   auto deriv = [&](double t, const std::array<double, 2>& y) {
     return std::array<double, 2>{y[1], -base(t) - 2.0 * s.damping_ratio * w * y[1] - w * w * y[0]};
   };
@@ -46,7 +53,12 @@ std::string synthetic_sweep_csv(const SyntheticSweep& s) {
   out.reserve(n * 40);
   for (std::size_t i = 0; i < n; ++i) {
     const double t = static_cast<double>(i) * dt;
-    const double a = -(2.0 * s.damping_ratio * w * x[1] + w * w * x[0]);
+    double a = -(2.0 * s.damping_ratio * w * x[1] + w * w * x[0]);
+    for (std::size_t e = 0; e < s.extra_modes.size(); ++e) {
+      const SyntheticMode& m = s.extra_modes[e];
+      const double we = 2.0 * std::numbers::pi * m.natural_freq_hz;
+      a += -m.gain * (2.0 * m.damping_ratio * we * extra[e][1] + we * we * extra[e][0]);
+    }
     const double main = a + s.noise_mm_s2 * uniform();
     const double cross = 0.05 * a + s.noise_mm_s2 * uniform();
     const double z = 9810.0 + s.noise_mm_s2 * uniform();
@@ -61,6 +73,23 @@ std::string synthetic_sweep_csv(const SyntheticSweep& s) {
       const auto k4 = deriv(tk + h, {x[0] + h * k3[0], x[1] + h * k3[1]});
       x[0] += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]);
       x[1] += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]);
+    }
+    for (std::size_t e = 0; e < s.extra_modes.size(); ++e) {
+      const SyntheticMode& m = s.extra_modes[e];
+      const double we = 2.0 * std::numbers::pi * m.natural_freq_hz;
+      auto de = [&](double tt, const std::array<double, 2>& y) {
+        return std::array<double, 2>{y[1], -base(tt) - 2.0 * m.damping_ratio * we * y[1] - we * we * y[0]};
+      };
+      std::array<double, 2>& xe = extra[e];
+      for (int k = 0; k < sub; ++k) {
+        const double tk = t + k * h;
+        const auto k1 = de(tk, xe);
+        const auto k2 = de(tk + h / 2, {xe[0] + h / 2 * k1[0], xe[1] + h / 2 * k1[1]});
+        const auto k3 = de(tk + h / 2, {xe[0] + h / 2 * k2[0], xe[1] + h / 2 * k2[1]});
+        const auto k4 = de(tk + h, {xe[0] + h * k3[0], xe[1] + h * k3[1]});
+        xe[0] += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]);
+        xe[1] += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]);
+      }
     }
   }
   return out;

@@ -21,10 +21,7 @@ std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
   if (motor_space) {
     const bool same = x.has_value() == y.has_value() &&
                       (!x || (x->amplitudes == y->amplitudes && x->times_s == y->times_s));
-    if (!same) {
-      throw Error("a different input shaper on X and Y in motor space (--motor-space) is not "
-                  "supported yet: give the same shaper to both axes");
-    }
+    if (!same) return split_command_taps(x, y);
   }
   std::vector<CommandTap> taps;
   auto tap_at = [&](double d) -> CommandTap& {
@@ -47,6 +44,46 @@ std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
             [](const CommandTap& a, const CommandTap& b) { return a.delay_s < b.delay_s; });
   return taps;
 }
+
+std::vector<CommandTap> split_command_taps(const std::optional<shaping::Shaper>& x,
+                                           const std::optional<shaping::Shaper>& y) {
+  std::vector<CommandTap> taps;
+  const std::optional<shaping::Shaper>* axes[2] = {&x, &y};
+  for (int a = 0; a < 2; ++a) {
+    std::vector<CommandTap> part;
+    auto add = [&](double d, double w) {
+      for (CommandTap& t : part) {
+        if (t.delay_s == d) {
+          t.weight[0] += w;
+          t.weight[1] += w;
+          return;
+        }
+      }
+      part.push_back(CommandTap{d, {w, w}, a});
+    };
+    if (!axes[a]->has_value()) {
+      add(0.0, 1.0);
+    } else {
+      const shaping::AppliedPulses p = shaping::applied_pulses(**axes[a]);
+      for (std::size_t i = 0; i < p.weights.size(); ++i) add(p.delays_s[i], p.weights[i]);
+    }
+    std::sort(part.begin(), part.end(),
+              [](const CommandTap& l, const CommandTap& r) { return l.delay_s < r.delay_s; });
+    taps.insert(taps.end(), part.begin(), part.end());
+  }
+  return taps;
+}
+
+namespace {
+/// The move with only its cartesian `axis` part: the other axis' start and direction set to 0
+/// (Z and E kept: the simulated axes are X and Y, or the motors made of them).
+plan::PlannedMove plan_part(plan::PlannedMove m, int axis) {
+  const std::size_t other = axis == 0 ? 1 : 0;
+  m.start_mm[other] = 0.0;
+  m.axes_r[other] = 0.0;
+  return m;
+}
+}  // namespace
 
 // ------------------------------------------------------------------------------ streaming
 struct ShapedStreamingSimulation::Tap {
@@ -90,6 +127,8 @@ ShapedStreamingSimulation::ShapedStreamingSimulation(const dy::AxisModel& m0, co
   k_start_ = std::min<long long>(k_start_, 0);
   lookahead_ = max_delay_s_ > 0.0 ? static_cast<std::size_t>(std::ceil(max_delay_s_ / h_ - 1e-9)) : 0;
   for (const CommandTap& t : taps) {
+    AMCTL_CHECK(t.plan_axis >= -1 && t.plan_axis <= 1, "a tap's plan_axis is -1, 0 or 1");
+    if (t.plan_axis >= 0) split_ = true;
     dy::SimulationOptions o = so;
     o.vibration_per_sample = false;
     o.modal_state_per_sample = true;
@@ -99,6 +138,9 @@ ShapedStreamingSimulation::ShapedStreamingSimulation(const dy::AxisModel& m0, co
   }
   mode_axes_ = taps_.front()->sim.mode_axes();
   buf_.reserve(3 * window_ + 1);
+  if (split_) {
+    for (auto& b : part_buf_) b.reserve(3 * window_ + 1);
+  }
 }
 
 ShapedStreamingSimulation::~ShapedStreamingSimulation() = default;
@@ -215,7 +257,9 @@ void ShapedStreamingSimulation::run(double t_stop, bool final) {
   auto advance_all = [&](double tc, bool fin) {
     for (std::size_t i = 0; i < taps_.size(); ++i) {
       Tap& tap = *taps_[i];
-      tap.sim.advance(buf_, base_, tc - tap.tap.delay_s, fin,
+      const std::vector<plan::PlannedMove>& moves =
+          tap.tap.plan_axis < 0 ? buf_ : part_buf_[static_cast<std::size_t>(tap.tap.plan_axis)];
+      tap.sim.advance(moves, base_, tc - tap.tap.delay_s, fin,
                       [&, i](const dy::SimSample& s) { contribute(i, s, taps_[i]->sim.modal_state()); });
     }
     emit(plan_cursor, fin);
@@ -253,6 +297,10 @@ void ShapedStreamingSimulation::push(const plan::PlannedMove& m) {
     last_dir_[1] = dir[1];
   }
   buf_.push_back(m);
+  if (split_) {
+    part_buf_[0].push_back(plan_part(m, 0));
+    part_buf_[1].push_back(plan_part(m, 1));
+  }
   max_buffer_ = std::max(max_buffer_, buf_.size());
   if (buf_.size() < 3 * window_) return;
   // Every simulator needs the plan up to its own time t - d_i + one step: stop where the
@@ -275,6 +323,9 @@ void ShapedStreamingSimulation::push(const plan::PlannedMove& m) {
     return;
   }
   buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(drop));
+  if (split_) {
+    for (auto& b : part_buf_) b.erase(b.begin(), b.begin() + static_cast<std::ptrdiff_t>(drop));
+  }
   base_ += drop;
 }
 

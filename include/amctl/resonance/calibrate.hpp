@@ -87,6 +87,8 @@ struct CalibrateOptions {
   /// The commanded sweep, when known: adds the frequency response and the modal fit
   /// (identify_sweep; time records only).
   std::optional<SweepExcitation> sweep;
+  /// With a sweep: the number of modes fitted (1..kMaxModes), 0 to choose it by BIC.
+  int modes = 0;
 };
 
 struct CalibrationReport {
@@ -114,7 +116,9 @@ struct CalibrationReport {
 /// klipper{recommended{name, freq_hz}, shapers[{name, freq_hz, vibrations, smoothing,
 /// max_accel_mm_s2, score}]}; with a sweep, model{natural_frequency_hz,
 /// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std,
-/// rms_residual, bins_used, sweep_start_s, alignment_peak, segment_samples}.
+/// rms_residual, bins_used, sweep_start_s, alignment_peak, segment_samples, mode_count,
+/// mode_selection (asked|bic), bic[], dominant_mode, modes[{natural_frequency_hz,
+/// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std, peak_gain}]}.
 [[nodiscard]] Json to_json(const CalibrationReport& report);
 [[nodiscard]] std::string to_text(const CalibrationReport& report);
 

@@ -44,6 +44,26 @@ struct ResponseBin {
 enum class ModeKind { base_damped, ground_damped };
 [[nodiscard]] std::string_view to_string(ModeKind kind);
 
+/// One mode of a fit with several: H(f) = sum_i g_i h_i(f), h_i the unit-gain form of its
+/// kind (all modes of a fit share the kind); |H| is what is fitted.
+struct ModeEstimate {
+  double natural_frequency_hz = 0.0;
+  double natural_frequency_std_hz = 0.0;
+  double damping_ratio = 0.0;
+  double damping_ratio_std = 0.0;
+  double gain = 0.0;  ///< g_i > 0
+  double gain_std = 0.0;
+  double peak_gain = 0.0;  ///< max over f of g_i |h_i(f)|: what makes a mode the dominant one
+};
+
+/// How the number of modes was chosen: asked (`--modes N`) or by the Bayesian information
+/// criterion BIC(N) = n ln(RSS_N / n) + 3 N ln n over N = 1..3 (n bins, RSS_N the weighted
+/// residual sum of squares of the N-mode fit), the smallest BIC.
+enum class ModeSelection { asked, bic };
+[[nodiscard]] std::string_view to_string(ModeSelection selection);
+
+/// The natural frequency, damping ratio and gain (and their uncertainties) are the dominant
+/// mode's (the largest peak gain); with one mode they are the one-mode fit's.
 struct ModalFit {
   ModeKind kind = ModeKind::base_damped;
   double natural_frequency_hz = 0.0;
@@ -55,7 +75,14 @@ struct ModalFit {
   double rms_residual = 0.0;  ///< weighted log-gain residual per degree of freedom
   std::size_t bins_used = 0;
   int iterations = 0;
+  std::vector<ModeEstimate> modes;  ///< every mode, by natural frequency (one with N = 1)
+  std::size_t dominant_mode = 0;    ///< index in `modes`
+  ModeSelection selection = ModeSelection::bic;
+  std::vector<double> bic;          ///< BIC(N) for N = 1, 2, ... (those fitted)
 };
+
+/// Largest number of modes fitted (`--modes` and the automatic choice).
+inline constexpr int kMaxModes = 3;
 
 struct SweepIdentification {
   SweepExcitation sweep;
@@ -69,12 +96,14 @@ struct SweepIdentification {
   ModalFit model;
 };
 
-/// The fitted model's gain |H(f)|.
+/// The fitted model's gain |H(f)| (the sum of every mode).
 [[nodiscard]] double model_gain(const ModalFit& fit, double freq_hz);
 
-/// Identifies the mode on `axis` ('x' or 'y'). Throws amctl::Error naming the record when the
-/// sweep does not fit in it, exceeds the Nyquist frequency, or leaves too few coherent bins.
+/// Identifies the modes on `axis` ('x' or 'y'): `mode_count` modes (1..kMaxModes), or 0 to
+/// choose 1..kMaxModes by BIC. Throws amctl::Error naming the record when the sweep does not
+/// fit in it, exceeds the Nyquist frequency, or leaves too few coherent bins, and naming
+/// `--modes` when mode_count is outside 0..kMaxModes.
 [[nodiscard]] SweepIdentification identify_sweep(const AccelRecord& record, char axis,
-                                                 const SweepExcitation& sweep);
+                                                 const SweepExcitation& sweep, int mode_count = 0);
 
 }  // namespace amctl::resonance

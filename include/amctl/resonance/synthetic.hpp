@@ -3,8 +3,17 @@
 // Klipper on a record whose answer is known.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace amctl::resonance {
+
+/// A further mode of a synthetic record: the record holds gain * its absolute acceleration
+/// (the same base-driven form, integrated beside the main mode) added to the main mode's.
+struct SyntheticMode {
+  double natural_freq_hz = 0.0;
+  double damping_ratio = 0.0;
+  double gain = 0.0;
+};
 
 /// A single mode (natural frequency f_n, damping ratio zeta) on `axis` driven by a linear
 /// sine sweep of the base acceleration a(t) = A sin(2 pi (f0 t + rate t^2 / 2)) from f0 to f1
@@ -29,6 +38,8 @@ struct SyntheticSweep {
   double noise_mm_s2 = 50.0; ///< half width of the uniform noise
   char axis = 'x';
   std::uint64_t seed = 1;
+  /// Modes beside the main one (which has gain 1): the response is 1 h_main + sum g_i h_i.
+  std::vector<SyntheticMode> extra_modes;
 };
 
 /// The record as Klipper-raw CSV text.

@@ -11,7 +11,9 @@
 // shifted by -d_i (SimulationOptions::grid_offset_s), the simulators advance in lockstep (in
 // chunks of 0.25 s) and their samples are combined with per-axis weights (an axis without a
 // shaper: weight 1 at delay 0). Every simulator is exact at its sample times (simulate.hpp),
-// so the combination is exact too: no resampling.
+// so the combination is exact too: no resampling. In corexy motor space with different X and
+// Y shapers, one simulator per (axis, delay) runs on the plan's X or Y part instead
+// (split_command_taps), and the same sum holds by linearity.
 //
 // The quality meter sees the PLANNED path (the G-code path) as the command and the shaped
 // nozzle as the simulated position, so the shaper's smoothing counts as contour error. The
@@ -39,18 +41,29 @@
 namespace amctl::simulation {
 
 /// One delay of the shaped command with its weight on each simulated axis (0: X or motor A,
-/// 1: Y or motor B; 0 where the axis has no impulse at this delay).
+/// 1: Y or motor B; 0 where the axis has no impulse at this delay), and the part of the plan
+/// its simulator runs on: the whole plan (-1), or only its X (0) or Y (1) part, the other
+/// cartesian axis held at 0 (the motor-space split of docs/dynamics.md section 7).
 struct CommandTap {
   double delay_s = 0.0;
   std::array<double, 2> weight{};
+  int plan_axis = -1;
 };
 
 /// The taps of a shaper per axis (nullopt: the axis follows the plan), merged by delay. In
-/// motor space (corexy A, B) both axes must have the same shaper (or none): a different
-/// shaper per axis throws amctl::Error (not supported yet).
+/// motor space (corexy A, B) with the same shaper (or none) on both axes, the same; with a
+/// different shaper per axis, split_command_taps.
 [[nodiscard]] std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
                                                    const std::optional<shaping::Shaper>& y,
                                                    bool motor_space);
+
+/// The shaped command split by cartesian axis: for X, a tap per delay d_i of its shaper
+/// (weight a_i on both simulated axes) running on the plan's X part; for Y the same with its
+/// own shaper on the Y part (an unshaped axis: weight 1 at delay 0). Exact for any linear
+/// motor map (corexy: the motors' commands A = X_s + Y_s, B = X_s - Y_s hold both shapers),
+/// at the cost of one simulator per (axis, delay) pair.
+[[nodiscard]] std::vector<CommandTap> split_command_taps(const std::optional<shaping::Shaper>& x,
+                                                         const std::optional<shaping::Shaper>& y);
 
 /// The shaped command's own deviation from the plan.
 struct SmoothingFigures {
@@ -110,6 +123,9 @@ class ShapedStreamingSimulation {
   long long k_start_ = 0;       // combined sample k is at t0 + (k_start_ + k) h
   std::size_t lookahead_ = 0;   // samples from a sample to the one its residual is read at
   std::vector<plan::PlannedMove> buf_;
+  /// With split taps: buf_'s moves with only their X (0) or Y (1) part, else empty.
+  std::array<std::vector<plan::PlannedMove>, 2> part_buf_;
+  bool split_ = false;
   std::size_t base_ = 0;
   std::size_t max_buffer_ = 0;
   bool started_ = false;
@@ -206,7 +222,7 @@ struct ShapedPrintResult {
   ShaperSettings settings;
   std::optional<shaping::Shaper> shaper_x, shaper_y;
   SmoothingFigures smoothing;               ///< the shaped command against the plan
-  std::size_t simulators = 0;               ///< distinct delays
+  std::size_t simulators = 0;               ///< distinct delays (or (axis, delay) pairs)
   std::vector<std::string> warnings;
 };
 
