@@ -30,6 +30,7 @@ struct CompensateArgs {
   int degree = 3;
   double rate_hz = 1000.0;
   std::optional<double> lead_in_s;
+  std::optional<double> window_s, overlap_s;
   std::string csv;
   bool json = false;
 };
@@ -72,6 +73,14 @@ void run_compensate(const CompensateArgs& a) {
   o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
   o.degree = a.degree;
   o.lead_in_s = a.lead_in_s.value_or(-1.0);
+  if ((a.window_s || a.overlap_s) && o.method != cp::Method::lpfbf)
+    throw Error("--window-s and --overlap-s are options of --method lpfbf");
+  if (a.window_s && !(*a.window_s > 0.0))
+    throw Error(fmt::format("--window-s {} must be > 0", *a.window_s));
+  if (a.overlap_s && !(*a.overlap_s >= 0.0))
+    throw Error(fmt::format("--overlap-s {} must be >= 0", *a.overlap_s));
+  o.window_s = a.window_s.value_or(-1.0);
+  o.overlap_s = a.overlap_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);
   const cp::CompensationResult r = cp::compensate_file(a.file, m, o);
   cp::write_csv(r, a.csv);
@@ -100,8 +109,8 @@ void register_compensate(CLI::App& app) {
   sub->add_option("file", a->file, "G-code file")->required();
   add_machine_options(*sub, a->machine);
   sub->add_option("--method", a->method,
-                  "invert (exact model inverse) | fbf (filtered B-splines); lpfbf, rfbf and "
-                  "collocation are not implemented yet");
+                  "invert (exact model inverse) | fbf (filtered B-splines) | lpfbf (limited-preview "
+                  "FBF, windowed); rfbf and collocation are not implemented yet");
   sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]");
   sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
   sub->add_option("--mode", a->modes, "model mode F,Z[,G] (repeatable) instead of the belt flags");
@@ -110,6 +119,8 @@ void register_compensate(CLI::App& app) {
   sub->add_option("--plant-damping-ratio", a->plant_zeta, "plant damping ratio (default: the model)");
   sub->add_option("--knot-spacing-s", a->knot_spacing_s, "fbf: B-spline knot spacing [s] (default: auto)");
   sub->add_option("--degree", a->degree, "fbf: B-spline degree (default 3)");
+  sub->add_option("--window-s", a->window_s, "lpfbf: window length [s] (default: auto)");
+  sub->add_option("--overlap-s", a->overlap_s, "lpfbf: window overlap [s] (default: half the window)");
   sub->add_option("--lead-in-s", a->lead_in_s, "command time before the first move [s] (default: auto)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step [Hz] (default 1000)");
   sub->add_option("--csv", a->csv, "command CSV (written whole or not at all)")->required();

@@ -21,12 +21,20 @@ namespace amctl::compensation {
 Method parse_method(const std::string& name) {
   if (name == "invert") return Method::invert;
   if (name == "fbf") return Method::fbf;
-  if (name == "lpfbf" || name == "rfbf" || name == "collocation")
-    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf)", name));
-  throw Error(fmt::format("--method: '{}' is not a method; expected invert or fbf", name));
+  if (name == "lpfbf") return Method::lpfbf;
+  if (name == "rfbf" || name == "collocation")
+    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf, lpfbf)", name));
+  throw Error(fmt::format("--method: '{}' is not a method; expected invert, fbf or lpfbf", name));
 }
 
-const char* method_name(Method m) { return m == Method::invert ? "invert" : "fbf"; }
+const char* method_name(Method m) {
+  switch (m) {
+    case Method::invert: return "invert";
+    case Method::fbf: return "fbf";
+    case Method::lpfbf: return "lpfbf";
+  }
+  return "?";
+}
 
 namespace detail {
 
@@ -122,7 +130,7 @@ void validate(const CompensationOptions& o) {
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
                                   {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
-  if (o.method == Method::fbf) {
+  if (o.method == Method::fbf || o.method == Method::lpfbf) {
     if (o.degree < 1 || o.degree > 7)
       throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
   }
@@ -191,8 +199,10 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
       r.status = "ok";
       r.message = run.unbounded_jerk ? "command acceleration bounded; command jerk has steps or impulses" : "";
     }
-  } else {
+  } else if (options.method == Method::fbf) {
     detail::run_fbf(moves, options, auto_tail, grid, r);
+  } else {
+    detail::run_lpfbf(moves, options, auto_tail, grid, r);
   }
 
   // The check: the sampled command simulated on the plant.
@@ -261,6 +271,15 @@ Json to_json(const CompensationResult& r) {
     j["knot_spacing_s"] = json_number(r.knot_spacing_s);
     j["degree"] = r.degree;
     j["basis_functions"] = r.basis_functions;
+  }
+  if (r.method == "lpfbf") {
+    j["knot_spacing_s"] = json_number(r.knot_spacing_s);
+    j["degree"] = r.degree;
+    j["basis_functions"] = r.basis_functions;
+    j["window_s"] = json_number(r.window_s);
+    j["overlap_s"] = json_number(r.overlap_s);
+    j["windows"] = r.windows;
+    j["max_held_samples"] = r.max_held_samples;
   }
   return j;
 }

@@ -2,7 +2,9 @@
 // Internals of amctl::compensation (not installed): the exact inverse filter, the sample grid,
 // the FBF solver and the contour distance.
 #include <cstddef>
+#include <deque>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -77,6 +79,66 @@ Basis make_basis(int p, int q, double h);
 /// The model's nozzle response to the command N_0 (from rest) at samples m h, exact, truncated
 /// once the vibration after the support has decayed below 1e-10 of its peak.
 std::vector<double> filtered_response(const dynamics::AxisModel& model, const Basis& b);
+
+/// FBF's grid: knot spacing q h, M knots (the end spline from knot M - p), lead-in, tail.
+struct FbfLayout {
+  Grid grid;
+  int q = 1, M = 0;
+  double settle_s = 0.0;  ///< 4 / (zeta w) of the model's slowest mode [s]
+};
+FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+                     double auto_tail_s);
+/// r.t_s, r.x_des_mm, r.y_des_mm on the grid.
+void sample_desired(std::span<const plan::PlannedMove> moves, const Grid& grid, CompensationResult& r);
+
+/// The normal matrix of n shifted copies (by q samples) of R over `rows` samples, factorised
+/// in place (banded Cholesky, bandwidth (len(R) - 1) / q).
+class BandedCholesky {
+ public:
+  BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows);
+  /// Solves G c = b in place.
+  void solve(std::vector<double>& c) const;
+
+ private:
+  int n_ = 0, L_ = 0;
+  std::vector<double> band_;
+};
+
+/// LPFBF on one axis, streaming: push the desired samples of the grid one by one; every full
+/// window is solved as soon as its samples (and p knots more) are in; finish() solves the last
+/// window with the end spline fixed. Holds O(window + len(R)) samples.
+class LpfbfAxis {
+ public:
+  LpfbfAxis(std::vector<double> R, const Basis& basis, int window_knots, int overlap_knots, double x0);
+  void push(double x_des_mm);
+  void finish(std::size_t K, int M, double x_end_mm);
+  /// Command samples final so far (removed from the axis).
+  std::vector<double> take_command() { return std::exchange(out_cmd_, {}); }
+  std::vector<double> take_accel() { return std::exchange(out_acc_, {}); }
+  [[nodiscard]] std::size_t windows() const { return windows_; }
+  [[nodiscard]] std::size_t max_held_samples() const { return held_max_; }
+
+ private:
+  double at(const std::deque<double>& d, std::size_t k) const;
+  void add_to(std::deque<double>& d, std::size_t k, double v);
+  void solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep);
+  void commit(double w);
+  void emit(std::size_t upto);
+
+  std::vector<double> R_, val_, acc_;
+  int p_ = 3, q_ = 1, nw_ = 1, step_ = 1;
+  double x0_ = 0.0;
+  BandedCholesky window_;
+  int s_ = 0;                  ///< first free coefficient
+  std::size_t base_ = 0;       ///< grid index of the deques' front
+  std::size_t pushed_ = 0, windows_ = 0, held_max_ = 0;
+  std::deque<double> des_, fixed_, cmd_, acc_out_;
+  std::vector<double> out_cmd_, out_acc_;
+};
+
+/// LPFBF over the whole plan (the grid and the end spline as FBF).
+void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+               double auto_tail_s, Grid& grid, CompensationResult& r);
 
 /// FBF: fills the grid, the command and the basis fields of r.
 void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,

@@ -131,8 +131,10 @@ std::vector<double> filtered_response(const dynamics::AxisModel& model, const Ba
   return R;
 }
 
-void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
-             double auto_tail_s, Grid& grid, CompensationResult& r) {
+FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+                     double auto_tail_s) {
+  FbfLayout lay;
+  Grid& grid = lay.grid;
   const double h = 1.0 / o.sample_rate_hz;
   const int p = o.degree;
   double f_max = std::max(o.model_x.max_natural_frequency_hz(), o.model_y.max_natural_frequency_hz());
@@ -149,6 +151,7 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
   const double T = q * h;
   const double t_begin = moves.front().start_time_s, t_end_motion = moves.back().end_time_s();
 
+  lay.settle_s = std::isfinite(decay) && decay > 0 ? 4.0 / decay : 0.0;
   const double lead = o.lead_in_s >= 0.0 ? o.lead_in_s
                                          : std::min(1.0, std::isfinite(decay) && decay > 0 ? 4.0 / decay : 1.0);
   const double tail = o.tail_s >= 0.0 ? o.tail_s : auto_tail_s;
@@ -164,12 +167,12 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
         "--knot-spacing-s {}: the basis ({} free B-splines of degree {}) does not cover the "
         "trajectory ({:.4g} s with lead-in and tail); use a finer knot spacing",
         T, std::max(J, 0), p, M * T));
+  lay.q = q;
+  lay.M = M;
+  return lay;
+}
 
-  r.knot_spacing_s = T;
-  r.degree = p;
-  r.basis_functions = static_cast<std::size_t>(J);
-  r.lead_in_s = static_cast<double>(grid.lead_steps) * h;
-  r.tail_s = grid.t(grid.count - 1) - t_end_motion;
+void sample_desired(std::span<const plan::PlannedMove> moves, const Grid& grid, CompensationResult& r) {
   const std::size_t K = grid.count;
   r.t_s.resize(K);
   r.x_des_mm.resize(K);
@@ -181,6 +184,23 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
     r.x_des_mm[k] = s.pos_mm[0];
     r.y_des_mm[k] = s.pos_mm[1];
   }
+}
+
+void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+             double auto_tail_s, Grid& grid, CompensationResult& r) {
+  const FbfLayout lay = fbf_layout(moves, o, auto_tail_s);
+  grid = lay.grid;
+  const double h = grid.h;
+  const int p = o.degree, q = lay.q, M = lay.M, J = M - p;
+  const double T = q * h;
+  const double t_end_motion = moves.back().end_time_s();
+  r.knot_spacing_s = T;
+  r.degree = p;
+  r.basis_functions = static_cast<std::size_t>(J);
+  r.lead_in_s = static_cast<double>(grid.lead_steps) * h;
+  r.tail_s = grid.t(grid.count - 1) - t_end_motion;
+  const std::size_t K = grid.count;
+  sample_desired(moves, grid, r);
 
   const Basis basis = make_basis(p, q, h);
   std::vector<double>* cmd[2] = {&r.x_cmd_mm, &r.y_cmd_mm};

@@ -1,0 +1,222 @@
+// Limited-preview filtered B-splines (Duan, Yoon, Okwudire 2018; docs/compensation.md,
+// section 3).
+//
+// The FBF command of fbf.cpp, x_b = x_0 + sum_j c_j N_j + (x_end - x_0) S, with the weights
+// computed by a receding horizon instead of one global least squares: a window of n_w knots
+// (W = n_w T) starting at knot s solves
+//     min_c  sum_{k in [s q, (s + n_w) q)} (x_des[k] - x_0 - f[k] - sum_{i < n_w} c_{s+i} R_0[k - (s+i) q])^2
+// where f holds the response of the coefficients already fixed (j < s), keeps the first
+// n_w - n_o coefficients (W - O seconds of command), adds their responses to f and moves on
+// by n_w - n_o knots. The window's normal matrix depends only on R_0, n_w and q (uniform
+// knots, time-invariant model): it is factorised once (banded Cholesky) and every window costs
+// one right-hand side and two triangular solves. Only the window's samples and the tail of f
+// are held. The last window (fewer free coefficients, the end spline S fixed) has its own
+// matrix, factorised once at the end.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "detail.hpp"
+
+namespace amctl::compensation::detail {
+
+BandedCholesky::BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows) : n_(n) {
+  const std::size_t len = R.size();
+  L_ = static_cast<int>((len - 1) / static_cast<std::size_t>(q));
+  const std::size_t W = static_cast<std::size_t>(L_) + 1;
+  band_.assign(static_cast<std::size_t>(n) * W, 0.0);
+  // G(j - l, j) = sum_{m < min(len - l q, rows - j q)} R[m] R[m + l q]
+  double tr = 0.0;
+  for (int l = 0; l <= L_ && l < n; ++l) {
+    const std::size_t shift = static_cast<std::size_t>(l) * static_cast<std::size_t>(q);
+    double acc = 0.0;
+    std::size_t m = 0;
+    // Columns from the last to the first: rows_left grows, so the prefix grows.
+    for (int j = n - 1; j >= l; --j) {
+      const std::size_t jq = static_cast<std::size_t>(j) * static_cast<std::size_t>(q);
+      const std::size_t rows_left = rows > jq ? rows - jq : 0;
+      const std::size_t lim = std::min(len - shift, rows_left);
+      for (; m < lim; ++m) acc += R[m] * R[m + shift];
+      band_[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L_ - l)] = acc;
+      if (l == 0) tr += acc;
+    }
+  }
+  for (int j = 0; j < n; ++j)
+    band_[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L_)] += 1e-13 * tr / n;
+  for (int j = 0; j < n; ++j) {
+    double* rj = &band_[static_cast<std::size_t>(j) * W];
+    const int i0 = std::max(0, j - L_);
+    for (int i = i0; i <= j; ++i) {
+      const double* ri = &band_[static_cast<std::size_t>(i) * W];
+      const int k0 = std::max(i0, i - L_);
+      double sum = rj[i - j + L_];
+      for (int k = k0; k < i; ++k) sum -= rj[k - j + L_] * ri[k - i + L_];
+      if (i < j) {
+        rj[i - j + L_] = sum / ri[L_];
+      } else {
+        if (!(sum > 0.0)) throw InternalError("lpfbf: the window's normal equations are not positive definite");
+        rj[L_] = std::sqrt(sum);
+      }
+    }
+  }
+}
+
+void BandedCholesky::solve(std::vector<double>& c) const {
+  const std::size_t W = static_cast<std::size_t>(L_) + 1;
+  for (int j = 0; j < n_; ++j) {
+    const double* rj = &band_[static_cast<std::size_t>(j) * W];
+    double sum = c[static_cast<std::size_t>(j)];
+    for (int k = std::max(0, j - L_); k < j; ++k) sum -= rj[k - j + L_] * c[static_cast<std::size_t>(k)];
+    c[static_cast<std::size_t>(j)] = sum / rj[L_];
+  }
+  for (int j = n_ - 1; j >= 0; --j) {
+    const double* rj = &band_[static_cast<std::size_t>(j) * W];
+    const double v = c[static_cast<std::size_t>(j)] / rj[L_];
+    c[static_cast<std::size_t>(j)] = v;
+    for (int k = std::max(0, j - L_); k < j; ++k) c[static_cast<std::size_t>(k)] -= rj[k - j + L_] * v;
+  }
+}
+
+LpfbfAxis::LpfbfAxis(std::vector<double> R, const Basis& basis, int window_knots, int overlap_knots, double x0)
+    : R_(std::move(R)), val_(basis.val), acc_(basis.acc), p_(basis.p), q_(basis.q), nw_(window_knots),
+      step_(window_knots - overlap_knots), x0_(x0),
+      window_(R_, q_, nw_, static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_)) {}
+
+double LpfbfAxis::at(const std::deque<double>& d, std::size_t k) const {
+  const std::size_t i = k - base_;
+  return i < d.size() ? d[i] : 0.0;
+}
+
+void LpfbfAxis::add_to(std::deque<double>& d, std::size_t k, double v) {
+  const std::size_t i = k - base_;
+  if (i >= d.size()) d.resize(i + 1, 0.0);
+  d[i] += v;
+}
+
+void LpfbfAxis::push(double x_des_mm) {
+  des_.push_back(x_des_mm - x0_);
+  ++pushed_;
+  held_max_ = std::max(held_max_, des_.size());
+  // A full window whose coefficients are all free ones (j < J = M - p, which holds while
+  // pushed > (s + n_w + p) q + 1 whatever the grid's end turns out to be).
+  const std::size_t need = static_cast<std::size_t>(s_ + nw_ + p_) * static_cast<std::size_t>(q_) + 1;
+  if (pushed_ > need) solve_window(nw_, static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_), window_, step_);
+}
+
+void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep) {
+  const std::size_t sq = static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_);
+  std::vector<double> c(static_cast<std::size_t>(n), 0.0);
+  for (int i = 0; i < n; ++i) {
+    const std::size_t col = sq + static_cast<std::size_t>(i) * static_cast<std::size_t>(q_);
+    double sum = 0.0;
+    for (std::size_t m = 0; m < R_.size() && col + m < sq + rows; ++m)
+      sum += R_[m] * (at(des_, col + m) - at(fixed_, col + m));
+    c[static_cast<std::size_t>(i)] = sum;
+  }
+  chol.solve(c);
+  for (int i = 0; i < keep; ++i) commit(c[static_cast<std::size_t>(i)]);
+  ++windows_;
+  emit(static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_));
+}
+
+void LpfbfAxis::commit(double w) {
+  const std::size_t col = static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_);
+  for (std::size_t m = 0; m < R_.size(); ++m) add_to(fixed_, col + m, w * R_[m]);
+  for (std::size_t m = 0; m < val_.size(); ++m) {
+    add_to(cmd_, col + m, w * val_[m]);
+    add_to(acc_out_, col + m, w * acc_[m]);
+  }
+  ++s_;
+}
+
+void LpfbfAxis::emit(std::size_t upto) {
+  while (base_ < upto) {
+    out_cmd_.push_back(x0_ + (cmd_.empty() ? 0.0 : cmd_.front()));
+    out_acc_.push_back(acc_out_.empty() ? 0.0 : acc_out_.front());
+    if (!cmd_.empty()) cmd_.pop_front();
+    if (!acc_out_.empty()) acc_out_.pop_front();
+    if (!fixed_.empty()) fixed_.pop_front();
+    if (!des_.empty()) des_.pop_front();
+    ++base_;
+  }
+}
+
+void LpfbfAxis::finish(std::size_t K, int M, double x_end_mm) {
+  if (pushed_ != K) throw InternalError("lpfbf: the grid's sample count does not match the pushed samples");
+  const int J = M - p_;
+  while (J - s_ > nw_) solve_window(nw_, static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_), window_, step_);
+  // The end spline S: coefficients J .. M-1 fixed at x_end - x_0.
+  const int s_last = s_;
+  {
+    const double w = x_end_mm - x0_;
+    const int keep_s = s_;
+    s_ = J;
+    for (int j = J; j < M; ++j) commit(w);  // advances s_ to M
+    s_ = keep_s;
+  }
+  const int n = J - s_last;
+  if (n > 0) {
+    const std::size_t rows = K - static_cast<std::size_t>(s_last) * static_cast<std::size_t>(q_);
+    const BandedCholesky last(R_, q_, n, rows);
+    solve_window(n, rows, last, n);
+  }
+  emit(K);
+}
+
+void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+               double auto_tail_s, Grid& grid, CompensationResult& r) {
+  // The grid, the basis and the end spline exactly as FBF (fbf.cpp).
+  FbfLayout lay = fbf_layout(moves, o, auto_tail_s);
+  grid = lay.grid;
+  const int p = o.degree, q = lay.q, M = lay.M, J = M - p;
+  const double T = q * grid.h;
+  const double settle = lay.settle_s;
+  const double W = o.window_s > 0.0 ? o.window_s : std::max(0.25, 4.0 * settle);
+  const double O = o.overlap_s >= 0.0 ? o.overlap_s : 0.5 * W;
+  if (!(W >= settle))
+    throw Error(fmt::format("--window-s {} is shorter than the model's settling time {:.4g} s "
+                            "(4 / (zeta w) of its slowest mode); use a longer window", W, settle));
+  if (!(O >= 0.0) || !(O < W))
+    throw Error(fmt::format("--overlap-s {} must be >= 0 and shorter than the window ({} s)", O, W));
+  const int nw = std::max(1, static_cast<int>(std::llround(W / T)));
+  const int no = std::min(nw - 1, static_cast<int>(std::llround(O / T)));
+  r.knot_spacing_s = T;
+  r.degree = p;
+  r.basis_functions = static_cast<std::size_t>(std::max(J, 0));
+  r.lead_in_s = static_cast<double>(grid.lead_steps) * grid.h;
+  r.tail_s = grid.t(grid.count - 1) - moves.back().end_time_s();
+  r.window_s = nw * T;
+  r.overlap_s = no * T;
+  const std::size_t K = grid.count;
+  sample_desired(moves, grid, r);
+
+  const Basis basis = make_basis(p, q, grid.h);
+  std::vector<double>* cmd[2] = {&r.x_cmd_mm, &r.y_cmd_mm};
+  const std::vector<double>* des[2] = {&r.x_des_mm, &r.y_des_mm};
+  const dynamics::AxisModel* model[2] = {&o.model_x, &o.model_y};
+  std::vector<double> acc[2];
+  for (int a = 0; a < 2; ++a) {
+    LpfbfAxis ax(filtered_response(*model[a], basis), basis, nw, nw - no > 0 ? no : 0, (*des[a]).front());
+    for (std::size_t k = 0; k < K; ++k) ax.push((*des[a])[k]);
+    ax.finish(K, M, (*des[a]).back());
+    *cmd[a] = ax.take_command();
+    acc[a] = ax.take_accel();
+    r.windows = ax.windows();
+    r.max_held_samples = std::max(r.max_held_samples, ax.max_held_samples());
+  }
+  r.peak_command_accel_mm_s2 = 0.0;
+  for (std::size_t k = 0; k < K; ++k)
+    r.peak_command_accel_mm_s2 = std::max(r.peak_command_accel_mm_s2, std::hypot(acc[0][k], acc[1][k]));
+  if (p < 2) {
+    r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
+    r.status = "unbounded_command_acceleration";
+    r.message = "degree 1 B-splines have velocity steps at the knots; use --degree 2 or more";
+  } else {
+    r.status = "ok";
+  }
+}
+
+}  // namespace amctl::compensation::detail
