@@ -82,8 +82,13 @@ void run_compensate(const CompensateArgs& a) {
   o.window_s = a.window_s.value_or(-1.0);
   o.overlap_s = a.overlap_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);
-  const cp::CompensationResult r = cp::compensate_file(a.file, m, o);
-  cp::write_csv(r, a.csv);
+  cp::CompensationResult r;
+  if (o.method == cp::Method::lpfbf) {
+    r = cp::compensate_file_streaming(a.file, m, o, a.csv);  // writes the CSV as it goes
+  } else {
+    r = cp::compensate_file(a.file, m, o);
+    cp::write_csv(r, a.csv);
+  }
   if (a.json) {
     std::cout << cp::to_json(r).dump(2) << "\n";
     return;
@@ -94,7 +99,7 @@ void run_compensate(const CompensateArgs& a) {
       "  max tracking error {:.6g} mm (uncompensated {:.6g} mm), max contour error {:.6g} mm\n"
       "  peak command accel {:.6g} mm/s^2, lead-in {:.4f} s, tail {:.4f} s\n"
       "  compute {:.4f} s, {:.1f}x real time\n",
-      a.file, r.method, r.motion_time_s, r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
+      a.file, r.method, r.motion_time_s, r.t_s.empty() ? r.samples : r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
       r.message.empty() ? "" : ": ", r.message, r.max_tracking_error_mm,
       r.uncompensated_max_tracking_error_mm, r.max_contour_error_mm, r.peak_command_accel_mm_s2,
       r.lead_in_s, r.tail_s, r.compute_time_s, r.real_time_factor);

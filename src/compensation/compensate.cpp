@@ -121,9 +121,17 @@ void simulate_command(const std::vector<double>& t_s, const std::vector<double>&
   });
 }
 
-namespace {
+namespace detail {
 
-void validate(const CompensationOptions& o) {
+double auto_tail_s(const CompensationOptions& options) {
+  const double decay = std::min({slowest_decay_rate_per_s(options.model_x),
+                                 slowest_decay_rate_per_s(options.model_y),
+                                 slowest_decay_rate_per_s(options.plant_x),
+                                 slowest_decay_rate_per_s(options.plant_y)});
+  return std::isfinite(decay) && decay > 0 ? std::clamp(5.0 / decay, 0.05, 1.0) : 1.0;
+}
+
+void validate_options(const CompensationOptions& o) {
   if (!(o.sample_rate_hz > 0.0) || !std::isfinite(o.sample_rate_hz))
     throw Error(fmt::format("--sample-rate-hz {} must be > 0", o.sample_rate_hz));
   if (o.model_x.is_rigid() || o.model_y.is_rigid())
@@ -136,11 +144,11 @@ void validate(const CompensationOptions& o) {
   }
 }
 
-}  // namespace
+}  // namespace detail
 
 CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
                               const CompensationOptions& options) {
-  validate(options);
+  detail::validate_options(options);
   std::vector<plan::PlannedMove> moves;
   for (const plan::PlannedMove& m : all_moves)
     if (!m.extrude_only && m.distance_mm > 0.0) moves.push_back(m);
@@ -266,7 +274,7 @@ Json to_json(const CompensationResult& r) {
   j["lead_in_s"] = json_number(r.lead_in_s);
   j["tail_s"] = json_number(r.tail_s);
   j["sample_rate_hz"] = json_number(r.sample_rate_hz);
-  j["samples"] = r.t_s.size();
+  j["samples"] = r.t_s.empty() ? r.samples : r.t_s.size();
   if (r.method == "fbf") {
     j["knot_spacing_s"] = json_number(r.knot_spacing_s);
     j["degree"] = r.degree;
@@ -280,6 +288,7 @@ Json to_json(const CompensationResult& r) {
     j["overlap_s"] = json_number(r.overlap_s);
     j["windows"] = r.windows;
     j["max_held_samples"] = r.max_held_samples;
+    if (r.max_held_moves > 0) j["max_held_moves"] = r.max_held_moves;
   }
   return j;
 }

@@ -27,6 +27,10 @@ struct Segment {
 std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves);
 /// Distance from (x, y) to the moves' XY polyline, searched 64 moves either side of `around`.
 double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y);
+/// Throws amctl::Error for bad options (naming them).
+void validate_options(const CompensationOptions& o);
+/// The automatic tail: 5 time constants of the slowest mode of model and plant, in [0.05, 1] s.
+double auto_tail_s(const CompensationOptions& o);
 /// Smallest z w over the modes [1/s] (+inf for a rigid model).
 double slowest_decay_rate_per_s(const dynamics::AxisModel& m);
 
@@ -86,6 +90,8 @@ struct FbfLayout {
   int q = 1, M = 0;
   double settle_s = 0.0;  ///< 4 / (zeta w) of the model's slowest mode [s]
 };
+/// The part of the layout the first move settles (everything but M and the grid's count).
+FbfLayout fbf_layout_start(const plan::PlannedMove& first, const CompensationOptions& o);
 FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
                      double auto_tail_s);
 /// r.t_s, r.x_des_mm, r.y_des_mm on the grid.

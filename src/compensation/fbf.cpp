@@ -131,12 +131,10 @@ std::vector<double> filtered_response(const dynamics::AxisModel& model, const Ba
   return R;
 }
 
-FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
-                     double auto_tail_s) {
+FbfLayout fbf_layout_start(const plan::PlannedMove& first, const CompensationOptions& o) {
   FbfLayout lay;
   Grid& grid = lay.grid;
   const double h = 1.0 / o.sample_rate_hz;
-  const int p = o.degree;
   double f_max = std::max(o.model_x.max_natural_frequency_hz(), o.model_y.max_natural_frequency_hz());
   double decay = std::min(slowest_decay_rate_per_s(o.model_x), slowest_decay_rate_per_s(o.model_y));
   const double t_req = o.knot_spacing_s > 0.0 ? o.knot_spacing_s : 1.0 / (8.0 * f_max);
@@ -149,25 +147,33 @@ FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const Compensatio
                             o.knot_spacing_s, h));
   const int q = std::max(1, static_cast<int>(std::llround(t_req / h)));
   const double T = q * h;
-  const double t_begin = moves.front().start_time_s, t_end_motion = moves.back().end_time_s();
-
   lay.settle_s = std::isfinite(decay) && decay > 0 ? 4.0 / decay : 0.0;
   const double lead = o.lead_in_s >= 0.0 ? o.lead_in_s
                                          : std::min(1.0, std::isfinite(decay) && decay > 0 ? 4.0 / decay : 1.0);
-  const double tail = o.tail_s >= 0.0 ? o.tail_s : auto_tail_s;
   const int lead_knots = static_cast<int>(std::ceil(lead / T - 1e-9));
   grid.h = h;
   grid.lead_steps = static_cast<std::size_t>(lead_knots) * static_cast<std::size_t>(q);
-  grid.t0 = t_begin - static_cast<double>(grid.lead_steps) * h;
+  grid.t0 = first.start_time_s - static_cast<double>(grid.lead_steps) * h;
+  lay.q = q;
+  return lay;
+}
+
+FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+                     double auto_tail_s) {
+  FbfLayout lay = fbf_layout_start(moves.front(), o);
+  const Grid& grid = lay.grid;
+  const int p = o.degree, q = lay.q;
+  const double T = q * grid.h;
+  const double t_end_motion = moves.back().end_time_s();
+  const double tail = o.tail_s >= 0.0 ? o.tail_s : auto_tail_s;
   const int M = static_cast<int>(std::ceil((t_end_motion + tail - grid.t0) / T - 1e-9));
-  grid.count = static_cast<std::size_t>(M) * static_cast<std::size_t>(q) + 1;
+  lay.grid.count = static_cast<std::size_t>(M) * static_cast<std::size_t>(q) + 1;
   const int J = M - p;
   if (J < p + 1)
     throw Error(fmt::format(
         "--knot-spacing-s {}: the basis ({} free B-splines of degree {}) does not cover the "
         "trajectory ({:.4g} s with lead-in and tail); use a finer knot spacing",
         T, std::max(J, 0), p, M * T));
-  lay.q = q;
   lay.M = M;
   return lay;
 }
