@@ -110,6 +110,37 @@ class BandedCholesky {
   std::vector<double> band_;
 };
 
+/// A window of a sample sequence: index k (absolute) at data[k - base]; contiguous, so loops
+/// over it vectorise; the consumed front is dropped by compaction (amortised O(1)).
+class SlidingBuffer {
+ public:
+  /// Pointer to absolute indices [k, k + n), zero-filled as needed (k >= base()).
+  double* span(std::size_t k, std::size_t n) {
+    const std::size_t end = k - base_ + off_ + n;
+    if (end > v_.size()) v_.resize(end, 0.0);
+    return v_.data() + (k - base_ + off_);
+  }
+  [[nodiscard]] const double* data_at(std::size_t k) const { return v_.data() + (k - base_ + off_); }
+  [[nodiscard]] std::size_t end() const { return base_ + v_.size() - off_; }
+  [[nodiscard]] std::size_t base() const { return base_; }
+  [[nodiscard]] double front_or_zero() const { return off_ < v_.size() ? v_[off_] : 0.0; }
+  void push_back(double x) { v_.push_back(x); }
+  [[nodiscard]] std::size_t size() const { return v_.size() - off_; }
+  void pop_front() {
+    if (off_ < v_.size()) ++off_;
+    else v_.push_back(0.0), ++off_;  // keep end() >= base()
+    ++base_;
+    if (off_ > 4096 && off_ * 2 > v_.size()) {
+      v_.erase(v_.begin(), v_.begin() + static_cast<std::ptrdiff_t>(off_));
+      off_ = 0;
+    }
+  }
+
+ private:
+  std::vector<double> v_;
+  std::size_t off_ = 0, base_ = 0;
+};
+
 /// LPFBF on one axis, streaming: push the desired samples of the grid one by one; every full
 /// window is solved as soon as its samples (and p knots more) are in; finish() solves the last
 /// window with the end spline fixed. Holds O(window + len(R)) samples.
@@ -125,8 +156,6 @@ class LpfbfAxis {
   [[nodiscard]] std::size_t max_held_samples() const { return held_max_; }
 
  private:
-  double at(const std::deque<double>& d, std::size_t k) const;
-  void add_to(std::deque<double>& d, std::size_t k, double v);
   void solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep);
   void commit(double w);
   void emit(std::size_t upto);
@@ -138,7 +167,7 @@ class LpfbfAxis {
   int s_ = 0;                  ///< first free coefficient
   std::size_t base_ = 0;       ///< grid index of the deques' front
   std::size_t pushed_ = 0, windows_ = 0, held_max_ = 0;
-  std::deque<double> des_, fixed_, cmd_, acc_out_;
+  SlidingBuffer des_, fixed_, cmd_, acc_out_;
   std::vector<double> out_cmd_, out_acc_;
 };
 

@@ -85,17 +85,6 @@ LpfbfAxis::LpfbfAxis(std::vector<double> R, const Basis& basis, int window_knots
       step_(window_knots - overlap_knots), x0_(x0),
       window_(R_, q_, nw_, static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_)) {}
 
-double LpfbfAxis::at(const std::deque<double>& d, std::size_t k) const {
-  const std::size_t i = k - base_;
-  return i < d.size() ? d[i] : 0.0;
-}
-
-void LpfbfAxis::add_to(std::deque<double>& d, std::size_t k, double v) {
-  const std::size_t i = k - base_;
-  if (i >= d.size()) d.resize(i + 1, 0.0);
-  d[i] += v;
-}
-
 void LpfbfAxis::push(double x_des_mm) {
   des_.push_back(x_des_mm - x0_);
   ++pushed_;
@@ -111,9 +100,11 @@ void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol
   std::vector<double> c(static_cast<std::size_t>(n), 0.0);
   for (int i = 0; i < n; ++i) {
     const std::size_t col = sq + static_cast<std::size_t>(i) * static_cast<std::size_t>(q_);
+    const std::size_t n_m = std::min(R_.size(), sq + rows - col);
+    const double* d = des_.span(col, n_m);  // all pushed (rows <= pushed)
+    const double* f = fixed_.span(col, n_m);
     double sum = 0.0;
-    for (std::size_t m = 0; m < R_.size() && col + m < sq + rows; ++m)
-      sum += R_[m] * (at(des_, col + m) - at(fixed_, col + m));
+    for (std::size_t m = 0; m < n_m; ++m) sum += R_[m] * (d[m] - f[m]);
     c[static_cast<std::size_t>(i)] = sum;
   }
   chol.solve(c);
@@ -124,22 +115,25 @@ void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol
 
 void LpfbfAxis::commit(double w) {
   const std::size_t col = static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_);
-  for (std::size_t m = 0; m < R_.size(); ++m) add_to(fixed_, col + m, w * R_[m]);
+  double* f = fixed_.span(col, R_.size());
+  for (std::size_t m = 0; m < R_.size(); ++m) f[m] += w * R_[m];
+  double* x = cmd_.span(col, val_.size());
+  double* a = acc_out_.span(col, val_.size());
   for (std::size_t m = 0; m < val_.size(); ++m) {
-    add_to(cmd_, col + m, w * val_[m]);
-    add_to(acc_out_, col + m, w * acc_[m]);
+    x[m] += w * val_[m];
+    a[m] += w * acc_[m];
   }
   ++s_;
 }
 
 void LpfbfAxis::emit(std::size_t upto) {
   while (base_ < upto) {
-    out_cmd_.push_back(x0_ + (cmd_.empty() ? 0.0 : cmd_.front()));
-    out_acc_.push_back(acc_out_.empty() ? 0.0 : acc_out_.front());
-    if (!cmd_.empty()) cmd_.pop_front();
-    if (!acc_out_.empty()) acc_out_.pop_front();
-    if (!fixed_.empty()) fixed_.pop_front();
-    if (!des_.empty()) des_.pop_front();
+    out_cmd_.push_back(x0_ + cmd_.front_or_zero());
+    out_acc_.push_back(acc_out_.front_or_zero());
+    cmd_.pop_front();
+    acc_out_.pop_front();
+    fixed_.pop_front();
+    des_.pop_front();
     ++base_;
   }
 }

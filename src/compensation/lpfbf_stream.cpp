@@ -186,7 +186,7 @@ class LpfbfStream final : public plan::Sink {
     cmd_.insert(cmd_.end(), cx.begin(), cx.end());
     cmdy_.insert(cmdy_.end(), cy.begin(), cy.end());
     for (std::size_t i = 0; i < axx.size(); ++i)
-      r_.peak_command_accel_mm_s2 = std::max(r_.peak_command_accel_mm_s2, std::hypot(axx[i], ayy[i]));
+      r_.peak_command_accel_mm_s2 = std::max(r_.peak_command_accel_mm_s2, std::sqrt(axx[i] * axx[i] + ayy[i] * ayy[i]));
     while (cmd_.size() >= 2 || (final && !cmd_.empty())) {
       const bool last = cmd_.size() == 1;
       const double xn = last ? cmd_[0] : cmd_[1], yn = last ? cmdy_[0] : cmdy_[1];
@@ -195,19 +195,21 @@ class LpfbfStream final : public plan::Sink {
       // Uncompensated: the sampled plan itself as the command.
       const double xdn = pending_.size() > 1 ? pending_[1].x : xd, ydn = pending_.size() > 1 ? pending_[1].y : yd;
       const double xu = unc_x_.step(xd, xdn), yu = unc_y_.step(yd, ydn);
-      const double e = std::hypot(xs - xd, ys - yd);
+      const double e = std::sqrt((xs - xd) * (xs - xd) + (ys - yd) * (ys - yd));
       if (!std::isfinite(e) || !std::isfinite(cmd_[0]) || !std::isfinite(cmdy_[0])) non_finite_ = true;
       r_.max_tracking_error_mm = std::max(r_.max_tracking_error_mm, e);
       sum2_ += e * e;
-      r_.uncompensated_max_tracking_error_mm = std::max(r_.uncompensated_max_tracking_error_mm, std::hypot(xu - xd, yu - yd));
+      r_.uncompensated_max_tracking_error_mm = std::max(r_.uncompensated_max_tracking_error_mm, std::sqrt((xu - xd) * (xu - xd) + (yu - yd) * (yu - yd)));
       // Contour: the held moves within 64 of the move at t.
       while (cur_ + 1 < moves_.size() && moves_[cur_ + 1].start_s <= t) ++cur_;
       const std::size_t lo = cur_ > 64 ? cur_ - 64 : 0, hi = std::min(moves_.size(), cur_ + 65);
       double dc = std::numeric_limits<double>::infinity(), du = dc;
       for (std::size_t i = lo; i < hi; ++i) {
-        dc = std::min(dc, distance(moves_[i].seg, xs, ys));
-        du = std::min(du, distance(moves_[i].seg, xu, yu));
+        dc = std::min(dc, distance2(moves_[i].seg, xs, ys));
+        du = std::min(du, distance2(moves_[i].seg, xu, yu));
       }
+      dc = std::sqrt(dc);
+      du = std::sqrt(du);
       r_.max_contour_error_mm = std::max(r_.max_contour_error_mm, dc);
       r_.uncompensated_max_contour_error_mm = std::max(r_.uncompensated_max_contour_error_mm, du);
       f_ << fmt::format("{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}\n", t, cmd_[0], cmdy_[0], xd, yd, xs, ys);
@@ -223,11 +225,13 @@ class LpfbfStream final : public plan::Sink {
     }
   }
 
-  static double distance(const detail::Segment& g, double x, double y) {
+  /// Squared distance from (x, y) to the segment.
+  static double distance2(const detail::Segment& g, double x, double y) {
     const double dx = g.x1 - g.x0, dy = g.y1 - g.y0;
     const double l2 = dx * dx + dy * dy;
     const double u = std::clamp(l2 > 0.0 ? ((x - g.x0) * dx + (y - g.y0) * dy) / l2 : 0.0, 0.0, 1.0);
-    return std::hypot(x - (g.x0 + u * dx), y - (g.y0 + u * dy));
+    const double ex = x - (g.x0 + u * dx), ey = y - (g.y0 + u * dy);
+    return ex * ex + ey * ey;
   }
 
   struct Pending {
