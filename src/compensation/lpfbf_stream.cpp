@@ -87,6 +87,8 @@ class LpfbfStream final : public plan::Sink {
     ax_->finish(K, M, last_x_);
     ay_->finish(K, M, last_y_);
     drain(true);
+    f_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+    line_.clear();
     f_.flush();
     if (!f_) throw Error(fmt::format("--csv {}: write failed", csv_));
     f_.close();
@@ -199,20 +201,29 @@ class LpfbfStream final : public plan::Sink {
       if (!std::isfinite(e) || !std::isfinite(cmd_[0]) || !std::isfinite(cmdy_[0])) non_finite_ = true;
       r_.max_tracking_error_mm = std::max(r_.max_tracking_error_mm, e);
       sum2_ += e * e;
-      r_.uncompensated_max_tracking_error_mm = std::max(r_.uncompensated_max_tracking_error_mm, std::sqrt((xu - xd) * (xu - xd) + (yu - yd) * (yu - yd)));
-      // Contour: the held moves within 64 of the move at t.
+      // Contour: the held moves within 64 of the move at t. The desired point lies on the
+      // current move, so the distance to the path is at most the tracking error: a sample
+      // whose tracking error does not exceed the running maximum cannot raise it (exact).
       while (cur_ + 1 < moves_.size() && moves_[cur_ + 1].start_s <= t) ++cur_;
-      const std::size_t lo = cur_ > 64 ? cur_ - 64 : 0, hi = std::min(moves_.size(), cur_ + 65);
-      double dc = std::numeric_limits<double>::infinity(), du = dc;
-      for (std::size_t i = lo; i < hi; ++i) {
-        dc = std::min(dc, distance2(moves_[i].seg, xs, ys));
-        du = std::min(du, distance2(moves_[i].seg, xu, yu));
+      const double eu = std::sqrt((xu - xd) * (xu - xd) + (yu - yd) * (yu - yd));
+      r_.uncompensated_max_tracking_error_mm = std::max(r_.uncompensated_max_tracking_error_mm, eu);
+      const bool need_c = e > r_.max_contour_error_mm, need_u = eu > r_.uncompensated_max_contour_error_mm;
+      if (need_c || need_u) {
+        const std::size_t lo = cur_ > 64 ? cur_ - 64 : 0, hi = std::min(moves_.size(), cur_ + 65);
+        double dc = std::numeric_limits<double>::infinity(), du = dc;
+        for (std::size_t i = lo; i < hi; ++i) {
+          if (need_c) dc = std::min(dc, distance2(moves_[i].seg, xs, ys));
+          if (need_u) du = std::min(du, distance2(moves_[i].seg, xu, yu));
+        }
+        if (need_c) r_.max_contour_error_mm = std::max(r_.max_contour_error_mm, std::sqrt(dc));
+        if (need_u) r_.uncompensated_max_contour_error_mm = std::max(r_.uncompensated_max_contour_error_mm, std::sqrt(du));
       }
-      dc = std::sqrt(dc);
-      du = std::sqrt(du);
-      r_.max_contour_error_mm = std::max(r_.max_contour_error_mm, dc);
-      r_.uncompensated_max_contour_error_mm = std::max(r_.uncompensated_max_contour_error_mm, du);
-      f_ << fmt::format("{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}\n", t, cmd_[0], cmdy_[0], xd, yd, xs, ys);
+      fmt::format_to(std::back_inserter(line_), "{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}\n", t,
+                     cmd_[0], cmdy_[0], xd, yd, xs, ys);
+      if (line_.size() > (1U << 16)) {
+        f_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+        line_.clear();
+      }
       ++written_;
       cmd_.pop_front();
       cmdy_.pop_front();
@@ -240,6 +251,7 @@ class LpfbfStream final : public plan::Sink {
   const CompensationOptions& o_;
   std::string csv_, part_;
   std::ofstream f_;
+  fmt::memory_buffer line_;
   detail::FbfLayout lay_;
   std::optional<detail::LpfbfAxis> ax_, ay_;
   StreamPlant plant_x_, plant_y_, unc_x_, unc_y_;
