@@ -2,6 +2,9 @@
 // seed base case, continuity at the window boundaries, bounded memory, bad input.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -118,6 +121,78 @@ TEST(Lpfbf, BadWindowAndOverlapNameTheParameter) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("--overlap-s"), std::string::npos) << e.what();
   }
+}
+
+}  // namespace
+}  // namespace amctl::compensation
+
+namespace amctl::compensation {
+namespace {
+
+std::vector<std::vector<double>> read_csv(const std::string& path) {
+  std::ifstream f(path);
+  std::string line;
+  std::getline(f, line);
+  std::vector<std::vector<double>> rows;
+  while (std::getline(f, line)) {
+    std::vector<double> row;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) row.push_back(std::stod(cell));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// The stream (the CLI's path) writes the command the in-memory LPFBF computes, checks it on
+// the plant to the same error, and leaves no .part behind.
+TEST(LpfbfStream, EqualsInMemoryLpfbfOnTheSeed) {
+  const machine::Machine m = machine::load_machine(kPrinter, {});
+  CompensationOptions o = seed(Method::lpfbf);
+  o.window_s = 0.1;
+  o.overlap_s = 0.05;
+  const CompensationResult mem = compensate(seed_plan(), o);
+  const std::string csv = ::testing::TempDir() + "lpfbf_stream_seed.csv";
+  const CompensationResult st = compensate_file_streaming(kGcode, m, o, csv);
+  EXPECT_FALSE(std::filesystem::exists(csv + ".part"));
+  const auto rows = read_csv(csv);
+  ASSERT_EQ(rows.size(), mem.t_s.size());
+  EXPECT_EQ(st.samples, mem.t_s.size());
+  double d = 0.0, ds = 0.0;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    d = std::max({d, std::abs(rows[k][1] - mem.x_cmd_mm[k]), std::abs(rows[k][2] - mem.y_cmd_mm[k])});
+    ds = std::max({ds, std::abs(rows[k][5] - mem.x_sim_mm[k]), std::abs(rows[k][6] - mem.y_sim_mm[k])});
+  }
+  EXPECT_LT(d, 1e-9);   // CSV rounding (12 significant digits)
+  EXPECT_LT(ds, 1e-8);  // the streamed plant against dynamics::Simulator
+  EXPECT_NEAR(st.max_tracking_error_mm, mem.max_tracking_error_mm, 1e-8);
+  EXPECT_NEAR(st.max_contour_error_mm, mem.max_contour_error_mm, 1e-8);
+  // The plan sampled at 1 kHz as the uncompensated command, against the exact plan.
+  EXPECT_NEAR(st.uncompensated_max_tracking_error_mm, mem.uncompensated_max_tracking_error_mm, 2e-3);
+  EXPECT_EQ(st.windows, mem.windows);
+}
+
+// A whole print (809 s, 810 000 samples): the samples held by an axis stay those of one
+// window (plus p knots and a step), the moves held those of the contour search (65 behind)
+// plus the ones the window looks ahead over; far below the print's 20 000 moves.
+TEST(LpfbfStream, WholePrintInBoundedMemory) {
+  const machine::Machine m =
+      machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg", {});
+  CompensationOptions o;
+  o.method = Method::lpfbf;
+  o.model_x = o.model_y = o.plant_x = o.plant_y = dynamics::AxisModel::belt(40.0, 0.1);
+  const std::string csv = ::testing::TempDir() + "lpfbf_stream_boxboss.csv";
+  const CompensationResult r = compensate_file_streaming(
+      std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode", m, o, csv);
+  ASSERT_EQ(r.status, "ok");
+  EXPECT_GT(r.samples, 800000U);
+  const std::size_t q = static_cast<std::size_t>(std::llround(r.knot_spacing_s * 1000.0));
+  const std::size_t nw = static_cast<std::size_t>(std::llround(r.window_s / r.knot_spacing_s));
+  const std::size_t step = nw - static_cast<std::size_t>(std::llround(r.overlap_s / r.knot_spacing_s));
+  EXPECT_LE(r.max_held_samples, (nw + static_cast<std::size_t>(r.degree) + step) * q + 2);
+  EXPECT_LE(r.max_held_moves, 200U);
+  EXPECT_LE(r.max_tracking_error_mm, 0.1 * r.uncompensated_max_tracking_error_mm);
+  std::filesystem::remove(csv);
 }
 
 }  // namespace
