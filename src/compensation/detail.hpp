@@ -146,7 +146,8 @@ class SlidingBuffer {
 /// window with the end spline fixed. Holds O(window + len(R)) samples.
 class LpfbfAxis {
  public:
-  LpfbfAxis(std::vector<double> R, const Basis& basis, int window_knots, int overlap_knots, double x0);
+  LpfbfAxis(const dynamics::AxisModel& model, const Basis& basis, int window_knots, int overlap_knots,
+            double x0);
   void push(double x_des_mm);
   void finish(std::size_t K, int M, double x_end_mm);
   /// Command samples final so far (removed from the axis).
@@ -159,8 +160,20 @@ class LpfbfAxis {
   void solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep);
   void commit(double w);
   void emit(std::size_t upto);
+  /// The tails' contribution C E_k at samples [base_, base_ + n) into g (E_base_ not moved).
+  void tail_over(std::size_t n, std::vector<double>& g) const;
+  /// E_base_ moved from base_ to base_ + 1 (the injection at base_ included).
+  void advance_tail();
 
   std::vector<double> R_, val_, acc_;
+  // R_[m] for m >= H_ is C Phi^(m - H_) eS_ (free vibration after the spline's support): the
+  // committed splines' tails are carried as one state E (injected c_j eS at sample j q + H_)
+  // instead of being added sample by sample (H_ = R_.size() if that factorisation fails).
+  std::size_t H_ = 0;
+  Eigen::MatrixXd Phi_;
+  Eigen::RowVectorXd C_;
+  Eigen::VectorXd eS_, E_base_, tmp_;
+  std::deque<Eigen::VectorXd> inj_;  ///< state injections at samples base_, base_ + 1, ...
   int p_ = 3, q_ = 1, nw_ = 1, step_ = 1;
   double x0_ = 0.0;
   BandedCholesky window_;

@@ -18,6 +18,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/control/discretize.hpp"
 #include "amctl/core/error.hpp"
 #include "detail.hpp"
 
@@ -80,10 +81,64 @@ void BandedCholesky::solve(std::vector<double>& c) const {
   }
 }
 
-LpfbfAxis::LpfbfAxis(std::vector<double> R, const Basis& basis, int window_knots, int overlap_knots, double x0)
-    : R_(std::move(R)), val_(basis.val), acc_(basis.acc), p_(basis.p), q_(basis.q), nw_(window_knots),
-      step_(window_knots - overlap_knots), x0_(x0),
-      window_(R_, q_, nw_, static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_)) {}
+LpfbfAxis::LpfbfAxis(const dynamics::AxisModel& model, const Basis& basis, int window_knots,
+                     int overlap_knots, double x0)
+    : R_(filtered_response(model, basis)), val_(basis.val), acc_(basis.acc), p_(basis.p), q_(basis.q),
+      nw_(window_knots), step_(window_knots - overlap_knots), x0_(x0),
+      window_(R_, q_, nw_, static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_)) {
+  H_ = R_.size();
+  const std::size_t S = static_cast<std::size_t>(p_ + 1) * static_cast<std::size_t>(q_);
+  const int n = static_cast<int>(model.A().rows());
+  const std::size_t obs = static_cast<std::size_t>(4 * n);
+  if (R_.size() > S + obs) {
+    // The state after the support from the free vibration that follows (observability).
+    Phi_ = control::discretize_polynomial(model.A(), model.B(), 1, basis.h).Phi;
+    C_ = model.C();
+    Eigen::MatrixXd O(static_cast<Eigen::Index>(obs), n);
+    Eigen::VectorXd y(static_cast<Eigen::Index>(obs));
+    Eigen::RowVectorXd row = C_;
+    for (std::size_t i = 0; i < obs; ++i) {
+      O.row(static_cast<Eigen::Index>(i)) = row;
+      y(static_cast<Eigen::Index>(i)) = R_[S + i];
+      row = row * Phi_;
+    }
+    eS_ = O.colPivHouseholderQr().solve(y);
+    double peak = 0.0, err = 0.0;
+    Eigen::VectorXd e = eS_;
+    for (std::size_t m = 0; m < R_.size(); ++m) {
+      peak = std::max(peak, std::abs(R_[m]));
+      if (m >= S) {
+        err = std::max(err, std::abs(R_[m] - C_ * e));
+        e = Phi_ * e;
+      }
+    }
+    if (err <= 1e-10 * peak) H_ = S;
+  }
+  E_base_ = Eigen::VectorXd::Zero(n);
+  tmp_ = E_base_;
+}
+
+void LpfbfAxis::tail_over(std::size_t n, std::vector<double>& g) const {
+  g.assign(n, 0.0);
+  if (H_ == R_.size()) return;
+  Eigen::VectorXd E = E_base_, next(E.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i < inj_.size()) E += inj_[i];
+    g[i] = C_.dot(E);
+    next.noalias() = Phi_ * E;
+    E.swap(next);
+  }
+}
+
+void LpfbfAxis::advance_tail() {
+  if (H_ == R_.size()) return;
+  if (!inj_.empty()) {
+    E_base_ += inj_.front();
+    inj_.pop_front();
+  }
+  tmp_.noalias() = Phi_ * E_base_;
+  E_base_.swap(tmp_);
+}
 
 void LpfbfAxis::push(double x_des_mm) {
   des_.push_back(x_des_mm - x0_);
@@ -98,6 +153,12 @@ void LpfbfAxis::push(double x_des_mm) {
 void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep) {
   const std::size_t sq = static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_);
   std::vector<double> c(static_cast<std::size_t>(n), 0.0);
+  std::vector<double> g;
+  tail_over(rows, g);
+  {
+    double* f = fixed_.span(sq, rows);
+    for (std::size_t k = 0; k < rows; ++k) f[k] += g[k];  // removed again below
+  }
   for (int i = 0; i < n; ++i) {
     const std::size_t col = sq + static_cast<std::size_t>(i) * static_cast<std::size_t>(q_);
     const std::size_t n_m = std::min(R_.size(), sq + rows - col);
@@ -107,6 +168,10 @@ void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol
     for (std::size_t m = 0; m < n_m; ++m) sum += R_[m] * (d[m] - f[m]);
     c[static_cast<std::size_t>(i)] = sum;
   }
+  {
+    double* f = fixed_.span(sq, rows);
+    for (std::size_t k = 0; k < rows; ++k) f[k] -= g[k];
+  }
   chol.solve(c);
   for (int i = 0; i < keep; ++i) commit(c[static_cast<std::size_t>(i)]);
   ++windows_;
@@ -115,8 +180,13 @@ void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol
 
 void LpfbfAxis::commit(double w) {
   const std::size_t col = static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_);
-  double* f = fixed_.span(col, R_.size());
-  for (std::size_t m = 0; m < R_.size(); ++m) f[m] += w * R_[m];
+  double* f = fixed_.span(col, H_);
+  for (std::size_t m = 0; m < H_; ++m) f[m] += w * R_[m];
+  if (H_ < R_.size()) {
+    const std::size_t at = col + H_ - base_;
+    while (inj_.size() <= at) inj_.push_back(Eigen::VectorXd::Zero(eS_.size()));
+    inj_[at] += w * eS_;
+  }
   double* x = cmd_.span(col, val_.size());
   double* a = acc_out_.span(col, val_.size());
   for (std::size_t m = 0; m < val_.size(); ++m) {
@@ -134,6 +204,7 @@ void LpfbfAxis::emit(std::size_t upto) {
     acc_out_.pop_front();
     fixed_.pop_front();
     des_.pop_front();
+    advance_tail();
     ++base_;
   }
 }
@@ -193,7 +264,7 @@ void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptio
   const dynamics::AxisModel* model[2] = {&o.model_x, &o.model_y};
   std::vector<double> acc[2];
   for (int a = 0; a < 2; ++a) {
-    LpfbfAxis ax(filtered_response(*model[a], basis), basis, nw, nw - no > 0 ? no : 0, (*des[a]).front());
+    LpfbfAxis ax(*model[a], basis, nw, nw - no > 0 ? no : 0, (*des[a]).front());
     for (std::size_t k = 0; k < K; ++k) ax.push((*des[a])[k]);
     ax.finish(K, M, (*des[a]).back());
     *cmd[a] = ax.take_command();

@@ -136,8 +136,8 @@ class LpfbfStream final : public plan::Sink {
     const detail::Basis basis = detail::make_basis(o_.degree, lay_.q, lay_.grid.h);
     x0_ = last_x_ = m.start_mm[0];
     y0_ = last_y_ = m.start_mm[1];
-    ax_.emplace(detail::filtered_response(o_.model_x, basis), basis, nw, no, x0_);
-    ay_.emplace(detail::filtered_response(o_.model_y, basis), basis, nw, no, y0_);
+    ax_.emplace(o_.model_x, basis, nw, no, x0_);
+    ay_.emplace(o_.model_y, basis, nw, no, y0_);
     r_.method = "lpfbf";
     r_.sample_rate_hz = o_.sample_rate_hz;
     r_.knot_spacing_s = T;
