@@ -184,6 +184,11 @@ class LpfbfAxis {
   std::vector<double> out_cmd_, out_acc_;
 };
 
+/// LPFBF's window and overlap in knots from the options (automatic: W = max(0.25 s, 4
+/// settling), O = W / 2); throws amctl::Error naming --window-s (shorter than the settling) or
+/// --overlap-s (not in [settling / 2, W)).
+std::pair<int, int> lpfbf_window_knots(const FbfLayout& lay, const CompensationOptions& o);
+
 /// LPFBF over the whole plan (the grid and the end spline as FBF).
 void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
                double auto_tail_s, Grid& grid, CompensationResult& r);

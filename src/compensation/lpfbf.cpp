@@ -231,13 +231,8 @@ void LpfbfAxis::finish(std::size_t K, int M, double x_end_mm) {
   emit(K);
 }
 
-void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
-               double auto_tail_s, Grid& grid, CompensationResult& r) {
-  // The grid, the basis and the end spline exactly as FBF (fbf.cpp).
-  FbfLayout lay = fbf_layout(moves, o, auto_tail_s);
-  grid = lay.grid;
-  const int p = o.degree, q = lay.q, M = lay.M, J = M - p;
-  const double T = q * grid.h;
+std::pair<int, int> lpfbf_window_knots(const FbfLayout& lay, const CompensationOptions& o) {
+  const double T = lay.q * lay.grid.h;
   const double settle = lay.settle_s;
   const double W = o.window_s > 0.0 ? o.window_s : std::max(0.25, 4.0 * settle);
   const double O = o.overlap_s >= 0.0 ? o.overlap_s : 0.5 * W;
@@ -246,8 +241,24 @@ void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptio
                             "(4 / (zeta w) of its slowest mode); use a longer window", W, settle));
   if (!(O >= 0.0) || !(O < W))
     throw Error(fmt::format("--overlap-s {} must be >= 0 and shorter than the window ({} s)", O, W));
+  // Without preview the last kept coefficients are fitted blind to what follows (overlap 0
+  // gave a 4 mm error on the seed); half the settling time is enough there.
+  if (O < 0.5 * settle)
+    throw Error(fmt::format("--overlap-s {} is shorter than half the model's settling time ({:.4g} s): "
+                            "the window's kept command would not see the path ahead", O, 0.5 * settle));
   const int nw = std::max(1, static_cast<int>(std::llround(W / T)));
   const int no = std::min(nw - 1, static_cast<int>(std::llround(O / T)));
+  return {nw, no};
+}
+
+void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+               double auto_tail_s, Grid& grid, CompensationResult& r) {
+  // The grid, the basis and the end spline exactly as FBF (fbf.cpp).
+  FbfLayout lay = fbf_layout(moves, o, auto_tail_s);
+  grid = lay.grid;
+  const int p = o.degree, q = lay.q, M = lay.M, J = M - p;
+  const double T = q * grid.h;
+  const auto [nw, no] = lpfbf_window_knots(lay, o);
   r.knot_spacing_s = T;
   r.degree = p;
   r.basis_functions = static_cast<std::size_t>(std::max(J, 0));

@@ -123,16 +123,7 @@ class LpfbfStream final : public plan::Sink {
     const std::vector<plan::PlannedMove> one{m};
     lay_ = detail::fbf_layout_start(one.front(), o_);
     const double T = lay_.q * lay_.grid.h;
-    const double settle = lay_.settle_s;
-    const double W = o_.window_s > 0.0 ? o_.window_s : std::max(0.25, 4.0 * settle);
-    const double O = o_.overlap_s >= 0.0 ? o_.overlap_s : 0.5 * W;
-    if (!(W >= settle))
-      throw Error(fmt::format("--window-s {} is shorter than the model's settling time {:.4g} s "
-                              "(4 / (zeta w) of its slowest mode); use a longer window", W, settle));
-    if (!(O >= 0.0) || !(O < W))
-      throw Error(fmt::format("--overlap-s {} must be >= 0 and shorter than the window ({} s)", O, W));
-    const int nw = std::max(1, static_cast<int>(std::llround(W / T)));
-    const int no = std::min(nw - 1, static_cast<int>(std::llround(O / T)));
+    const auto [nw, no] = detail::lpfbf_window_knots(lay_, o_);
     const detail::Basis basis = detail::make_basis(o_.degree, lay_.q, lay_.grid.h);
     x0_ = last_x_ = m.start_mm[0];
     y0_ = last_y_ = m.start_mm[1];

@@ -121,6 +121,13 @@ TEST(Lpfbf, BadWindowAndOverlapNameTheParameter) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("--overlap-s"), std::string::npos) << e.what();
   }
+  o.overlap_s = 0.0;  // no preview: the kept command is blind to the path ahead
+  try {
+    (void)compensate(moves, o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--overlap-s 0 is shorter than half"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
