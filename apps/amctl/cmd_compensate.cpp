@@ -115,7 +115,8 @@ void register_compensate(CLI::App& app) {
   add_machine_options(*sub, a->machine);
   sub->add_option("--method", a->method,
                   "invert (exact model inverse) | fbf (filtered B-splines) | lpfbf (limited-preview "
-                  "FBF, windowed); rfbf and collocation are not implemented yet");
+                  "FBF, windowed) | rfbf (robust FBF: the model and +-10 %, +-20 % frequency); "
+                  "collocation is not implemented yet");
   sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]");
   sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
   sub->add_option("--mode", a->modes, "model mode F,Z[,G] (repeatable) instead of the belt flags");

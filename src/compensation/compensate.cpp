@@ -22,9 +22,10 @@ Method parse_method(const std::string& name) {
   if (name == "invert") return Method::invert;
   if (name == "fbf") return Method::fbf;
   if (name == "lpfbf") return Method::lpfbf;
-  if (name == "rfbf" || name == "collocation")
-    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf, lpfbf)", name));
-  throw Error(fmt::format("--method: '{}' is not a method; expected invert, fbf or lpfbf", name));
+  if (name == "rfbf") return Method::rfbf;
+  if (name == "collocation")
+    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf, lpfbf, rfbf)", name));
+  throw Error(fmt::format("--method: '{}' is not a method; expected invert, fbf, lpfbf or rfbf", name));
 }
 
 const char* method_name(Method m) {
@@ -32,6 +33,7 @@ const char* method_name(Method m) {
     case Method::invert: return "invert";
     case Method::fbf: return "fbf";
     case Method::lpfbf: return "lpfbf";
+    case Method::rfbf: return "rfbf";
   }
   return "?";
 }
@@ -138,7 +140,7 @@ void validate_options(const CompensationOptions& o) {
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
                                   {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
-  if (o.method == Method::fbf || o.method == Method::lpfbf) {
+  if (o.method == Method::fbf || o.method == Method::lpfbf || o.method == Method::rfbf) {
     if (o.degree < 1 || o.degree > 7)
       throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
   }
@@ -209,6 +211,8 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     }
   } else if (options.method == Method::fbf) {
     detail::run_fbf(moves, options, auto_tail, grid, r);
+  } else if (options.method == Method::rfbf) {
+    detail::run_rfbf(moves, options, auto_tail, grid, r);
   } else {
     detail::run_lpfbf(moves, options, auto_tail, grid, r);
   }
@@ -275,7 +279,7 @@ Json to_json(const CompensationResult& r) {
   j["tail_s"] = json_number(r.tail_s);
   j["sample_rate_hz"] = json_number(r.sample_rate_hz);
   j["samples"] = r.t_s.empty() ? r.samples : r.t_s.size();
-  if (r.method == "fbf") {
+  if (r.method == "fbf" || r.method == "rfbf") {
     j["knot_spacing_s"] = json_number(r.knot_spacing_s);
     j["degree"] = r.degree;
     j["basis_functions"] = r.basis_functions;

@@ -102,6 +102,8 @@ void sample_desired(std::span<const plan::PlannedMove> moves, const Grid& grid, 
 class BandedCholesky {
  public:
   BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows);
+  /// The sum of the normal matrices of several responses (robust FBF: one per model).
+  BandedCholesky(const std::vector<std::vector<double>>& Rs, int q, int n, std::size_t rows);
   /// Solves G c = b in place.
   void solve(std::vector<double>& c) const;
 
@@ -192,6 +194,11 @@ std::pair<int, int> lpfbf_window_knots(const FbfLayout& lay, const CompensationO
 /// LPFBF over the whole plan (the grid and the end spline as FBF).
 void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
                double auto_tail_s, Grid& grid, CompensationResult& r);
+
+/// Robust FBF: FBF's least squares over the model and its frequency scaled by 0.8, 0.9, 1.1
+/// and 1.2 (all modes), stacked.
+void run_rfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+              double auto_tail_s, Grid& grid, CompensationResult& r);
 
 /// FBF: fills the grid, the command and the basis fields of r.
 void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,

@@ -24,25 +24,34 @@
 
 namespace amctl::compensation::detail {
 
-BandedCholesky::BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows) : n_(n) {
-  const std::size_t len = R.size();
-  L_ = static_cast<int>((len - 1) / static_cast<std::size_t>(q));
+BandedCholesky::BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows)
+    : BandedCholesky(std::vector<std::vector<double>>{R}, q, n, rows) {}
+
+BandedCholesky::BandedCholesky(const std::vector<std::vector<double>>& Rs, int q, int n, std::size_t rows)
+    : n_(n) {
+  std::size_t len_max = 1;
+  for (const auto& R : Rs) len_max = std::max(len_max, R.size());
+  L_ = static_cast<int>((len_max - 1) / static_cast<std::size_t>(q));
   const std::size_t W = static_cast<std::size_t>(L_) + 1;
   band_.assign(static_cast<std::size_t>(n) * W, 0.0);
-  // G(j - l, j) = sum_{m < min(len - l q, rows - j q)} R[m] R[m + l q]
+  // G(j - l, j) = sum_R sum_{m < min(len - l q, rows - j q)} R[m] R[m + l q]
   double tr = 0.0;
-  for (int l = 0; l <= L_ && l < n; ++l) {
-    const std::size_t shift = static_cast<std::size_t>(l) * static_cast<std::size_t>(q);
-    double acc = 0.0;
-    std::size_t m = 0;
-    // Columns from the last to the first: rows_left grows, so the prefix grows.
-    for (int j = n - 1; j >= l; --j) {
-      const std::size_t jq = static_cast<std::size_t>(j) * static_cast<std::size_t>(q);
-      const std::size_t rows_left = rows > jq ? rows - jq : 0;
-      const std::size_t lim = std::min(len - shift, rows_left);
-      for (; m < lim; ++m) acc += R[m] * R[m + shift];
-      band_[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L_ - l)] = acc;
-      if (l == 0) tr += acc;
+  for (const auto& R : Rs) {
+    const std::size_t len = R.size();
+    for (int l = 0; l <= L_ && l < n; ++l) {
+      const std::size_t shift = static_cast<std::size_t>(l) * static_cast<std::size_t>(q);
+      if (shift >= len) break;
+      double acc = 0.0;
+      std::size_t m = 0;
+      // Columns from the last to the first: rows_left grows, so the prefix grows.
+      for (int j = n - 1; j >= l; --j) {
+        const std::size_t jq = static_cast<std::size_t>(j) * static_cast<std::size_t>(q);
+        const std::size_t rows_left = rows > jq ? rows - jq : 0;
+        const std::size_t lim = std::min(len - shift, rows_left);
+        for (; m < lim; ++m) acc += R[m] * R[m + shift];
+        band_[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L_ - l)] += acc;
+        if (l == 0) tr += acc;
+      }
     }
   }
   for (int j = 0; j < n; ++j)

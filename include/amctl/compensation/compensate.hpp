@@ -25,7 +25,7 @@
 
 namespace amctl::compensation {
 
-enum class Method { invert, fbf, lpfbf };
+enum class Method { invert, fbf, lpfbf, rfbf };
 
 /// "invert" | "fbf"; throws amctl::Error naming --method otherwise ("not implemented yet" for
 /// the methods of issue 10 still to come: lpfbf, rfbf, collocation).
