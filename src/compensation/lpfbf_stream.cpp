@@ -37,8 +37,9 @@ class StreamPlant {
     const double v = (x_next - x_k) / h_;
     e_ += B_ * (v - v_prev_);
     v_prev_ = v;
-    const double y = x_k + C_ * e_;
-    e_ = Phi_ * e_;
+    const double y = x_k + C_.dot(e_);
+    tmp_.noalias() = Phi_ * e_;
+    e_.swap(tmp_);
     return y;
   }
 
@@ -46,7 +47,7 @@ class StreamPlant {
   Eigen::VectorXd B_;
   Eigen::RowVectorXd C_;
   Eigen::MatrixXd Phi_;
-  Eigen::VectorXd e_;
+  Eigen::VectorXd e_, tmp_{e_.size()};
   double h_ = 0.0, v_prev_ = 0.0;
 };
 
