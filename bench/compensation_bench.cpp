@@ -84,4 +84,29 @@ void BM_CompensateRealWindowFbf(benchmark::State& state) {
 }
 BENCHMARK(BM_CompensateRealWindowFbf)->Unit(benchmark::kMillisecond);
 
+// LPFBF over the whole bundled print (809 s of motion, 810 000 samples at 1 kHz), streamed
+// from the G-code: parsing, planning, the windows, the check simulation, the metrics and the
+// CSV written (to the build tree) all included. Peak RSS: bench/lpfbf_whole_print.sh.
+void BM_CompensateWholePrintLpfbf(benchmark::State& state) {
+  const amctl::machine::Machine m =
+      amctl::machine::load_machine(kSource + "/configs/klipper-voron-v0.cfg", {});
+  cp::CompensationOptions o = options(cp::Method::lpfbf, 2.0 * 3.141592653589793 * 40.0, 0.1);
+  o.window_s = state.range(0) / 1000.0;
+  o.overlap_s = state.range(1) / 1000.0;
+  cp::CompensationResult r;
+  for (auto _ : state)
+    r = cp::compensate_file_streaming(kSource + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                      m, o, "lpfbf_whole_print_bench.csv");
+  state.counters["motion_s"] = r.motion_time_s;
+  state.counters["max_err_um"] = 1e3 * r.max_tracking_error_mm;
+  state.counters["uncomp_err_um"] = 1e3 * r.uncompensated_max_tracking_error_mm;
+  state.counters["rt_factor"] = benchmark::Counter(r.motion_time_s * static_cast<double>(state.iterations()),
+                                                   benchmark::Counter::kIsRate);
+  state.counters["samples"] = static_cast<double>(r.samples);
+  state.counters["held_moves"] = static_cast<double>(r.max_held_moves);
+  state.SetLabel(r.status);
+}
+BENCHMARK(BM_CompensateWholePrintLpfbf)->Args({636, 318})->Args({400, 100})->Args({250, 100})
+    ->Unit(benchmark::kMillisecond)->Iterations(2);
+
 }  // namespace

@@ -30,6 +30,7 @@ struct CompensateArgs {
   int degree = 3;
   double rate_hz = 1000.0;
   std::optional<double> lead_in_s;
+  std::optional<double> window_s, overlap_s;
   std::string csv;
   bool json = false;
 };
@@ -72,9 +73,22 @@ void run_compensate(const CompensateArgs& a) {
   o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
   o.degree = a.degree;
   o.lead_in_s = a.lead_in_s.value_or(-1.0);
+  if ((a.window_s || a.overlap_s) && o.method != cp::Method::lpfbf)
+    throw Error("--window-s and --overlap-s are options of --method lpfbf");
+  if (a.window_s && !(*a.window_s > 0.0))
+    throw Error(fmt::format("--window-s {} must be > 0", *a.window_s));
+  if (a.overlap_s && !(*a.overlap_s >= 0.0))
+    throw Error(fmt::format("--overlap-s {} must be >= 0", *a.overlap_s));
+  o.window_s = a.window_s.value_or(-1.0);
+  o.overlap_s = a.overlap_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);
-  const cp::CompensationResult r = cp::compensate_file(a.file, m, o);
-  cp::write_csv(r, a.csv);
+  cp::CompensationResult r;
+  if (o.method == cp::Method::lpfbf) {
+    r = cp::compensate_file_streaming(a.file, m, o, a.csv);  // writes the CSV as it goes
+  } else {
+    r = cp::compensate_file(a.file, m, o);
+    cp::write_csv(r, a.csv);
+  }
   if (a.json) {
     std::cout << cp::to_json(r).dump(2) << "\n";
     return;
@@ -85,7 +99,7 @@ void run_compensate(const CompensateArgs& a) {
       "  max tracking error {:.6g} mm (uncompensated {:.6g} mm), max contour error {:.6g} mm\n"
       "  peak command accel {:.6g} mm/s^2, lead-in {:.4f} s, tail {:.4f} s\n"
       "  compute {:.4f} s, {:.1f}x real time\n",
-      a.file, r.method, r.motion_time_s, r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
+      a.file, r.method, r.motion_time_s, r.t_s.empty() ? r.samples : r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
       r.message.empty() ? "" : ": ", r.message, r.max_tracking_error_mm,
       r.uncompensated_max_tracking_error_mm, r.max_contour_error_mm, r.peak_command_accel_mm_s2,
       r.lead_in_s, r.tail_s, r.compute_time_s, r.real_time_factor);
@@ -100,8 +114,9 @@ void register_compensate(CLI::App& app) {
   sub->add_option("file", a->file, "G-code file")->required();
   add_machine_options(*sub, a->machine);
   sub->add_option("--method", a->method,
-                  "invert (exact model inverse) | fbf (filtered B-splines); lpfbf, rfbf and "
-                  "collocation are not implemented yet");
+                  "invert (exact model inverse) | fbf (filtered B-splines) | lpfbf (limited-preview "
+                  "FBF, windowed) | rfbf (robust FBF: the model and +-10 %, +-20 % frequency); "
+                  "collocation is not implemented yet");
   sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]");
   sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
   sub->add_option("--mode", a->modes, "model mode F,Z[,G] (repeatable) instead of the belt flags");
@@ -110,6 +125,8 @@ void register_compensate(CLI::App& app) {
   sub->add_option("--plant-damping-ratio", a->plant_zeta, "plant damping ratio (default: the model)");
   sub->add_option("--knot-spacing-s", a->knot_spacing_s, "fbf: B-spline knot spacing [s] (default: auto)");
   sub->add_option("--degree", a->degree, "fbf: B-spline degree (default 3)");
+  sub->add_option("--window-s", a->window_s, "lpfbf: window length [s] (default: auto)");
+  sub->add_option("--overlap-s", a->overlap_s, "lpfbf: window overlap [s] (default: half the window)");
   sub->add_option("--lead-in-s", a->lead_in_s, "command time before the first move [s] (default: auto)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step [Hz] (default 1000)");
   sub->add_option("--csv", a->csv, "command CSV (written whole or not at all)")->required();

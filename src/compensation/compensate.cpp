@@ -21,12 +21,22 @@ namespace amctl::compensation {
 Method parse_method(const std::string& name) {
   if (name == "invert") return Method::invert;
   if (name == "fbf") return Method::fbf;
-  if (name == "lpfbf" || name == "rfbf" || name == "collocation")
-    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf)", name));
-  throw Error(fmt::format("--method: '{}' is not a method; expected invert or fbf", name));
+  if (name == "lpfbf") return Method::lpfbf;
+  if (name == "rfbf") return Method::rfbf;
+  if (name == "collocation")
+    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf, lpfbf, rfbf)", name));
+  throw Error(fmt::format("--method: '{}' is not a method; expected invert, fbf, lpfbf or rfbf", name));
 }
 
-const char* method_name(Method m) { return m == Method::invert ? "invert" : "fbf"; }
+const char* method_name(Method m) {
+  switch (m) {
+    case Method::invert: return "invert";
+    case Method::fbf: return "fbf";
+    case Method::lpfbf: return "lpfbf";
+    case Method::rfbf: return "rfbf";
+  }
+  return "?";
+}
 
 namespace detail {
 
@@ -113,26 +123,34 @@ void simulate_command(const std::vector<double>& t_s, const std::vector<double>&
   });
 }
 
-namespace {
+namespace detail {
 
-void validate(const CompensationOptions& o) {
+double auto_tail_s(const CompensationOptions& options) {
+  const double decay = std::min({slowest_decay_rate_per_s(options.model_x),
+                                 slowest_decay_rate_per_s(options.model_y),
+                                 slowest_decay_rate_per_s(options.plant_x),
+                                 slowest_decay_rate_per_s(options.plant_y)});
+  return std::isfinite(decay) && decay > 0 ? std::clamp(5.0 / decay, 0.05, 1.0) : 1.0;
+}
+
+void validate_options(const CompensationOptions& o) {
   if (!(o.sample_rate_hz > 0.0) || !std::isfinite(o.sample_rate_hz))
     throw Error(fmt::format("--sample-rate-hz {} must be > 0", o.sample_rate_hz));
   if (o.model_x.is_rigid() || o.model_y.is_rigid())
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
                                   {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
-  if (o.method == Method::fbf) {
+  if (o.method == Method::fbf || o.method == Method::lpfbf || o.method == Method::rfbf) {
     if (o.degree < 1 || o.degree > 7)
       throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
   }
 }
 
-}  // namespace
+}  // namespace detail
 
 CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
                               const CompensationOptions& options) {
-  validate(options);
+  detail::validate_options(options);
   std::vector<plan::PlannedMove> moves;
   for (const plan::PlannedMove& m : all_moves)
     if (!m.extrude_only && m.distance_mm > 0.0) moves.push_back(m);
@@ -191,8 +209,12 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
       r.status = "ok";
       r.message = run.unbounded_jerk ? "command acceleration bounded; command jerk has steps or impulses" : "";
     }
-  } else {
+  } else if (options.method == Method::fbf) {
     detail::run_fbf(moves, options, auto_tail, grid, r);
+  } else if (options.method == Method::rfbf) {
+    detail::run_rfbf(moves, options, auto_tail, grid, r);
+  } else {
+    detail::run_lpfbf(moves, options, auto_tail, grid, r);
   }
 
   // The check: the sampled command simulated on the plant.
@@ -256,11 +278,21 @@ Json to_json(const CompensationResult& r) {
   j["lead_in_s"] = json_number(r.lead_in_s);
   j["tail_s"] = json_number(r.tail_s);
   j["sample_rate_hz"] = json_number(r.sample_rate_hz);
-  j["samples"] = r.t_s.size();
-  if (r.method == "fbf") {
+  j["samples"] = r.t_s.empty() ? r.samples : r.t_s.size();
+  if (r.method == "fbf" || r.method == "rfbf") {
     j["knot_spacing_s"] = json_number(r.knot_spacing_s);
     j["degree"] = r.degree;
     j["basis_functions"] = r.basis_functions;
+  }
+  if (r.method == "lpfbf") {
+    j["knot_spacing_s"] = json_number(r.knot_spacing_s);
+    j["degree"] = r.degree;
+    j["basis_functions"] = r.basis_functions;
+    j["window_s"] = json_number(r.window_s);
+    j["overlap_s"] = json_number(r.overlap_s);
+    j["windows"] = r.windows;
+    j["max_held_samples"] = r.max_held_samples;
+    if (r.max_held_moves > 0) j["max_held_moves"] = r.max_held_moves;
   }
   return j;
 }

@@ -2,7 +2,9 @@
 // Internals of amctl::compensation (not installed): the exact inverse filter, the sample grid,
 // the FBF solver and the contour distance.
 #include <cstddef>
+#include <deque>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -25,6 +27,10 @@ struct Segment {
 std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves);
 /// Distance from (x, y) to the moves' XY polyline, searched 64 moves either side of `around`.
 double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y);
+/// Throws amctl::Error for bad options (naming them).
+void validate_options(const CompensationOptions& o);
+/// The automatic tail: 5 time constants of the slowest mode of model and plant, in [0.05, 1] s.
+double auto_tail_s(const CompensationOptions& o);
 /// Smallest z w over the modes [1/s] (+inf for a rigid model).
 double slowest_decay_rate_per_s(const dynamics::AxisModel& m);
 
@@ -77,6 +83,122 @@ Basis make_basis(int p, int q, double h);
 /// The model's nozzle response to the command N_0 (from rest) at samples m h, exact, truncated
 /// once the vibration after the support has decayed below 1e-10 of its peak.
 std::vector<double> filtered_response(const dynamics::AxisModel& model, const Basis& b);
+
+/// FBF's grid: knot spacing q h, M knots (the end spline from knot M - p), lead-in, tail.
+struct FbfLayout {
+  Grid grid;
+  int q = 1, M = 0;
+  double settle_s = 0.0;  ///< 4 / (zeta w) of the model's slowest mode [s]
+};
+/// The part of the layout the first move settles (everything but M and the grid's count).
+FbfLayout fbf_layout_start(const plan::PlannedMove& first, const CompensationOptions& o);
+FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+                     double auto_tail_s);
+/// r.t_s, r.x_des_mm, r.y_des_mm on the grid.
+void sample_desired(std::span<const plan::PlannedMove> moves, const Grid& grid, CompensationResult& r);
+
+/// The normal matrix of n shifted copies (by q samples) of R over `rows` samples, factorised
+/// in place (banded Cholesky, bandwidth (len(R) - 1) / q).
+class BandedCholesky {
+ public:
+  BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows);
+  /// The sum of the normal matrices of several responses (robust FBF: one per model).
+  BandedCholesky(const std::vector<std::vector<double>>& Rs, int q, int n, std::size_t rows);
+  /// Solves G c = b in place.
+  void solve(std::vector<double>& c) const;
+
+ private:
+  int n_ = 0, L_ = 0;
+  std::vector<double> band_;
+};
+
+/// A window of a sample sequence: index k (absolute) at data[k - base]; contiguous, so loops
+/// over it vectorise; the consumed front is dropped by compaction (amortised O(1)).
+class SlidingBuffer {
+ public:
+  /// Pointer to absolute indices [k, k + n), zero-filled as needed (k >= base()).
+  double* span(std::size_t k, std::size_t n) {
+    const std::size_t end = k - base_ + off_ + n;
+    if (end > v_.size()) v_.resize(end, 0.0);
+    return v_.data() + (k - base_ + off_);
+  }
+  [[nodiscard]] const double* data_at(std::size_t k) const { return v_.data() + (k - base_ + off_); }
+  [[nodiscard]] std::size_t end() const { return base_ + v_.size() - off_; }
+  [[nodiscard]] std::size_t base() const { return base_; }
+  [[nodiscard]] double front_or_zero() const { return off_ < v_.size() ? v_[off_] : 0.0; }
+  void push_back(double x) { v_.push_back(x); }
+  [[nodiscard]] std::size_t size() const { return v_.size() - off_; }
+  void pop_front() {
+    if (off_ < v_.size()) ++off_;
+    else v_.push_back(0.0), ++off_;  // keep end() >= base()
+    ++base_;
+    if (off_ > 4096 && off_ * 2 > v_.size()) {
+      v_.erase(v_.begin(), v_.begin() + static_cast<std::ptrdiff_t>(off_));
+      off_ = 0;
+    }
+  }
+
+ private:
+  std::vector<double> v_;
+  std::size_t off_ = 0, base_ = 0;
+};
+
+/// LPFBF on one axis, streaming: push the desired samples of the grid one by one; every full
+/// window is solved as soon as its samples (and p knots more) are in; finish() solves the last
+/// window with the end spline fixed. Holds O(window + len(R)) samples.
+class LpfbfAxis {
+ public:
+  LpfbfAxis(const dynamics::AxisModel& model, const Basis& basis, int window_knots, int overlap_knots,
+            double x0);
+  void push(double x_des_mm);
+  void finish(std::size_t K, int M, double x_end_mm);
+  /// Command samples final so far (removed from the axis).
+  std::vector<double> take_command() { return std::exchange(out_cmd_, {}); }
+  std::vector<double> take_accel() { return std::exchange(out_acc_, {}); }
+  [[nodiscard]] std::size_t windows() const { return windows_; }
+  [[nodiscard]] std::size_t max_held_samples() const { return held_max_; }
+
+ private:
+  void solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep);
+  void commit(double w);
+  void emit(std::size_t upto);
+  /// The tails' contribution C E_k at samples [base_, base_ + n) into g (E_base_ not moved).
+  void tail_over(std::size_t n, std::vector<double>& g) const;
+  /// E_base_ moved from base_ to base_ + 1 (the injection at base_ included).
+  void advance_tail();
+
+  std::vector<double> R_, val_, acc_;
+  // R_[m] for m >= H_ is C Phi^(m - H_) eS_ (free vibration after the spline's support): the
+  // committed splines' tails are carried as one state E (injected c_j eS at sample j q + H_)
+  // instead of being added sample by sample (H_ = R_.size() if that factorisation fails).
+  std::size_t H_ = 0;
+  Eigen::MatrixXd Phi_;
+  Eigen::RowVectorXd C_;
+  Eigen::VectorXd eS_, E_base_, tmp_;
+  std::deque<Eigen::VectorXd> inj_;  ///< state injections at samples base_, base_ + 1, ...
+  int p_ = 3, q_ = 1, nw_ = 1, step_ = 1;
+  double x0_ = 0.0;
+  BandedCholesky window_;
+  int s_ = 0;                  ///< first free coefficient
+  std::size_t base_ = 0;       ///< grid index of the deques' front
+  std::size_t pushed_ = 0, windows_ = 0, held_max_ = 0;
+  SlidingBuffer des_, fixed_, cmd_, acc_out_;
+  std::vector<double> out_cmd_, out_acc_;
+};
+
+/// LPFBF's window and overlap in knots from the options (automatic: W = max(0.25 s, 4
+/// settling), O = W / 2); throws amctl::Error naming --window-s (shorter than the settling) or
+/// --overlap-s (not in [settling / 2, W)).
+std::pair<int, int> lpfbf_window_knots(const FbfLayout& lay, const CompensationOptions& o);
+
+/// LPFBF over the whole plan (the grid and the end spline as FBF).
+void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+               double auto_tail_s, Grid& grid, CompensationResult& r);
+
+/// Robust FBF: FBF's least squares over the model and its frequency scaled by 0.8, 0.9, 1.1
+/// and 1.2 (all modes), stacked.
+void run_rfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+              double auto_tail_s, Grid& grid, CompensationResult& r);
 
 /// FBF: fills the grid, the command and the basis fields of r.
 void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,

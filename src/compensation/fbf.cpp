@@ -131,10 +131,10 @@ std::vector<double> filtered_response(const dynamics::AxisModel& model, const Ba
   return R;
 }
 
-void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
-             double auto_tail_s, Grid& grid, CompensationResult& r) {
+FbfLayout fbf_layout_start(const plan::PlannedMove& first, const CompensationOptions& o) {
+  FbfLayout lay;
+  Grid& grid = lay.grid;
   const double h = 1.0 / o.sample_rate_hz;
-  const int p = o.degree;
   double f_max = std::max(o.model_x.max_natural_frequency_hz(), o.model_y.max_natural_frequency_hz());
   double decay = std::min(slowest_decay_rate_per_s(o.model_x), slowest_decay_rate_per_s(o.model_y));
   const double t_req = o.knot_spacing_s > 0.0 ? o.knot_spacing_s : 1.0 / (8.0 * f_max);
@@ -147,29 +147,38 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
                             o.knot_spacing_s, h));
   const int q = std::max(1, static_cast<int>(std::llround(t_req / h)));
   const double T = q * h;
-  const double t_begin = moves.front().start_time_s, t_end_motion = moves.back().end_time_s();
-
+  lay.settle_s = std::isfinite(decay) && decay > 0 ? 4.0 / decay : 0.0;
   const double lead = o.lead_in_s >= 0.0 ? o.lead_in_s
                                          : std::min(1.0, std::isfinite(decay) && decay > 0 ? 4.0 / decay : 1.0);
-  const double tail = o.tail_s >= 0.0 ? o.tail_s : auto_tail_s;
   const int lead_knots = static_cast<int>(std::ceil(lead / T - 1e-9));
   grid.h = h;
   grid.lead_steps = static_cast<std::size_t>(lead_knots) * static_cast<std::size_t>(q);
-  grid.t0 = t_begin - static_cast<double>(grid.lead_steps) * h;
+  grid.t0 = first.start_time_s - static_cast<double>(grid.lead_steps) * h;
+  lay.q = q;
+  return lay;
+}
+
+FbfLayout fbf_layout(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+                     double auto_tail_s) {
+  FbfLayout lay = fbf_layout_start(moves.front(), o);
+  const Grid& grid = lay.grid;
+  const int p = o.degree, q = lay.q;
+  const double T = q * grid.h;
+  const double t_end_motion = moves.back().end_time_s();
+  const double tail = o.tail_s >= 0.0 ? o.tail_s : auto_tail_s;
   const int M = static_cast<int>(std::ceil((t_end_motion + tail - grid.t0) / T - 1e-9));
-  grid.count = static_cast<std::size_t>(M) * static_cast<std::size_t>(q) + 1;
+  lay.grid.count = static_cast<std::size_t>(M) * static_cast<std::size_t>(q) + 1;
   const int J = M - p;
   if (J < p + 1)
     throw Error(fmt::format(
         "--knot-spacing-s {}: the basis ({} free B-splines of degree {}) does not cover the "
         "trajectory ({:.4g} s with lead-in and tail); use a finer knot spacing",
         T, std::max(J, 0), p, M * T));
+  lay.M = M;
+  return lay;
+}
 
-  r.knot_spacing_s = T;
-  r.degree = p;
-  r.basis_functions = static_cast<std::size_t>(J);
-  r.lead_in_s = static_cast<double>(grid.lead_steps) * h;
-  r.tail_s = grid.t(grid.count - 1) - t_end_motion;
+void sample_desired(std::span<const plan::PlannedMove> moves, const Grid& grid, CompensationResult& r) {
   const std::size_t K = grid.count;
   r.t_s.resize(K);
   r.x_des_mm.resize(K);
@@ -181,6 +190,23 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
     r.x_des_mm[k] = s.pos_mm[0];
     r.y_des_mm[k] = s.pos_mm[1];
   }
+}
+
+void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+             double auto_tail_s, Grid& grid, CompensationResult& r) {
+  const FbfLayout lay = fbf_layout(moves, o, auto_tail_s);
+  grid = lay.grid;
+  const double h = grid.h;
+  const int p = o.degree, q = lay.q, M = lay.M, J = M - p;
+  const double T = q * h;
+  const double t_end_motion = moves.back().end_time_s();
+  r.knot_spacing_s = T;
+  r.degree = p;
+  r.basis_functions = static_cast<std::size_t>(J);
+  r.lead_in_s = static_cast<double>(grid.lead_steps) * h;
+  r.tail_s = grid.t(grid.count - 1) - t_end_motion;
+  const std::size_t K = grid.count;
+  sample_desired(moves, grid, r);
 
   const Basis basis = make_basis(p, q, h);
   std::vector<double>* cmd[2] = {&r.x_cmd_mm, &r.y_cmd_mm};

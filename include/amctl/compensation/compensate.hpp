@@ -25,7 +25,7 @@
 
 namespace amctl::compensation {
 
-enum class Method { invert, fbf };
+enum class Method { invert, fbf, lpfbf, rfbf };
 
 /// "invert" | "fbf"; throws amctl::Error naming --method otherwise ("not implemented yet" for
 /// the methods of issue 10 still to come: lpfbf, rfbf, collocation).
@@ -51,6 +51,9 @@ struct CompensationOptions {
   /// B-spline degree.
   double knot_spacing_s = -1.0;
   int degree = 3;
+  /// LPFBF: window length W and overlap O [s] (< 0: automatic, W = max(0.25, 4 settling), O = W/2).
+  double window_s = -1.0;
+  double overlap_s = -1.0;
 };
 
 struct CompensationResult {
@@ -74,6 +77,12 @@ struct CompensationResult {
   double knot_spacing_s = 0.0;
   int degree = 0;
   std::size_t basis_functions = 0;
+  // LPFBF only
+  double window_s = 0.0, overlap_s = 0.0;
+  std::size_t windows = 0;           ///< windows solved (per axis)
+  std::size_t max_held_samples = 0;  ///< most desired samples held at once by one axis
+  std::size_t max_held_moves = 0;    ///< streaming: most plan moves held at once
+  std::size_t samples = 0;           ///< streaming: samples written (the arrays stay empty)
   // The command and its check, one entry per sample time.
   std::vector<double> t_s, x_cmd_mm, y_cmd_mm, x_des_mm, y_des_mm, x_sim_mm, y_sim_mm;
 };
@@ -85,6 +94,15 @@ CompensationResult compensate(std::span<const plan::PlannedMove> moves,
 /// Plans `path` for `machine` and compensates the whole plan.
 CompensationResult compensate_file(const std::string& path, const machine::Machine& machine,
                                    const CompensationOptions& options);
+
+/// LPFBF over the plan stream of `path` in bounded memory: the command and its check written
+/// progressively to `csv_path`.part (the CSV columns of write_csv), renamed to `csv_path` at
+/// the end (removed on error). The result's sample arrays stay empty (see `samples`); the
+/// check simulates the plant exactly for the command linear between samples, and the
+/// uncompensated error is that of the plan sampled on the same grid.
+CompensationResult compensate_file_streaming(const std::string& path, const machine::Machine& machine,
+                                             const CompensationOptions& options,
+                                             const std::string& csv_path);
 
 /// Simulates a sampled XY command (uniform step, linear between samples: constant-velocity
 /// moves through dynamics::Simulator) on the plant and returns the nozzle at the sample times.
