@@ -118,7 +118,7 @@ def steps(path, machine=None, set=None, *, csv=None):
 def compensate(path, machine=None, set=None, *, method="invert", natural_frequency_hz=None,
                damping_ratio=0.1, plant_natural_frequency_hz=None, plant_damping_ratio=None,
                model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,
-               knot_spacing_s=None, degree=3, csv=None):
+               knot_spacing_s=None, degree=3, window_s=None, overlap_s=None, csv=None):
     """Feedforward compensation of the belt model (``amctl compensate``, docs/compensation.md).
 
     Returns the dict of ``amctl compensate --json`` (``max_tracking_error_mm``,
@@ -128,13 +128,16 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
     planned path), ``x_sim_mm``, ``y_sim_mm`` (the plant driven by the command).
 
     Args:
-        method: "invert" (the exact inverse of the model) or "fbf" (filtered B-splines).
+        method: "invert" (the exact inverse of the model), "fbf" (filtered B-splines), "lpfbf"
+            (limited-preview FBF over windows; in Python the whole result is kept in memory, use
+            the CLI to stream a long print) or "rfbf" (robust FBF over a set of models).
         natural_frequency_hz [Hz], damping_ratio: the model the method uses (X and Y), or
             model_x / model_y as amctl.AxisModel.
         plant_natural_frequency_hz, plant_damping_ratio: the plant the result is simulated
             on (default: the model).
         sample_rate_hz [Hz]: the command's time step; lead_in_s, tail_s [s] (None: automatic);
         knot_spacing_s [s] (None: automatic) and degree: FBF's B-splines.
+        window_s, overlap_s [s]: LPFBF's window and overlap (None: automatic).
         csv: also write the command as ``amctl compensate --csv`` does.
     """
     p = _args.path(path, "path")
@@ -159,4 +162,5 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                               _args.number(sample_rate_hz, "sample_rate_hz", "Hz"),
                               opt(lead_in_s, "lead_in_s", "s"), opt(tail_s, "tail_s", "s"),
                               opt(knot_spacing_s, "knot_spacing_s", "s"), _args.integer(degree, "degree"),
+                              opt(window_s, "window_s", "s"), opt(overlap_s, "overlap_s", "s"),
                               "" if csv is None else _args.path(csv, "csv"))

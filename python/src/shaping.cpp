@@ -87,7 +87,7 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
                       const dynamics::AxisModel& model_x, const dynamics::AxisModel& model_y,
                       const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
                       double sample_rate_hz, double lead_in_s, double tail_s, double knot_spacing_s,
-                      int degree, const std::string& csv) {
+                      int degree, double window_s, double overlap_s, const std::string& csv) {
   compensation::CompensationOptions o;
   o.method = compensation::parse_method(method);
   o.model_x = model_x;
@@ -99,6 +99,8 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
   o.tail_s = tail_s;
   o.knot_spacing_s = knot_spacing_s;
   o.degree = degree;
+  o.window_s = window_s;
+  o.overlap_s = overlap_s;
   std::optional<compensation::CompensationResult> r;
   Json j;
   {
@@ -126,7 +128,7 @@ void register_shaping(py::module_& m) {
   m.def("_compensate", &compensate, py::arg("path"), py::arg("machine"), py::arg("method"),
         py::arg("model_x"), py::arg("model_y"), py::arg("plant_x"), py::arg("plant_y"),
         py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),
-        py::arg("degree"), py::arg("csv"),
+        py::arg("degree"), py::arg("window_s"), py::arg("overlap_s"), py::arg("csv"),
         "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
         "arrays; see amctl.compensate.");
   m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"),
