@@ -7,6 +7,7 @@ void register_all(CLI::App& app) {
   register_report(app);
   register_dynamics(app);
   register_compensate(app);
+  register_compare(app);
   register_thermal(app);
   register_process(app);
   register_machine(app);

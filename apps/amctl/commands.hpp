@@ -35,4 +35,6 @@ void register_resonance(CLI::App& app);
 void register_steps(CLI::App& app);
 /// `amctl compensate` (cmd_compensate.cpp).
 void register_compensate(CLI::App& app);
+/// `amctl compare` (cmd_compare.cpp).
+void register_compare(CLI::App& app);
 }  // namespace amctl::cli
