@@ -1,11 +1,12 @@
 // `amctl compare FILE --machine M --natural-frequency-hz F --damping-ratio Z [--json]
 //  [--methods invert,fbf,lpfbf,rfbf,zv,mzv,ei] [--plant-offsets -20,-10,0,10,20]
-//  [--sample-rate-hz R]`: every compensation method and the input shapers on one file, the
+//  [--sample-rate-hz R] [--layer L]`: every compensation method and the input shapers on one file, the
 // plant equal to the model and off by each offset (comparison::compare_file,
 // docs/compensation.md, "Comparison").
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@ struct CompareArgs {
   std::string methods = "invert,fbf,lpfbf,rfbf,zv,mzv,ei";
   std::string offsets = "-20,-10,0,10,20";
   double rate_hz = 1000.0;
+  std::optional<int> layer;
   bool json = false;
 };
 
@@ -67,6 +69,7 @@ void run_compare(const CompareArgs& a) {
   o.natural_frequency_hz = a.f_hz;
   o.damping_ratio = a.zeta;
   o.sample_rate_hz = a.rate_hz;
+  o.layer = a.layer;
   comparison::validate(o);
   const machine::Machine m = resolve_machine(a.machine);
   const comparison::ComparisonResult r = comparison::compare_file(a.file, m, o);
@@ -75,11 +78,11 @@ void run_compare(const CompareArgs& a) {
     return;
   }
   std::cout << fmt::format(
-      "{}: model {:.6g} Hz, damping {:.6g}; plant frequency off by the offset; errors in mm\n"
+      "{}{}: model {:.6g} Hz, damping {:.6g}; plant frequency off by the offset; errors in mm\n"
       "contour = max distance of the simulated nozzle to the planned path (every row); tracking "
       "= max/RMS |nozzle - path(t)| (compensation only); vib = max residual vibration; "
       "smooth = shaper's command vs plan; lead = compensation lead-in\n",
-      r.file, r.natural_frequency_hz, r.damping_ratio);
+      r.file, r.layer ? fmt::format(" layer {}", *r.layer) : "", r.natural_frequency_hz, r.damping_ratio);
   std::cout << fmt::format("{:<14} {:>7} {:>10} {:>10} {:>10} {:>10} {:>9} {:>9} {:>7} {:>11} {:>9} {:>9}\n",
                            "method", "plant%", "contour", "rms_cont", "track", "rms_track", "vib",
                            "smooth", "lead_s", "peak_acc", "compute_s", "x_real");
@@ -111,6 +114,8 @@ void register_compare(CLI::App& app) {
   sub->add_option("--plant-offsets", a->offsets,
                   "comma-separated plant frequency offsets [%] (> -100; default -20,-10,0,10,20)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step and simulation rate [Hz] (default 1000)");
+  sub->add_option("--layer", a->layer,
+                  "only the moves of this layer, every row on that span from rest (default: the whole file)");
   sub->add_flag("--json", a->json, "Print JSON");
   sub->callback([a] { run_compare(*a); });
 }

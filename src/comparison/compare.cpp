@@ -1,6 +1,7 @@
 #include "amctl/comparison/compare.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -11,6 +12,9 @@
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/model.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
+#include "amctl/plan/profile_peaks.hpp"
+#include "amctl/plan/stream.hpp"
+#include "amctl/shaping/shaper.hpp"
 #include "amctl/simulation/shaped_simulation.hpp"
 
 namespace amctl::comparison {
@@ -56,6 +60,8 @@ ComparisonRow uncompensated_row(const std::string& path, const machine::Machine&
   return row;
 }
 
+ComparisonRow from_compensation(const compensation::CompensationResult& r);
+
 ComparisonRow compensation_row(const std::string& path, const machine::Machine& machine,
                                const std::string& method, const dynamics::AxisModel& model,
                                const dynamics::AxisModel& plant, double rate_hz) {
@@ -64,7 +70,10 @@ ComparisonRow compensation_row(const std::string& path, const machine::Machine& 
   o.model_x = o.model_y = model;
   o.plant_x = o.plant_y = plant;
   o.sample_rate_hz = rate_hz;
-  const compensation::CompensationResult r = compensation::compensate_file(path, machine, o);
+  return from_compensation(compensation::compensate_file(path, machine, o));
+}
+
+ComparisonRow from_compensation(const compensation::CompensationResult& r) {
   ComparisonRow row;
   row.method = r.method;
   row.kind = "compensation";
@@ -114,6 +123,62 @@ ComparisonRow shaper_row(const std::string& path, const machine::Machine& machin
   return row;
 }
 
+// ------------------------------------------------------------------ one layer (a move span)
+
+std::vector<plan::PlannedMove> layer_moves(const std::string& path, const machine::Machine& machine, int layer) {
+  plan::PlanSource source(path, machine);
+  plan::CollectSink collect;
+  std::vector<plan::Sink*> sinks{&collect};
+  plan::run_pipeline(source, sinks);
+  std::vector<plan::PlannedMove> out;
+  for (const auto& m : collect.moves)
+    if (m.layer == layer) out.push_back(m);
+  if (out.empty()) throw Error(fmt::format("--layer {}: the file has no moves in this layer", layer));
+  return out;
+}
+
+/// The uncompensated (no shaper) or shaped run on a move span.
+ComparisonRow span_simulation_row(std::span<const plan::PlannedMove> moves, const machine::Machine& machine,
+                                  const std::optional<shaping::Shaper>& shaper, const dynamics::AxisModel& plant,
+                                  double rate_hz) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const dynamics::PrintSimulationOptions o = simulation_options(machine, rate_hz);
+  simulation::ShapedStreamingSimulation sim(plant, plant, o.simulation, o.metrics,
+                                            simulation::command_taps(shaper, shaper, false));
+  plan::ProfilePeaks peaks;
+  for (const auto& m : moves) {
+    sim.push(m);
+    peaks.add(m);
+  }
+  const dynamics::QualityReport rep = sim.finish();
+  ComparisonRow row;
+  row.method = shaper ? "" : "uncompensated";
+  row.kind = shaper ? "shaper" : "uncompensated";
+  row.max_contour_error_mm = rep.max_contour_error_mm;
+  row.rms_contour_error_mm = rep.rms_contour_error_mm;
+  row.max_tracking_error_mm = kNaN;
+  row.rms_tracking_error_mm = kNaN;
+  row.max_residual_vibration_mm = rep.max_residual_vibration_mm;
+  row.smoothing_mm = shaper ? sim.smoothing().max_mm : 0.0;
+  row.lead_in_s = 0.0;
+  row.peak_command_accel_mm_s2 = peaks.peak_accel_mm_s2;
+  row.motion_time_s = rep.motion_time_s;
+  row.compute_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  row.real_time_factor = rate_factor(row.motion_time_s, row.compute_time_s);
+  return row;
+}
+
+ComparisonRow span_compensation_row(std::span<const plan::PlannedMove> moves, const std::string& method,
+                                    const dynamics::AxisModel& model, const dynamics::AxisModel& plant,
+                                    double rate_hz) {
+  compensation::CompensationOptions o;
+  o.method = compensation::parse_method(method);
+  o.model_x = o.model_y = model;
+  o.plant_x = o.plant_y = plant;
+  o.sample_rate_hz = rate_hz;
+  return from_compensation(compensation::compensate(moves, o));
+}
+
 }  // namespace
 
 void validate(const ComparisonOptions& o) {
@@ -146,6 +211,9 @@ ComparisonResult compare_file(const std::string& path, const machine::Machine& m
   result.natural_frequency_hz = options.natural_frequency_hz;
   result.damping_ratio = options.damping_ratio;
   result.sample_rate_hz = options.sample_rate_hz;
+  result.layer = options.layer;
+  std::vector<plan::PlannedMove> span;
+  if (options.layer) span = layer_moves(path, machine, *options.layer);
   const dynamics::AxisModel model = dynamics::AxisModel::belt(options.natural_frequency_hz, options.damping_ratio);
   for (double offset_pct : options.plant_offsets_pct) {
     const double plant_f_hz = options.natural_frequency_hz * (1.0 + offset_pct / 100.0);
@@ -155,6 +223,22 @@ ComparisonResult compare_file(const std::string& path, const machine::Machine& m
       row.plant_natural_frequency_hz = plant_f_hz;
       result.rows.push_back(std::move(row));
     };
+    if (options.layer) {
+      add(span_simulation_row(span, machine, std::nullopt, plant, options.sample_rate_hz));
+      for (const auto& m : options.methods) {
+        if (is_compensation(m)) {
+          add(span_compensation_row(span, m, model, plant, options.sample_rate_hz));
+        } else {
+          const shaping::Shaper shaper = simulation::make_axis_shaper(
+              {m, options.natural_frequency_hz, options.damping_ratio, "compare"}, options.sample_rate_hz,
+              {"--methods", "--natural-frequency-hz", "--damping-ratio"});
+          ComparisonRow row = span_simulation_row(span, machine, shaper, plant, options.sample_rate_hz);
+          row.method = m;
+          add(std::move(row));
+        }
+      }
+      continue;
+    }
     add(uncompensated_row(path, machine, plant, options.sample_rate_hz));
     for (const auto& m : options.methods) {
       if (is_compensation(m))
@@ -169,6 +253,7 @@ ComparisonResult compare_file(const std::string& path, const machine::Machine& m
 Json to_json(const ComparisonResult& r) {
   Json j;
   j["file"] = r.file;
+  j["layer"] = r.layer ? Json(*r.layer) : Json(nullptr);
   j["model"] = {{"natural_frequency_hz", json_number(r.natural_frequency_hz)},
                 {"damping_ratio", json_number(r.damping_ratio)},
                 {"sample_rate_hz", json_number(r.sample_rate_hz)}};

@@ -110,6 +110,31 @@ TEST(Compare, OffsetsMoveThePlantOnly) {
   EXPECT_TRUE(j["rows"][0]["max_tracking_error_mm"].is_null());
 }
 
+TEST(Compare, LayerSpanOfTheWholeSeedFileGivesTheFileRows) {
+  // The seed file is one layer (-1): the span runs see the same moves as the file runs.
+  const machine::Machine m = machine::load_machine(kPrinter, {});
+  ComparisonOptions o = seed_options();
+  o.plant_offsets_pct = {0.0, 10.0};
+  const ComparisonResult file = compare_file(kGcode, m, o);
+  o.layer = -1;
+  const ComparisonResult span = compare_file(kGcode, m, o);
+  ASSERT_EQ(span.rows.size(), file.rows.size());
+  for (std::size_t i = 0; i < span.rows.size(); ++i) {
+    const auto& a = span.rows[i];
+    const auto& b = file.rows[i];
+    EXPECT_EQ(a.method, b.method);
+    EXPECT_NEAR(a.max_contour_error_mm, b.max_contour_error_mm, 1e-12) << a.method;
+    if (a.kind == "compensation") {
+      EXPECT_EQ(a.max_tracking_error_mm, b.max_tracking_error_mm) << a.method;
+      EXPECT_EQ(a.peak_command_accel_mm_s2, b.peak_command_accel_mm_s2) << a.method;
+    } else {
+      EXPECT_NEAR(a.rms_contour_error_mm, b.rms_contour_error_mm, 1e-3) << a.method;
+    }
+  }
+  o.layer = 7;
+  EXPECT_THROW((void)compare_file(kGcode, m, o), Error);
+}
+
 void expect_error_naming(const ComparisonOptions& o, const std::string& param) {
   try {
     validate(o);

@@ -9,6 +9,7 @@
 // the model's F and Z. The uncompensated row of an offset is dynamics::simulate_print of the
 // plant: the contour error `amctl simulate` reports. Every row carries the max contour error
 // (distance of the simulated nozzle to the planned path), the one metric all rows have.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,9 +26,14 @@ struct ComparisonOptions {
   double natural_frequency_hz = 0.0;  ///< model (and shaper) natural frequency [Hz]
   double damping_ratio = 0.1;         ///< model (and shaper) damping ratio
   double sample_rate_hz = 1000.0;     ///< command step and simulation output rate [Hz]
+  /// Only the moves of this layer (plan::PlannedMove::layer), every row on that move span:
+  /// compensation::compensate on the span, the uncompensated and shaped runs through
+  /// simulation::ShapedStreamingSimulation on the same span (starting at rest at its first
+  /// move). Unset: the whole file through the file-level runs named above.
+  std::optional<int> layer;
 };
 
-/// Throws amctl::Error naming the parameter (--methods, --plant-offsets,
+/// Throws amctl::Error naming the parameter (--methods, --plant-offsets, --layer (no moves),
 /// --natural-frequency-hz, --damping-ratio) for an unknown or repeated method, an offset
 /// <= -100 % or not finite, a frequency <= 0, a damping ratio < 0 (shapers: >= 1).
 void validate(const ComparisonOptions& options);
@@ -62,6 +68,7 @@ struct ComparisonResult {
   double natural_frequency_hz = 0.0;
   double damping_ratio = 0.0;
   double sample_rate_hz = 0.0;
+  std::optional<int> layer;
   /// Per offset (in the given order): the uncompensated row, then every method in order.
   std::vector<ComparisonRow> rows;
 };
@@ -70,7 +77,8 @@ struct ComparisonResult {
 [[nodiscard]] ComparisonResult compare_file(const std::string& path, const machine::Machine& machine,
                                             const ComparisonOptions& options);
 
-/// {"file", "model": {natural_frequency_hz, damping_ratio, sample_rate_hz}, "rows": [...]};
+/// {"file", "layer" (null: all), "model": {natural_frequency_hz, damping_ratio, sample_rate_hz},
+/// "rows": [...]};
 /// non-finite numbers are null.
 [[nodiscard]] Json to_json(const ComparisonResult& result);
 
