@@ -11,6 +11,7 @@
 #include "amctl/compensation/compensate.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/model.hpp"
+#include "amctl/dynamics/metrics.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/plan/profile_peaks.hpp"
 #include "amctl/plan/stream.hpp"
@@ -137,29 +138,36 @@ std::vector<plan::PlannedMove> layer_moves(const std::string& path, const machin
   return out;
 }
 
-/// The uncompensated (no shaper) or shaped run on a move span.
+/// The uncompensated run (no shaper: dynamics::StreamingSimulation, as `simulate`) or the
+/// shaped run (simulation::ShapedStreamingSimulation, as `simulate --shaper`) on a move span.
 ComparisonRow span_simulation_row(std::span<const plan::PlannedMove> moves, const machine::Machine& machine,
                                   const std::optional<shaping::Shaper>& shaper, const dynamics::AxisModel& plant,
                                   double rate_hz) {
   const auto t0 = std::chrono::steady_clock::now();
   const dynamics::PrintSimulationOptions o = simulation_options(machine, rate_hz);
-  simulation::ShapedStreamingSimulation sim(plant, plant, o.simulation, o.metrics,
-                                            simulation::command_taps(shaper, shaper, false));
   plan::ProfilePeaks peaks;
-  for (const auto& m : moves) {
-    sim.push(m);
-    peaks.add(m);
-  }
-  const dynamics::QualityReport rep = sim.finish();
+  for (const auto& m : moves) peaks.add(m);
   ComparisonRow row;
-  row.method = shaper ? "" : "uncompensated";
-  row.kind = shaper ? "shaper" : "uncompensated";
+  dynamics::QualityReport rep;
+  if (shaper) {
+    simulation::ShapedStreamingSimulation sim(plant, plant, o.simulation, o.metrics,
+                                              simulation::command_taps(shaper, shaper, false));
+    for (const auto& m : moves) sim.push(m);
+    rep = sim.finish();
+    row.kind = "shaper";
+    row.smoothing_mm = sim.smoothing().max_mm;
+  } else {
+    dynamics::StreamingSimulation sim(plant, plant, o.simulation, o.metrics);
+    for (const auto& m : moves) sim.push(m);
+    rep = sim.finish();
+    row.method = row.kind = "uncompensated";
+    row.smoothing_mm = 0.0;
+  }
   row.max_contour_error_mm = rep.max_contour_error_mm;
   row.rms_contour_error_mm = rep.rms_contour_error_mm;
   row.max_tracking_error_mm = kNaN;
   row.rms_tracking_error_mm = kNaN;
   row.max_residual_vibration_mm = rep.max_residual_vibration_mm;
-  row.smoothing_mm = shaper ? sim.smoothing().max_mm : 0.0;
   row.lead_in_s = 0.0;
   row.peak_command_accel_mm_s2 = peaks.peak_accel_mm_s2;
   row.motion_time_s = rep.motion_time_s;

@@ -128,7 +128,9 @@ TEST(Compare, LayerSpanOfTheWholeSeedFileGivesTheFileRows) {
       EXPECT_EQ(a.max_tracking_error_mm, b.max_tracking_error_mm) << a.method;
       EXPECT_EQ(a.peak_command_accel_mm_s2, b.peak_command_accel_mm_s2) << a.method;
     } else {
-      EXPECT_NEAR(a.rms_contour_error_mm, b.rms_contour_error_mm, 1e-3) << a.method;
+      EXPECT_NEAR(a.rms_contour_error_mm, b.rms_contour_error_mm, 1e-12) << a.method;
+      EXPECT_NEAR(a.max_residual_vibration_mm, b.max_residual_vibration_mm, 1e-12) << a.method;
+      EXPECT_NEAR(a.smoothing_mm, b.smoothing_mm, 1e-12) << a.method;
     }
   }
   o.layer = 7;

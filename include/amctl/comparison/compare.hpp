@@ -27,7 +27,8 @@ struct ComparisonOptions {
   double damping_ratio = 0.1;         ///< model (and shaper) damping ratio
   double sample_rate_hz = 1000.0;     ///< command step and simulation output rate [Hz]
   /// Only the moves of this layer (plan::PlannedMove::layer), every row on that move span:
-  /// compensation::compensate on the span, the uncompensated and shaped runs through
+  /// compensation::compensate on the span, the uncompensated run through
+  /// dynamics::StreamingSimulation and the shaped runs through
   /// simulation::ShapedStreamingSimulation on the same span (starting at rest at its first
   /// move). Unset: the whole file through the file-level runs named above.
   std::optional<int> layer;
