@@ -164,3 +164,27 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                               opt(knot_spacing_s, "knot_spacing_s", "s"), _args.integer(degree, "degree"),
                               opt(window_s, "window_s", "s"), opt(overlap_s, "overlap_s", "s"),
                               "" if csv is None else _args.path(csv, "csv"))
+
+
+def compare(path, machine=None, set=None, *, natural_frequency_hz, damping_ratio=0.1,
+            methods=None, plant_offsets_pct=None, sample_rate_hz=1000.0, layer=None):
+    """Every compensation method and the ZV/MZV/EI shapers on one file, with the plant at the
+    model and off by each offset (``amctl compare --json``, docs/compensation.md): a dict with
+    ``rows`` (method, plant_offset_pct, max_contour_error_mm, max_tracking_error_mm,
+    peak_command_accel_mm_s2, compute_time_s, ...). ``pandas.DataFrame(r["rows"])`` makes the
+    table.
+
+    Args:
+        natural_frequency_hz [Hz], damping_ratio: the model (and the shapers' design).
+        methods: default invert, fbf, lpfbf, rfbf, zv, mzv, ei.
+        plant_offsets_pct: default -20, -10, 0, 10, 20 (% of the model's frequency).
+        layer: only that layer's moves.
+    """
+    p = _args.path(path, "path")
+    m = _args.machine(machine, set)
+    meth = [] if methods is None else [_args.text(x, "methods") for x in methods]
+    offs = [] if plant_offsets_pct is None else [_args.number(x, "plant_offsets_pct", "%") for x in plant_offsets_pct]
+    return _amctl._compare(p, m, _args.number(natural_frequency_hz, "natural_frequency_hz", "Hz"),
+                           _args.number(damping_ratio, "damping_ratio"), meth, offs,
+                           _args.number(sample_rate_hz, "sample_rate_hz", "Hz"),
+                           _args.optional_integer(layer, "layer"))

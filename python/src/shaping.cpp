@@ -7,6 +7,7 @@
 
 #include <pybind11/stl.h>
 
+#include "amctl/comparison/compare.hpp"
 #include "amctl/compensation/compensate.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/report/html_report.hpp"
@@ -122,9 +123,32 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
   return out;
 }
 
+py::object compare(const std::string& path, const MachineValue& mv, double natural_frequency_hz,
+                   double damping_ratio, const std::vector<std::string>& methods,
+                   const std::vector<double>& plant_offsets_pct, double sample_rate_hz,
+                   std::optional<int> layer) {
+  comparison::ComparisonOptions o;
+  o.natural_frequency_hz = natural_frequency_hz;
+  o.damping_ratio = damping_ratio;
+  if (!methods.empty()) o.methods = methods;
+  if (!plant_offsets_pct.empty()) o.plant_offsets_pct = plant_offsets_pct;
+  o.sample_rate_hz = sample_rate_hz;
+  o.layer = layer;
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    j = comparison::to_json(comparison::compare_file(path, mv.m, o));
+  }
+  return to_python(j);
+}
+
 }  // namespace
 
 void register_shaping(py::module_& m) {
+  m.def("_compare", &compare, py::arg("path"), py::arg("machine"), py::arg("natural_frequency_hz"),
+        py::arg("damping_ratio"), py::arg("methods"), py::arg("plant_offsets_pct"),
+        py::arg("sample_rate_hz"), py::arg("layer"),
+        "amctl compare --json (comparison::compare_file + to_json); see amctl.compare.");
   m.def("_compensate", &compensate, py::arg("path"), py::arg("machine"), py::arg("method"),
         py::arg("model_x"), py::arg("model_y"), py::arg("plant_x"), py::arg("plant_y"),
         py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),

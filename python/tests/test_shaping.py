@@ -131,3 +131,19 @@ def test_lpfbf_equals_the_streaming_cli(cli, source_dir, tmp_path):
     # command and tracking error.
     assert r["max_tracking_error_mm"] == pytest.approx(ref["max_tracking_error_mm"], rel=1e-9)
     assert r["max_tracking_error_mm"] <= 0.1 * ref["uncompensated_max_tracking_error_mm"]
+
+
+def test_compare_equals_the_cli(cli, source_dir):
+    g = str(source_dir / "examples/30_seed000_corner.gcode")
+    cfg = str(source_dir / "examples/30_seed000_printer.cfg")
+    r = amctl.compare(g, machine=cfg, natural_frequency_hz=15.915, damping_ratio=0.5,
+                      methods=["fbf", "mzv"], plant_offsets_pct=[0, 10])
+    ref = cli.json("compare", g, "--machine", cfg, "--natural-frequency-hz", "15.915",
+                   "--damping-ratio", "0.5", "--methods", "fbf,mzv", "--plant-offsets", "0,10", "--json")
+    key = lambda row: (row["method"], row["plant_offset_pct"])
+    mine = {key(x): x for x in r["rows"]}
+    assert len(mine) == len(ref["rows"]) == 6  # (2 methods + uncompensated) x 2 offsets
+    for row in ref["rows"]:
+        assert mine[key(row)]["max_contour_error_mm"] == row["max_contour_error_mm"]
+    with pytest.raises(amctl.Error, match="method"):
+        amctl.compare(g, machine=cfg, natural_frequency_hz=15.915, methods=["magic"])
