@@ -61,6 +61,7 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
   j["heater_waits"] = events(r.heater_waits);
   j["heater_sets"] = events(r.heater_sets);
   j["untimed_commands"] = events(r.untimed);
+  j["pauses"] = events(r.pauses);
   Json unk = Json::array();
   for (const auto& u : r.unknown_commands) {
     unk.push_back({{"name", u.name}, {"first_line", u.first_line}, {"count", u.count},

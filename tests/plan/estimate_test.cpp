@@ -63,6 +63,29 @@ TEST(Estimate, HeaterWaitsAreListedApartNotTimed) {
   EXPECT_NEAR(r.heater_sets[0].at_s, 0.12, 1e-12);  // takes effect after the move
 }
 
+TEST(Estimate, PausesAreListedApartWithTheirPlaceNotTimed) {
+  // Each 10 mm move at 100 mm/s, 5000 mm/s^2, from and to rest: 2 * 0.02 + 8 / 100 = 0.12 s.
+  const char* g = "G1 X10 F6000\nM600\nG1 X20\npause\nG28\nG29\nM00\n";
+  auto r = estimate_text(g, "t", simple());
+  EXPECT_NEAR(r.total_time_s, 0.24, 1e-9);
+  ASSERT_EQ(r.pauses.size(), 4u);
+  EXPECT_EQ(r.pauses[0].line, 2u);
+  EXPECT_NEAR(r.pauses[0].at_s, 0.12, 1e-9);
+  EXPECT_EQ(r.pauses[0].what, "M600 (filament change)");
+  EXPECT_EQ(r.pauses[1].line, 4u);
+  EXPECT_NEAR(r.pauses[1].at_s, 0.24, 1e-9);
+  EXPECT_EQ(r.pauses[1].what, "PAUSE (pause print)");
+  EXPECT_EQ(r.pauses[2].line, 6u);
+  EXPECT_EQ(r.pauses[2].what, "G29 (bed levelling)");
+  EXPECT_EQ(r.pauses[3].line, 7u);
+  // Still untimed commands as before (G28 too, which is not a pause).
+  EXPECT_EQ(r.untimed.size(), 5u);
+  EXPECT_EQ(pause_reason("G28"), "");
+  EXPECT_EQ(pause_reason("bed_mesh_calibrate"), "bed levelling");
+  EXPECT_EQ(pause_reason("M0"), "stop, waits for the user");
+  EXPECT_EQ(pause_reason("M10"), "");
+}
+
 TEST(Estimate, ErrorsNameFileLineAndColumn) {
   try {
     estimate_text("G1 X10\nG1 X1.2.3 F100\n", "part.gcode", simple());
