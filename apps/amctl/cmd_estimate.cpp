@@ -69,6 +69,10 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
       o << fmt::format("    at {:>10}  {}  (line {})\n", hms(e.at_s), e.what, e.line);
     }
   }
+  if (r.range_error) o << "  warning: " << plan::describe_range_error(*r.range_error) << "\n";
+  if (r.diagnostics.clamped_moves > 0) {
+    o << fmt::format("  clamped moves    {} (Marlin soft endstops)\n", r.diagnostics.clamped_moves);
+  }
   if (!r.pauses.empty()) {
     o << "  pauses (not in the print time):\n";
     for (std::size_t i = 0; i < r.pauses.size() && i < 10; ++i) {

@@ -23,6 +23,16 @@ const char* heater_name(gcode::HeaterCommand::Kind k) {
 
 }  // namespace
 
+std::string describe_range_error(const RangeError& e) {
+  const bool below = e.position_mm < e.limit_mm;
+  return fmt::format(
+      "line {}: move out of range: {} = {:.3f} mm is {} {} = {:.3f} mm; Klipper refuses it "
+      "(\"Move out of range\") and the print would stop here at t = {:.3f} s; the times "
+      "reported cover the whole file as if it did not",
+      e.line, static_cast<char>(std::toupper(static_cast<unsigned char>(e.axis))), e.position_mm,
+      below ? "below" : "above", below ? "position_min" : "position_max", e.limit_mm, e.at_s);
+}
+
 std::string_view pause_reason(std::string_view name) {
   struct Entry {
     std::string_view name, reason;
@@ -150,6 +160,9 @@ void EstimateSink::add_event(const PlanEvent& e) {
       if (const std::string_view why = pause_reason(e.name); !why.empty() && r_.pauses.size() < 1000) {
         r_.pauses.push_back(TimedEvent{e.time_s, fmt::format("{} ({})", e.name, why), e.line});
       }
+      break;
+    case PlanEvent::Kind::range_error:
+      if (!r_.range_error) r_.range_error = e.range;
       break;
     case PlanEvent::Kind::layer:
       close_layer(e.time_s);

@@ -91,6 +91,9 @@ struct EstimateReport {
   /// BED_MESH_CALIBRATE, QUAD_GANTRY_LEVEL, Z_TILT_ADJUST, CALIBRATE_Z). Each is also in
   /// `untimed`; `what` names the command and why it pauses. Not in total_time_s.
   std::vector<TimedEvent> pauses;
+  /// Klipper machine with position_min/max: the first move out of range. Klipper stops the
+  /// print there (at range_error->at_s); the other figures still cover the whole file.
+  std::optional<RangeError> range_error;
   std::vector<gcode::UnknownCommand> unknown_commands;
   std::map<std::string, std::uint64_t> ignored_commands;
   std::optional<double> slicer_estimate_s;
@@ -102,6 +105,11 @@ struct EstimateReport {
 
 /// The estimate as a sink of the plan stream: one pass, O(layers + features) memory. Use it
 /// beside other sinks to get the report of a run that also simulates, writes CSV, ...
+/// The range error as one sentence: line, axis, position, limit, and the time at which Klipper
+/// would stop the print. Shown as a warning by the human report; the JSON has `range_error`
+/// (the `warnings` list is left as it was, so existing keys keep their values).
+[[nodiscard]] std::string describe_range_error(const RangeError& e);
+
 /// Why an untimed command pauses the print ("filament change", "bed levelling", ...), or
 /// empty when it is not a pause (homing, probing, calibration). `name` as the interpreter
 /// reports it (upper case, e.g. "M600", "BED_MESH_CALIBRATE").
