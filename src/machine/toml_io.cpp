@@ -400,7 +400,7 @@ std::string to_toml(const Machine& machine) {
           if (d.optional_number(m)) {
             out += fmt::format("{} = {}{}\n", d.key,
                                detail::format_number(*d.optional_number(m)), unit);
-          } else {
+          } else if (d.section != "marlin") {  // unset soft endstops: nothing written
             out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
           }
           break;

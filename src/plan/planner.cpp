@@ -127,8 +127,8 @@ void PlannerCore::on_move(const gcode::MoveRequest& request) {
     throw Error(SourceLocation{"", request.line, 0},
                 fmt::format("move speed must be > 0 mm/s, got {}", request.speed_mm_s));
   }
-  gcode::MoveRequest scratch;
-  const gcode::MoveRequest& r = apply_range(request, scratch);
+  // Machines without limits (every preset) skip the check: the hot path stays as it was.
+  const gcode::MoveRequest& r = range_active_ ? apply_range(request, range_scratch_) : request;
   // Built in place at the back of the queue (no copy of the large Move); dropped again if
   // it turns out to be zero-length.
   Move& m = queue_.emplace_back();  // a recycled slot: every field is assigned below

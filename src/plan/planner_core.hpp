@@ -72,6 +72,8 @@ class PlannerCore {
   // Marlin soft endstops (clamped). Unset: none.
   std::array<std::optional<double>, 3> range_min_mm_{}, range_max_mm_{};
   bool range_reported_ = false;
+  bool range_active_ = false;          // any limit set (and the firmware uses it)
+  gcode::MoveRequest range_scratch_;   // a clamped copy of the current move (Marlin)
   /// Klipper: posts the first out-of-range move. Marlin: clamps into `scratch` and returns it.
   const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);
   std::uint64_t warned_overextrusion_ = 0;

@@ -69,6 +69,9 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
     range_min_mm_ = m.soft_min_position_mm;
     range_max_mm_ = m.soft_max_position_mm;
   }
+  for (std::size_t i = 0; i < 3; ++i) {
+    range_active_ = range_active_ || range_min_mm_[i].has_value() || range_max_mm_[i].has_value();
+  }
   z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
   z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
   const auto& ex = m.extruder;

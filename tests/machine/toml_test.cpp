@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
 #include "test_util.hpp"
 
@@ -183,6 +184,16 @@ TEST(MachineToml, SchemaListsEveryKeyWithItsUnit) {
   EXPECT_EQ(find("marlin", "min_segment_time").unit, "s");
   EXPECT_EQ(find("marlin", "max_position_x").unit, "mm");
   EXPECT_EQ(find("stepper_*", "position_max").unit, "mm");
+  // Range keys are written only when set: a machine without them prints as before.
+  Machine plain;
+  plain.steppers["x"] = Stepper{};
+  EXPECT_EQ(to_toml(plain).find("position"), std::string::npos);
+  EXPECT_EQ(to_json(plain).dump().find("position"), std::string::npos);
+  plain.soft_max_position_mm[0] = 220.0;
+  plain.steppers["x"].position_max_mm = 230.0;
+  EXPECT_NE(to_toml(plain).find("max_position_x = 220"), std::string::npos);
+  EXPECT_NE(to_toml(plain).find("position_max = 230"), std::string::npos);
+  EXPECT_EQ(to_toml(plain).find("min_position"), std::string::npos);
 }
 
 }  // namespace
