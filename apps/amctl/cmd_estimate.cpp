@@ -69,6 +69,18 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
       o << fmt::format("    at {:>10}  {}  (line {})\n", hms(e.at_s), e.what, e.line);
     }
   }
+  if (r.range_error) o << "  warning: " << plan::describe_range_error(*r.range_error) << "\n";
+  if (r.diagnostics.clamped_moves > 0) {
+    o << fmt::format("  clamped moves    {} (Marlin soft endstops)\n", r.diagnostics.clamped_moves);
+  }
+  if (!r.pauses.empty()) {
+    o << "  pauses (not in the print time):\n";
+    for (std::size_t i = 0; i < r.pauses.size() && i < 10; ++i) {
+      o << fmt::format("    at {:>10}  {}  (line {})\n", hms(r.pauses[i].at_s), r.pauses[i].what,
+                       r.pauses[i].line);
+    }
+    if (r.pauses.size() > 10) o << fmt::format("    ... {} more\n", r.pauses.size() - 10);
+  }
   if (!r.untimed.empty()) {
     o << "  untimed commands (real duration unknown, not in the print time):\n";
     for (std::size_t i = 0; i < r.untimed.size() && i < 10; ++i) {

@@ -1,4 +1,5 @@
 #include "amctl/machine/json.hpp"
+#include <fmt/format.h>
 
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
@@ -41,6 +42,10 @@ Json to_json(const Machine& m) {
       {"min_segment_time", m.min_segment_time_s},
       {"block_buffer_size", m.block_buffer_size},
   };
+  for (std::size_t i = 0; i < 3; ++i) {  // soft endstops: only when set
+    if (m.soft_min_position_mm[i]) j["marlin"][fmt::format("min_position_{}", "xyz"[i])] = *m.soft_min_position_mm[i];
+    if (m.soft_max_position_mm[i]) j["marlin"][fmt::format("max_position_{}", "xyz"[i])] = *m.soft_max_position_mm[i];
+  }
   j["extruder"] = {
       {"nozzle_diameter", m.extruder.nozzle_diameter_mm},
       {"filament_diameter", m.extruder.filament_diameter_mm},
@@ -80,6 +85,10 @@ Json to_json(const Machine& m) {
                       {"microsteps", s.microsteps},
                       {"full_steps_per_rotation", s.full_steps_per_rotation},
                       {"steps_per_mm", s.steps_per_mm()}};
+    // Range keys only when set: machines without them print as before.
+    if (s.position_min_mm) steppers[name]["position_min"] = *s.position_min_mm;
+    if (s.position_max_mm) steppers[name]["position_max"] = *s.position_max_mm;
+    if (s.position_endstop_mm) steppers[name]["position_endstop"] = *s.position_endstop_mm;
   }
   j["steppers"] = steppers;
   j["effective"] = {

@@ -471,7 +471,16 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     if (s.name.rfind("stepper_", 0) != 0) continue;
     const std::string name = s.name.substr(8);
     if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_a on other kinematics
-    m.steppers[name] = read_stepper(Section(&s, s.name, file_loc));
+    const Section sec(&s, s.name, file_loc);
+    Stepper st = read_stepper(sec);
+    // stepper.py PrinterRail: the rail's first stepper (stepper_x, _y, _z) holds the range;
+    // position_min defaults to 0, position_max must lie above it.
+    if ((name == "x" || name == "y" || name == "z") && sec.has("position_max")) {
+      st.position_min_mm = sec.get_float("position_min", 0.0);
+      st.position_max_mm = sec.get_float("position_max", {.above = *st.position_min_mm});
+      st.position_endstop_mm = sec.get_float("position_endstop");
+    }
+    m.steppers[name] = st;
   }
   return m;
 }

@@ -96,6 +96,30 @@ const std::vector<KeyDef>& key_table() {
          "Shortest time a move may take when the queue runs low (M205 B, given there in us; "
          "DEFAULT_MINSEGMENTTIME 20000 us = 0.02 s).",
          AMCTL_NUM(min_segment_time_s)});
+    add({"marlin", "min_position_x", Kind::optional_number, Bound::finite, "mm",
+         "Soft endstop: lowest X a move may reach; targets beyond are clamped (X_MIN_POS "
+         "with MIN_SOFTWARE_ENDSTOPS; unset = no clamping).",
+         nullptr, AMCTL_OPT(soft_min_position_mm[0])});
+    add({"marlin", "min_position_y", Kind::optional_number, Bound::finite, "mm",
+         "Soft endstop: lowest Y a move may reach; targets beyond are clamped (Y_MIN_POS "
+         "with MIN_SOFTWARE_ENDSTOPS; unset = no clamping).",
+         nullptr, AMCTL_OPT(soft_min_position_mm[1])});
+    add({"marlin", "min_position_z", Kind::optional_number, Bound::finite, "mm",
+         "Soft endstop: lowest Z a move may reach; targets beyond are clamped (Z_MIN_POS "
+         "with MIN_SOFTWARE_ENDSTOPS; unset = no clamping).",
+         nullptr, AMCTL_OPT(soft_min_position_mm[2])});
+    add({"marlin", "max_position_x", Kind::optional_number, Bound::finite, "mm",
+         "Soft endstop: highest X a move may reach; targets beyond are clamped (X_MAX_POS "
+         "with MAX_SOFTWARE_ENDSTOPS; unset = no clamping).",
+         nullptr, AMCTL_OPT(soft_max_position_mm[0])});
+    add({"marlin", "max_position_y", Kind::optional_number, Bound::finite, "mm",
+         "Soft endstop: highest Y a move may reach; targets beyond are clamped (Y_MAX_POS "
+         "with MAX_SOFTWARE_ENDSTOPS; unset = no clamping).",
+         nullptr, AMCTL_OPT(soft_max_position_mm[1])});
+    add({"marlin", "max_position_z", Kind::optional_number, Bound::finite, "mm",
+         "Soft endstop: highest Z a move may reach; targets beyond are clamped (Z_MAX_POS "
+         "with MAX_SOFTWARE_ENDSTOPS; unset = no clamping).",
+         nullptr, AMCTL_OPT(soft_max_position_mm[2])});
     add({"marlin", "block_buffer_size", Kind::integer, Bound::at_least_one, "moves",
          "Planner queue length (BLOCK_BUFFER_SIZE): how many moves the look-ahead sees.",
          nullptr, nullptr, AMCTL_INT(block_buffer_size)});
@@ -196,6 +220,15 @@ const std::vector<StepperKeyDef>& stepper_table() {
       {"full_steps_per_rotation", Kind::integer, Bound::at_least_one, "",
        "Full steps per motor turn (200 for 1.8 degree, 400 for 0.9 degree motors).", nullptr,
        [](Stepper& s) -> int& { return s.full_steps_per_rotation; }},
+      {"position_min", Kind::optional_number, Bound::finite, "mm",
+       "Klipper position_min: lowest position a move may end at (unset: no range check).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.position_min_mm; }},
+      {"position_max", Kind::optional_number, Bound::finite, "mm",
+       "Klipper position_max: highest position a move may end at (unset: no range check).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.position_max_mm; }},
+      {"position_endstop", Kind::optional_number, Bound::finite, "mm",
+       "Klipper position_endstop: the position after homing (informative).", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.position_endstop_mm; }},
   };
   return keys;
 }

@@ -59,6 +59,7 @@ struct StepperKeyDef {
   std::string_view description;
   double& (*number)(Stepper&) = nullptr;
   int& (*integer)(Stepper&) = nullptr;
+  std::optional<double>& (*optional_number)(Stepper&) = nullptr;
 };
 
 /// Every [printer]/[marlin]/[extruder]/[arcs]/[firmware_retraction] key, in file order.

@@ -177,6 +177,9 @@ void assign_stepper(Stepper& s, double& gearing, const StepperKeyDef& d, const t
   switch (d.kind) {
     case Kind::number: d.number(s) = bounded_number(v, d.bound, where, label, d.unit); return;
     case Kind::integer: d.integer(s) = integer_of(v, d.bound, where, label); return;
+    case Kind::optional_number:
+      d.optional_number(s) = bounded_number(v, d.bound, where, label, d.unit);
+      return;
     case Kind::gear_ratio:
       if (v.is_string()) {
         gearing = detail::parse_gear_ratio(*v.value<std::string>(), where, label);
@@ -397,7 +400,7 @@ std::string to_toml(const Machine& machine) {
           if (d.optional_number(m)) {
             out += fmt::format("{} = {}{}\n", d.key,
                                detail::format_number(*d.optional_number(m)), unit);
-          } else {
+          } else if (d.section != "marlin") {  // unset soft endstops: nothing written
             out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
           }
           break;
@@ -438,6 +441,8 @@ std::string to_toml(const Machine& machine) {
         out += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(s)), unit);
       } else if (d.kind == Kind::integer) {
         out += fmt::format("{} = {}{}\n", d.key, d.integer(s), unit);
+      } else if (d.kind == Kind::optional_number && d.optional_number(s)) {
+        out += fmt::format("{} = {}{}\n", d.key, detail::format_number(*d.optional_number(s)), unit);
       }
     }
   }

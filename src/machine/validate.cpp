@@ -61,6 +61,21 @@ void check_bounds_for_validate(Machine& m) {
       const std::string label = fmt::format("stepper_{}.{}", name, d.key);
       if (d.kind == Kind::number) check_bound(d.bound, d.number(s), {}, label, d.unit);
       if (d.kind == Kind::integer) check_bound(d.bound, d.integer(s), {}, label, d.unit);
+      if (d.kind == Kind::optional_number && d.optional_number(s)) {
+        check_bound(d.bound, *d.optional_number(s), {}, label, d.unit);
+      }
+    }
+    if (s.position_min_mm && s.position_max_mm && *s.position_min_mm > *s.position_max_mm) {
+      throw Error(fmt::format("stepper_{}.position_min ({} mm) must be <= position_max ({} mm)",
+                              name, *s.position_min_mm, *s.position_max_mm));
+    }
+  }
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto& lo = m.soft_min_position_mm[i];
+    const auto& hi = m.soft_max_position_mm[i];
+    if (lo && hi && *lo > *hi) {
+      throw Error(fmt::format("marlin.min_position_{0} ({1} mm) must be <= marlin.max_position_{0} ({2} mm)",
+                              "xyz"[i], *lo, *hi));
     }
   }
 }
@@ -105,6 +120,7 @@ std::vector<KeyInfo> schema() {
     out.push_back({"stepper_*", std::string(d.key),
                    d.kind == Kind::integer      ? "integer"
                    : d.kind == Kind::gear_ratio ? "text or number"
+                   : d.kind == Kind::optional_number ? "number (optional)"
                                                 : "number",
                    std::string(d.unit), std::string(d.description)});
   }

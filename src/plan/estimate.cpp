@@ -1,6 +1,7 @@
 #include "amctl/plan/estimate.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <numbers>
 
@@ -21,6 +22,49 @@ const char* heater_name(gcode::HeaterCommand::Kind k) {
 }
 
 }  // namespace
+
+std::string describe_range_error(const RangeError& e) {
+  const bool below = e.position_mm < e.limit_mm;
+  return fmt::format(
+      "line {}: move out of range: {} = {:.3f} mm is {} {} = {:.3f} mm; Klipper refuses it "
+      "(\"Move out of range\") and the print would stop here at t = {:.3f} s; the times "
+      "reported cover the whole file as if it did not",
+      e.line, static_cast<char>(std::toupper(static_cast<unsigned char>(e.axis))), e.position_mm,
+      below ? "below" : "above", below ? "position_min" : "position_max", e.limit_mm, e.at_s);
+}
+
+std::string_view pause_reason(std::string_view name) {
+  struct Entry {
+    std::string_view name, reason;
+  };
+  // Marlin/Prusa: M0/M1 unconditional stop (wait for the user), M125 park head (pause),
+  // M226 wait for a pin state, M600 filament change, M601 pause print; G29 bed levelling,
+  // G80 Prusa mesh bed levelling, G34 Z steppers auto-alignment. Klipper: PAUSE and the
+  // levelling commands of [bed_mesh], [quad_gantry_level], [z_tilt], [z_calibration].
+  static constexpr Entry kPauses[] = {
+      {"M0", "stop, waits for the user"}, {"M1", "stop, waits for the user"},
+      {"M125", "park head, pause"}, {"M226", "waits for a pin state"},
+      {"M600", "filament change"}, {"M601", "pause print"}, {"PAUSE", "pause print"},
+      {"G29", "bed levelling"}, {"G80", "mesh bed levelling"}, {"G34", "Z auto-alignment"},
+      {"BED_MESH_CALIBRATE", "bed levelling"}, {"QUAD_GANTRY_LEVEL", "gantry levelling"},
+      {"Z_TILT_ADJUST", "Z tilt levelling"}, {"CALIBRATE_Z", "Z offset calibration"}};
+  auto iequal = [](std::string_view a, std::string_view b) {
+    return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+             return std::toupper(static_cast<unsigned char>(x)) == std::toupper(static_cast<unsigned char>(y));
+           });
+  };
+  // "M00" is M0: G/M words compare by their number.
+  std::string word(name);
+  if (word.size() > 1 && (word[0] == 'G' || word[0] == 'M' || word[0] == 'g' || word[0] == 'm') &&
+      std::all_of(word.begin() + 1, word.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; })) {
+    const std::size_t nz = std::min(word.find_first_not_of('0', 1), word.size() - 1);
+    word = word.substr(0, 1) + word.substr(nz);
+  }
+  for (const auto& e : kPauses) {
+    if (iequal(word, e.name)) return e.reason;
+  }
+  return {};
+}
 
 gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   gcode::InterpreterOptions o;
@@ -113,6 +157,12 @@ void EstimateSink::add_event(const PlanEvent& e) {
     }
     case PlanEvent::Kind::untimed:
       if (r_.untimed.size() < 1000) r_.untimed.push_back(TimedEvent{e.time_s, e.name, e.line});
+      if (const std::string_view why = pause_reason(e.name); !why.empty() && r_.pauses.size() < 1000) {
+        r_.pauses.push_back(TimedEvent{e.time_s, fmt::format("{} ({})", e.name, why), e.line});
+      }
+      break;
+    case PlanEvent::Kind::range_error:
+      if (!r_.range_error) r_.range_error = e.range;
       break;
     case PlanEvent::Kind::layer:
       close_layer(e.time_s);

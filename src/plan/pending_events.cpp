@@ -50,6 +50,14 @@ PendingEvent PendingEvent::make_input_shaping(const gcode::InputShapingCommand& 
   return e;
 }
 
+PendingEvent PendingEvent::make_range_error(const RangeError& r) {
+  PendingEvent e;
+  e.kind = Kind::range_error;
+  e.range = r;
+  e.line = r.line;
+  return e;
+}
+
 void PendingEvents::release(std::uint64_t through_seq, double time_s, PlanSink& sink) {
   while (!queue_.empty() && queue_.front().after_seq <= through_seq) {
     queue_.front().fire(time_s, sink);
@@ -65,6 +73,12 @@ void PendingEvent::fire(double time_s, PlanSink& sink) const {
     case Kind::layer: sink.on_layer_change(time_s, layer, line); break;
     case Kind::untimed: sink.on_untimed(time_s, name, line); break;
     case Kind::input_shaping: sink.on_input_shaping(time_s, shaping); break;
+    case Kind::range_error: {
+      RangeError r = range;
+      r.at_s = time_s;
+      sink.on_range_error(r);
+      break;
+    }
   }
 }
 

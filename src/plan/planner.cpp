@@ -75,11 +75,60 @@ inline double PlannerCore::marlin_move_limits(const std::array<double, 4>& d, Mo
   return slowed_v;
 }
 
-void PlannerCore::on_move(const gcode::MoveRequest& r) {
-  if (!(r.speed_mm_s > 0.0) || !std::isfinite(r.speed_mm_s)) {
-    throw Error(SourceLocation{"", r.line, 0},
-                fmt::format("move speed must be > 0 mm/s, got {}", r.speed_mm_s));
+const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
+                                                   gcode::MoveRequest& scratch) {
+  if (klipper_) {
+    // klippy/kinematics/cartesian.py check_move: an axis that moves must end inside
+    // [position_min, position_max], else "Move out of range" and the print stops.
+    if (range_reported_) return r;
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (!range_min_mm_[i] || r.end_mm[i] == r.start_mm[i]) continue;
+      const double p = r.end_mm[i];
+      if (p < *range_min_mm_[i] || p > *range_max_mm_[i]) {
+        RangeError e;
+        e.line = r.line;
+        e.axis = "xyz"[i];
+        e.position_mm = p;
+        e.limit_mm = p < *range_min_mm_[i] ? *range_min_mm_[i] : *range_max_mm_[i];
+        range_reported_ = true;
+        post(PendingEvent::make_range_error(e));  // fires when the moves before it have run
+        return r;
+      }
+    }
+    return r;
   }
+  // Marlin apply_motion_limits: the target is clamped into the soft endstops. The start is
+  // the previous (clamped) target, so clamping it too gives the path Marlin follows.
+  bool any = false;
+  for (std::size_t i = 0; i < 3; ++i) any = any || range_min_mm_[i] || range_max_mm_[i];
+  if (!any) return r;
+  scratch = r;
+  bool clamped = false, changed = false, start_moved = false;
+  for (std::size_t i = 0; i < 3; ++i) {
+    auto clamp = [&](double v) {
+      if (range_min_mm_[i]) v = std::max(v, *range_min_mm_[i]);
+      if (range_max_mm_[i]) v = std::min(v, *range_max_mm_[i]);
+      return v;
+    };
+    scratch.start_mm[i] = clamp(r.start_mm[i]);
+    scratch.end_mm[i] = clamp(r.end_mm[i]);
+    // Counted when the axis moves in the file's terms (an axis the move does not name keeps
+    // the position the interpreter holds, which may lie beyond the limit: no new clamp).
+    clamped = clamped || (scratch.end_mm[i] != r.end_mm[i] && r.end_mm[i] != r.start_mm[i]);
+    changed = changed || scratch.end_mm[i] != r.end_mm[i];
+    start_moved = start_moved || scratch.start_mm[i] != r.start_mm[i];
+  }
+  if (clamped) ++diag_.clamped_moves;
+  return changed || start_moved ? scratch : r;
+}
+
+void PlannerCore::on_move(const gcode::MoveRequest& request) {
+  if (!(request.speed_mm_s > 0.0) || !std::isfinite(request.speed_mm_s)) {
+    throw Error(SourceLocation{"", request.line, 0},
+                fmt::format("move speed must be > 0 mm/s, got {}", request.speed_mm_s));
+  }
+  // Machines without limits (every preset) skip the check: the hot path stays as it was.
+  const gcode::MoveRequest& r = range_active_ ? apply_range(request, range_scratch_) : request;
   // Built in place at the back of the queue (no copy of the large Move); dropped again if
   // it turns out to be zero-length.
   Move& m = queue_.emplace_back();  // a recycled slot: every field is assigned below

@@ -68,6 +68,14 @@ class PlannerCore {
   double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
   // Derived from lim_, refreshed by update_derived_limits().
   double mcr_accel_mm_s2_ = 0, junction_deviation_mm_ = 0;
+  // Range limits of X, Y, Z: Klipper position_min/max (checked, first error reported) or
+  // Marlin soft endstops (clamped). Unset: none.
+  std::array<std::optional<double>, 3> range_min_mm_{}, range_max_mm_{};
+  bool range_reported_ = false;
+  bool range_active_ = false;          // any limit set (and the firmware uses it)
+  gcode::MoveRequest range_scratch_;   // a clamped copy of the current move (Marlin)
+  /// Klipper: posts the first out-of-range move. Marlin: clamps into `scratch` and returns it.
+  const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);
   std::uint64_t warned_overextrusion_ = 0;
   std::uint64_t next_seq_ = 1;
 };

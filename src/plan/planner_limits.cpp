@@ -57,6 +57,21 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   // Per-move constants of the machine, computed once with the same expressions on_move()
   // used to evaluate for every move (so the doubles are the same).
   klipper_ = klipper;
+  if (klipper) {
+    for (std::size_t i = 0; i < 3; ++i) {
+      const auto it = m.steppers.find(std::string(1, "xyz"[i]));
+      if (it != m.steppers.end() && it->second.position_min_mm && it->second.position_max_mm) {
+        range_min_mm_[i] = it->second.position_min_mm;
+        range_max_mm_[i] = it->second.position_max_mm;
+      }
+    }
+  } else if (m.firmware == Firmware::marlin) {
+    range_min_mm_ = m.soft_min_position_mm;
+    range_max_mm_ = m.soft_max_position_mm;
+  }
+  for (std::size_t i = 0; i < 3; ++i) {
+    range_active_ = range_active_ || range_min_mm_[i].has_value() || range_max_mm_[i].has_value();
+  }
   z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
   z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
   const auto& ex = m.extruder;

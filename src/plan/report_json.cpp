@@ -61,6 +61,15 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
   j["heater_waits"] = events(r.heater_waits);
   j["heater_sets"] = events(r.heater_sets);
   j["untimed_commands"] = events(r.untimed);
+  j["pauses"] = events(r.pauses);
+  if (r.range_error) {
+    const RangeError& e = *r.range_error;
+    j["range_error"] = {{"line", e.line}, {"axis", std::string(1, e.axis)},
+                        {"position_mm", e.position_mm}, {"limit_mm", e.limit_mm}, {"at_s", e.at_s}};
+  } else {
+    j["range_error"] = nullptr;
+  }
+  j["clamped_moves"] = r.diagnostics.clamped_moves;
   Json unk = Json::array();
   for (const auto& u : r.unknown_commands) {
     unk.push_back({{"name", u.name}, {"first_line", u.first_line}, {"count", u.count},

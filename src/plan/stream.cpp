@@ -32,6 +32,9 @@ class BatchWriter final : public PlanSink {
   void on_fan(double time_s, double fraction, std::uint64_t line) override {
     event(PlanEvent::Kind::fan, time_s, line).fan_fraction = fraction;
   }
+  void on_range_error(const RangeError& e) override {
+    event(PlanEvent::Kind::range_error, e.at_s, e.line).range = e;
+  }
   void on_input_shaping(double time_s, const gcode::InputShapingCommand& cmd) override {
     event(PlanEvent::Kind::input_shaping, time_s, cmd.line).shaping = cmd;
   }

@@ -192,6 +192,24 @@ TEST(KlipperCfg, StepperSectionsGiveStepsPerMm) {
             "got 202");
 }
 
+TEST(KlipperCfg, RailRangesAreRead) {
+  const Machine m = cfg(kMinimal +
+                        "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
+                        "position_endstop: 0\nposition_max: 235\n"
+                        "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\n"
+                        "position_min: -5\nposition_endstop: -5\nposition_max: 230\n"
+                        "[stepper_e]\nrotation_distance: 7\nmicrosteps: 16\n");
+  EXPECT_EQ(m.steppers.at("x").position_min_mm, 0.0);  // Klipper's default
+  EXPECT_EQ(m.steppers.at("x").position_max_mm, 235.0);
+  EXPECT_EQ(m.steppers.at("x").position_endstop_mm, 0.0);
+  EXPECT_EQ(m.steppers.at("y").position_min_mm, -5.0);
+  EXPECT_EQ(m.steppers.at("y").position_max_mm, 230.0);
+  EXPECT_FALSE(m.steppers.at("e").position_max_mm.has_value());
+  EXPECT_EQ(cfg_error(kMinimal + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
+                                 "position_min: 10\nposition_max: 5\n"),
+            "printer.cfg:9:15: [stepper_x] position_max: must be above 10, got 5");
+}
+
 TEST(KlipperCfg, MacrosWithMultiLineGcodeAreSkippedWithoutConfusingTheParser) {
   const Machine m = cfg(
       "[gcode_macro PRINT_START]\n"

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
 #include "test_util.hpp"
 
@@ -162,6 +163,9 @@ TEST(MachineToml, ToTomlRoundTripsEveryFieldExactly) {
   m.firmware_retraction.lift_z_mm = 0.2;
   m.steppers["x"] = Stepper{40.0 / 3.0, 256, 400};
   m.steppers["z2"] = Stepper{8, 16, 200};
+  m.steppers["y"] = Stepper{40, 16, 200, -5.0, 230.0, -5.0};
+  m.soft_min_position_mm = {0.0, -2.0, std::nullopt};
+  m.soft_max_position_mm = {220.0, std::nullopt, 250.0};
   const std::string text = to_toml(m);
   EXPECT_EQ(parse_machine_toml(text, "rt.toml"), m) << text;
 }
@@ -178,6 +182,18 @@ TEST(MachineToml, SchemaListsEveryKeyWithItsUnit) {
   EXPECT_EQ(find("marlin", "jerk").type, "[x, y, z, e]");
   EXPECT_EQ(find("stepper_*", "rotation_distance").unit, "mm");
   EXPECT_EQ(find("marlin", "min_segment_time").unit, "s");
+  EXPECT_EQ(find("marlin", "max_position_x").unit, "mm");
+  EXPECT_EQ(find("stepper_*", "position_max").unit, "mm");
+  // Range keys are written only when set: a machine without them prints as before.
+  Machine plain;
+  plain.steppers["x"] = Stepper{};
+  EXPECT_EQ(to_toml(plain).find("position"), std::string::npos);
+  EXPECT_EQ(to_json(plain).dump().find("position"), std::string::npos);
+  plain.soft_max_position_mm[0] = 220.0;
+  plain.steppers["x"].position_max_mm = 230.0;
+  EXPECT_NE(to_toml(plain).find("max_position_x = 220"), std::string::npos);
+  EXPECT_NE(to_toml(plain).find("position_max = 230"), std::string::npos);
+  EXPECT_EQ(to_toml(plain).find("min_position"), std::string::npos);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -61,6 +62,116 @@ TEST(Estimate, HeaterWaitsAreListedApartNotTimed) {
   EXPECT_EQ(r.heater_waits[0].line, 1u);
   ASSERT_EQ(r.heater_sets.size(), 1u);
   EXPECT_NEAR(r.heater_sets[0].at_s, 0.12, 1e-12);  // takes effect after the move
+}
+
+TEST(Estimate, PausesAreListedApartWithTheirPlaceNotTimed) {
+  // Each 10 mm move at 100 mm/s, 5000 mm/s^2, from and to rest: 2 * 0.02 + 8 / 100 = 0.12 s.
+  const char* g = "G1 X10 F6000\nM600\nG1 X20\npause\nG28\nG29\nM00\n";
+  auto r = estimate_text(g, "t", simple());
+  EXPECT_NEAR(r.total_time_s, 0.24, 1e-9);
+  ASSERT_EQ(r.pauses.size(), 4u);
+  EXPECT_EQ(r.pauses[0].line, 2u);
+  EXPECT_NEAR(r.pauses[0].at_s, 0.12, 1e-9);
+  EXPECT_EQ(r.pauses[0].what, "M600 (filament change)");
+  EXPECT_EQ(r.pauses[1].line, 4u);
+  EXPECT_NEAR(r.pauses[1].at_s, 0.24, 1e-9);
+  EXPECT_EQ(r.pauses[1].what, "PAUSE (pause print)");
+  EXPECT_EQ(r.pauses[2].line, 6u);
+  EXPECT_EQ(r.pauses[2].what, "G29 (bed levelling)");
+  EXPECT_EQ(r.pauses[3].line, 7u);
+  // Still untimed commands as before (G28 too, which is not a pause).
+  EXPECT_EQ(r.untimed.size(), 5u);
+  EXPECT_EQ(pause_reason("G28"), "");
+  EXPECT_EQ(pause_reason("bed_mesh_calibrate"), "bed levelling");
+  EXPECT_EQ(pause_reason("M0"), "stop, waits for the user");
+  EXPECT_EQ(pause_reason("M10"), "");
+}
+
+machine::Machine klipper_with_range() {
+  machine::Machine m = simple();
+  for (const char* a : {"x", "y", "z"}) {
+    machine::Stepper st;
+    st.position_min_mm = 0.0;
+    st.position_max_mm = 100.0;
+    m.steppers[a] = st;
+  }
+  return m;
+}
+
+TEST(Estimate, KlipperReportsTheFirstMoveOutOfRange) {
+  // Line 1: 50 mm from rest to rest at 100 mm/s, 5000 mm/s^2: 2 * 0.02 + 48 / 100 = 0.52 s.
+  // Line 2 ends at Y = 120 > position_max 100: Klipper stops there, at t = 0.52 s. Line 3
+  // (X = 200) is out of range too, but only the first is reported.
+  const char* g = "G1 X50 F6000\nG1 Y120\nG1 X200\n";
+  const auto r = estimate_text(g, "t", klipper_with_range());
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->line, 2u);
+  EXPECT_EQ(r.range_error->axis, 'y');
+  EXPECT_DOUBLE_EQ(r.range_error->position_mm, 120.0);
+  EXPECT_DOUBLE_EQ(r.range_error->limit_mm, 100.0);
+  EXPECT_NEAR(r.range_error->at_s, 0.52, 1e-9);
+  // The time still covers the whole file (as without limits), and a warning says so.
+  const auto plain = estimate_text(g, "t", simple());
+  EXPECT_EQ(r.total_time_s, plain.total_time_s);
+  EXPECT_NEAR(r.total_time_s, 0.52 + (0.04 + 1.18) + (0.04 + 1.48), 1e-9);
+  EXPECT_EQ(r.diagnostics.warnings, plain.diagnostics.warnings);  // said by range_error
+  EXPECT_EQ(describe_range_error(*r.range_error),
+            "line 2: move out of range: Y = 120.000 mm is above position_max = 100.000 mm; "
+            "Klipper refuses it (\"Move out of range\") and the print would stop here at "
+            "t = 0.520 s; the times reported cover the whole file as if it did not");
+  // Below position_min, on a move that starts at rest after a dwell.
+  const auto low = estimate_text("G1 X10 F6000\nG4 P1000\nG1 X-1\n", "t", klipper_with_range());
+  ASSERT_TRUE(low.range_error.has_value());
+  EXPECT_EQ(low.range_error->line, 3u);
+  EXPECT_EQ(low.range_error->axis, 'x');
+  EXPECT_DOUBLE_EQ(low.range_error->limit_mm, 0.0);
+  // 10 mm: 2 * 0.02 + 8 / 100 = 0.12 s, then the 1 s dwell.
+  EXPECT_NEAR(low.range_error->at_s, 1.12, 1e-9);
+}
+
+TEST(Estimate, NoLimitsOrMovesInsideChangeNothing) {
+  // Fan and layer events around the moves: none of them is a range error.
+  const char* g = "M106 S255\nG1 X50 F6000\n;LAYER:1\nG1 Y100\nM107\nG1 X0 Y0\n";
+  const auto plain = estimate_text(g, "t", simple());
+  const auto ranged = estimate_text(g, "t", klipper_with_range());
+  EXPECT_FALSE(plain.range_error.has_value());
+  EXPECT_FALSE(ranged.range_error.has_value());
+  EXPECT_EQ(plain.total_time_s, ranged.total_time_s);
+  EXPECT_EQ(plain.diagnostics.warnings, ranged.diagnostics.warnings);
+  EXPECT_EQ(ranged.diagnostics.clamped_moves, 0u);
+  // Marlin ignores Klipper's stepper range; Klipper ignores Marlin's soft endstops.
+  machine::Machine marlin = klipper_with_range();
+  marlin.firmware = machine::Firmware::marlin;
+  EXPECT_FALSE(estimate_text("G1 X150 F6000\n", "t", marlin).range_error.has_value());
+  machine::Machine k = simple();
+  k.soft_max_position_mm = {100.0, 100.0, 100.0};
+  const auto kr = estimate_text("G1 X150 F6000\n", "t", k);
+  EXPECT_EQ(kr.diagnostics.clamped_moves, 0u);
+  EXPECT_EQ(kr.total_time_s, estimate_text("G1 X150 F6000\n", "t", simple()).total_time_s);
+}
+
+TEST(Estimate, MarlinClampsToItsSoftEndstops) {
+  machine::Machine m = simple();
+  m.firmware = machine::Firmware::marlin;
+  m.junction = machine::JunctionPolicy::junction_deviation;
+  m.print_accel_mm_s2 = m.travel_accel_mm_s2 = m.retract_accel_mm_s2 = 5000;
+  m.soft_min_position_mm = {0.0, 0.0, 0.0};
+  m.soft_max_position_mm = {100.0, 100.0, 100.0};
+  std::vector<PlannedMove> moves;
+  EstimateOptions o;
+  o.on_move = [&](const PlannedMove& pm) { moves.push_back(pm); };
+  // X150 is clamped to 100: 100 mm from rest to rest, 2 * 0.02 + 98 / 100 = 1.02 s. Then
+  // G4 and a move to Y10 that starts at the clamped X = 100.
+  const auto r = estimate_text("G1 X150 F6000\nG4 P0\nG1 Y10\n", "t", m, o);
+  EXPECT_EQ(r.diagnostics.clamped_moves, 1u);
+  ASSERT_EQ(moves.size(), 2u);
+  EXPECT_DOUBLE_EQ(moves[0].distance_mm, 100.0);
+  EXPECT_NEAR(moves[0].duration_s(), 1.02, 1e-9);
+  EXPECT_DOUBLE_EQ(moves[1].start_mm[0], 100.0);
+  EXPECT_DOUBLE_EQ(moves[1].start_mm[0] + moves[1].axes_r[0] * moves[1].distance_mm, 100.0);
+  // 10 mm: 0.12 s.
+  EXPECT_NEAR(r.total_time_s, 1.02 + 0.12, 1e-9);
+  EXPECT_FALSE(r.range_error.has_value());
 }
 
 TEST(Estimate, ErrorsNameFileLineAndColumn) {

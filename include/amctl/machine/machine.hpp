@@ -54,6 +54,10 @@ struct Stepper {
   double rotation_distance_mm = 40.0;
   int microsteps = 16;
   int full_steps_per_rotation = 200;
+  /// Klipper [stepper_*] position_min / position_max / position_endstop (machine
+  /// coordinates). Klipper refuses a move whose end lies outside [position_min,
+  /// position_max] ("Move out of range"). Unset: no range known (presets, TOML without them).
+  std::optional<double> position_min_mm, position_max_mm, position_endstop_mm;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
@@ -134,6 +138,9 @@ struct Machine {
   double min_segment_time_s = 0.0;              ///< M205 B (us in G-code; s here)
   /// Marlin BLOCK_BUFFER_SIZE: moves the look-ahead can see (bounds how far ahead it plans).
   int block_buffer_size = 16;
+  /// Marlin soft endstops (MIN_SOFTWARE_ENDSTOPS / MAX_SOFTWARE_ENDSTOPS with X_MIN_POS ...
+  /// X_MAX_POS): targets are clamped into [min, max] per axis X, Y, Z. Unset: no clamping.
+  std::array<std::optional<double>, 3> soft_min_position_mm{}, soft_max_position_mm{};
 
   /// Jerk for the jerk-limited profiles (scurve7). [mm/s^3]
   double max_jerk_mm_s3 = 1.0e6;

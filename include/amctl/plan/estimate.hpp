@@ -86,6 +86,14 @@ struct EstimateReport {
   std::vector<TimedEvent> heater_waits;   ///< waits whose duration is not in total_time_s
   std::vector<TimedEvent> heater_sets;
   std::vector<TimedEvent> untimed;        ///< homing, probing, pauses: real time not known
+  /// The untimed commands that stop the print for a time no file can know: user pauses
+  /// (M0/M1, M125, M226, M600, M601, PAUSE) and bed levelling (G29, G80, G34,
+  /// BED_MESH_CALIBRATE, QUAD_GANTRY_LEVEL, Z_TILT_ADJUST, CALIBRATE_Z). Each is also in
+  /// `untimed`; `what` names the command and why it pauses. Not in total_time_s.
+  std::vector<TimedEvent> pauses;
+  /// Klipper machine with position_min/max: the first move out of range. Klipper stops the
+  /// print there (at range_error->at_s); the other figures still cover the whole file.
+  std::optional<RangeError> range_error;
   std::vector<gcode::UnknownCommand> unknown_commands;
   std::map<std::string, std::uint64_t> ignored_commands;
   std::optional<double> slicer_estimate_s;
@@ -97,6 +105,16 @@ struct EstimateReport {
 
 /// The estimate as a sink of the plan stream: one pass, O(layers + features) memory. Use it
 /// beside other sinks to get the report of a run that also simulates, writes CSV, ...
+/// The range error as one sentence: line, axis, position, limit, and the time at which Klipper
+/// would stop the print. Shown as a warning by the human report; the JSON has `range_error`
+/// (the `warnings` list is left as it was, so existing keys keep their values).
+[[nodiscard]] std::string describe_range_error(const RangeError& e);
+
+/// Why an untimed command pauses the print ("filament change", "bed levelling", ...), or
+/// empty when it is not a pause (homing, probing, calibration). `name` as the interpreter
+/// reports it (upper case, e.g. "M600", "BED_MESH_CALIBRATE").
+[[nodiscard]] std::string_view pause_reason(std::string_view name);
+
 class EstimateSink final : public Sink {
  public:
   explicit EstimateSink(const machine::Machine& machine, double checkpoint_interval_s = 0.0);

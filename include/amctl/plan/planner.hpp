@@ -29,6 +29,17 @@
 
 namespace amctl::plan {
 
+/// The first move a Klipper machine refuses ("Move out of range"): its end lies outside
+/// [position_min, position_max] of a moving axis. Klipper stops the print there.
+struct RangeError {
+  std::uint64_t line = 0;
+  char axis = 'x';           ///< 'x', 'y' or 'z'
+  double position_mm = 0.0;  ///< the move's end on that axis (machine coordinates)
+  double limit_mm = 0.0;     ///< the position_min or position_max it passes
+  double at_s = 0.0;         ///< print time at which the move would start (the print stops)
+  bool operator==(const RangeError&) const = default;
+};
+
 namespace detail {
 class PlannerCore;  // src/plan/planner_core.hpp
 }  // namespace detail
@@ -54,6 +65,9 @@ class PlanSink {
   virtual void on_fan(double time_s, double fraction, std::uint64_t line) {
     (void)time_s; (void)fraction; (void)line;
   }
+  /// The first move out of range on a Klipper machine with position_min/max, at the print
+  /// time it would start (after the moves before it). At most once per run.
+  virtual void on_range_error(const RangeError& e) { (void)e; }
   /// M593 taking effect at print time `time_s` (after the moves before it).
   virtual void on_input_shaping(double time_s, const gcode::InputShapingCommand& cmd) {
     (void)time_s; (void)cmd;
@@ -81,6 +95,8 @@ struct PlannerDiagnostics {
   std::uint64_t forced_flushes = 0;        ///< max_queue reached (0 on real files; warned)
   std::uint64_t full_stops = 0;            ///< flushes to zero speed (dwell, M400, ...)
   std::uint64_t min_segment_time_slowdowns = 0;  ///< Marlin SLOWDOWN (M205 B) slowed the move
+  /// Marlin soft endstops (machine soft_min/max_position): moves whose target was clamped.
+  std::uint64_t clamped_moves = 0;
   std::vector<std::string> warnings;       ///< e.g. over-extrusion (Klipper would refuse)
 };
 

@@ -34,7 +34,7 @@ namespace amctl::plan {
 
 /// A non-motion event of the plan, at its print time.
 struct PlanEvent {
-  enum class Kind : std::uint8_t { dwell, heater, progress, untimed, layer, fan, input_shaping };
+  enum class Kind : std::uint8_t { dwell, heater, progress, untimed, layer, fan, input_shaping, range_error };
   Kind kind = Kind::dwell;
   /// Number of the batch's moves that come before this event (events sit between moves).
   std::size_t before_move = 0;
@@ -47,6 +47,7 @@ struct PlanEvent {
   gcode::ProgressMarker progress{};
   std::string name;             ///< untimed command (G28, probing, ...)
   gcode::InputShapingCommand shaping{};  ///< input_shaping (M593)
+  RangeError range{};           ///< range_error (Klipper "Move out of range"), at_s == time_s
 };
 
 /// One piece of the stream: moves in time order and the events between them.
