@@ -232,25 +232,31 @@ Params grid_start(const FitData& d, double f_peak, double df) {
   return out;
 }
 
-/// Levenberg-Marquardt from p; returns the cost sum r^2 and the iterations.
-std::pair<double, int> levenberg_marquardt(const FitData& d, Params& p) {
+/// The damped Gauss-Newton (Levenberg-Marquardt) loop of both fits: from p, whose residuals
+/// are r and cost |r|^2, at most max_iterations steps; each step tries lambda (scaled by the
+/// diagonal of J^T J) until the clamped step lowers the cost, stops when no step does or the
+/// relative decrease is below 1e-13. Returns the cost and the iterations. P is the one-mode
+/// Params or the several-mode Eigen::VectorXd.
+template <class P, class ResidualsOf, class JacobianOf, class ClampP>
+std::pair<double, int> lm_loop(P& p, Eigen::VectorXd r, double cost, int max_iterations,
+                               const ResidualsOf& residuals_of, const JacobianOf& jacobian_of,
+                               const ClampP& clamp_p) {
   double lambda = 1e-3;
-  Eigen::VectorXd r = residuals(d, p);
-  double cost = r.squaredNorm();
+  const auto n = static_cast<Eigen::Index>(p.size());
   int it = 0;
-  for (; it < 200; ++it) {
-    const Eigen::MatrixXd j = jacobian(d, p);
+  for (; it < max_iterations; ++it) {
+    const Eigen::MatrixXd j = jacobian_of(p);
     const Eigen::MatrixXd jtj = j.transpose() * j;
     const Eigen::VectorXd g = j.transpose() * r;
     bool improved = false;
     for (int tries = 0; tries < 30; ++tries) {
       Eigen::MatrixXd a = jtj;
-      for (int c = 0; c < 3; ++c) a(c, c) += lambda * std::max(jtj(c, c), 1e-12);
+      for (Eigen::Index c = 0; c < n; ++c) a(c, c) += lambda * std::max(jtj(c, c), 1e-12);
       const Eigen::VectorXd delta = a.ldlt().solve(-g);
-      Params q = p;
-      for (int c = 0; c < 3; ++c) q[c] += delta(c);
-      clamp(q);
-      const Eigen::VectorXd rq = residuals(d, q);
+      P q = p;
+      for (Eigen::Index c = 0; c < n; ++c) q[static_cast<std::size_t>(c)] += delta(c);
+      clamp_p(q);
+      const Eigen::VectorXd rq = residuals_of(q);
       const double cq = rq.squaredNorm();
       if (std::isfinite(cq) && cq < cost) {
         const double rel = (cost - cq) / std::max(cost, 1e-300);
@@ -267,6 +273,15 @@ std::pair<double, int> levenberg_marquardt(const FitData& d, Params& p) {
     if (!improved) break;
   }
   return {cost, it};
+}
+
+/// Levenberg-Marquardt from p; returns the cost sum r^2 and the iterations.
+std::pair<double, int> levenberg_marquardt(const FitData& d, Params& p) {
+  Eigen::VectorXd r = residuals(d, p);
+  const double cost = r.squaredNorm();
+  return lm_loop(
+      p, std::move(r), cost, 200, [&d](const Params& q) { return residuals(d, q); },
+      [&d](const Params& q) { return jacobian(d, q); }, [](Params& q) { clamp(q); });
 }
 
 // ---- Several modes: H(f) = sum_i g_i h_i(f), parameters (f_i, zeta_i, ln g_i) per mode. ----
@@ -318,40 +333,14 @@ void multi_clamp(Eigen::VectorXd& p, double f_lo, double f_hi) {
 /// Levenberg-Marquardt as levenberg_marquardt, on any number of modes.
 std::pair<double, int> multi_levenberg_marquardt(const FitData& d, Eigen::VectorXd& p, double f_lo,
                                                  double f_hi) {
-  double lambda = 1e-3;
   multi_clamp(p, f_lo, f_hi);
   Eigen::VectorXd r = multi_residuals(d, p);
-  double cost = r.squaredNorm();
+  const double cost = r.squaredNorm();
   if (!std::isfinite(cost)) return {cost, 0};
-  int it = 0;
-  for (; it < 300; ++it) {
-    const Eigen::MatrixXd j = multi_jacobian(d, p);
-    const Eigen::MatrixXd jtj = j.transpose() * j;
-    const Eigen::VectorXd g = j.transpose() * r;
-    bool improved = false;
-    for (int tries = 0; tries < 30; ++tries) {
-      Eigen::MatrixXd a = jtj;
-      for (Eigen::Index c = 0; c < p.size(); ++c) a(c, c) += lambda * std::max(jtj(c, c), 1e-12);
-      const Eigen::VectorXd delta = a.ldlt().solve(-g);
-      Eigen::VectorXd q = p + delta;
-      multi_clamp(q, f_lo, f_hi);
-      const Eigen::VectorXd rq = multi_residuals(d, q);
-      const double cq = rq.squaredNorm();
-      if (std::isfinite(cq) && cq < cost) {
-        const double rel = (cost - cq) / std::max(cost, 1e-300);
-        p = q;
-        r = rq;
-        cost = cq;
-        lambda = std::max(lambda / 3.0, 1e-12);
-        improved = true;
-        if (rel < 1e-13) return {cost, it + 1};
-        break;
-      }
-      lambda *= 4.0;
-    }
-    if (!improved) break;
-  }
-  return {cost, it};
+  return lm_loop(
+      p, std::move(r), cost, 300, [&d](const Eigen::VectorXd& q) { return multi_residuals(d, q); },
+      [&d](const Eigen::VectorXd& q) { return multi_jacobian(d, q); },
+      [f_lo, f_hi](Eigen::VectorXd& q) { multi_clamp(q, f_lo, f_hi); });
 }
 
 struct MultiFit {
