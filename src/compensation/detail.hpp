@@ -104,13 +104,27 @@ class BandedCholesky {
   BandedCholesky(const std::vector<double>& R, int q, int n, std::size_t rows);
   /// The sum of the normal matrices of several responses (robust FBF: one per model).
   BandedCholesky(const std::vector<std::vector<double>>& Rs, int q, int n, std::size_t rows);
+  /// A lower band the caller built (row-wise: band[j (L+1) + (i - j + L)] = G(j, i) for
+  /// j - L <= i <= j), factorised in place.
+  BandedCholesky(std::vector<double> band, int n, int L);
   /// Solves G c = b in place.
   void solve(std::vector<double>& c) const;
 
  private:
+  void factorise();
   int n_ = 0, L_ = 0;
   std::vector<double> band_;
 };
+
+/// The command of one axis at the K samples: x0 plus the first J basis functions weighted by
+/// c and the last M - J (the end spline) by x1 - x0; and its acceleration. Basis function j
+/// starts at sample j q.
+void assemble_axis(const Basis& basis, int q, int J, int M, std::size_t K, const std::vector<double>& c,
+                   double x0, double x1, std::vector<double>& xb, std::vector<double>& acc);
+
+/// FBF's peak command acceleration (both axes) and status: degree 1 has velocity steps.
+void set_fbf_status(CompensationResult& r, const std::vector<double>& acc_x,
+                    const std::vector<double>& acc_y, int degree);
 
 /// A window of a sample sequence: index k (absolute) at data[k - base]; contiguous, so loops
 /// over it vectorise; the consumed front is dropped by compaction (amortised O(1)).

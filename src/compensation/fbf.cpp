@@ -251,55 +251,37 @@ void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions
     }
     for (int j = 0; j < J; ++j)
       band[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L)] += 1e-13 * tr / J;  // round-off floor
-    // Banded Cholesky in place (G = L L^T; rows contiguous, so each entry is one dot product).
-    for (int j = 0; j < J; ++j) {
-      double* rj = &band[static_cast<std::size_t>(j) * W];
-      const int i0 = std::max(0, j - L);
-      for (int i = i0; i <= j; ++i) {
-        const double* ri = &band[static_cast<std::size_t>(i) * W];
-        const int k0 = std::max(i0, i - L);  // common columns k0 .. i-1
-        double sum = rj[i - j + L];
-        for (int k = k0; k < i; ++k) sum -= rj[k - j + L] * ri[k - i + L];
-        if (i < j) {
-          rj[i - j + L] = sum / ri[L];
-        } else {
-          if (!(sum > 0.0)) throw InternalError("fbf: the normal equations are not positive definite");
-          rj[L] = std::sqrt(sum);
-        }
-      }
-    }
-    Eigen::VectorXd c = Eigen::VectorXd::Zero(J);
+    const BandedCholesky chol(std::move(band), J, L);
+    std::vector<double> c(static_cast<std::size_t>(J), 0.0);
     for (int j = 0; j < J; ++j)
       for (std::size_t m = 0; m < len && column_row(j, m) < K; ++m)
-        c(j) += R[m] * rhs(static_cast<Eigen::Index>(column_row(j, m)));
-    for (int j = 0; j < J; ++j) {  // L y = Phi^T rhs
-      const double* rj = &band[static_cast<std::size_t>(j) * W];
-      double sum = c(j);
-      for (int k = std::max(0, j - L); k < j; ++k) sum -= rj[k - j + L] * c(k);
-      c(j) = sum / rj[L];
-    }
-    for (int j = J - 1; j >= 0; --j) {  // L^T c = y
-      const double v = c(j) / band[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L)];
-      c(j) = v;
-      const double* rj = &band[static_cast<std::size_t>(j) * W];
-      for (int k = std::max(0, j - L); k < j; ++k) c(k) -= rj[k - j + L] * v;
-    }
-    // The command and its acceleration at the samples.
-    std::vector<double>& xb = *cmd[a];
-    xb.assign(K, x0);
-    acc[a].assign(K, 0.0);
-    for (int j = 0; j < M; ++j) {
-      const double w = j < J ? c(j) : x1 - x0;
-      for (std::size_t m = 0; m < basis.val.size() && column_row(j, m) < K; ++m) {
-        xb[column_row(j, m)] += w * basis.val[m];
-        acc[a][column_row(j, m)] += w * basis.acc[m];
-      }
+        c[static_cast<std::size_t>(j)] += R[m] * rhs(static_cast<Eigen::Index>(column_row(j, m)));
+    chol.solve(c);
+    assemble_axis(basis, q, J, M, K, c, x0, x1, *cmd[a], acc[a]);
+  }
+  set_fbf_status(r, acc[0], acc[1], p);
+}
+
+void assemble_axis(const Basis& basis, int q, int J, int M, std::size_t K, const std::vector<double>& c,
+                   double x0, double x1, std::vector<double>& xb, std::vector<double>& acc) {
+  const auto row = [q](int j, std::size_t m) { return static_cast<std::size_t>(j) * static_cast<std::size_t>(q) + m; };
+  xb.assign(K, x0);
+  acc.assign(K, 0.0);
+  for (int j = 0; j < M; ++j) {
+    const double w = j < J ? c[static_cast<std::size_t>(j)] : x1 - x0;
+    for (std::size_t m = 0; m < basis.val.size() && row(j, m) < K; ++m) {
+      xb[row(j, m)] += w * basis.val[m];
+      acc[row(j, m)] += w * basis.acc[m];
     }
   }
+}
+
+void set_fbf_status(CompensationResult& r, const std::vector<double>& acc_x,
+                    const std::vector<double>& acc_y, int degree) {
   r.peak_command_accel_mm_s2 = 0.0;
-  for (std::size_t k = 0; k < K; ++k)
-    r.peak_command_accel_mm_s2 = std::max(r.peak_command_accel_mm_s2, std::hypot(acc[0][k], acc[1][k]));
-  if (p < 2) {
+  for (std::size_t k = 0; k < acc_x.size(); ++k)
+    r.peak_command_accel_mm_s2 = std::max(r.peak_command_accel_mm_s2, std::hypot(acc_x[k], acc_y[k]));
+  if (degree < 2) {
     r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
     r.status = "unbounded_command_acceleration";
     r.message = "degree 1 B-splines have velocity steps at the knots; use --degree 2 or more";

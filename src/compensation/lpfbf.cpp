@@ -56,7 +56,17 @@ BandedCholesky::BandedCholesky(const std::vector<std::vector<double>>& Rs, int q
   }
   for (int j = 0; j < n; ++j)
     band_[static_cast<std::size_t>(j) * W + static_cast<std::size_t>(L_)] += 1e-13 * tr / n;
-  for (int j = 0; j < n; ++j) {
+  factorise();
+}
+
+BandedCholesky::BandedCholesky(std::vector<double> band, int n, int L) : n_(n), L_(L), band_(std::move(band)) {
+  factorise();
+}
+
+// G = L L^T in place; rows are contiguous, so each entry is one dot product.
+void BandedCholesky::factorise() {
+  const std::size_t W = static_cast<std::size_t>(L_) + 1;
+  for (int j = 0; j < n_; ++j) {
     double* rj = &band_[static_cast<std::size_t>(j) * W];
     const int i0 = std::max(0, j - L_);
     for (int i = i0; i <= j; ++i) {
@@ -67,7 +77,7 @@ BandedCholesky::BandedCholesky(const std::vector<std::vector<double>>& Rs, int q
       if (i < j) {
         rj[i - j + L_] = sum / ri[L_];
       } else {
-        if (!(sum > 0.0)) throw InternalError("lpfbf: the window's normal equations are not positive definite");
+        if (!(sum > 0.0)) throw InternalError("fbf: the B-spline normal equations are not positive definite");
         rj[L_] = std::sqrt(sum);
       }
     }

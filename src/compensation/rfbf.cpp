@@ -68,27 +68,9 @@ void run_rfbf(std::span<const plan::PlannedMove> moves, const CompensationOption
     }
     const BandedCholesky chol(Rs, q, J, K);
     chol.solve(c);
-    std::vector<double>& xb = *cmd[a];
-    xb.assign(K, x0);
-    acc[a].assign(K, 0.0);
-    for (int j = 0; j < M; ++j) {
-      const double w = j < J ? c[static_cast<std::size_t>(j)] : x1 - x0;
-      for (std::size_t m = 0; m < basis.val.size() && row(j, m) < K; ++m) {
-        xb[row(j, m)] += w * basis.val[m];
-        acc[a][row(j, m)] += w * basis.acc[m];
-      }
-    }
+    assemble_axis(basis, q, J, M, K, c, x0, x1, *cmd[a], acc[a]);
   }
-  r.peak_command_accel_mm_s2 = 0.0;
-  for (std::size_t k = 0; k < K; ++k)
-    r.peak_command_accel_mm_s2 = std::max(r.peak_command_accel_mm_s2, std::hypot(acc[0][k], acc[1][k]));
-  if (p < 2) {
-    r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
-    r.status = "unbounded_command_acceleration";
-    r.message = "degree 1 B-splines have velocity steps at the knots; use --degree 2 or more";
-  } else {
-    r.status = "ok";
-  }
+  set_fbf_status(r, acc[0], acc[1], p);
 }
 
 }  // namespace amctl::compensation::detail
