@@ -17,46 +17,14 @@
 #include "amctl/trajectory/build.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 
+#include "synthetic.hpp"
+
 namespace {
 
 using namespace amctl;
 
-// Deterministic synthetic print: segments of 0.3..20 mm (log-uniform) turning by random
-// angles, 150 mm/s, 5000 mm/s^2, junction speed from a square-corner-velocity-like rule.
 const std::vector<plan::PlannedMove>& two_hour_print() {
-  static const std::vector<plan::PlannedMove> moves = [] {
-    std::mt19937_64 rng(12345);
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
-    std::vector<plan::PlannedMove> out;
-    std::array<double, 4> at{100, 100, 0.2, 0};
-    double t = 0.0, v = 0.0, heading = 0.0;
-    const double accel = 5000.0, vmax = 150.0;
-    std::uint64_t line = 1;
-    while (t < 7200.0) {
-      const double len = 0.3 * std::pow(20.0 / 0.3, u01(rng));
-      const double turn = (u01(rng) < 0.3) ? (u01(rng) - 0.5) * 3.2 : (u01(rng) - 0.5) * 0.4;
-      heading += turn;
-      std::array<double, 4> to = at;
-      to[0] += len * std::cos(heading);
-      to[1] += len * std::sin(heading);
-      if (to[0] < 10 || to[0] > 290 || to[1] < 10 || to[1] > 290) {
-        heading += 3.14159;
-        continue;
-      }
-      to[3] += 0.03 * len;
-      // junction speed into the next move: 5 mm/s at sharp turns, more when nearly straight
-      const double jv = std::min(vmax, 5.0 / std::max(0.05, std::abs(std::sin(0.5 * turn))));
-      const double reach = plan::max_reachable_speed_mm_s(plan::VelocityProfile::trapezoid, v, len, accel);
-      const double brake = std::sqrt(std::max(0.0, v * v - 2.0 * accel * len));
-      trajectory::MoveSpec spec{to, vmax, std::max(brake, std::min({jv, reach, vmax})), line++, static_cast<std::int32_t>(t / 60.0), 0};
-      out.push_back(trajectory::timed_move(at, spec, v, t, accel, plan::VelocityProfile::trapezoid, 0.0));
-      t = out.back().end_time_s();
-      v = out.back().end_v_mm_s;
-      at = to;
-    }
-    // come to rest
-    return out;
-  }();
+  static const std::vector<plan::PlannedMove> moves = bench::synthetic_two_hour_print(12345, {100, 100, 0.2, 0});
   return moves;
 }
 

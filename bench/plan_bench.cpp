@@ -13,32 +13,11 @@
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/plan/estimate.hpp"
 #include "amctl/plan/stream.hpp"
+#include "synthetic.hpp"
 
 namespace {
 
-/// Slicer-like G-code: layers of circular perimeters (short chords, relative E) joined by
-/// travels, the shape of real perimeter-heavy files. `moves` extrusion moves in all.
-std::string synthetic_gcode(std::size_t moves) {
-  std::string g = "M83\nG1 F3000\n";
-  g.reserve(moves * 34);
-  std::size_t n = 0;
-  int layer = 0;
-  while (n < moves) {
-    g += fmt::format(";LAYER_CHANGE\n;Z:{:.2f}\nG1 Z{:.2f} F600\n;TYPE:Perimeter\n", 0.2 * (layer + 1),
-                     0.2 * (layer + 1));
-    for (int ring = 0; ring < 10 && n < moves; ++ring) {
-      const double r = 5.0 + 2.0 * ring;
-      g += fmt::format("G1 X{:.3f} Y100.000 F9000\nG1 F2700\n", 100.0 + r);
-      for (int k = 1; k <= 120 && n < moves; ++k, ++n) {
-        const double a = 2.0 * std::numbers::pi * k / 120.0;
-        g += fmt::format("G1 X{:.3f} Y{:.3f} E{:.5f}\n", 100.0 + r * std::cos(a),
-                         100.0 + r * std::sin(a), 0.0335 * r * 2.0 * std::numbers::pi / 120.0);
-      }
-    }
-    ++layer;
-  }
-  return g;
-}
+using amctl::bench::synthetic_gcode;
 
 void BM_EstimateKlipper(benchmark::State& state) {
   const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));

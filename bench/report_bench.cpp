@@ -14,25 +14,13 @@
 #include "amctl/report/speed_lod.hpp"
 #include "amctl/report/toolpath.hpp"
 
+#include "synthetic.hpp"
+
 namespace {
 
-/// Layers of circular perimeters of short chords joined by travels (as in plan_bench.cpp).
+/// The plan of bench::synthetic_gcode, batch by batch.
 std::vector<amctl::plan::PlanBatch> planned_batches(std::size_t moves) {
-  std::string g = "M83\nG1 F3000\n";
-  std::size_t n = 0;
-  for (int layer = 0; n < moves; ++layer) {
-    g += fmt::format(";LAYER_CHANGE\n;Z:{:.2f}\nG1 Z{:.2f} F600\n;TYPE:Perimeter\n", 0.2 * (layer + 1),
-                     0.2 * (layer + 1));
-    for (int ring = 0; ring < 10 && n < moves; ++ring) {
-      const double r = 5.0 + 2.0 * ring;
-      g += fmt::format("G1 X{:.3f} Y100.000 F9000\nG1 F2700\n", 100.0 + r);
-      for (int k = 1; k <= 120 && n < moves; ++k, ++n) {
-        const double a = 2.0 * std::numbers::pi * k / 120.0;
-        g += fmt::format("G1 X{:.3f} Y{:.3f} E{:.5f}\n", 100.0 + r * std::cos(a),
-                         100.0 + r * std::sin(a), 0.0335 * r * 2.0 * std::numbers::pi / 120.0);
-      }
-    }
-  }
+  const std::string g = amctl::bench::synthetic_gcode(moves);
   amctl::machine::Machine m;
   amctl::plan::PlanSource source(std::string_view(g), "bench", m);
   std::vector<amctl::plan::PlanBatch> out;
