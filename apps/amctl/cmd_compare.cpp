@@ -1,5 +1,5 @@
 // `amctl compare FILE --machine M --natural-frequency-hz F --damping-ratio Z [--json]
-//  [--methods invert,fbf,lpfbf,rfbf,zv,mzv,ei] [--plant-offsets -20,-10,0,10,20]
+//  [--methods invert,fbf,lpfbf,rfbf,collocation,zv,mzv,ei] [--max-base-accel-mm-s2 A] [--plant-offsets -20,-10,0,10,20]
 //  [--sample-rate-hz R] [--layer L]`: every compensation method and the input shapers on one file, the
 // plant equal to the model and off by each offset (comparison::compare_file,
 // docs/compensation.md, "Comparison").
@@ -25,7 +25,8 @@ struct CompareArgs {
   MachineOptions machine;
   double f_hz = 0.0;
   double zeta = 0.1;
-  std::string methods = "invert,fbf,lpfbf,rfbf,zv,mzv,ei";
+  std::string methods = "invert,fbf,lpfbf,rfbf,collocation,zv,mzv,ei";
+  std::optional<double> max_base_accel_mm_s2;
   std::string offsets = "-20,-10,0,10,20";
   double rate_hz = 1000.0;
   std::optional<int> layer;
@@ -64,6 +65,7 @@ std::string cell(double v, const char* spec) {
 void run_compare(const CompareArgs& a) {
   comparison::ComparisonOptions o;
   o.methods = split_list(a.methods);
+  if (a.max_base_accel_mm_s2) o.max_base_accel_mm_s2 = *a.max_base_accel_mm_s2;
   o.plant_offsets_pct.clear();
   for (const auto& t : split_list(a.offsets)) o.plant_offsets_pct.push_back(parse_offset_pct(t));
   o.natural_frequency_hz = a.f_hz;
@@ -109,8 +111,11 @@ void register_compare(CLI::App& app) {
   sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]")->required();
   sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
   sub->add_option("--methods", a->methods,
-                  "comma-separated: invert, fbf, lpfbf, rfbf (compensation), zv, mzv, ei (shapers at "
-                  "the model frequency and damping); default all");
+                  "comma-separated: invert, fbf, lpfbf, rfbf, collocation (compensation), zv, mzv, ei "
+                  "(shapers at the model frequency and damping); default all");
+  sub->add_option("--max-base-accel-mm-s2", a->max_base_accel_mm_s2,
+                  "bound on the compensation commands' acceleration [mm/s^2]: collocation enforces it, "
+                  "the other rows say whether they respect it (default: none)");
   sub->add_option("--plant-offsets", a->offsets,
                   "comma-separated plant frequency offsets [%] (> -100; default -20,-10,0,10,20)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step and simulation rate [Hz] (default 1000)");

@@ -1,8 +1,9 @@
-// `amctl compensate FILE --machine M --method invert|fbf --natural-frequency-hz F
+// `amctl compensate FILE --machine M --method invert|fbf|lpfbf|rfbf|collocation --natural-frequency-hz F
 //  --damping-ratio Z [--mode F,Z[,G] ...] [--plant-natural-frequency-hz F2 --plant-damping-ratio Z2]
 //  [--knot-spacing-s T --degree D] [--sample-rate-hz R] --csv OUT.csv [--json]`:
 // feedforward compensation of the belt model (compensation::compensate_file,
 // docs/compensation.md).
+#include <cmath>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -31,6 +32,9 @@ struct CompensateArgs {
   double rate_hz = 1000.0;
   std::optional<double> lead_in_s;
   std::optional<double> window_s, overlap_s;
+  std::optional<double> max_base_accel_mm_s2;
+  double effort_weight_s2 = 1e-9;
+  int max_iterations = 500;
   std::string csv;
   bool json = false;
 };
@@ -73,8 +77,15 @@ void run_compensate(const CompensateArgs& a) {
   o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
   o.degree = a.degree;
   o.lead_in_s = a.lead_in_s.value_or(-1.0);
-  if ((a.window_s || a.overlap_s) && o.method != cp::Method::lpfbf)
-    throw Error("--window-s and --overlap-s are options of --method lpfbf");
+  if ((a.window_s || a.overlap_s) && o.method != cp::Method::lpfbf && o.method != cp::Method::collocation)
+    throw Error("--window-s and --overlap-s are options of --method lpfbf and collocation");
+  if (a.max_base_accel_mm_s2) {
+    if (!(*a.max_base_accel_mm_s2 > 0.0) || !std::isfinite(*a.max_base_accel_mm_s2))
+      throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", *a.max_base_accel_mm_s2));
+    o.max_base_accel_mm_s2 = *a.max_base_accel_mm_s2;
+  }
+  o.effort_weight_s2 = a.effort_weight_s2;
+  o.max_solver_iterations = a.max_iterations;
   if (a.window_s && !(*a.window_s > 0.0))
     throw Error(fmt::format("--window-s {} must be > 0", *a.window_s));
   if (a.overlap_s && !(*a.overlap_s >= 0.0))
@@ -87,12 +98,15 @@ void run_compensate(const CompensateArgs& a) {
     r = cp::compensate_file_streaming(a.file, m, o, a.csv);  // writes the CSV as it goes
   } else {
     r = cp::compensate_file(a.file, m, o);
-    cp::write_csv(r, a.csv);
+    if (!r.t_s.empty()) cp::write_csv(r, a.csv);
   }
-  if (a.json) {
-    std::cout << cp::to_json(r).dump(2) << "\n";
-    return;
-  }
+  // A solver that found no command (infeasible bound, iteration limit) writes no CSV.
+  const bool no_command = r.t_s.empty() && r.samples == 0;
+  if (a.json) std::cout << cp::to_json(r).dump(2) << "\n";
+  if (no_command)
+    throw Error(fmt::format("{}: {} found no command ({}): {}; {} not written", a.file, r.method, r.status,
+                            r.message, a.csv));
+  if (a.json) return;
   std::cout << fmt::format(
       "{}: {} over {:.4f} s of motion, {} samples at {} Hz -> {}\n"
       "  status {}{}{}\n"
@@ -115,8 +129,8 @@ void register_compensate(CLI::App& app) {
   add_machine_options(*sub, a->machine);
   sub->add_option("--method", a->method,
                   "invert (exact model inverse) | fbf (filtered B-splines) | lpfbf (limited-preview "
-                  "FBF, windowed) | rfbf (robust FBF: the model and +-10 %, +-20 % frequency); "
-                  "collocation is not implemented yet");
+                  "FBF, windowed) | rfbf (robust FBF: the model and +-10 %, +-20 % frequency) | "
+                  "collocation (Hermite-Simpson with IPOPT, base acceleration bound enforced)");
   sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]");
   sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
   sub->add_option("--mode", a->modes, "model mode F,Z[,G] (repeatable) instead of the belt flags");
@@ -125,8 +139,16 @@ void register_compensate(CLI::App& app) {
   sub->add_option("--plant-damping-ratio", a->plant_zeta, "plant damping ratio (default: the model)");
   sub->add_option("--knot-spacing-s", a->knot_spacing_s, "fbf: B-spline knot spacing [s] (default: auto)");
   sub->add_option("--degree", a->degree, "fbf: B-spline degree (default 3)");
-  sub->add_option("--window-s", a->window_s, "lpfbf: window length [s] (default: auto)");
-  sub->add_option("--overlap-s", a->overlap_s, "lpfbf: window overlap [s] (default: half the window)");
+  sub->add_option("--window-s", a->window_s, "lpfbf, collocation: window length [s] (default: auto)");
+  sub->add_option("--overlap-s", a->overlap_s,
+                  "lpfbf, collocation: window overlap [s] (default: lpfbf half the window, collocation "
+                  "max(0.25 s, 3 settling times))");
+  sub->add_option("--max-base-accel-mm-s2", a->max_base_accel_mm_s2,
+                  "bound on |(x_b'', y_b'')| [mm/s^2]: collocation enforces it, the other methods report "
+                  "whether they respect it");
+  sub->add_option("--effort-weight-s2", a->effort_weight_s2,
+                  "collocation: rho in the objective mean(|e|^2 + (rho x_b'')^2) [s^2] (default 1e-9)");
+  sub->add_option("--max-iterations", a->max_iterations, "collocation: IPOPT iterations per window (default 500)");
   sub->add_option("--lead-in-s", a->lead_in_s, "command time before the first move [s] (default: auto)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step [Hz] (default 1000)");
   sub->add_option("--csv", a->csv, "command CSV (written whole or not at all)")->required();

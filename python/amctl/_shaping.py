@@ -118,7 +118,8 @@ def steps(path, machine=None, set=None, *, csv=None):
 def compensate(path, machine=None, set=None, *, method="invert", natural_frequency_hz=None,
                damping_ratio=0.1, plant_natural_frequency_hz=None, plant_damping_ratio=None,
                model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,
-               knot_spacing_s=None, degree=3, window_s=None, overlap_s=None, csv=None):
+               knot_spacing_s=None, degree=3, window_s=None, overlap_s=None,
+               max_base_accel_mm_s2=None, effort_weight_s2=1e-9, max_iterations=500, csv=None):
     """Feedforward compensation of the belt model (``amctl compensate``, docs/compensation.md).
 
     Returns the dict of ``amctl compensate --json`` (``max_tracking_error_mm``,
@@ -130,14 +131,20 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
     Args:
         method: "invert" (the exact inverse of the model), "fbf" (filtered B-splines), "lpfbf"
             (limited-preview FBF over windows; in Python the whole result is kept in memory, use
-            the CLI to stream a long print) or "rfbf" (robust FBF over a set of models).
+            the CLI to stream a long print), "rfbf" (robust FBF over a set of models) or
+            "collocation" (Hermite-Simpson direct collocation solved by IPOPT).
         natural_frequency_hz [Hz], damping_ratio: the model the method uses (X and Y), or
             model_x / model_y as amctl.AxisModel.
         plant_natural_frequency_hz, plant_damping_ratio: the plant the result is simulated
             on (default: the model).
         sample_rate_hz [Hz]: the command's time step; lead_in_s, tail_s [s] (None: automatic);
         knot_spacing_s [s] (None: automatic) and degree: FBF's B-splines.
-        window_s, overlap_s [s]: LPFBF's window and overlap (None: automatic).
+        window_s, overlap_s [s]: LPFBF's and collocation's window and overlap (None: automatic).
+        max_base_accel_mm_s2 [mm/s^2]: bound on the command's acceleration; collocation
+            enforces it, the other methods report ``status: "base_accel_limit_exceeded"``.
+        effort_weight_s2 [s^2], max_iterations: collocation's effort term and IPOPT's limit.
+            When collocation finds no command (``status`` "infeasible" or "solver_failed",
+            ``message`` says why) the trace is empty and no CSV is written.
         csv: also write the command as ``amctl compensate --csv`` does.
     """
     p = _args.path(path, "path")
@@ -163,11 +170,16 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                               opt(lead_in_s, "lead_in_s", "s"), opt(tail_s, "tail_s", "s"),
                               opt(knot_spacing_s, "knot_spacing_s", "s"), _args.integer(degree, "degree"),
                               opt(window_s, "window_s", "s"), opt(overlap_s, "overlap_s", "s"),
+                              float("inf") if max_base_accel_mm_s2 is None
+                              else _args.number(max_base_accel_mm_s2, "max_base_accel_mm_s2", "mm/s^2"),
+                              _args.number(effort_weight_s2, "effort_weight_s2", "s^2"),
+                              _args.integer(max_iterations, "max_iterations"),
                               "" if csv is None else _args.path(csv, "csv"))
 
 
 def compare(path, machine=None, set=None, *, natural_frequency_hz, damping_ratio=0.1,
-            methods=None, plant_offsets_pct=None, sample_rate_hz=1000.0, layer=None):
+            methods=None, plant_offsets_pct=None, sample_rate_hz=1000.0, layer=None,
+            max_base_accel_mm_s2=None):
     """Every compensation method and the ZV/MZV/EI shapers on one file, with the plant at the
     model and off by each offset (``amctl compare --json``, docs/compensation.md): a dict with
     ``rows`` (method, plant_offset_pct, max_contour_error_mm, max_tracking_error_mm,
@@ -176,7 +188,9 @@ def compare(path, machine=None, set=None, *, natural_frequency_hz, damping_ratio
 
     Args:
         natural_frequency_hz [Hz], damping_ratio: the model (and the shapers' design).
-        methods: default invert, fbf, lpfbf, rfbf, zv, mzv, ei.
+        methods: default invert, fbf, lpfbf, rfbf, collocation, zv, mzv, ei.
+        max_base_accel_mm_s2 [mm/s^2]: bound on the compensation commands (collocation
+            enforces it; None: no bound).
         plant_offsets_pct: default -20, -10, 0, 10, 20 (% of the model's frequency).
         layer: only that layer's moves.
     """
@@ -187,4 +201,6 @@ def compare(path, machine=None, set=None, *, natural_frequency_hz, damping_ratio
     return _amctl._compare(p, m, _args.number(natural_frequency_hz, "natural_frequency_hz", "Hz"),
                            _args.number(damping_ratio, "damping_ratio"), meth, offs,
                            _args.number(sample_rate_hz, "sample_rate_hz", "Hz"),
-                           _args.optional_integer(layer, "layer"))
+                           _args.optional_integer(layer, "layer"),
+                           float("inf") if max_base_accel_mm_s2 is None
+                           else _args.number(max_base_accel_mm_s2, "max_base_accel_mm_s2", "mm/s^2"))

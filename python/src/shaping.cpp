@@ -88,7 +88,8 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
                       const dynamics::AxisModel& model_x, const dynamics::AxisModel& model_y,
                       const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
                       double sample_rate_hz, double lead_in_s, double tail_s, double knot_spacing_s,
-                      int degree, double window_s, double overlap_s, const std::string& csv) {
+                      int degree, double window_s, double overlap_s, double max_base_accel_mm_s2,
+                      double effort_weight_s2, int max_iterations, const std::string& csv) {
   compensation::CompensationOptions o;
   o.method = compensation::parse_method(method);
   o.model_x = model_x;
@@ -102,12 +103,16 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
   o.degree = degree;
   o.window_s = window_s;
   o.overlap_s = overlap_s;
+  o.max_base_accel_mm_s2 = max_base_accel_mm_s2;
+  o.effort_weight_s2 = effort_weight_s2;
+  o.max_solver_iterations = max_iterations;
   std::optional<compensation::CompensationResult> r;
   Json j;
   {
     py::gil_scoped_release nogil;
     r = compensation::compensate_file(path, mv.m, o);
-    if (!csv.empty()) compensation::write_csv(*r, csv);
+    // No command (collocation: an infeasible bound): the status says so, no CSV.
+    if (!csv.empty() && !r->t_s.empty()) compensation::write_csv(*r, csv);
     j = compensation::to_json(*r);
   }
   py::dict out(to_python(j));
@@ -126,8 +131,9 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
 py::object compare(const std::string& path, const MachineValue& mv, double natural_frequency_hz,
                    double damping_ratio, const std::vector<std::string>& methods,
                    const std::vector<double>& plant_offsets_pct, double sample_rate_hz,
-                   std::optional<int> layer) {
+                   std::optional<int> layer, double max_base_accel_mm_s2) {
   comparison::ComparisonOptions o;
+  o.max_base_accel_mm_s2 = max_base_accel_mm_s2;
   o.natural_frequency_hz = natural_frequency_hz;
   o.damping_ratio = damping_ratio;
   if (!methods.empty()) o.methods = methods;
@@ -147,12 +153,13 @@ py::object compare(const std::string& path, const MachineValue& mv, double natur
 void register_shaping(py::module_& m) {
   m.def("_compare", &compare, py::arg("path"), py::arg("machine"), py::arg("natural_frequency_hz"),
         py::arg("damping_ratio"), py::arg("methods"), py::arg("plant_offsets_pct"),
-        py::arg("sample_rate_hz"), py::arg("layer"),
+        py::arg("sample_rate_hz"), py::arg("layer"), py::arg("max_base_accel_mm_s2"),
         "amctl compare --json (comparison::compare_file + to_json); see amctl.compare.");
   m.def("_compensate", &compensate, py::arg("path"), py::arg("machine"), py::arg("method"),
         py::arg("model_x"), py::arg("model_y"), py::arg("plant_x"), py::arg("plant_y"),
         py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),
-        py::arg("degree"), py::arg("window_s"), py::arg("overlap_s"), py::arg("csv"),
+        py::arg("degree"), py::arg("window_s"), py::arg("overlap_s"), py::arg("max_base_accel_mm_s2"),
+        py::arg("effort_weight_s2"), py::arg("max_iterations"), py::arg("csv"),
         "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
         "arrays; see amctl.compensate.");
   m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"),

@@ -118,6 +118,33 @@ def test_compensate_equals_the_cli_and_tracks_the_path(cli, source_dir, tmp_path
         amctl.compensate(g, machine=cfg, method="magic", natural_frequency_hz=f)
 
 
+def test_collocation_with_a_base_accel_bound_equals_the_cli(cli, source_dir, tmp_path):
+    # Issue 10: collocation with the 10 000 mm/s^2 bound on the seed base case, <= 5 um, the
+    # bound respected; second differences of the command checked here, independently.
+    import numpy as np
+    g = str(source_dir / "examples/30_seed000_corner.gcode")
+    cfg = str(source_dir / "examples/30_seed000_printer.cfg")
+    f = 100.0 / (2 * math.pi)
+    r = amctl.compensate(g, machine=cfg, method="collocation", natural_frequency_hz=f,
+                         damping_ratio=0.5, max_base_accel_mm_s2=10000.0, csv=str(tmp_path / "py.csv"))
+    ref = cli.json("compensate", g, "--machine", cfg, "--method", "collocation", "--natural-frequency-hz",
+                   repr(f), "--damping-ratio", "0.5", "--max-base-accel-mm-s2", "10000",
+                   "--csv", str(tmp_path / "cli.csv"), "--json")
+    for k in ref:
+        if k not in ("compute_time_s", "real_time_factor"):
+            assert r[k] == ref[k], k
+    assert r["status"] == "ok" and r["max_tracking_error_mm"] <= 5e-3
+    t = r["trace"]
+    h = 1.0 / r["sample_rate_hz"]
+    ax = np.diff(t["x_cmd_mm"], 2) / h**2
+    ay = np.diff(t["y_cmd_mm"], 2) / h**2
+    assert np.hypot(ax, ay).max() <= 10000.0 * (1 + 1e-5)
+    bad = amctl.compensate(g, machine=cfg, method="collocation", natural_frequency_hz=f,
+                           damping_ratio=0.5, max_base_accel_mm_s2=100.0, csv=str(tmp_path / "bad.csv"))
+    assert bad["status"] == "infeasible" and "320.683" in bad["message"]
+    assert len(bad["trace"]["t_s"]) == 0 and not (tmp_path / "bad.csv").exists()
+
+
 def test_lpfbf_equals_the_streaming_cli(cli, source_dir, tmp_path):
     g = str(source_dir / "examples/30_seed000_corner.gcode")
     cfg = str(source_dir / "examples/30_seed000_printer.cfg")

@@ -24,7 +24,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 bool is_compensation(const std::string& m) {
-  return m == "invert" || m == "fbf" || m == "lpfbf" || m == "rfbf";
+  return m == "invert" || m == "fbf" || m == "lpfbf" || m == "rfbf" || m == "collocation";
 }
 bool is_shaper(const std::string& m) { return m == "zv" || m == "mzv" || m == "ei"; }
 
@@ -65,12 +65,13 @@ ComparisonRow from_compensation(const compensation::CompensationResult& r);
 
 ComparisonRow compensation_row(const std::string& path, const machine::Machine& machine,
                                const std::string& method, const dynamics::AxisModel& model,
-                               const dynamics::AxisModel& plant, double rate_hz) {
+                               const dynamics::AxisModel& plant, double rate_hz, double max_base_accel_mm_s2) {
   compensation::CompensationOptions o;
   o.method = compensation::parse_method(method);
   o.model_x = o.model_y = model;
   o.plant_x = o.plant_y = plant;
   o.sample_rate_hz = rate_hz;
+  o.max_base_accel_mm_s2 = max_base_accel_mm_s2;
   return from_compensation(compensation::compensate_file(path, machine, o));
 }
 
@@ -90,6 +91,10 @@ ComparisonRow from_compensation(const compensation::CompensationResult& r) {
   row.motion_time_s = r.motion_time_s;
   row.compute_time_s = r.compute_time_s;
   row.real_time_factor = r.real_time_factor;
+  if (r.t_s.empty() && r.samples == 0) {  // no command (an infeasible bound): no figures
+    row.max_contour_error_mm = row.max_tracking_error_mm = row.rms_tracking_error_mm = kNaN;
+    row.peak_command_accel_mm_s2 = kNaN;
+  }
   return row;
 }
 
@@ -178,12 +183,13 @@ ComparisonRow span_simulation_row(std::span<const plan::PlannedMove> moves, cons
 
 ComparisonRow span_compensation_row(std::span<const plan::PlannedMove> moves, const std::string& method,
                                     const dynamics::AxisModel& model, const dynamics::AxisModel& plant,
-                                    double rate_hz) {
+                                    double rate_hz, double max_base_accel_mm_s2) {
   compensation::CompensationOptions o;
   o.method = compensation::parse_method(method);
   o.model_x = o.model_y = model;
   o.plant_x = o.plant_y = plant;
   o.sample_rate_hz = rate_hz;
+  o.max_base_accel_mm_s2 = max_base_accel_mm_s2;
   return from_compensation(compensation::compensate(moves, o));
 }
 
@@ -194,7 +200,7 @@ void validate(const ComparisonOptions& o) {
   std::set<std::string> seen;
   for (const auto& m : o.methods) {
     if (!is_compensation(m) && !is_shaper(m))
-      throw Error(fmt::format("--methods: '{}' is not a method; expected invert, fbf, lpfbf, rfbf, zv, mzv or ei", m));
+      throw Error(fmt::format("--methods: '{}' is not a method; expected invert, fbf, lpfbf, rfbf, collocation, zv, mzv or ei", m));
     if (!seen.insert(m).second) throw Error(fmt::format("--methods: '{}' is given twice", m));
   }
   if (o.plant_offsets_pct.empty()) throw Error("--plant-offsets: give at least one offset");
@@ -202,6 +208,8 @@ void validate(const ComparisonOptions& o) {
     if (!std::isfinite(p) || !(p > -100.0))
       throw Error(fmt::format("--plant-offsets: {} % must be > -100 (the plant frequency must stay > 0)", p));
   }
+  if (!(o.max_base_accel_mm_s2 > 0.0))
+    throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", o.max_base_accel_mm_s2));
   if (!(o.natural_frequency_hz > 0.0) || !std::isfinite(o.natural_frequency_hz))
     throw Error(fmt::format("--natural-frequency-hz {} must be > 0", o.natural_frequency_hz));
   if (!(o.damping_ratio >= 0.0) || !std::isfinite(o.damping_ratio))
@@ -219,6 +227,7 @@ ComparisonResult compare_file(const std::string& path, const machine::Machine& m
   result.natural_frequency_hz = options.natural_frequency_hz;
   result.damping_ratio = options.damping_ratio;
   result.sample_rate_hz = options.sample_rate_hz;
+  result.max_base_accel_mm_s2 = options.max_base_accel_mm_s2;
   result.layer = options.layer;
   std::vector<plan::PlannedMove> span;
   if (options.layer) span = layer_moves(path, machine, *options.layer);
@@ -235,7 +244,7 @@ ComparisonResult compare_file(const std::string& path, const machine::Machine& m
       add(span_simulation_row(span, machine, std::nullopt, plant, options.sample_rate_hz));
       for (const auto& m : options.methods) {
         if (is_compensation(m)) {
-          add(span_compensation_row(span, m, model, plant, options.sample_rate_hz));
+          add(span_compensation_row(span, m, model, plant, options.sample_rate_hz, options.max_base_accel_mm_s2));
         } else {
           const shaping::Shaper shaper = simulation::make_axis_shaper(
               {m, options.natural_frequency_hz, options.damping_ratio, "compare"}, options.sample_rate_hz,
@@ -250,7 +259,7 @@ ComparisonResult compare_file(const std::string& path, const machine::Machine& m
     add(uncompensated_row(path, machine, plant, options.sample_rate_hz));
     for (const auto& m : options.methods) {
       if (is_compensation(m))
-        add(compensation_row(path, machine, m, model, plant, options.sample_rate_hz));
+        add(compensation_row(path, machine, m, model, plant, options.sample_rate_hz, options.max_base_accel_mm_s2));
       else
         add(shaper_row(path, machine, m, options, plant));
     }
@@ -265,6 +274,7 @@ Json to_json(const ComparisonResult& r) {
   j["model"] = {{"natural_frequency_hz", json_number(r.natural_frequency_hz)},
                 {"damping_ratio", json_number(r.damping_ratio)},
                 {"sample_rate_hz", json_number(r.sample_rate_hz)}};
+  j["max_base_accel_mm_s2"] = json_number(r.max_base_accel_mm_s2);
   Json rows = Json::array();
   for (const auto& row : r.rows) {
     rows.push_back({{"method", row.method},

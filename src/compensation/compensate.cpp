@@ -23,9 +23,8 @@ Method parse_method(const std::string& name) {
   if (name == "fbf") return Method::fbf;
   if (name == "lpfbf") return Method::lpfbf;
   if (name == "rfbf") return Method::rfbf;
-  if (name == "collocation")
-    throw Error(fmt::format("--method: '{}' is not implemented yet (available: invert, fbf, lpfbf, rfbf)", name));
-  throw Error(fmt::format("--method: '{}' is not a method; expected invert, fbf, lpfbf or rfbf", name));
+  if (name == "collocation") return Method::collocation;
+  throw Error(fmt::format("--method: '{}' is not a method; expected invert, fbf, lpfbf, rfbf or collocation", name));
 }
 
 const char* method_name(Method m) {
@@ -34,6 +33,7 @@ const char* method_name(Method m) {
     case Method::fbf: return "fbf";
     case Method::lpfbf: return "lpfbf";
     case Method::rfbf: return "rfbf";
+    case Method::collocation: return "collocation";
   }
   return "?";
 }
@@ -140,6 +140,8 @@ void validate_options(const CompensationOptions& o) {
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
                                   {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
+  if (!(o.max_base_accel_mm_s2 > 0.0))
+    throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", o.max_base_accel_mm_s2));
   if (o.method == Method::fbf || o.method == Method::lpfbf || o.method == Method::rfbf) {
     if (o.degree < 1 || o.degree > 7)
       throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
@@ -165,11 +167,7 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   r.sample_rate_hz = options.sample_rate_hz;
   r.motion_time_s = t_end - t_begin;
 
-  double decay = std::min({detail::slowest_decay_rate_per_s(options.model_x),
-                           detail::slowest_decay_rate_per_s(options.model_y),
-                           detail::slowest_decay_rate_per_s(options.plant_x),
-                           detail::slowest_decay_rate_per_s(options.plant_y)});
-  const double auto_tail = std::isfinite(decay) && decay > 0 ? std::clamp(5.0 / decay, 0.05, 1.0) : 1.0;
+  const double auto_tail = detail::auto_tail_s(options);
 
   detail::Grid grid;
   grid.h = h;
@@ -213,8 +211,26 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     detail::run_fbf(moves, options, auto_tail, grid, r);
   } else if (options.method == Method::rfbf) {
     detail::run_rfbf(moves, options, auto_tail, grid, r);
+  } else if (options.method == Method::collocation) {
+    detail::run_collocation(moves, options, auto_tail, grid, r);
+    if (r.status == "infeasible" || r.status == "solver_failed") {
+      // No command: nothing to check or write.
+      r.t_s.clear();
+      r.compute_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock0).count();
+      return r;
+    }
   } else {
     detail::run_lpfbf(moves, options, auto_tail, grid, r);
+  }
+
+  if (options.method != Method::collocation && std::isfinite(options.max_base_accel_mm_s2) &&
+      !(r.peak_command_accel_mm_s2 <= options.max_base_accel_mm_s2)) {
+    r.max_base_accel_mm_s2 = options.max_base_accel_mm_s2;
+    r.status = "base_accel_limit_exceeded";
+    r.message = fmt::format("the command's peak acceleration {:.6g} mm/s^2 exceeds --max-base-accel-mm-s2 {:.6g}; "
+                            "--method collocation enforces the bound{}{}",
+                            r.peak_command_accel_mm_s2, options.max_base_accel_mm_s2,
+                            r.message.empty() ? "" : "; ", r.message);
   }
 
   // The check: the sampled command simulated on the plant.
@@ -284,6 +300,16 @@ Json to_json(const CompensationResult& r) {
     j["degree"] = r.degree;
     j["basis_functions"] = r.basis_functions;
   }
+  if (r.method == "collocation") {
+    j["solver_status"] = r.solver_status;
+    j["solver_iterations"] = r.solver_iterations;
+    j["windows"] = r.windows;
+    j["window_s"] = json_number(r.window_s);
+    j["overlap_s"] = json_number(r.overlap_s);
+    j["max_defect_mm"] = json_number(r.max_defect_mm);
+    j["effort_weight_s2"] = json_number(r.effort_weight_s2);
+  }
+  if (std::isfinite(r.max_base_accel_mm_s2)) j["max_base_accel_mm_s2"] = json_number(r.max_base_accel_mm_s2);
   if (r.method == "lpfbf") {
     j["knot_spacing_s"] = json_number(r.knot_spacing_s);
     j["degree"] = r.degree;

@@ -214,6 +214,34 @@ void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptio
 void run_rfbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
               double auto_tail_s, Grid& grid, CompensationResult& r);
 
+/// One axis of the collocation problem (collocation.cpp, docs section 2d): the state
+/// [x_b, v_b / w_r, modal states] with S' = F S + G u, u = x_b'' / w_r^2, and its
+/// Hermite-Simpson defect over one step h, scaled by 2h/3:
+///     P S_k + Q S_k+1 + e1 u_k + e2 u_k+1 = 0.
+class CollocationAxis {
+ public:
+  CollocationAxis(const dynamics::AxisModel& model, double w_ref_per_s, double h);
+  [[nodiscard]] int states() const { return static_cast<int>(P_.rows()); }
+  const Eigen::MatrixXd& P() const { return P_; }
+  const Eigen::MatrixXd& Q() const { return Q_; }
+  const Eigen::VectorXd& e1() const { return e1_; }
+  const Eigen::VectorXd& e2() const { return e2_; }
+  /// The nozzle position x_b + sum of the modal displacements as a row over the states.
+  const Eigen::RowVectorXd& output_row() const { return out_; }
+
+ private:
+  double h_ = 0.0;
+  Eigen::MatrixXd P_, Q_;
+  Eigen::VectorXd e1_, e2_;
+  Eigen::RowVectorXd out_;
+};
+
+/// Direct collocation with IPOPT (both axes in one NLP per window): fills the grid, the
+/// command, the solver fields and the status of r (the status says when IPOPT failed, and the
+/// command is then left empty).
+void run_collocation(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
+                     double auto_tail_s, Grid& grid, CompensationResult& r);
+
 /// FBF: fills the grid, the command and the basis fields of r.
 void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
              double auto_tail_s, Grid& grid, CompensationResult& r);

@@ -6,7 +6,7 @@ import json, math, subprocess, sys
 
 amctl, out, gfile, args = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]
 run = lambda *a: json.loads(subprocess.run([amctl, *a], check=True, capture_output=True, text=True).stdout)
-methods = ["invert", "fbf", "lpfbf", "rfbf", "zv", "mzv", "ei"]
+methods = ["invert", "fbf", "lpfbf", "rfbf", "collocation", "zv", "mzv", "ei"]
 offsets = [-20.0, -10.0, 0.0, 10.0, 20.0]
 cmp = run("compare", gfile, *args, "--json")
 rows = cmp["rows"]
@@ -17,7 +17,7 @@ assert sorted({(r["method"], r["plant_offset_pct"]) for r in rows}) == sorted(
 zero = {r["method"]: r for r in rows if r["plant_offset_pct"] == 0.0}
 sim = run("simulate", gfile, *args, "--json")
 assert zero["uncompensated"]["max_contour_error_mm"] == sim["max_contour_error_mm"], (zero["uncompensated"], sim["max_contour_error_mm"])
-for m in ["invert", "fbf", "lpfbf", "rfbf"]:
+for m in ["invert", "fbf", "lpfbf", "rfbf", "collocation"]:
     c = run("compensate", gfile, *args, "--method", m, "--csv", f"{out}/compare_{m}.csv", "--json")
     for k in ["max_contour_error_mm", "max_tracking_error_mm", "rms_tracking_error_mm",
               "peak_command_accel_mm_s2", "lead_in_s", "status"]:

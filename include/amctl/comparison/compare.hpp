@@ -9,6 +9,7 @@
 // the model's F and Z. The uncompensated row of an offset is dynamics::simulate_print of the
 // plant: the contour error `amctl simulate` reports. Every row carries the max contour error
 // (distance of the simulated nozzle to the planned path), the one metric all rows have.
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,8 +20,12 @@
 namespace amctl::comparison {
 
 struct ComparisonOptions {
-  /// Compensation methods (invert, fbf, lpfbf, rfbf) and shapers (zv, mzv, ei), in table order.
-  std::vector<std::string> methods = {"invert", "fbf", "lpfbf", "rfbf", "zv", "mzv", "ei"};
+  /// Compensation methods (invert, fbf, lpfbf, rfbf, collocation) and shapers (zv, mzv, ei),
+  /// in table order.
+  std::vector<std::string> methods = {"invert", "fbf", "lpfbf", "rfbf", "collocation", "zv", "mzv", "ei"};
+  /// Bound on the compensation commands' acceleration [mm/s^2] (+inf: none): collocation
+  /// enforces it, the other methods' rows say "base_accel_limit_exceeded" when they break it.
+  double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();
   /// Plant natural frequency off the model's by these percentages (> -100).
   std::vector<double> plant_offsets_pct = {-20.0, -10.0, 0.0, 10.0, 20.0};
   double natural_frequency_hz = 0.0;  ///< model (and shaper) natural frequency [Hz]
@@ -33,6 +38,7 @@ struct ComparisonOptions {
   /// move). Unset: the whole file through the file-level runs named above.
   std::optional<int> layer;
 };
+
 
 /// Throws amctl::Error naming the parameter (--methods, --plant-offsets, --layer (no moves),
 /// --natural-frequency-hz, --damping-ratio) for an unknown or repeated method, an offset
@@ -69,6 +75,7 @@ struct ComparisonResult {
   double natural_frequency_hz = 0.0;
   double damping_ratio = 0.0;
   double sample_rate_hz = 0.0;
+  double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();  ///< the bound given
   std::optional<int> layer;
   /// Per offset (in the given order): the uncompensated row, then every method in order.
   std::vector<ComparisonRow> rows;

@@ -11,9 +11,15 @@
 //    velocity jumps at corners) make the inverse demand unbounded base acceleration, the
 //    status says so.
 //  - fbf: filtered basis functions (Ramani et al. 2017), uniform B-splines filtered through
-//    the model, weights by banded least squares on the tracking error.
+//    the model, weights by banded least squares on the tracking error; lpfbf: the same over
+//    overlapping windows, streamed; rfbf: least squares over the model and four detuned ones.
+//  - collocation: Hermite-Simpson direct collocation (seed 000 section 2.2) of the command
+//    and the model's states, solved by IPOPT with exact sparse derivatives: mean squared
+//    tracking error plus effort, the bound |(x_b'', y_b'')| <= max_base_accel_mm_s2 enforced,
+//    overlapping windows so that the cost grows linearly with the path.
 // Every command is checked by simulating it (dynamics::Simulator on the sampled command,
 // linear between samples) through the plant model; the reported errors are the simulated ones.
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -25,10 +31,10 @@
 
 namespace amctl::compensation {
 
-enum class Method { invert, fbf, lpfbf, rfbf };
+enum class Method { invert, fbf, lpfbf, rfbf, collocation };
 
-/// "invert" | "fbf"; throws amctl::Error naming --method otherwise ("not implemented yet" for
-/// the methods of issue 10 still to come: lpfbf, rfbf, collocation).
+/// "invert" | "fbf" | "lpfbf" | "rfbf" | "collocation"; throws amctl::Error naming --method
+/// otherwise.
 Method parse_method(const std::string& name);
 const char* method_name(Method m);
 
@@ -52,8 +58,17 @@ struct CompensationOptions {
   double knot_spacing_s = -1.0;
   int degree = 3;
   /// LPFBF: window length W and overlap O [s] (< 0: automatic, W = max(0.25, 4 settling), O = W/2).
+  /// Collocation: the windows are W = max(1 s, 10 settling), O = max(0.25 s, 3 settling).
   double window_s = -1.0;
   double overlap_s = -1.0;
+  /// Bound on the command's acceleration |(x_b'', y_b'')| [mm/s^2]; +inf: none. Collocation
+  /// enforces it; the other methods report status "base_accel_limit_exceeded" when their
+  /// command breaks it.
+  double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();
+  /// Collocation: the effort term of the objective, mean (rho x_b'')^2 next to the mean
+  /// squared tracking error, rho in s^2 (1e-9: 1e4 mm/s^2 weighs as 0.01 um of error).
+  double effort_weight_s2 = 1e-9;
+  int max_solver_iterations = 500;  ///< collocation: IPOPT's iteration limit per window
 };
 
 struct CompensationResult {
@@ -83,6 +98,12 @@ struct CompensationResult {
   std::size_t max_held_samples = 0;  ///< most desired samples held at once by one axis
   std::size_t max_held_moves = 0;    ///< streaming: most plan moves held at once
   std::size_t samples = 0;           ///< streaming: samples written (the arrays stay empty)
+  // Collocation only
+  std::string solver_status;         ///< IPOPT's return status (of the first window that failed)
+  std::size_t solver_iterations = 0; ///< over all windows
+  double max_defect_mm = 0.0;        ///< largest Hermite-Simpson defect of the solution
+  double effort_weight_s2 = 0.0;     ///< the effort weight used
+  double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();  ///< the bound given
   // The command and its check, one entry per sample time.
   std::vector<double> t_s, x_cmd_mm, y_cmd_mm, x_des_mm, y_des_mm, x_sim_mm, y_sim_mm;
 };
