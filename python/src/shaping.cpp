@@ -124,6 +124,10 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
   trace["y_des_mm"] = adopt(std::move(r->y_des_mm));
   trace["x_sim_mm"] = adopt(std::move(r->x_sim_mm));
   trace["y_sim_mm"] = adopt(std::move(r->y_sim_mm));
+  if (!r->x_cmd_accel_mm_s2.empty()) {  // collocation: the command's acceleration (linear between samples)
+    trace["x_cmd_accel_mm_s2"] = adopt(std::move(r->x_cmd_accel_mm_s2));
+    trace["y_cmd_accel_mm_s2"] = adopt(std::move(r->y_cmd_accel_mm_s2));
+  }
   out["trace"] = trace;
   return out;
 }

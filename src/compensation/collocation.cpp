@@ -466,12 +466,15 @@ void run_collocation(std::span<const plan::PlannedMove> moves, const Compensatio
   // The command, its acceleration and the defects of the kept solution.
   r.peak_command_accel_mm_s2 = 0.0;
   double worst_defect = 0.0, worst_over = 0.0;
+  std::vector<double>* acc[2] = {&r.x_cmd_accel_mm_s2, &r.y_cmd_accel_mm_s2};
+  for (int a = 0; a < 2; ++a) acc[a]->assign(K, 0.0);
   for (std::size_t k = 0; k < K; ++k) {
     double acc2 = 0.0;
     for (int a = 0; a < 2; ++a) {
       const int n = ax[a].states();
       const double* s = &state[a][k * static_cast<std::size_t>(n + 1)];
       (*cmd[a])[k] = s[0];
+      (*acc[a])[k] = s[n] * w_ref * w_ref;
       acc2 += std::pow(s[n] * w_ref * w_ref, 2);
       if (k + 1 < K) {
         const double* s1 = s + n + 1;

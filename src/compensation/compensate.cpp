@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "amctl/control/discretize.hpp"
+#include "amctl/control/state_space.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/simulate.hpp"
 #include "amctl/plan/stream.hpp"
@@ -123,6 +125,32 @@ void simulate_command(const std::vector<double>& t_s, const std::vector<double>&
   });
 }
 
+void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector<double>& y_cmd_mm,
+                          const std::vector<double>& x_acc_mm_s2, const std::vector<double>& y_acc_mm_s2,
+                          const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
+                          double sample_rate_hz, std::vector<double>& x_sim_mm, std::vector<double>& y_sim_mm) {
+  const std::vector<double>* cmd[2] = {&x_cmd_mm, &y_cmd_mm};
+  const std::vector<double>* acc[2] = {&x_acc_mm_s2, &y_acc_mm_s2};
+  const dynamics::AxisModel* plant[2] = {&plant_x, &plant_y};
+  std::vector<double>* sim[2] = {&x_sim_mm, &y_sim_mm};
+  for (int a = 0; a < 2; ++a) {
+    sim[a]->assign(cmd[a]->begin(), cmd[a]->end());
+    if (plant[a]->is_rigid() || cmd[a]->empty()) continue;
+    const control::Discretization d = control::discretize_foh(
+        control::StateSpace::siso(plant[a]->A(), plant[a]->B(), plant[a]->C()), 1.0 / sample_rate_hz);
+    const Eigen::VectorXd g0 = d.Gamma0.col(0), g1 = d.Gamma1.col(0);
+    const Eigen::RowVectorXd C = d.C.row(0);
+    Eigen::VectorXd s = Eigen::VectorXd::Zero(d.Phi.rows());
+    for (std::size_t k = 0; k < cmd[a]->size(); ++k) {
+      (*sim[a])[k] += C.dot(s);
+      if (k + 1 < cmd[a]->size()) {
+        const double u0 = (*acc[a])[k], u1 = (*acc[a])[k + 1];
+        s = d.Phi * s + g0 * u0 + g1 * (u1 - u0);
+      }
+    }
+  }
+}
+
 namespace detail {
 
 double auto_tail_s(const CompensationOptions& options) {
@@ -233,9 +261,14 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
                             r.message.empty() ? "" : "; ", r.message);
   }
 
-  // The check: the sampled command simulated on the plant.
-  simulate_command(r.t_s, r.x_cmd_mm, r.y_cmd_mm, options.plant_x, options.plant_y,
-                   options.sample_rate_hz, r.x_sim_mm, r.y_sim_mm);
+  // The check: the sampled command simulated on the plant (linear between samples, or with
+  // its acceleration linear between samples when the method gives it).
+  if (!r.x_cmd_accel_mm_s2.empty())
+    simulate_command_foh(r.x_cmd_mm, r.y_cmd_mm, r.x_cmd_accel_mm_s2, r.y_cmd_accel_mm_s2, options.plant_x,
+                         options.plant_y, options.sample_rate_hz, r.x_sim_mm, r.y_sim_mm);
+  else
+    simulate_command(r.t_s, r.x_cmd_mm, r.y_cmd_mm, options.plant_x, options.plant_y,
+                     options.sample_rate_hz, r.x_sim_mm, r.y_sim_mm);
   const auto clock1 = std::chrono::steady_clock::now();
   r.compute_time_s = std::chrono::duration<double>(clock1 - clock0).count();
   r.real_time_factor = r.compute_time_s > 0.0 ? r.motion_time_s / r.compute_time_s : 0.0;
@@ -328,11 +361,16 @@ void write_csv(const CompensationResult& r, const std::string& path) {
   {
     std::ofstream f(tmp, std::ios::trunc);
     if (!f) throw Error(fmt::format("--csv {}: cannot open for writing", path));
-    f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm\n";
-    for (std::size_t k = 0; k < r.t_s.size(); ++k)
-      f << fmt::format("{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}\n", r.t_s[k],
+    const bool accel = !r.x_cmd_accel_mm_s2.empty();
+    f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm"
+      << (accel ? ",x_cmd_accel_mm_s2,y_cmd_accel_mm_s2\n" : "\n");
+    for (std::size_t k = 0; k < r.t_s.size(); ++k) {
+      f << fmt::format("{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}", r.t_s[k],
                        r.x_cmd_mm[k], r.y_cmd_mm[k], r.x_des_mm[k], r.y_des_mm[k], r.x_sim_mm[k],
                        r.y_sim_mm[k]);
+      if (accel) f << fmt::format(",{:.12g},{:.12g}", r.x_cmd_accel_mm_s2[k], r.y_cmd_accel_mm_s2[k]);
+      f << '\n';
+    }
     f.flush();
     if (!f) {
       std::remove(tmp.c_str());

@@ -106,6 +106,10 @@ struct CompensationResult {
   double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();  ///< the bound given
   // The command and its check, one entry per sample time.
   std::vector<double> t_s, x_cmd_mm, y_cmd_mm, x_des_mm, y_des_mm, x_sim_mm, y_sim_mm;
+  /// Collocation: the command's acceleration at the samples, linear between them (the command
+  /// is a cubic between samples); the check then simulates that command exactly, and the CSV
+  /// has the columns x_cmd_accel_mm_s2,y_cmd_accel_mm_s2. Empty for the other methods.
+  std::vector<double> x_cmd_accel_mm_s2, y_cmd_accel_mm_s2;
 };
 
 /// Compensates a time-ordered plan (XY). Throws amctl::Error for bad options (naming them).
@@ -131,6 +135,14 @@ void simulate_command(const std::vector<double>& t_s, const std::vector<double>&
                       const std::vector<double>& y_cmd_mm, const dynamics::AxisModel& plant_x,
                       const dynamics::AxisModel& plant_y, double sample_rate_hz,
                       std::vector<double>& x_sim_mm, std::vector<double>& y_sim_mm);
+
+/// The nozzle at the sample times for a command whose acceleration is linear between samples
+/// (positions and accelerations given at the samples, at rest before the first): the plant's
+/// modal states under first-order hold of x_b'' (exact), added to the command.
+void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector<double>& y_cmd_mm,
+                          const std::vector<double>& x_acc_mm_s2, const std::vector<double>& y_acc_mm_s2,
+                          const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
+                          double sample_rate_hz, std::vector<double>& x_sim_mm, std::vector<double>& y_sim_mm);
 
 /// The summary as JSON (no sample arrays). Non-finite numbers are null.
 Json to_json(const CompensationResult& r);
