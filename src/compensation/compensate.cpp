@@ -44,8 +44,12 @@ namespace detail {
 
 double slowest_decay_rate_per_s(const dynamics::AxisModel& m) {
   double r = std::numeric_limits<double>::infinity();
-  for (const dynamics::Mode& mode : m.modes())
-    r = std::min(r, mode.damping_ratio * 2.0 * M_PI * mode.natural_frequency_hz);
+  // The slowest pole's real part: z w for z <= 1; an overdamped mode's slow real pole sits at
+  // w (z - sqrt(z^2 - 1)) (w / (2 z) for large z), far slower than z w.
+  for (const dynamics::Mode& mode : m.modes()) {
+    const double w = 2.0 * M_PI * mode.natural_frequency_hz, z = mode.damping_ratio;
+    r = std::min(r, z <= 1.0 ? z * w : w * (z - std::sqrt(z * z - 1.0)));
+  }
   return r;
 }
 

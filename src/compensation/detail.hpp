@@ -31,7 +31,8 @@ double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around,
 void validate_options(const CompensationOptions& o);
 /// The automatic tail: 5 time constants of the slowest mode of model and plant, in [0.05, 1] s.
 double auto_tail_s(const CompensationOptions& o);
-/// Smallest z w over the modes [1/s] (+inf for a rigid model).
+/// The slowest decay rate over the modes [1/s]: z w, or w (z - sqrt(z^2 - 1)) for an
+/// overdamped mode (+inf for a rigid model).
 double slowest_decay_rate_per_s(const dynamics::AxisModel& m);
 
 /// x_b = x + d x'' + C z,  z' = A z + B x''  (the proper rational H(s) of compensate.hpp in

@@ -101,9 +101,7 @@ std::vector<double> filtered_response(const dynamics::AxisModel& model, const Ba
   const control::PolynomialDiscretization d = control::discretize_polynomial(A, B, terms, b.h);
   Eigen::VectorXd e = Eigen::VectorXd::Zero(A.rows());
   const int support = (p + 1) * q;
-  double decay = std::numeric_limits<double>::infinity();
-  for (const dynamics::Mode& m : model.modes())
-    decay = std::min(decay, m.damping_ratio * 2.0 * M_PI * m.natural_frequency_hz);
+  const double decay = slowest_decay_rate_per_s(model);
   const int max_len = support + static_cast<int>(std::ceil(std::min(40.0 / decay, 20.0) / b.h));
   std::vector<double> R;
   R.reserve(static_cast<std::size_t>(max_len));
