@@ -4,6 +4,7 @@
 // simulation of the command and the uncompensated simulation.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -108,5 +109,41 @@ void BM_CompensateWholePrintLpfbf(benchmark::State& state) {
 }
 BENCHMARK(BM_CompensateWholePrintLpfbf)->Args({636, 318})->Args({400, 100})->Args({250, 100})
     ->Unit(benchmark::kMillisecond)->Iterations(2);
+
+
+// Collocation on the seed base case with the 10 000 mm/s^2 base bound (issue 10: < 1 s).
+void BM_CompensateSeedCollocationBounded(benchmark::State& state) {
+  static const auto moves = plan_file(kSource + "/examples/30_seed000_corner.gcode",
+                                      kSource + "/examples/30_seed000_printer.cfg", {});
+  cp::CompensationOptions o = options(cp::Method::collocation, 100.0, 0.5);
+  o.max_base_accel_mm_s2 = 10000.0;
+  run(state, moves, o);
+}
+BENCHMARK(BM_CompensateSeedCollocationBounded)->Unit(benchmark::kMillisecond);
+
+// Collocation's cost against the path's length (issue 10: linear from 1e3 to 1e5 samples):
+// a zigzag of 10 mm moves on the seed machine (a = 5000 mm/s^2, 100 mm/s, full stops), the
+// seed's belt, the 10 000 mm/s^2 bound, 1 kHz, the default windows (1 s, 0.25 s overlap).
+// The argument is the number of samples; BigO reports the fitted exponent.
+void BM_CollocationCost(benchmark::State& state) {
+  const double target_s = static_cast<double>(state.range(0)) / 1000.0;
+  std::string g = "G90\nG1 X0 Y0 F6000\n";
+  // One 10 mm move takes 0.12 s at 100 mm/s and 5000 mm/s^2 from rest to rest; the lead-in
+  // (0.08 s) and tail (0.1 s) complete the grid.
+  const int n_moves = std::max(1, static_cast<int>(std::lround((target_s - 0.18) / 0.12)));
+  for (int i = 0; i < n_moves; ++i)
+    g += (i % 2 == 0) ? "G91\nG1 X10 Y0\n" : "G1 X0 Y10\n";
+  const amctl::machine::Machine m = amctl::machine::load_machine(kSource + "/examples/30_seed000_printer.cfg", {});
+  amctl::plan::PlanSource source(std::string_view(g), "zigzag.gcode", m);
+  amctl::plan::CollectSink collect;
+  std::vector<amctl::plan::Sink*> sinks{&collect};
+  amctl::plan::run_pipeline(source, sinks);
+  cp::CompensationOptions o = options(cp::Method::collocation, 100.0, 0.5);
+  o.max_base_accel_mm_s2 = 10000.0;
+  run(state, collect.moves, o);
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_CollocationCost)->Arg(1000)->Arg(3000)->Arg(10000)->Arg(30000)->Arg(100000)
+    ->Unit(benchmark::kSecond)->Iterations(1)->Complexity(benchmark::oN);
 
 }  // namespace
