@@ -36,6 +36,7 @@ struct CompensateArgs {
   double effort_weight_s2 = 1e-9;
   int max_iterations = 500;
   std::string csv;
+  std::string gcode;
   bool json = false;
 };
 
@@ -94,11 +95,17 @@ void run_compensate(const CompensateArgs& a) {
   o.overlap_s = a.overlap_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);
   cp::CompensationResult r;
-  if (o.method == cp::Method::lpfbf) {
+  o.sample_z_e = !a.gcode.empty();
+  if (!a.gcode.empty() && a.gcode == a.csv) throw Error(fmt::format("--gcode {} is also the --csv file", a.gcode));
+  // LPFBF streams to the CSV; with --gcode it runs in memory (the same windows and command).
+  if (o.method == cp::Method::lpfbf && a.gcode.empty()) {
     r = cp::compensate_file_streaming(a.file, m, o, a.csv);  // writes the CSV as it goes
   } else {
     r = cp::compensate_file(a.file, m, o);
-    if (!r.t_s.empty()) cp::write_csv(r, a.csv);
+    if (!r.t_s.empty()) {
+      if (!a.gcode.empty()) cp::write_gcode(r, a.gcode);  // first: it refuses an unbounded command
+      cp::write_csv(r, a.csv);
+    }
   }
   // A solver that found no command (infeasible bound, iteration limit) writes no CSV.
   const bool no_command = r.t_s.empty() && r.samples == 0;
@@ -152,6 +159,9 @@ void register_compensate(CLI::App& app) {
   sub->add_option("--lead-in-s", a->lead_in_s, "command time before the first move [s] (default: auto)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step [Hz] (default 1000)");
   sub->add_option("--csv", a->csv, "command CSV (written whole or not at all)")->required();
+  sub->add_option("--gcode", a->gcode,
+                  "also write the command as dense G-code (one G1 per sample, Z and E from the plan) for "
+                  "firmware without shaping");
   sub->add_flag("--json", a->json, "Print a JSON summary");
   sub->callback([a] { run_compensate(*a); });
 }

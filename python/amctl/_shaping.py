@@ -119,7 +119,8 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                damping_ratio=0.1, plant_natural_frequency_hz=None, plant_damping_ratio=None,
                model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,
                knot_spacing_s=None, degree=3, window_s=None, overlap_s=None,
-               max_base_accel_mm_s2=None, effort_weight_s2=1e-9, max_iterations=500, csv=None):
+               max_base_accel_mm_s2=None, effort_weight_s2=1e-9, max_iterations=500, csv=None,
+               gcode=None):
     """Feedforward compensation of the belt model (``amctl compensate``, docs/compensation.md).
 
     Returns the dict of ``amctl compensate --json`` (``max_tracking_error_mm``,
@@ -146,6 +147,7 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
             When collocation finds no command (``status`` "infeasible" or "solver_failed",
             ``message`` says why) the trace is empty and no CSV is written.
         csv: also write the command as ``amctl compensate --csv`` does.
+        gcode: also write the command as dense G-code (``amctl compensate --gcode``).
     """
     p = _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -174,7 +176,8 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                               else _args.number(max_base_accel_mm_s2, "max_base_accel_mm_s2", "mm/s^2"),
                               _args.number(effort_weight_s2, "effort_weight_s2", "s^2"),
                               _args.integer(max_iterations, "max_iterations"),
-                              "" if csv is None else _args.path(csv, "csv"))
+                              "" if csv is None else _args.path(csv, "csv"),
+                              "" if gcode is None else _args.path(gcode, "gcode"))
 
 
 def compare(path, machine=None, set=None, *, natural_frequency_hz, damping_ratio=0.1,

@@ -89,7 +89,8 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
                       const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
                       double sample_rate_hz, double lead_in_s, double tail_s, double knot_spacing_s,
                       int degree, double window_s, double overlap_s, double max_base_accel_mm_s2,
-                      double effort_weight_s2, int max_iterations, const std::string& csv) {
+                      double effort_weight_s2, int max_iterations, const std::string& csv,
+                      const std::string& gcode) {
   compensation::CompensationOptions o;
   o.method = compensation::parse_method(method);
   o.model_x = model_x;
@@ -106,12 +107,14 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
   o.max_base_accel_mm_s2 = max_base_accel_mm_s2;
   o.effort_weight_s2 = effort_weight_s2;
   o.max_solver_iterations = max_iterations;
+  o.sample_z_e = !gcode.empty();
   std::optional<compensation::CompensationResult> r;
   Json j;
   {
     py::gil_scoped_release nogil;
     r = compensation::compensate_file(path, mv.m, o);
     // No command (collocation: an infeasible bound): the status says so, no CSV.
+    if (!gcode.empty() && !r->t_s.empty()) compensation::write_gcode(*r, gcode);
     if (!csv.empty() && !r->t_s.empty()) compensation::write_csv(*r, csv);
     j = compensation::to_json(*r);
   }
@@ -163,7 +166,7 @@ void register_shaping(py::module_& m) {
         py::arg("model_x"), py::arg("model_y"), py::arg("plant_x"), py::arg("plant_y"),
         py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),
         py::arg("degree"), py::arg("window_s"), py::arg("overlap_s"), py::arg("max_base_accel_mm_s2"),
-        py::arg("effort_weight_s2"), py::arg("max_iterations"), py::arg("csv"),
+        py::arg("effort_weight_s2"), py::arg("max_iterations"), py::arg("csv"), py::arg("gcode"),
         "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
         "arrays; see amctl.compensate.");
   m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"),

@@ -139,6 +139,14 @@ def test_collocation_with_a_base_accel_bound_equals_the_cli(cli, source_dir, tmp
     ax = np.diff(t["x_cmd_mm"], 2) / h**2
     ay = np.diff(t["y_cmd_mm"], 2) / h**2
     assert np.hypot(ax, ay).max() <= 10000.0 * (1 + 1e-5)
+    amctl.compensate(g, machine=cfg, method="collocation", natural_frequency_hz=f, damping_ratio=0.5,
+                     max_base_accel_mm_s2=10000.0, gcode=str(tmp_path / "py.gcode"))
+    cli("compensate", g, "--machine", cfg, "--method", "collocation", "--natural-frequency-hz", repr(f),
+            "--damping-ratio", "0.5", "--max-base-accel-mm-s2", "10000", "--csv", str(tmp_path / "c2.csv"),
+            "--gcode", str(tmp_path / "cli.gcode"))
+    py_g = [l for l in (tmp_path / "py.gcode").read_text().splitlines() if not l.startswith(";")]
+    cli_g = [l for l in (tmp_path / "cli.gcode").read_text().splitlines() if not l.startswith(";")]
+    assert py_g == cli_g and py_g[:3] == ["G90", "M83", "M204 S10100"]
     bad = amctl.compensate(g, machine=cfg, method="collocation", natural_frequency_hz=f,
                            damping_ratio=0.5, max_base_accel_mm_s2=100.0, csv=str(tmp_path / "bad.csv"))
     assert bad["status"] == "infeasible" and "320.683" in bad["message"]

@@ -277,6 +277,17 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   r.compute_time_s = std::chrono::duration<double>(clock1 - clock0).count();
   r.real_time_factor = r.compute_time_s > 0.0 ? r.motion_time_s / r.compute_time_s : 0.0;
 
+  if (options.sample_z_e) {  // the whole plan, retractions included
+    trajectory::Cursor all(all_moves);
+    r.z_des_mm.resize(r.t_s.size());
+    r.e_des_mm.resize(r.t_s.size());
+    for (std::size_t k = 0; k < r.t_s.size(); ++k) {
+      const trajectory::AxisState st = all.evaluate(r.t_s[k]);
+      r.z_des_mm[k] = st.pos_mm[2];
+      r.e_des_mm[k] = st.pos_mm[3];
+    }
+  }
+
   const std::vector<detail::Segment> segs = detail::xy_segments(moves);
   trajectory::Cursor cur(moves);
   double sum2 = 0.0;
@@ -387,6 +398,83 @@ void write_csv(const CompensationResult& r, const std::string& path) {
     std::remove(tmp.c_str());
     throw Error(fmt::format("--csv {}: {}", path, ec.message()));
   }
+}
+
+namespace {
+
+/// Writes `path` through a temporary file renamed at the end (whole or not at all).
+template <class F>
+void write_atomically(const std::string& path, const char* flag, F&& body) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::trunc);
+    if (!f) throw Error(fmt::format("{} {}: cannot open for writing", flag, path));
+    body(f);
+    f.flush();
+    if (!f) {
+      std::remove(tmp.c_str());
+      throw Error(fmt::format("{} {}: write failed", flag, path));
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    throw Error(fmt::format("{} {}: {}", flag, path, ec.message()));
+  }
+}
+
+}  // namespace
+
+void write_gcode(const CompensationResult& r, const std::string& path) {
+  const std::size_t n = r.t_s.size();
+  if (n == 0) throw Error(fmt::format("--gcode {}: there is no command to write", path));
+  if (r.z_des_mm.size() != n || r.e_des_mm.size() != n)
+    throw Error(fmt::format("--gcode {}: the result has no Z and E samples (CompensationOptions::sample_z_e)", path));
+  if (!std::isfinite(r.peak_command_accel_mm_s2))
+    throw Error(fmt::format("--gcode {}: the command's acceleration is unbounded ({}); a firmware cannot "
+                            "follow it: use a jerk-limited plan or another method", path, r.status));
+  const double h = 1.0 / r.sample_rate_hz;
+  const long accel = std::lround(std::ceil(r.peak_command_accel_mm_s2 * 1.01));
+  write_atomically(path, "--gcode", [&](std::ofstream& f) {
+    f << fmt::format(
+        "; amctl compensate --method {}: the motor-side command, one segment per {:.6g} s ({} Hz)\n"
+        "; status {}; max tracking error {:.6g} mm (uncompensated {:.6g} mm), lead-in {:.4f} s\n"
+        "; The segments already carry the belt's dynamics: the firmware must follow them as given.\n"
+        "; Allow at least {} mm/s^2 (M204 below; Klipper: SET_VELOCITY_LIMIT ACCEL={}), a corner\n"
+        "; speed that does not slow 0.1 mm segments (Klipper SQUARE_CORNER_VELOCITY, Marlin M205 J),\n"
+        "; and no minimum segment time (Marlin M205 B0): otherwise it re-plans them.\n",
+        r.method, h, r.sample_rate_hz, r.status, r.max_tracking_error_mm,
+        r.uncompensated_max_tracking_error_mm, r.lead_in_s, accel, accel);
+    f << "G90\nM83\n" << fmt::format("M204 S{}\n", accel);
+    // Positions as printed (0.1 um; "+ 0.0" turns -0 into 0): a step that changes none of
+    // them is a rest, and E is relative to the E last written, so nothing is lost to rounding.
+    const auto q4 = [](double v) { return std::round(v * 1e4) / 1e4 + 0.0; };
+    const auto q5 = [](double v) { return std::round(v * 1e5) / 1e5 + 0.0; };
+    double px = q4(r.x_cmd_mm[0]), py = q4(r.y_cmd_mm[0]), pz = q4(r.z_des_mm[0]), pe = r.e_des_mm[0];
+    f << fmt::format("G0 X{:.4f} Y{:.4f} Z{:.4f}\n", px, py, pz);
+    double rest_s = 0.0;
+    for (std::size_t k = 1; k < n; ++k) {
+      const double x = q4(r.x_cmd_mm[k]), y = q4(r.y_cmd_mm[k]), z = q4(r.z_des_mm[k]);
+      const double de = q5(r.e_des_mm[k] - pe);
+      if (x == px && y == py && z == pz && de == 0.0) {
+        rest_s += h;
+        continue;
+      }
+      if (rest_s > 0.0) {
+        f << fmt::format("G4 P{:.3f}\n", rest_s * 1e3);
+        rest_s = 0.0;
+      }
+      const double d = std::sqrt((x - px) * (x - px) + (y - py) * (y - py) + (z - pz) * (z - pz));
+      const double v = (d > 0.0 ? d : std::abs(de)) / h;
+      f << fmt::format("G1 X{:.4f} Y{:.4f}", x, y);
+      if (z != pz) f << fmt::format(" Z{:.4f}", z);
+      if (de != 0.0) f << fmt::format(" E{:.5f}", de);
+      f << fmt::format(" F{:.1f}\n", v * 60.0);
+      px = x, py = y, pz = z, pe += de;
+    }
+    if (rest_s > 0.0) f << fmt::format("G4 P{:.3f}\n", rest_s * 1e3);
+  });
 }
 
 }  // namespace amctl::compensation

@@ -2,6 +2,10 @@
 // independent integration of the physical belt ODE, and the seed base case with and without
 // the base acceleration bound, against hand-computed limits.
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -202,6 +206,74 @@ TEST(MaxBaseAccel, OtherMethodsReportWhenTheirCommandBreaksTheBound) {
   EXPECT_NE(r.message.find("collocation"), std::string::npos);
   o.max_base_accel_mm_s2 = 1e6;
   EXPECT_EQ(compensate(seed_plan(), o).status, "ok");
+}
+
+}  // namespace
+}  // namespace amctl::compensation
+
+namespace amctl::compensation {
+namespace {
+
+// The dense G-code read back independently: every G1's duration (length / F) and every G4 add
+// up to the command's span, X/Y follow the command, Z and E follow the plan (relative E,
+// retraction included).
+TEST(DenseGcode, ReadBackGivesTheCommandThePlansExtrusionAndTheSpan) {
+  const auto moves = plan_of(
+      "G90\nM83\nG1 X0 Y0 Z0.2 F6000\nG1 X20 Y0 E1.0\nG1 E-0.8 F2400\nG1 X20 Y15 Z0.4 F6000\n"
+      "G1 E0.8 F2400\nG1 X5 Y15 E0.75 F6000\n");
+  CompensationOptions o = seed_collocation();
+  o.method = Method::fbf;
+  o.sample_z_e = true;
+  const CompensationResult r = compensate(moves, o);
+  ASSERT_EQ(r.status, "ok");
+  const std::string path = ::testing::TempDir() + "/dense.gcode";
+  write_gcode(r, path);
+  std::ifstream f(path);
+  std::string line;
+  double x = 0, y = 0, z = 0, e = 0, t = 0, max_dev = 0;
+  const double h = 1.0 / r.sample_rate_hz;
+  std::size_t k = 0;
+  while (std::getline(f, line)) {
+    if (line.empty() || line[0] == ';') continue;
+    std::istringstream in(line);
+    std::string cmd;
+    in >> cmd;
+    std::map<char, double> w;
+    for (std::string word; in >> word;) w[word[0]] = std::stod(word.substr(1));
+    if (cmd == "G4") {
+      t += w['P'] / 1000.0;
+      k += static_cast<std::size_t>(std::lround(w['P'] / 1000.0 / h));
+    } else if (cmd == "G0" || cmd == "G1") {
+      const double nx = w.count('X') ? w['X'] : x, ny = w.count('Y') ? w['Y'] : y, nz = w.count('Z') ? w['Z'] : z;
+      const double d = std::sqrt((nx - x) * (nx - x) + (ny - y) * (ny - y) + (nz - z) * (nz - z));
+      const double de = w.count('E') ? w['E'] : 0.0;
+      if (cmd == "G1") {
+        t += (d > 0 ? d : std::abs(de)) / (w['F'] / 60.0);
+        ++k;
+        ASSERT_LT(k, r.t_s.size());
+        max_dev = std::max(max_dev, std::hypot(nx - r.x_cmd_mm[k], ny - r.y_cmd_mm[k]));
+        EXPECT_NEAR(nz, r.z_des_mm[k], 1e-4);
+      }
+      x = nx, y = ny, z = nz, e += de;
+    }
+  }
+  EXPECT_LE(max_dev, 0.5e-4 * std::sqrt(2.0) + 1e-12);  // X and Y printed at 0.1 um each
+  EXPECT_NEAR(t, r.t_s.back() - r.t_s.front(), 1e-3 * (r.t_s.back() - r.t_s.front()));
+  EXPECT_NEAR(e, 1.0 - 0.8 + 0.8 + 0.75, 1e-4);
+  EXPECT_NEAR(x, 5.0, 1e-4);
+  EXPECT_NEAR(y, 15.0, 1e-4);
+  EXPECT_NEAR(z, 0.4, 1e-4);
+}
+
+TEST(DenseGcode, AnUnboundedCommandIsRefusedAndNothingIsWritten) {
+  CompensationOptions o = seed_collocation();
+  o.method = Method::invert;  // the trapezoid's inverse: unbounded command acceleration
+  o.sample_z_e = true;
+  const CompensationResult r = compensate(seed_plan(), o);
+  const std::string path = ::testing::TempDir() + "/unbounded.gcode";
+  std::remove(path.c_str());
+  EXPECT_THROW(write_gcode(r, path), Error);
+  EXPECT_FALSE(std::ifstream(path).good());
 }
 
 }  // namespace

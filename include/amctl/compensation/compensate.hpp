@@ -69,6 +69,8 @@ struct CompensationOptions {
   /// squared tracking error, rho in s^2 (1e-9: 1e4 mm/s^2 weighs as 0.01 um of error).
   double effort_weight_s2 = 1e-9;
   int max_solver_iterations = 500;  ///< collocation: IPOPT's iteration limit per window
+  /// Also sample the plan's Z and E at the command's samples (for write_gcode).
+  bool sample_z_e = false;
 };
 
 struct CompensationResult {
@@ -110,6 +112,9 @@ struct CompensationResult {
   /// is a cubic between samples); the check then simulates that command exactly, and the CSV
   /// has the columns x_cmd_accel_mm_s2,y_cmd_accel_mm_s2. Empty for the other methods.
   std::vector<double> x_cmd_accel_mm_s2, y_cmd_accel_mm_s2;
+  /// With CompensationOptions::sample_z_e: the plan's Z and E at the samples (every move of
+  /// the plan, retractions included), for write_gcode.
+  std::vector<double> z_des_mm, e_des_mm;
 };
 
 /// Compensates a time-ordered plan (XY). Throws amctl::Error for bad options (naming them).
@@ -150,5 +155,13 @@ Json to_json(const CompensationResult& r);
 /// time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm; written to a temporary file
 /// and renamed (whole or not at all).
 void write_csv(const CompensationResult& r, const std::string& path);
+
+/// The command as dense G-code for firmware without shaping (docs/compensation.md, "Dense
+/// G-code"): one G1 per sample step (X, Y from the command, Z and E from the plan, relative E,
+/// F the segment's speed), rests as G4, an M204 at the command's peak acceleration, and a
+/// header saying what the firmware must allow. Needs r.z_des_mm / r.e_des_mm
+/// (CompensationOptions::sample_z_e); throws amctl::Error naming --gcode otherwise, or when
+/// the command is unbounded. Written to a temporary file and renamed.
+void write_gcode(const CompensationResult& r, const std::string& path);
 
 }  // namespace amctl::compensation
