@@ -13,6 +13,7 @@
 #include "amctl/control/discretize.hpp"
 #include "amctl/control/state_space.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/fixed_format.hpp"
 #include "amctl/dynamics/simulate.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/trajectory/trajectory.hpp"
@@ -156,6 +157,15 @@ void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector
 }
 
 namespace detail {
+
+void append_csv_row(std::string& out, double t_s, double x_cmd, double y_cmd, double x_des, double y_des,
+                    double x_sim, double y_sim) {
+  append_fixed(out, t_s, 9);
+  for (double v : {x_cmd, y_cmd, x_des, y_des, x_sim, y_sim}) {
+    out.push_back(',');
+    append_fixed(out, v, 9);
+  }
+}
 
 double auto_tail_s(const CompensationOptions& options) {
   const double decay = std::min({slowest_decay_rate_per_s(options.model_x),
@@ -371,35 +381,6 @@ Json to_json(const CompensationResult& r) {
   return j;
 }
 
-void write_csv(const CompensationResult& r, const std::string& path) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    if (!f) throw Error(fmt::format("--csv {}: cannot open for writing", path));
-    const bool accel = !r.x_cmd_accel_mm_s2.empty();
-    f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm"
-      << (accel ? ",x_cmd_accel_mm_s2,y_cmd_accel_mm_s2\n" : "\n");
-    for (std::size_t k = 0; k < r.t_s.size(); ++k) {
-      f << fmt::format("{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}", r.t_s[k],
-                       r.x_cmd_mm[k], r.y_cmd_mm[k], r.x_des_mm[k], r.y_des_mm[k], r.x_sim_mm[k],
-                       r.y_sim_mm[k]);
-      if (accel) f << fmt::format(",{:.12g},{:.12g}", r.x_cmd_accel_mm_s2[k], r.y_cmd_accel_mm_s2[k]);
-      f << '\n';
-    }
-    f.flush();
-    if (!f) {
-      std::remove(tmp.c_str());
-      throw Error(fmt::format("--csv {}: write failed", path));
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    throw Error(fmt::format("--csv {}: {}", path, ec.message()));
-  }
-}
-
 namespace {
 
 /// Writes `path` through a temporary file renamed at the end (whole or not at all).
@@ -425,6 +406,32 @@ void write_atomically(const std::string& path, const char* flag, F&& body) {
 }
 
 }  // namespace
+
+void write_csv(const CompensationResult& r, const std::string& path) {
+  write_atomically(path, "--csv", [&](std::ofstream& f) {
+    const bool accel = !r.x_cmd_accel_mm_s2.empty();
+    f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm"
+      << (accel ? ",x_cmd_accel_mm_s2,y_cmd_accel_mm_s2\n" : "\n");
+    std::string row;
+    for (std::size_t k = 0; k < r.t_s.size(); ++k) {
+      detail::append_csv_row(row, r.t_s[k], r.x_cmd_mm[k], r.y_cmd_mm[k], r.x_des_mm[k], r.y_des_mm[k],
+                             r.x_sim_mm[k], r.y_sim_mm[k]);
+      if (accel) {
+        row.push_back(',');
+        append_fixed(row, r.x_cmd_accel_mm_s2[k], 6);
+        row.push_back(',');
+        append_fixed(row, r.y_cmd_accel_mm_s2[k], 6);
+      }
+      row.push_back('\n');
+      if (row.size() > (1U << 16)) {
+        f.write(row.data(), static_cast<std::streamsize>(row.size()));
+        row.clear();
+      }
+    }
+    f.write(row.data(), static_cast<std::streamsize>(row.size()));
+  });
+}
+
 
 void write_gcode(const CompensationResult& r, const std::string& path) {
   const std::size_t n = r.t_s.size();

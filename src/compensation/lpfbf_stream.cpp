@@ -210,8 +210,8 @@ class LpfbfStream final : public plan::Sink {
         if (need_c) r_.max_contour_error_mm = std::max(r_.max_contour_error_mm, std::sqrt(dc));
         if (need_u) r_.uncompensated_max_contour_error_mm = std::max(r_.uncompensated_max_contour_error_mm, std::sqrt(du));
       }
-      fmt::format_to(std::back_inserter(line_), "{:.9f},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g},{:.12g}\n", t,
-                     cmd_[0], cmdy_[0], xd, yd, xs, ys);
+      detail::append_csv_row(line_, t, cmd_[0], cmdy_[0], xd, yd, xs, ys);
+      line_.push_back('\n');
       if (line_.size() > (1U << 16)) {
         f_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
         line_.clear();
@@ -243,7 +243,7 @@ class LpfbfStream final : public plan::Sink {
   const CompensationOptions& o_;
   std::string csv_, part_;
   std::ofstream f_;
-  fmt::memory_buffer line_;
+  std::string line_;
   detail::FbfLayout lay_;
   std::optional<detail::LpfbfAxis> ax_, ay_;
   StreamPlant plant_x_, plant_y_, unc_x_, unc_y_;
