@@ -148,7 +148,7 @@ void expect_error_naming(const ComparisonOptions& o, const std::string& param) {
 
 TEST(Compare, BadInputNamesTheParameter) {
   ComparisonOptions o = seed_options();
-  o.methods = {"fbf", "collocation"};
+  o.methods = {"fbf", "magic"};
   expect_error_naming(o, "--methods");
   o.methods = {"fbf", "fbf"};
   expect_error_naming(o, "--methods");
@@ -165,6 +165,9 @@ TEST(Compare, BadInputNamesTheParameter) {
   expect_error_naming(o, "--damping-ratio");
   o.methods = {"fbf"};
   EXPECT_NO_THROW(validate(o));
+  o = seed_options();
+  o.max_base_accel_mm_s2 = -1.0;
+  expect_error_naming(o, "--max-base-accel-mm-s2");
 }
 
 }  // namespace
