@@ -19,52 +19,17 @@ namespace amctl::cli {
 namespace {
 
 struct StepperArgs {
-  std::string file;
   MachineOptions machine;
-  std::string controller = "open";
-  std::string scenario;
-  double speed_mm_s = 90.0;
+  closedloop::SimulateRequest req;
   bool no_load = false;
-  std::string csv;
   bool json = false;
-  double kp = -1, ki = -1, kd = -1, alpha = -1;
-  double corrupt = 0.0;
-  double drag_n = -1, end_load = -1, bump_n = -1;
 };
-
-closedloop::SimulationOptions options_from(const StepperArgs& a) {
-  closedloop::SimulationOptions o;
-  o.controller = closedloop::controller_from_string(a.controller);
-  o.csv_path = a.csv;
-  if (a.kp >= 0) o.gains.kp = o.gains.best_kp = a.kp;
-  if (a.ki >= 0) o.gains.ki_per_s = o.gains.best_ki_per_s = a.ki;
-  if (a.kd >= 0) o.gains.kd_s = o.gains.best_kd_s = a.kd;
-  if (a.alpha >= 0) o.gains.alpha_per_s = a.alpha;
-  o.encoder.corrupt_probability = a.corrupt;
-  return o;
-}
 
 void run_simulate(const StepperArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
-  closedloop::SimulationOptions o = options_from(a);
-  o.gains.max_accel_mm_s2 = m.max_accel_mm_s2;
-  closedloop::SimulationResult r;
-  if (!a.scenario.empty()) {
-    if (!a.file.empty()) throw Error("give either FILE or --scenario, not both");
-    if (a.scenario != "seed003") {
-      throw Error(fmt::format("--scenario '{}': expected seed003", a.scenario));
-    }
-    closedloop::Seed003Scenario sc;
-    sc.speed_mm_s = a.speed_mm_s;
-    sc.load = !a.no_load;
-    if (a.drag_n >= 0) sc.drag_force_n = a.drag_n;
-    if (a.end_load >= 0) sc.end_load_n_per_mm = a.end_load;
-    if (a.bump_n >= 0) sc.bump_force_n = a.bump_n;
-    r = closedloop::simulate_seed003(m, sc, o);
-  } else {
-    if (a.file.empty()) throw Error("give a G-code FILE or --scenario seed003");
-    r = closedloop::simulate_file(a.file, m, o);
-  }
+  closedloop::SimulateRequest req = a.req;
+  req.load = !a.no_load;
+  const closedloop::SimulationResult r = closedloop::stepper_simulate(m, req);
   if (a.json) {
     std::cout << closedloop::to_json(r).dump(2) << "\n";
     return;
@@ -81,7 +46,7 @@ void run_simulate(const StepperArgs& a) {
         x.name, x.max_tracking_error_mm, x.max_error_time_s, x.rms_tracking_error_mm,
         x.lost_steps, x.lost_full_steps, x.max_load_angle_deg, x.peak_step_rate_hz);
   }
-  if (!a.csv.empty()) std::cout << "  traces written to " << a.csv << "\n";
+  if (!a.req.csv_path.empty()) std::cout << "  traces written to " << a.req.csv_path << "\n";
 }
 
 struct SweepArgs {
@@ -123,22 +88,22 @@ void register_stepper(CLI::App& app) {
   auto a = std::make_shared<StepperArgs>();
   CLI::App* sim = st->add_subcommand(
       "simulate", "Simulate motors, drives, AS5311 encoders and a controller on a file or scenario");
-  sim->add_option("file", a->file, "G-code file (or use --scenario)");
+  sim->add_option("file", a->req.file, "G-code file (or use --scenario)");
   add_machine_options(*sim, a->machine);
-  sim->add_option("--controller", a->controller, "open, seed003, pid or best (default open)");
-  sim->add_option("--scenario", a->scenario, "seed003: seed 003's reversing X and Y strokes");
-  sim->add_option("--speed-mm-s", a->speed_mm_s, "scenario speed [mm/s] (default 90)");
-  sim->add_option("--drag-n", a->drag_n, "scenario load: drag force opposing motion [N]");
-  sim->add_option("--end-load-n-per-mm", a->end_load, "scenario load: stiffness of the cable pulled taut beyond -25 mm [N/mm]");
-  sim->add_option("--bump-n", a->bump_n, "scenario load: drag of the curled edge scraped near -29 mm [N]");
+  sim->add_option("--controller", a->req.controller, "open, seed003, pid or best (default open)");
+  sim->add_option("--scenario", a->req.scenario, "seed003: seed 003's reversing X and Y strokes");
+  sim->add_option("--speed-mm-s", a->req.speed_mm_s, "scenario speed [mm/s] (default 90)");
+  sim->add_option("--drag-n", a->req.drag_force_n, "scenario load: drag force opposing motion [N]");
+  sim->add_option("--end-load-n-per-mm", a->req.end_load_n_per_mm, "scenario load: stiffness of the cable pulled taut beyond -25 mm [N/mm]");
+  sim->add_option("--bump-n", a->req.bump_force_n, "scenario load: drag of the curled edge scraped near -29 mm [N]");
   sim->add_flag("--no-load", a->no_load, "scenario without its drag load");
-  sim->add_option("--csv", a->csv, "trace CSV (time, reference, position, error, command, encoder, load angle per axis)");
+  sim->add_option("--csv", a->req.csv_path, "trace CSV (time, reference, position, error, command, encoder, load angle per axis)");
   sim->add_flag("--json", a->json, "print the result as JSON");
-  sim->add_option("--kp", a->kp, "position gain of pid/best [-]");
-  sim->add_option("--ki", a->ki, "integral gain of pid/best [1/s]");
-  sim->add_option("--kd", a->kd, "derivative gain of pid/best [s]");
-  sim->add_option("--alpha", a->alpha, "seed003's alpha [1/s] (default 0.6)");
-  sim->add_option("--corrupt-probability", a->corrupt, "probability that an encoder frame is corrupted on the wire");
+  sim->add_option("--kp", a->req.kp, "position gain of pid/best [-]");
+  sim->add_option("--ki", a->req.ki_per_s, "integral gain of pid/best [1/s]");
+  sim->add_option("--kd", a->req.kd_s, "derivative gain of pid/best [s]");
+  sim->add_option("--alpha", a->req.alpha_per_s, "seed003's alpha [1/s] (default 0.6)");
+  sim->add_option("--corrupt-probability", a->req.corrupt_probability, "probability that an encoder frame is corrupted on the wire");
   sim->callback([a] { run_simulate(*a); });
 
   auto s = std::make_shared<SweepArgs>();

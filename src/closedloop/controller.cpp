@@ -110,12 +110,7 @@ class Best final : public Controller {
  public:
   Best(const ControllerParameters& p, const StepperAxisModel& m)
       : pid_(make_pid(p.best_kp, p.best_ki_per_s, p.best_kd_s, p.output_limit_mm)),
-        period_(p.period_s), learn_(p.drag_learning_per_s), limit_(p.output_limit_mm), m_(m) {
-    const double r = m.pulley_radius_m();
-    const double f_po = m.pull_out_torque_n_m() / r;
-    max_lead_mm_ = 1e3 * (f_po / m.axis().belt.stiffness_n_per_m +
-                          r * (std::numbers::pi / 2.0) / m.motor().pole_pairs());
-  }
+        period_(p.period_s), learn_(p.drag_learning_per_s), limit_(p.output_limit_mm), m_(m) {}
 
   double target_mm(const ControlInput& in) override {
     const double e = in.measured_ref_mm - in.measured_mm;
@@ -126,12 +121,8 @@ class Best final : public Controller {
     // motion, learnt while moving, applied with the reference's direction.
     const double dir_meas = std::tanh(in.ref_vel_mm_s / v_s);
     drag_mm_ = std::clamp(drag_mm_ + learn_ * e * dir_meas * period_, -limit_, limit_);
-    const double target = in.next_ref_mm + model_lead_mm(in.next_vel_mm_s, in.next_acc_mm_s2) +
-                          drag_mm_ * std::tanh(in.next_vel_mm_s / v_s) + u;
-    // Never lead the measured carriage by more than the belt stretch at pull-out plus a
-    // quarter electrical cycle: a blocked carriage then gets the full torque (load angle near
-    // 90 deg) instead of a field that sweeps past the rotor (slip, zero mean torque).
-    return std::clamp(target, in.measured_mm - max_lead_mm_, in.measured_mm + max_lead_mm_);
+    return in.next_ref_mm + model_lead_mm(in.next_vel_mm_s, in.next_acc_mm_s2) +
+           drag_mm_ * std::tanh(in.next_vel_mm_s / v_s) + u;
   }
   [[nodiscard]] ControllerKind kind() const override { return ControllerKind::best; }
 
@@ -155,7 +146,6 @@ class Best final : public Controller {
   double period_, learn_, limit_;
   StepperAxisModel m_;  // a copy: the caller's model may move
   double drag_mm_ = 0.0;
-  double max_lead_mm_ = 0.0;
 };
 
 }  // namespace
@@ -222,7 +212,7 @@ LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
     M(is, ii) += 1.0;
     M(is, iy) += kd / p.period_s;
     M.row(ii) = -ki * p.period_s * ym;
-    M(ii, ii) += 1.0;
+    if (ki > 0.0) M(ii, ii) += 1.0;  // without integral action the state is unused
   }
   Eigen::EigenSolver<Eigen::MatrixXd> es(M, false);
   LoopAnalysis out;

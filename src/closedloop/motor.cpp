@@ -127,11 +127,12 @@ void StepperAxisModel::step(MotorState& s, double h) const {
   // Back-EMF as a voltage drop e (L di/dt = v - R i - e), taken at the start of the step.
   const double e_a = -kt_ * s.omega_rad_s * sn;
   const double e_b = kt_ * s.omega_rad_s * cs;
-  // Backward Euler of L di/dt = Kc (i_ref - i) - R i - e; if the voltage that implies exceeds
-  // the supply, the chopper saturates: L di/dt = +-V - R i - e, again backward Euler.
+  // The chopper applies v = Kc (i_ref - i) + R i_ref (it holds the current at standstill
+  // exactly, as a hysteresis chopper does). Backward Euler of L di/dt = v - R i - e; if v
+  // exceeds the supply, the chopper saturates: L di/dt = +-V - R i - e, again backward Euler.
   auto phase = [&](double i0, double ref, double e) {
-    double i1 = (L * i0 + h * (kc_ * ref - e)) / (L + h * (kc_ + R));
-    const double v = kc_ * (ref - i1);
+    double i1 = (L * i0 + h * ((kc_ + R) * ref - e)) / (L + h * (kc_ + R));
+    const double v = kc_ * (ref - i1) + R * ref;
     if (v > vmax || v < -vmax) {
       const double vs = v > 0 ? vmax : -vmax;
       i1 = (L * i0 + h * (vs - e)) / (L + h * R);

@@ -442,6 +442,33 @@ SimulationResult simulate_file(const std::string& gcode_path, const machine::Mac
   return r;
 }
 
+SimulationResult stepper_simulate(const machine::Machine& m, const SimulateRequest& a) {
+  SimulationOptions o;
+  o.controller = controller_from_string(a.controller);
+  o.csv_path = a.csv_path;
+  o.gains.max_accel_mm_s2 = m.max_accel_mm_s2;
+  if (a.kp >= 0) o.gains.kp = o.gains.best_kp = a.kp;
+  if (a.ki_per_s >= 0) o.gains.ki_per_s = o.gains.best_ki_per_s = a.ki_per_s;
+  if (a.kd_s >= 0) o.gains.kd_s = o.gains.best_kd_s = a.kd_s;
+  if (a.alpha_per_s >= 0) o.gains.alpha_per_s = a.alpha_per_s;
+  o.encoder.corrupt_probability = a.corrupt_probability;
+  if (!a.scenario.empty()) {
+    if (!a.file.empty()) throw Error("give either FILE or --scenario, not both");
+    if (a.scenario != "seed003") {
+      throw Error(fmt::format("--scenario '{}': expected seed003", a.scenario));
+    }
+    Seed003Scenario sc;
+    sc.speed_mm_s = a.speed_mm_s;
+    sc.load = a.load;
+    if (a.drag_force_n >= 0) sc.drag_force_n = a.drag_force_n;
+    if (a.bump_force_n >= 0) sc.bump_force_n = a.bump_force_n;
+    if (a.end_load_n_per_mm >= 0) sc.end_load_n_per_mm = a.end_load_n_per_mm;
+    return simulate_seed003(m, sc, o);
+  }
+  if (a.file.empty()) throw Error("give a G-code FILE or --scenario seed003");
+  return simulate_file(a.file, m, o);
+}
+
 Json to_json(const SimulationResult& r) {
   Json j;
   j["source"] = r.source;

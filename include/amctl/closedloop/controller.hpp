@@ -13,8 +13,7 @@
 //   best     model feedforward (belt stretch and rotor load angle for inertia, friction and
 //            acceleration), PID on the latency-aligned error, and a direction-aware integral
 //            that learns an unknown drag (Coulomb) load and flips it with the reference's
-//            direction at reversals; the command never leads the measured carriage by more
-//            than the belt stretch at pull-out plus a quarter electrical cycle
+//            direction at reversals
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -42,15 +41,15 @@ struct ControllerParameters {
   double max_speed_change_mm_s = 0.0;
   double max_accel_mm_s2 = 3000.0;  ///< a_max for D*
   // pid (position form, command [mm] per error [mm])
-  double kp = 0.3;                ///< [-]
-  double ki_per_s = 60.0;         ///< [1/s]
-  double kd_s = 0.0;              ///< [s]
+  double kp = 2.0;                ///< [-]
+  double ki_per_s = 200.0;        ///< [1/s]
+  double kd_s = 0.001;            ///< [s]
   double output_limit_mm = 2.0;   ///< correction limit, integral clamped inside it
   // best
-  double best_kp = 0.3;
-  double best_ki_per_s = 40.0;
-  double best_kd_s = 0.0;
-  double drag_learning_per_s = 20.0;  ///< gain of the direction-aware integral [1/s]
+  double best_kp = 4.0;
+  double best_ki_per_s = 300.0;
+  double best_kd_s = 0.001;
+  double drag_learning_per_s = 100.0;  ///< gain of the direction-aware integral [1/s]
   /// Encoder latency the controller aligns its reference with [s].
   double latency_s = 100e-6;
   void validate() const;

@@ -7,7 +7,7 @@
 // angle p th. The drive commands the electrical angle phi = n * 2 pi / (4 microsteps) of
 // microstep n and regulates the phase currents towards I (cos phi, sin phi):
 //   L di_a/dt = v_a - R i_a + Ke w sin(p th),   L di_b/dt = v_b - R i_b - Ke w cos(p th),
-//   v = clamp(Kc (i_ref - i), -V_supply, V_supply)                   (averaged chopper)
+//   v = clamp(Kc (i_ref - i) + R i_ref, -V_supply, V_supply)          (averaged chopper)
 //   T_m = Kt (-i_a sin(p th) + i_b cos(p th)) - T_det sin(4 p th)
 // With i = I (cos phi, sin phi): T_m = Kt I sin(phi - p th), load angle d = phi - p th; the
 // static pull-out torque is Kt I at d = pi/2; at speed the back-EMF Ke w and the reactance

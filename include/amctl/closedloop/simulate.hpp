@@ -112,7 +112,7 @@ struct Seed003Scenario {
   double end_load_start_mm = -25.0;
   /// A curled edge the nozzle scrapes just before the reversal at -30 mm: drag bump_force_n
   /// within +-bump_half_width_mm of bump_position_mm.
-  double bump_force_n = 60.0;
+  double bump_force_n = 30.0;
   double bump_position_mm = -29.0;
   double bump_half_width_mm = 0.3;
   double supply_voltage_v = 12.0; ///< the seed's printer class runs its steppers on 12 V
@@ -133,6 +133,23 @@ struct Seed003Scenario {
 [[nodiscard]] SimulationResult simulate_file(const std::string& gcode_path,
                                              const machine::Machine& m,
                                              const SimulationOptions& options);
+
+/// What `amctl stepper simulate` asks for (the CLI and the Python binding fill it).
+struct SimulateRequest {
+  std::string file;             ///< G-code file, or "" with scenario
+  std::string scenario;         ///< "seed003" or ""
+  std::string controller = "open";
+  double speed_mm_s = 90.0;
+  bool load = true;
+  std::string csv_path;
+  /// Overrides (< 0: default): kp and ki/kd apply to pid and best, alpha to seed003.
+  double kp = -1, ki_per_s = -1, kd_s = -1, alpha_per_s = -1;
+  double drag_force_n = -1, bump_force_n = -1, end_load_n_per_mm = -1;
+  double corrupt_probability = 0.0;
+};
+/// Validates the request (amctl::Error naming the flag), then simulate_seed003 or
+/// simulate_file; the controller's max_accel is the machine's.
+[[nodiscard]] SimulationResult stepper_simulate(const machine::Machine& m, const SimulateRequest& r);
 
 /// JSON: source, controller, speed_mm_s, load, duration_s, axes.{x,y}.{...}.
 [[nodiscard]] Json to_json(const SimulationResult& r);
