@@ -404,41 +404,68 @@ class ClosedLoopSink final : public plan::Sink {
 
 }  // namespace
 
-SimulationResult simulate_file(const std::string& gcode_path, const machine::Machine& m,
-                               const SimulationOptions& options) {
-  std::vector<steppers::StepperChannel> ch = steppers::stepper_channels(m);
-  ch.resize(2);  // stepper_x, stepper_y
-  const std::vector<AxisSetup> axes = machine_axes(m);
-  plan::PlanSource source(gcode_path, m);
-  std::unique_ptr<ClosedLoopSimulator> sim;
-  // The start position is the first move's start; the simulator is built on the first batch.
-  struct Lazy final : plan::Sink {
-    std::function<void(const plan::PlanBatch&)> on_batch;
-    std::function<void(const plan::StreamSummary&)> on_finish;
-    void consume(const plan::PlanBatch& b) override { on_batch(b); }
-    void finish(const plan::StreamSummary& s) override { on_finish(s); }
-  } lazy;
-  std::unique_ptr<ClosedLoopSink> sink;
-  lazy.on_batch = [&](const plan::PlanBatch& b) {
+namespace {
+
+// Builds the simulator on the first batch (the start position is the first move's start) and
+// feeds it every batch.
+class LazyClosedLoop final : public plan::Sink {
+ public:
+  LazyClosedLoop(const machine::Machine& m, const SimulationOptions& o)
+      : ch_(steppers::stepper_channels(m)), axes_(machine_axes(m)), options_(o) {
+    ch_.resize(2);  // stepper_x, stepper_y
+  }
+  void consume(const plan::PlanBatch& b) override {
     if (b.moves.empty()) return;
-    if (!sim) {
+    if (!sim_) {
       const plan::PlannedMove& f = b.moves.front();
       double start[2] = {0.0, 0.0};
-      for (int i = 0; i < 2; ++i)
-        for (int k = 0; k < 4; ++k) start[i] += ch[static_cast<std::size_t>(i)].row[k] * f.start_mm[k];
-      sim = std::make_unique<ClosedLoopSimulator>(axes, options, start);
-      sink = std::make_unique<ClosedLoopSink>(*sim, ch, axes, options.settle_s);
+      for (std::size_t i = 0; i < 2; ++i)
+        for (int k = 0; k < 4; ++k) start[i] += ch_[i].row[k] * f.start_mm[k];
+      sim_ = std::make_unique<ClosedLoopSimulator>(axes_, options_, start);
+      sink_ = std::make_unique<ClosedLoopSink>(*sim_, ch_, axes_, options_.settle_s);
     }
-    sink->consume(b);
-  };
-  lazy.on_finish = [&](const plan::StreamSummary& s) {
-    if (sink) sink->finish(s);
-  };
+    sink_->consume(b);
+  }
+  void finish(const plan::StreamSummary& s) override {
+    if (sink_) sink_->finish(s);
+  }
+  [[nodiscard]] bool started() const { return sim_ != nullptr; }
+  SimulationResult result() { return sim_->finish(); }
+
+ private:
+  std::vector<steppers::StepperChannel> ch_;
+  std::vector<AxisSetup> axes_;
+  SimulationOptions options_;
+  std::unique_ptr<ClosedLoopSimulator> sim_;
+  std::unique_ptr<ClosedLoopSink> sink_;
+};
+
+}  // namespace
+
+SimulationResult simulate_file(const std::string& gcode_path, const machine::Machine& m,
+                               const SimulationOptions& options) {
+  LazyClosedLoop lazy(m, options);
+  plan::PlanSource source(gcode_path, m);
   plan::Sink* sinks[] = {&lazy};
   plan::run_pipeline(source, sinks);
-  if (!sim) throw Error(fmt::format("{}: no moves to simulate", gcode_path));
-  SimulationResult r = sim->finish();
+  if (!lazy.started()) throw Error(fmt::format("{}: no moves to simulate", gcode_path));
+  SimulationResult r = lazy.result();
   r.source = gcode_path;
+  return r;
+}
+
+SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
+                                const machine::Machine& m, const SimulationOptions& options) {
+  if (moves.empty()) throw Error("simulate_moves: no moves to simulate");
+  LazyClosedLoop lazy(m, options);
+  plan::PlanBatch b;
+  b.moves.assign(moves.begin(), moves.end());
+  lazy.consume(b);
+  plan::StreamSummary s;
+  s.end_time_s = moves.back().start_time_s + moves.back().duration_s();
+  lazy.finish(s);
+  SimulationResult r = lazy.result();
+  r.source = "moves";
   return r;
 }
 

@@ -18,6 +18,7 @@
 #include "amctl/closedloop/motor.hpp"
 #include "amctl/core/json.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/planned_move.hpp"
 
 namespace amctl::closedloop {
 
@@ -133,6 +134,12 @@ struct Seed003Scenario {
 [[nodiscard]] SimulationResult simulate_file(const std::string& gcode_path,
                                              const machine::Machine& m,
                                              const SimulationOptions& options);
+
+/// Planned moves (time-ordered, e.g. a benchmark's synthetic print) through the closed loop,
+/// as simulate_file does with the batches of a file.
+[[nodiscard]] SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
+                                              const machine::Machine& m,
+                                              const SimulationOptions& options);
 
 /// What `amctl stepper simulate` asks for (the CLI and the Python binding fill it).
 struct SimulateRequest {
