@@ -49,7 +49,9 @@ struct ControllerParameters {
   double best_kp = 4.0;
   double best_ki_per_s = 300.0;
   double best_kd_s = 0.001;
-  double drag_learning_per_s = 100.0;  ///< gain of the direction-aware integral [1/s]
+  double drag_learning_per_s = 100.0;
+  /// Largest speed of best's feedback correction relative to the reference [mm/s].
+  double catch_up_mm_s = 50.0;  ///< gain of the direction-aware integral [1/s]
   /// Encoder latency the controller aligns its reference with [s].
   double latency_s = 100e-6;
   void validate() const;
