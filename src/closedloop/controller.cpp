@@ -40,11 +40,9 @@ void ControllerParameters::validate() const {
   require_non_negative("controller.ki_per_s", ki_per_s);
   require_non_negative("controller.kd_s", kd_s);
   require_positive("controller.output_limit_mm", output_limit_mm);
-  require_positive("controller.catch_up_mm_s", catch_up_mm_s);
   require_non_negative("controller.best_kp", best_kp);
   require_non_negative("controller.best_ki_per_s", best_ki_per_s);
   require_non_negative("controller.best_kd_s", best_kd_s);
-  require_non_negative("controller.drag_learning_per_s", drag_learning_per_s);
   require_non_negative("controller.latency_s", latency_s);
 }
 
@@ -111,26 +109,11 @@ class Best final : public Controller {
  public:
   Best(const ControllerParameters& p, const StepperAxisModel& m)
       : pid_(make_pid(p.best_kp, p.best_ki_per_s, p.best_kd_s, p.output_limit_mm)),
-        period_(p.period_s), learn_(p.drag_learning_per_s), limit_(p.output_limit_mm),
-        catch_up_mm_s_(p.catch_up_mm_s), m_(m) {}
+        period_(p.period_s), m_(m) {}
 
   double target_mm(const ControlInput& in) override {
-    const double e = in.measured_ref_mm - in.measured_mm;
     const double u = pid_.update(in.measured_ref_mm, in.measured_mm, period_);
-    const AxisMechanics& ax = m_.axis();
-    const double v_s = ax.friction_smoothing_m_s * 1e3;  // mm/s
-    // Direction-aware integral: the odd part of the error with respect to the direction of
-    // motion, learnt while moving, applied with the reference's direction.
-    const double dir_meas = std::tanh(in.ref_vel_mm_s / v_s);
-    drag_mm_ = std::clamp(drag_mm_ + learn_ * e * dir_meas * period_, -limit_, limit_);
-    const double correction = model_lead_mm(in.next_vel_mm_s, in.next_acc_mm_s2) +
-                              drag_mm_ * std::tanh(in.next_vel_mm_s / v_s) + u;
-    // Catch-up limit: the command departs from the reference at most catch_up_mm_s, so the
-    // field never sweeps past the rotor (after a slip, or when a learnt drag flips at a
-    // reversal) faster than the rotor can follow it back into step.
-    const double dc = catch_up_mm_s_ * period_;
-    applied_ = std::clamp(correction, applied_ - dc, applied_ + dc);
-    return in.next_ref_mm + applied_;
+    return in.next_ref_mm + model_lead_mm(in.next_vel_mm_s, in.next_acc_mm_s2) + u;
   }
   [[nodiscard]] ControllerKind kind() const override { return ControllerKind::best; }
 
@@ -151,10 +134,8 @@ class Best final : public Controller {
     return 1e3 * (f / ax.belt.stiffness_n_per_m + r * d / m_.motor().pole_pairs());
   }
   control::PidController pid_;
-  double period_, learn_, limit_, catch_up_mm_s_;
+  double period_;
   StepperAxisModel m_;  // a copy: the caller's model may move
-  double applied_ = 0.0;
-  double drag_mm_ = 0.0;
 };
 
 }  // namespace
@@ -212,7 +193,7 @@ LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
       kp = p.kp, ki = p.ki_per_s, kd = p.kd_s;
       break;
     case ControllerKind::best:
-      kp = p.best_kp, ki = p.best_ki_per_s + p.drag_learning_per_s, kd = p.best_kd_s;
+      kp = p.best_kp, ki = p.best_ki_per_s, kd = p.best_kd_s;
       break;
   }
   if (kind == ControllerKind::pid || kind == ControllerKind::best) {
@@ -243,8 +224,8 @@ void require_stable_loop(ControllerKind kind, const ControllerParameters& p,
       gains = fmt::format("kp = {}, ki_per_s = {}, kd_s = {}", p.kp, p.ki_per_s, p.kd_s);
       break;
     case ControllerKind::best:
-      gains = fmt::format("best_kp = {}, best_ki_per_s = {}, best_kd_s = {}, drag_learning_per_s = {}",
-                          p.best_kp, p.best_ki_per_s, p.best_kd_s, p.drag_learning_per_s);
+      gains = fmt::format("best_kp = {}, best_ki_per_s = {}, best_kd_s = {}", p.best_kp,
+                          p.best_ki_per_s, p.best_kd_s);
       break;
   }
   throw Error(fmt::format(

@@ -10,10 +10,9 @@
 //   pid      position PID on the encoder (control::PidController), feedforward of the
 //            reference's velocity (target follows p_ref(t+T)) and acceleration (belt
 //            stretch m a / k)
-//   best     model feedforward (belt stretch and rotor load angle for inertia, friction and
-//            acceleration), PID on the latency-aligned error, and a direction-aware integral
-//            that learns an unknown drag (Coulomb) load and flips it with the reference's
-//            direction at reversals
+//   best     model feedforward of where the motor must lead the carriage (belt stretch and
+//            rotor load angle for the reference's acceleration, friction and speed) and a
+//            stiffer PID on the latency-aligned error
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -46,12 +45,9 @@ struct ControllerParameters {
   double kd_s = 0.001;            ///< [s]
   double output_limit_mm = 2.0;   ///< correction limit, integral clamped inside it
   // best
-  double best_kp = 4.0;
-  double best_ki_per_s = 300.0;
-  double best_kd_s = 0.001;
-  double drag_learning_per_s = 100.0;
-  /// Largest speed of best's feedback correction relative to the reference [mm/s].
-  double catch_up_mm_s = 50.0;  ///< gain of the direction-aware integral [1/s]
+  double best_kp = 3.0;           ///< [-]
+  double best_ki_per_s = 250.0;   ///< [1/s]
+  double best_kd_s = 0.001;       ///< [s]
   /// Encoder latency the controller aligns its reference with [s].
   double latency_s = 100e-6;
   void validate() const;
