@@ -90,7 +90,7 @@ class ClosedLoopSimulator {
   [[nodiscard]] double time_s() const;
   [[nodiscard]] double period_s() const;
   [[nodiscard]] std::size_t axes() const;
-  /// Results so far; commits the CSV when `final` is true.
+  /// The results; writes the CSV's last rows and renames it into place. Call once, at the end.
   [[nodiscard]] SimulationResult finish();
   /// The model of axis i (tests).
   [[nodiscard]] const StepperAxisModel& model(std::size_t i) const;
