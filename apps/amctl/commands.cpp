@@ -14,5 +14,6 @@ void register_all(CLI::App& app) {
   register_shaper(app);
   register_resonance(app);
   register_steps(app);
+  register_stepper(app);
 }
 }  // namespace amctl::cli

@@ -35,6 +35,8 @@ void register_resonance(CLI::App& app);
 void register_steps(CLI::App& app);
 /// `amctl compensate` (cmd_compensate.cpp).
 void register_compensate(CLI::App& app);
+/// `amctl stepper simulate`, `amctl stepper sweep` (cmd_stepper.cpp).
+void register_stepper(CLI::App& app);
 /// `amctl compare` (cmd_compare.cpp).
 void register_compare(CLI::App& app);
 }  // namespace amctl::cli

@@ -115,6 +115,31 @@ def steps(path, machine=None, set=None, *, csv=None):
     return _amctl._steps(p, m, out)
 
 
+def stepper_simulate(path=None, machine=None, set=None, *, controller="open", scenario=None,
+                     speed_mm_s=90.0, load=True, csv=None, kp=None, ki=None, kd=None,
+                     alpha=None, corrupt_probability=0.0):
+    """Stepper motors, drives, AS5311 encoders and a controller simulated together
+    (``amctl stepper simulate``, docs/closedloop.md) on a G-code file (``path``) or on
+    ``scenario="seed003"`` (seed 003's reversing strokes at ``speed_mm_s`` [mm/s], with its
+    load unless ``load=False``). ``controller``: 'open', 'seed003', 'pid' or 'best'.
+
+    Returns the dict of ``amctl stepper simulate --json``: ``axes.x`` / ``axes.y`` with
+    ``max_tracking_error_mm``, ``rms_tracking_error_mm``, ``lost_steps`` (microsteps),
+    ``lost_full_steps``, ``max_load_angle_deg``, ... With ``csv`` the traces are written there.
+    kp [-], ki [1/s], kd [s] override the pid/best gains, alpha [1/s] seed003's.
+    """
+    p = "" if path is None else _args.path(path, "path")
+    m = _args.machine(machine, set)
+    sc = "" if scenario is None else _args.text(scenario, "scenario")
+    v = _args.number(speed_mm_s, "speed_mm_s", "mm/s")
+    out = "" if csv is None else _args.path(csv, "csv")
+    opt = lambda x, name: -1.0 if x is None else _args.number(x, name)
+    return _amctl._stepper_simulate(p, m, _args.text(controller, "controller"), sc, v,
+                                    _args.boolean(load, "load"), out, opt(kp, "kp"),
+                                    opt(ki, "ki"), opt(kd, "kd"), opt(alpha, "alpha"),
+                                    _args.number(corrupt_probability, "corrupt_probability"))
+
+
 def compensate(path, machine=None, set=None, *, method="invert", natural_frequency_hz=None,
                damping_ratio=0.1, plant_natural_frequency_hz=None, plant_damping_ratio=None,
                model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,

@@ -254,4 +254,5 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
   register_simulate(m);
   register_studies(m);
   register_shaping(m);
+  register_closedloop(m);
 }

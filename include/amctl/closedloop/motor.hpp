@@ -1,0 +1,150 @@
+#pragma once
+// A hybrid stepper motor, its current-mode chopper drive and the axis it pulls through a belt
+// (docs/closedloop.md, section 1). SI units inside (rad, N m, A, V, m); positions at the
+// interface in mm.
+//
+// Two phases a, b; p = full_steps_per_rotation / 4 pole pairs; rotor angle th, electrical
+// angle p th. The drive commands the electrical angle phi = n * 2 pi / (4 microsteps) of
+// microstep n and regulates the phase currents towards I (cos phi, sin phi):
+//   L di_a/dt = v_a - R i_a + Ke w sin(p th),   L di_b/dt = v_b - R i_b - Ke w cos(p th),
+//   v = clamp(Kc (i_ref - i) + R i_ref, -V_supply, V_supply)          (averaged chopper)
+//   T_m = Kt (-i_a sin(p th) + i_b cos(p th)) - T_det sin(4 p th)
+// With i = I (cos phi, sin phi): T_m = Kt I sin(phi - p th), load angle d = phi - p th; the
+// static pull-out torque is Kt I at d = pi/2; at speed the back-EMF Ke w and the reactance
+// p w L leave less voltage for the current, so I and the pull-out torque fall. Ke = Kt (the
+// same flux linkage, SI). Mechanics (belt of seed 000, dynamics::BeltParameters):
+//   J th'' = T_m - b th' - r F,       F = k (r th - x) + c (r th' - x')     (belt force)
+//   m x''  = F - F_c tanh(x'/v_s) - c_v x' - F_drag tanh(x'/v_s) + F_ext + k_e max(0, x_e - x)
+//            - F_bump tanh(x'/v_s) [x within the bump]
+// r = rotation_distance / (2 pi), J = rotor + pulley inertia. A step is lost when d leaves
+// (-pi, pi): the rotor settles one electrical cycle (4 full steps) further on; slip cycles are
+// counted as round(d / 2 pi).
+#include <cstdint>
+
+#include "amctl/dynamics/model.hpp"
+
+namespace amctl::closedloop {
+
+/// Motor datasheet values. Defaults: a 17HS4401-class NEMA17 (1.8 deg, 40 N cm holding
+/// torque two phases on at 1.7 A, 1.5 ohm, 2.8 mH, 54 g cm^2 rotor, 2.2 N cm detent), the
+/// table printed on that motor's datasheet (docs/closedloop.md cites it).
+struct MotorParameters {
+  double holding_torque_n_m = 0.40;       ///< two phases at rated current [N m]
+  double rated_current_a = 1.7;           ///< per phase [A]
+  double phase_resistance_ohm = 1.5;      ///< [ohm]
+  double phase_inductance_h = 2.8e-3;     ///< [H]
+  double rotor_inertia_kg_m2 = 54e-7;     ///< 54 g cm^2 [kg m^2]
+  double detent_torque_n_m = 0.022;       ///< amplitude of the 4-per-cycle cogging [N m]
+  int full_steps_per_rotation = 200;      ///< 1.8 deg
+  /// Viscous rotor damping (iron losses, bearings) [N m s/rad]: not on datasheets; 1e-3 gives
+  /// the rotor resonance a damping ratio of about 0.05 (docs/closedloop.md).
+  double rotor_damping_n_m_s_per_rad = 1.0e-3;
+
+  /// Kt = holding torque / (sqrt(2) rated current): the holding torque is measured with both
+  /// phases at rated current, a current vector sqrt(2) I long. [N m/A] = Ke [V s/rad]
+  [[nodiscard]] double torque_constant_n_m_per_a() const;
+  [[nodiscard]] int pole_pairs() const { return full_steps_per_rotation / 4; }
+  /// Throws amctl::Error naming `prefix`.field when one is not positive (detent, damping: >= 0).
+  void validate(const char* prefix = "motor") const;
+};
+
+/// The driver (TMC2209-class current-mode chopper on a 24 V supply).
+struct DriveParameters {
+  double supply_voltage_v = 24.0;         ///< [V]
+  double current_amplitude_a = 1.7;       ///< peak of the sine/cosine phase currents [A]
+  /// Bandwidth of the averaged current loop: Kc = 2 pi f L [ohm]. A real chopper switches at
+  /// 20-40 kHz and reaches its target as fast as the voltage allows.
+  double current_loop_bandwidth_hz = 5000.0;
+  int microsteps = 16;
+  /// Highest step rate the driver (and the MCU feeding it) can take [steps/s].
+  double max_step_rate_hz = 200000.0;
+  void validate(const char* prefix = "drive") const;
+};
+
+/// The axis the motor moves.
+struct AxisMechanics {
+  double rotation_distance_mm = 40.0;     ///< belt travel per motor turn (GT2, 20 teeth)
+  double pulley_inertia_kg_m2 = 1.5e-7;   ///< aluminium GT2 20T pulley [kg m^2]
+  /// Carriage mass and belt (seed 000 model, amctl::dynamics): default 0.5 kg on a belt of
+  /// 40 Hz, damping ratio 0.1 (the dynamics default).
+  dynamics::BeltParameters belt{0.5, 0.5 * 6.283185307179586 * 40.0 * 6.283185307179586 * 40.0,
+                                2.0 * 0.1 * 6.283185307179586 * 40.0 * 0.5};
+  double coulomb_friction_n = 2.0;        ///< rail friction [N]
+  double viscous_friction_n_s_per_m = 2.0;  ///< [N s/m]
+  double drag_force_n = 0.0;              ///< extra load opposing motion (cable, nozzle) [N]
+  double external_force_n = 0.0;          ///< constant force along +x (gravity on a Z) [N]
+  /// A load near one end of the travel (a cable chain or bowden tube pulled taut): below
+  /// end_load_start_mm it pushes back towards +x with end_load_n_per_mm per mm of the way in.
+  double end_load_n_per_mm = 0.0;
+  double end_load_start_mm = 0.0;
+  /// A bump (a curled edge the nozzle scrapes, a tight spot of the rail): an extra drag
+  /// bump_force_n opposing motion while the carriage is within bump_half_width_mm of
+  /// bump_position_mm. 0 = none.
+  double bump_force_n = 0.0;
+  double bump_position_mm = 0.0;
+  double bump_half_width_mm = 0.0;
+  /// Speed below which Coulomb friction is smoothed (tanh(v / v_s)) [m/s].
+  double friction_smoothing_m_s = 1.0e-3;
+  void validate(const char* prefix = "axis") const;
+  [[nodiscard]] double pulley_radius_m() const;
+};
+
+/// The state of one axis.
+struct MotorState {
+  double theta_rad = 0.0;       ///< rotor angle (0 = step 0 aligned)
+  double omega_rad_s = 0.0;
+  double x_m = 0.0;             ///< carriage position, x = r theta when the belt is relaxed
+  double v_m_s = 0.0;
+  double i_a = 0.0, i_b = 0.0;  ///< phase currents [A]
+  std::int64_t microstep = 0;   ///< commanded microstep n
+  double ref_a = 0.0, ref_b = 0.0;  ///< I cos(phi), I sin(phi) of that microstep [A]
+  double torque_n_m = 0.0;      ///< motor torque of the last step
+};
+
+/// The model: immutable, precomputed constants; state lives in MotorState.
+class StepperAxisModel {
+ public:
+  StepperAxisModel(const MotorParameters& motor, const DriveParameters& drive,
+                   const AxisMechanics& axis);
+
+  /// A state at rest at position x_mm, microstep matching, currents at their reference.
+  [[nodiscard]] MotorState rest_state(double x_mm) const;
+  /// Commands microstep n (updates the current reference).
+  void set_microstep(MotorState& s, std::int64_t n) const;
+  /// One integration step of h seconds. Electrical side: backward Euler (the current loop's
+  /// pole (R + Kc)/L ~ 3e4 1/s is stiff); mechanics: semi-implicit (symplectic) Euler, stable
+  /// for h well under 2/w_max with w_max the rotor's magnetic-spring frequency (~1.8e3 rad/s).
+  void step(MotorState& s, double h_s) const;
+
+  /// Load angle d = phi - p theta [rad] (unwrapped).
+  [[nodiscard]] double load_angle_rad(const MotorState& s) const;
+  /// Whole electrical cycles slipped, round(d / 2 pi) (positive: rotor behind the command).
+  [[nodiscard]] std::int64_t slip_cycles(const MotorState& s) const;
+  [[nodiscard]] double step_distance_mm() const { return step_mm_; }
+  [[nodiscard]] int microsteps_per_cycle() const { return 4 * drive_.microsteps; }
+  /// Static pull-out torque Kt I [N m].
+  [[nodiscard]] double pull_out_torque_n_m() const { return kt_ * drive_.current_amplitude_a; }
+  /// Stiffness of the magnetic spring at d = 0 around a detent-aligned step: p (Kt I + 4 T_det).
+  [[nodiscard]] double magnetic_stiffness_n_m_per_rad() const;
+  /// Rotor + pulley inertia [kg m^2].
+  [[nodiscard]] double inertia_kg_m2() const { return j_; }
+  [[nodiscard]] double pulley_radius_m() const { return r_; }
+  /// Steady pull-out torque at a constant speed w [rad/s] (phasor of the current loop with
+  /// the back-EMF and the voltage limit): the torque falls with speed.
+  [[nodiscard]] double pull_out_torque_at_n_m(double omega_rad_s) const;
+  [[nodiscard]] const MotorParameters& motor() const { return motor_; }
+  [[nodiscard]] const DriveParameters& drive() const { return drive_; }
+  [[nodiscard]] const AxisMechanics& axis() const { return axis_; }
+  /// Carriage position [mm].
+  [[nodiscard]] static double position_mm(const MotorState& s) { return s.x_m * 1e3; }
+
+ private:
+  MotorParameters motor_;
+  DriveParameters drive_;
+  AxisMechanics axis_;
+  int p_ = 50;
+  double kt_ = 0, r_ = 0, j_ = 0, kc_ = 0, step_mm_ = 0, rad_per_micro_ = 0;
+  double inv_m_ = 0, k_ = 0, c_ = 0, end_k_ = 0, end_x_ = 0, bump_lo_ = 0, bump_hi_ = 0;
+};
+
+}  // namespace amctl::closedloop

@@ -1,0 +1,177 @@
+#pragma once
+// The closed-loop stepper simulator (docs/closedloop.md, section 4): every axis's motor and
+// drive (StepperAxisModel), its AS5311 encoder and its controller, stepped together. Each
+// control period T the controller reads the encoder (latency rounded to whole periods) and
+// sets a target for the motor command; the command ramps there over the period and is
+// quantised into microsteps with Klipper's half-step rule; the physics is integrated with a
+// fixed substep h (T / h whole). Tracking error = carriage position - reference, sampled at
+// every control period.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "amctl/closedloop/controller.hpp"
+#include "amctl/closedloop/encoder.hpp"
+#include "amctl/closedloop/motor.hpp"
+#include "amctl/core/json.hpp"
+#include "amctl/machine/machine.hpp"
+#include "amctl/plan/planned_move.hpp"
+
+namespace amctl::closedloop {
+
+/// One simulated axis (one motor).
+struct AxisSetup {
+  std::string name;  ///< "x", "y"
+  MotorParameters motor;
+  DriveParameters drive;
+  AxisMechanics mechanics;
+};
+
+struct SimulationOptions {
+  ControllerKind controller = ControllerKind::open;
+  ControllerParameters gains;
+  EncoderParameters encoder;
+  double substep_s = 20e-6;   ///< physics step h; control period / h must be whole
+  double settle_s = 0.05;     ///< simulated past the end of the reference
+  std::string csv_path;       ///< traces, "" = none
+  double csv_rate_hz = 1000.0;
+  void validate() const;
+};
+
+/// The reference of one axis at one time.
+struct RefSample {
+  double pos_mm = 0.0, vel_mm_s = 0.0, acc_mm_s2 = 0.0;
+};
+
+/// Per-axis outcome.
+struct AxisResult {
+  std::string name;
+  double max_tracking_error_mm = 0.0;
+  double max_error_time_s = 0.0;
+  double rms_tracking_error_mm = 0.0;
+  double final_error_mm = 0.0;
+  std::uint64_t lost_steps = 0;        ///< microsteps slipped (4 x microsteps per cycle)
+  std::uint64_t lost_full_steps = 0;   ///< 4 per electrical cycle slipped
+  std::uint64_t slip_events = 0;       ///< electrical cycles slipped
+  double max_load_angle_deg = 0.0;     ///< largest |load angle| not counting whole slips
+  std::uint64_t steps = 0;             ///< microsteps commanded
+  double peak_step_rate_hz = 0.0;      ///< of the command, over a control period
+  std::uint64_t step_rate_limited_periods = 0;  ///< periods clipped to drive.max_step_rate_hz
+  std::uint64_t encoder_rejected_frames = 0;
+  double pull_out_torque_n_m = 0.0;    ///< static, Kt I
+};
+
+struct SimulationResult {
+  std::string source;                  ///< file name or "scenario seed003"
+  std::string controller;
+  double speed_mm_s = 0.0;             ///< scenario speed (0 for a file)
+  bool load = false;
+  double duration_s = 0.0;             ///< simulated time
+  std::uint64_t substeps = 0;
+  std::vector<AxisResult> axes;
+};
+
+/// The engine: owns the axes' states, controllers and encoders.
+class ClosedLoopSimulator {
+ public:
+  /// Validates everything and checks the loop's stability on every axis (amctl::Error).
+  ClosedLoopSimulator(std::vector<AxisSetup> axes, const SimulationOptions& options,
+                      std::span<const double> start_mm);
+  ~ClosedLoopSimulator();
+  ClosedLoopSimulator(const ClosedLoopSimulator&) = delete;
+  ClosedLoopSimulator& operator=(const ClosedLoopSimulator&) = delete;
+
+  /// One control period from time() to time() + T: `now` holds the reference of each axis at
+  /// time(), `next` at time() + T.
+  void tick(std::span<const RefSample> now, std::span<const RefSample> next);
+  [[nodiscard]] double time_s() const;
+  [[nodiscard]] double period_s() const;
+  [[nodiscard]] std::size_t axes() const;
+  /// The results; writes the CSV's last rows and renames it into place. Call once, at the end.
+  [[nodiscard]] SimulationResult finish();
+  /// The model of axis i (tests).
+  [[nodiscard]] const StepperAxisModel& model(std::size_t i) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Seed 003's experiment: each axis (x, then y, run side by side) goes 0 -> -30 mm -> 0 three
+/// times at `speed_mm_s` with the machine's max_accel; `load` adds the drag that makes open
+/// loop lose steps near the reversals (docs/closedloop.md, section 4).
+struct Seed003Scenario {
+  double speed_mm_s = 90.0;
+  bool load = true;
+  double stroke_mm = 30.0;
+  int strokes = 6;
+  double drag_force_n = 5.0;      ///< the load: drag opposing motion [N]
+  double end_load_n_per_mm = 0.0;   ///< a cable pulled taut near the -30 mm end [N/mm]
+  double end_load_start_mm = -25.0;
+  /// A curled edge the nozzle scrapes just before the reversal at -30 mm: drag bump_force_n
+  /// within +-bump_half_width_mm of bump_position_mm.
+  double bump_force_n = 30.0;
+  double bump_position_mm = -29.0;
+  double bump_half_width_mm = 0.3;
+  double supply_voltage_v = 12.0; ///< the seed's printer class runs its steppers on 12 V
+  double x_mass_kg = 0.5;         ///< X carriage
+  double y_mass_kg = 0.8;         ///< Y (a bed slinger's bed)
+};
+
+/// The axes of a machine ([stepper_x], [stepper_y]: rotation_distance, microsteps,
+/// full_steps_per_rotation; motor, drive and belt defaults otherwise). Throws amctl::Error
+/// naming a missing section or a bad parameter.
+[[nodiscard]] std::vector<AxisSetup> machine_axes(const machine::Machine& m);
+
+[[nodiscard]] SimulationResult simulate_seed003(const machine::Machine& m,
+                                                const Seed003Scenario& scenario,
+                                                const SimulationOptions& options);
+/// A G-code file's plan through the closed loop (PlanSource -> sink; memory: one batch).
+/// CoreXY: the motors (A, B) are simulated, each pulling its own belt.
+[[nodiscard]] SimulationResult simulate_file(const std::string& gcode_path,
+                                             const machine::Machine& m,
+                                             const SimulationOptions& options);
+
+/// Planned moves (time-ordered, e.g. a benchmark's synthetic print) through the closed loop,
+/// as simulate_file does with the batches of a file.
+[[nodiscard]] SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
+                                              const machine::Machine& m,
+                                              const SimulationOptions& options);
+
+/// What `amctl stepper simulate` asks for (the CLI and the Python binding fill it).
+struct SimulateRequest {
+  std::string file;             ///< G-code file, or "" with scenario
+  std::string scenario;         ///< "seed003" or ""
+  std::string controller = "open";
+  double speed_mm_s = 90.0;
+  bool load = true;
+  std::string csv_path;
+  /// Overrides (< 0: default): kp and ki/kd apply to pid and best, alpha to seed003.
+  double kp = -1, ki_per_s = -1, kd_s = -1, alpha_per_s = -1;
+  double drag_force_n = -1, bump_force_n = -1, end_load_n_per_mm = -1;
+  double corrupt_probability = 0.0;
+};
+/// Validates the request (amctl::Error naming the flag), then simulate_seed003 or
+/// simulate_file; the controller's max_accel is the machine's.
+[[nodiscard]] SimulationResult stepper_simulate(const machine::Machine& m, const SimulateRequest& r);
+
+/// JSON: source, controller, speed_mm_s, load, duration_s, axes.{x,y}.{...}.
+[[nodiscard]] Json to_json(const SimulationResult& r);
+
+/// Speed sweep of the seed003 scenario: one row per (controller, speed).
+struct SweepRow {
+  std::string controller;
+  double speed_mm_s = 0.0;
+  AxisResult x, y;
+};
+[[nodiscard]] std::vector<SweepRow> sweep_seed003(const machine::Machine& m,
+                                                  std::span<const ControllerKind> controllers,
+                                                  std::span<const double> speeds_mm_s,
+                                                  bool load, const SimulationOptions& options);
+/// CSV: controller,speed_mm_s,x_max_error_mm,x_rms_error_mm,x_lost_steps,y_...
+[[nodiscard]] std::string sweep_csv(std::span<const SweepRow> rows);
+
+}  // namespace amctl::closedloop
