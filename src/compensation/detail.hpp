@@ -192,6 +192,11 @@ class LpfbfAxis {
   Eigen::RowVectorXd C_;
   Eigen::VectorXd eS_, E_base_, tmp_;
   std::deque<Eigen::VectorXd> inj_;  ///< state injections at samples base_, base_ + 1, ...
+  /// The kept coefficients of a full window as one linear map of the window's residual:
+  /// rows [0, step) of G^-1 Phi^T (G = Phi^T Phi the window's normal matrix), built once, so a
+  /// window costs one (step x rows) product instead of Phi^T r and two triangular solves.
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> keep_gain_;
+  Eigen::VectorXd residual_, kept_;
   int p_ = 3, q_ = 1, nw_ = 1, step_ = 1;
   double x0_ = 0.0;
   BandedCholesky window_;

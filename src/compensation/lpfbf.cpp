@@ -135,6 +135,21 @@ LpfbfAxis::LpfbfAxis(const dynamics::AxisModel& model, const Basis& basis, int w
   }
   E_base_ = Eigen::VectorXd::Zero(n);
   tmp_ = E_base_;
+  // keep_gain_ = rows [0, step) of G^-1 Phi^T, column m = the first `step` entries of
+  // G^-1 (Phi row m), Phi(m, i) = R[m - i q].
+  const std::size_t rows = static_cast<std::size_t>(nw_) * static_cast<std::size_t>(q_);
+  keep_gain_.resize(step_, static_cast<Eigen::Index>(rows));
+  std::vector<double> z(static_cast<std::size_t>(nw_));
+  for (std::size_t m = 0; m < rows; ++m) {
+    for (int i = 0; i < nw_; ++i) {
+      const std::size_t shift = static_cast<std::size_t>(i) * static_cast<std::size_t>(q_);
+      z[static_cast<std::size_t>(i)] = (m >= shift && m - shift < R_.size()) ? R_[m - shift] : 0.0;
+    }
+    window_.solve(z);
+    for (int i = 0; i < step_; ++i) keep_gain_(i, static_cast<Eigen::Index>(m)) = z[static_cast<std::size_t>(i)];
+  }
+  residual_.resize(static_cast<Eigen::Index>(rows));
+  kept_.resize(step_);
 }
 
 void LpfbfAxis::tail_over(std::size_t n, std::vector<double>& g) const {
@@ -171,6 +186,19 @@ void LpfbfAxis::push(double x_des_mm) {
 
 void LpfbfAxis::solve_window(int n, std::size_t rows, const BandedCholesky& chol, int keep) {
   const std::size_t sq = static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_);
+  if (&chol == &window_ && keep == step_ && n == nw_ &&
+      rows == static_cast<std::size_t>(keep_gain_.cols())) {  // a full window: the precomputed map
+    std::vector<double> g;
+    tail_over(rows, g);
+    const double* d = des_.span(sq, rows);
+    const double* f = fixed_.span(sq, rows);
+    for (std::size_t k = 0; k < rows; ++k) residual_(static_cast<Eigen::Index>(k)) = d[k] - f[k] - g[k];
+    kept_.noalias() = keep_gain_ * residual_;
+    for (int i = 0; i < keep; ++i) commit(kept_(i));
+    ++windows_;
+    emit(static_cast<std::size_t>(s_) * static_cast<std::size_t>(q_));
+    return;
+  }
   std::vector<double> c(static_cast<std::size_t>(n), 0.0);
   std::vector<double> g;
   tail_over(rows, g);

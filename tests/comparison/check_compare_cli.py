@@ -21,8 +21,9 @@ for m in ["invert", "fbf", "lpfbf", "rfbf", "collocation"]:
     c = run("compensate", gfile, *args, "--method", m, "--csv", f"{out}/compare_{m}.csv", "--json")
     for k in ["max_contour_error_mm", "max_tracking_error_mm", "rms_tracking_error_mm",
               "peak_command_accel_mm_s2", "lead_in_s", "status"]:
-        # compensate streams lpfbf (compensate_file_streaming): its RMS sums in another order
-        if m == "lpfbf" and k == "rms_tracking_error_mm":
+        # compensate streams lpfbf (compensate_file_streaming): its RMS sums in another order,
+        # and its windows' products may round differently in the last bit
+        if m == "lpfbf" and k != "status":
             assert math.isclose(zero[m][k], c[k], rel_tol=1e-12), (m, k, zero[m][k], c[k])
         else:
             assert zero[m][k] == c[k], (m, k, zero[m][k], c[k])
