@@ -23,26 +23,46 @@ void append_fixed(std::string& out, double v, int decimals) {
     out.push_back('0');
     return;
   }
-  char buf[32];
-  char* end = buf + sizeof buf;
-  char* p = end;
-  int d = decimals;
   // Drop trailing zeros of the fraction.
+  int d = decimals;
   while (d > 0 && n % 10 == 0) {
     n /= 10;
     --d;
   }
-  for (int i = 0; i < d; ++i) {
-    *--p = static_cast<char>('0' + n % 10);
-    n /= 10;
+  // The digits of n, two at a time from a table (right-aligned in digits[]).
+  static constexpr char kPairs[] =
+      "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+      "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+      "8081828384858687888990919293949596979899";
+  char digits[24];
+  char* const dend = digits + sizeof digits;
+  char* q = dend;
+  while (n >= 100) {
+    const std::size_t i = static_cast<std::size_t>(n % 100) * 2;
+    n /= 100;
+    *--q = kPairs[i + 1];
+    *--q = kPairs[i];
   }
-  if (d > 0) *--p = '.';
-  do {
-    *--p = static_cast<char>('0' + n % 10);
-    n /= 10;
-  } while (n != 0);
-  if (v < 0) *--p = '-';
-  out.append(p, end);
+  if (n >= 10) {
+    const std::size_t i = static_cast<std::size_t>(n) * 2;
+    *--q = kPairs[i + 1];
+    *--q = kPairs[i];
+  } else {
+    *--q = static_cast<char>('0' + n);
+  }
+  const int count = static_cast<int>(dend - q);
+  if (v < 0) out.push_back('-');
+  if (count > d) {  // integer part, then the fraction
+    out.append(q, dend - d);
+    if (d > 0) {
+      out.push_back('.');
+      out.append(dend - d, dend);
+    }
+  } else {  // 0.000ddd
+    out.append("0.");
+    out.append(static_cast<std::size_t>(d - count), '0');
+    out.append(q, dend);
+  }
 }
 
 }  // namespace amctl
