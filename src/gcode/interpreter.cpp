@@ -142,6 +142,10 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         return;
       case 2:
       case 3:
+        if (!opt_.arcs_enabled) {  // Klipper without [gcode_arcs]: "Unknown command"
+          note_unknown(cmd.name, line_no);
+          return;
+        }
         do_arc(cmd, params(), code == 2, line_no, sink);
         return;
       case 4: {
@@ -161,6 +165,10 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         firmware_retraction(code == 10, params(), line_no, sink);
         return;
       case 17: case 18: case 19:
+        if (!opt_.arcs_enabled) {  // registered by Klipper's gcode_arcs.py too
+          note_unknown(cmd.name, line_no);
+          return;
+        }
         arc_plane_ = code;
         return;
       case 20:

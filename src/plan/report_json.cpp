@@ -8,6 +8,10 @@
 namespace amctl::plan {
 
 std::string explain_unknown_command(const std::string& name) {
+  if (name == "G2" || name == "G3" || name == "G17" || name == "G18" || name == "G19") {
+    return "an arc command, but the machine has no arcs (Klipper without [gcode_arcs] answers "
+           "\"Unknown command\"); skipped, no motion";
+  }
   if (!name.empty() && (name[0] == 'G' || name[0] == 'M') && name.size() > 1 &&
       std::isdigit(static_cast<unsigned char>(name[1]))) {
     return "not a command amctl models; skipped (no motion assumed)";

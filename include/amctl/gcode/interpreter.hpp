@@ -47,6 +47,9 @@ struct InterpreterOptions {
   double lift_z_mm = 0.0;
   /// Speed of those Z moves; Marlin uses the Z axis's maximum feedrate.
   double lift_z_speed_mm_s = 12.0;
+  /// G2/G3 and G17-G19 are commands (false: unknown commands, noted and skipped, as Klipper
+  /// without [gcode_arcs] answers "Unknown command").
+  bool arcs_enabled = true;
 };
 
 /// Layer, feature and slicer figures read from comments.
