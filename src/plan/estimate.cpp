@@ -200,6 +200,7 @@ void EstimateSink::finish(const StreamSummary& s) {
   std::erase_if(r_.features, [](const FeatureTime& f) { return f.moves == 0; });
   r_.unknown_commands = s.unknown_commands;
   r_.ignored_commands = s.ignored_commands;
+  r_.macros = s.macros;
   r_.slicer_estimate_s = s.slicer_estimate_s;
   r_.slicer_name = s.slicer_name;
   r_.diagnostics = s.diagnostics;

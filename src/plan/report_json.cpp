@@ -81,6 +81,19 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
   }
   j["unknown_commands"] = unk;
   j["ignored_commands"] = r.ignored_commands;
+  Json macros = Json::array();
+  for (const auto& m : r.macros) {
+    macros.push_back({{"name", m.name},
+                      {"description", m.description},
+                      {"defined_at", m.defined_at.to_string()},
+                      {"calls", m.calls},
+                      {"expanded", m.expanded},
+                      {"skipped", m.skipped},
+                      {"first_line", m.first_line},
+                      {"skip_reason", m.skip_reason.empty() ? Json(nullptr) : Json(m.skip_reason)},
+                      {"first_skipped_line", m.skipped > 0 ? Json(m.first_skipped_line) : Json(nullptr)}});
+  }
+  j["macros"] = std::move(macros);
   j["warnings"] = r.diagnostics.warnings;
   if (r.ended_without_newline) {
     j["warnings"].push_back("the file does not end with a newline: it may be truncated");
