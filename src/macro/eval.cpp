@@ -207,7 +207,9 @@ class Renderer {
   }
 
   [[noreturn]] static void undefined_error(const Value& v, std::uint32_t line) {
-    fail(line, fmt::format("'{}' is undefined", v.text()));
+    const bool printer = v.text().rfind("printer", 0) == 0 && v.text() != "printer";
+    fail(line, fmt::format("'{}' is undefined{}", v.text(),
+                           printer ? " (a printer object or field amctl does not model)" : ""));
   }
 
   Value eval(const Expr& e) {
@@ -808,7 +810,8 @@ class Renderer {
       return Value::string(replace_all(s, a[0]->str(), a[1]->str()));
     }
     if (name == "split") {
-      auto a = bind(e, 1, {"sep"}, name);
+      auto a = bind(e, 1, {"sep", "maxsplit"}, name);
+      const std::int64_t maxsplit = a[1] && a[1]->is_number() ? a[1]->as_int() : -1;
       List l;
       if (!a[0] || a[0]->type() == T::none) {
         std::size_t i = 0;
@@ -822,7 +825,8 @@ class Renderer {
         const std::string sep = a[0]->str();
         if (sep.empty()) fail(e.line, "empty separator");
         std::size_t b = 0, at = 0;
-        while ((at = s.find(sep, b)) != std::string::npos) {
+        std::int64_t splits = 0;
+        while ((maxsplit < 0 || splits++ < maxsplit) && (at = s.find(sep, b)) != std::string::npos) {
           l.push_back(Value::string(s.substr(b, at - b)));
           b = at + sep.size();
         }

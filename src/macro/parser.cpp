@@ -135,6 +135,18 @@ std::vector<Token> tokenize(std::string_view s, std::size_t& pos, std::uint32_t&
             case '\\': d = '\\'; break;
             case '\'': d = '\''; break;
             case '"': d = '"'; break;
+            case 'x': {  // \xNN
+              int v = 0;
+              const auto r = pos + 2 <= s.size()
+                                 ? std::from_chars(s.data() + pos, s.data() + pos + 2, v, 16)
+                                 : std::from_chars_result{s.data() + pos, std::errc::invalid_argument};
+              if (r.ec != std::errc() || r.ptr != s.data() + pos + 2) {
+                throw TemplateError(line, "truncated \\xXX escape");
+              }
+              d = static_cast<char>(v);
+              pos += 2;
+              break;
+            }
             default:
               text += '\\';
               d = e;

@@ -191,7 +191,9 @@ TEST(MacroExpander, WhatAmctlCannotEvaluateIsSkippedWithTheMacrosLine) {
   EXPECT_EQ(r.reports[0].skipped, 2u);
   EXPECT_EQ(r.reports[0].first_skipped_line, 1u);
   // gcode: starts at printer.cfg line 11; its second line is line 12.
-  EXPECT_EQ(r.reports[0].skip_reason, "at printer.cfg:12: 'printer.probe' is undefined");
+  EXPECT_EQ(r.reports[0].skip_reason,
+            "at printer.cfg:12: 'printer.probe' is undefined (a printer object or field amctl "
+            "does not model)");
   EXPECT_EQ(r.reports[1].skip_reason,
             "amctl cannot read the template at printer.cfg:22: statement '{% macro %}' is not "
             "supported");
