@@ -129,7 +129,14 @@ bool Interpreter::expand(std::string_view line, std::uint64_t line_no, EventSink
       std::string_view rest = x.text;
       while (!rest.empty()) {
         const std::size_t nl = rest.find('\n');
-        feed(rest.substr(0, nl), line_no, sink);
+        const std::string_view piece = rest.substr(0, nl);
+        try {
+          feed(piece, line_no, sink);
+        } catch (const Error& e) {
+          // The column belongs to the macro's line, not to the file's: name that line instead.
+          fail(line_no, 0, fmt::format("{} (in the lines of macro {}: '{}')", e.detail(), x.name,
+                                       trim(piece)));
+        }
         if (nl == std::string_view::npos) break;
         rest.remove_prefix(nl + 1);
       }

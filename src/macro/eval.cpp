@@ -130,6 +130,7 @@ class Renderer {
         fail(n.line, fmt::format("'{}' is not a namespace", n.targets[0]));
       }
       Dict d = ns->entries();
+      if (v.depth() + 1 > kMaxValueDepth) fail(n.line, "lists or dicts nested too deeply");
       d.set(n.targets[1], std::move(v));
       for (auto f = frames_.rbegin(); f != frames_.rend(); ++f) {
         if (f->find(n.targets[0]) != nullptr) {
@@ -212,7 +213,16 @@ class Renderer {
                            printer ? " (a printer object or field amctl does not model)" : ""));
   }
 
+  /// Values nested deeper than this (a list built into itself in a loop) are an error.
+  static constexpr std::uint32_t kMaxValueDepth = 100;
+
   Value eval(const Expr& e) {
+    Value v = eval_unchecked(e);
+    if (v.depth() > kMaxValueDepth) fail(e.line, "lists or dicts nested too deeply");
+    return v;
+  }
+
+  Value eval_unchecked(const Expr& e) {
     switch (e.kind) {
       case Expr::Kind::literal: return e.value;
       case Expr::Kind::name: {

@@ -414,6 +414,7 @@ gcode::Expansion MacroExpander::expand(const gcode::Command& cmd, std::string_vi
   ++depth_;
   x.kind = gcode::Expansion::Kind::script;
   x.id = static_cast<std::uint32_t>(id);
+  x.name = m.name;
   return x;
 }
 

@@ -1,5 +1,6 @@
 #include "amctl/macro/value.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -65,6 +66,8 @@ Value Value::string(std::string s) {
 Value Value::list(List items, bool coord) {
   Value v;
   v.type_ = Type::list;
+  for (const Value& e : items) v.depth_ = std::max(v.depth_, e.depth_ + 1);
+  if (items.empty()) v.depth_ = 1;
   v.list_ = std::make_shared<const List>(std::move(items));
   v.coord_ = coord;
   return v;
@@ -72,6 +75,8 @@ Value Value::list(List items, bool coord) {
 Value Value::dict(Dict d) {
   Value v;
   v.type_ = Type::dict;
+  v.depth_ = 1;
+  for (const auto& [k, e] : d.items) v.depth_ = std::max(v.depth_, e.depth_ + 1);
   v.dict_ = std::make_shared<const Dict>(std::move(d));
   return v;
 }

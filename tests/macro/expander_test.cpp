@@ -200,6 +200,17 @@ TEST(MacroExpander, WhatAmctlCannotEvaluateIsSkippedWithTheMacrosLine) {
   EXPECT_NE(r.reports[2].skip_reason.find("action_raise_error(\"no filament\")"), std::string::npos);
 }
 
+TEST(MacroExpander, ABadLineAMacroWritesIsAnErrorAtTheCallNamingTheMacro) {
+  const auto cfg = {macro_section("move", "G4 P0\nG1 X{params.X|default('')} F6000")};
+  try {
+    (void)run(cfg, "G28\nMOVE\n");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "t.gcode:2: expected a number after 'X' (is the file truncated?) (in "
+                           "the lines of macro MOVE: 'G1 X F6000')");
+  }
+}
+
 TEST(MacroExpander, WhatKlipperRefusesAtStartIsAnError) {
   ConfigSection spaced = macro_section("a b", "G4");
   EXPECT_THROW(load({spaced}), Error);

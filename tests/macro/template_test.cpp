@@ -4,6 +4,7 @@
 // text here, and the cases that fail in Jinja2 must fail here. Then the limits and the
 // literals of variable_* options, with values from Python's ast.literal_eval.
 #include <fstream>
+#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -122,6 +123,48 @@ TEST(Template, LoopsAndOutputAreBounded) {
   EXPECT_EQ(error_of("{ " + std::string(5000, '(') + "1" + std::string(5000, ')') + " }"),
             "1: expression nested too deeply, found '('");
   EXPECT_EQ(error_of("{ 2 ** 64 }"), "1: integer overflow (beyond 64 bits)");
+}
+
+TEST(Template, MutatedTemplatesRenderOrFailWithATemplateError) {
+  // Seeded mutations of every reference template: any outcome but a TemplateError or a
+  // rendered text (a crash, another exception, a hang) fails.
+  const Json cases = read_json("jinja_cases.json");
+  std::mt19937 rng(14);
+  const std::string alphabet = "{}%#-|()[]'\".,:=+*/~ \n0a9Z_";
+  RenderLimits lim;
+  lim.max_loop_iterations = 10000;
+  lim.max_output_bytes = 1 << 16;
+  std::size_t rendered = 0, refused = 0;
+  for (const Json& c : cases) {
+    const Dict g = globals_of(c);
+    for (int k = 0; k < 60; ++k) {
+      std::string t = c["template"];
+      const int edits = 1 + static_cast<int>(rng() % 3);
+      for (int e = 0; e < edits; ++e) {
+        const std::size_t at = t.empty() ? 0 : rng() % t.size();
+        const char ch = alphabet[rng() % alphabet.size()];
+        switch (rng() % 3) {
+          case 0: if (!t.empty()) t[at] = ch; break;
+          case 1: t.insert(t.begin() + static_cast<std::ptrdiff_t>(at), ch); break;
+          default: if (!t.empty()) t.erase(at, 1 + rng() % 4);
+        }
+      }
+      try {
+        (void)Template::compile(t).render(g, lim);
+        ++rendered;
+      } catch (const TemplateError&) {
+        ++refused;
+      }
+    }
+  }
+  EXPECT_GT(rendered, 100u);
+  EXPECT_GT(refused, 100u);
+}
+
+TEST(Template, AListBuiltIntoItselfIsBounded) {
+  EXPECT_EQ(error_of("{% set ns = namespace(v=[]) %}{% for i in range(100000) %}"
+                     "{% set ns.v = [ns.v] %}{% endfor %}{ ns.v }"),
+            "1: lists or dicts nested too deeply");
 }
 
 TEST(Template, LiteralsAreReadAsPythonsLiteralEval) {

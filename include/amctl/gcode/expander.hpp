@@ -40,6 +40,7 @@ struct Expansion {
   Kind kind = Kind::none;
   std::string text;
   std::uint32_t id = 0;  ///< script: passed back to end_script
+  std::string name;      ///< script: the macro's name, for messages
 };
 
 class CommandExpander {

@@ -61,6 +61,9 @@ class Value {
   [[nodiscard]] const List& items() const;
   [[nodiscard]] const Dict& entries() const;
   [[nodiscard]] bool is_coord() const { return coord_; }
+  /// Nesting of lists and dicts (0 for a scalar): the evaluator bounds it, so printing,
+  /// comparing and destroying a value never recurse deeply.
+  [[nodiscard]] std::uint32_t depth() const { return depth_; }
   [[nodiscard]] const Value* self() const { return self_.get(); }
 
   /// Python truth value (undefined is false).
@@ -79,6 +82,7 @@ class Value {
   Type type_ = Type::undefined;
   bool b_ = false;
   bool coord_ = false;
+  std::uint32_t depth_ = 0;
   std::int64_t i_ = 0;
   double d_ = 0.0;
   std::string s_;
