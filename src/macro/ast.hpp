@@ -36,6 +36,7 @@ struct Expr {
   Value value;
   std::string text;
   bool negated = false;  ///< `is not`
+  bool tuple = false;    ///< list: written as a tuple
   std::vector<ExprPtr> args;
   std::vector<std::pair<std::string, ExprPtr>> kwargs;
   std::vector<std::string> ops;   ///< compare operators: == != < <= > >= in notin

@@ -270,7 +270,7 @@ class Renderer {
       case Expr::Kind::list: {
         List l;
         for (const auto& a : e.args) l.push_back(eval(*a));
-        return Value::list(std::move(l));
+        return Value::list(std::move(l), false, e.tuple);
       }
       case Expr::Kind::dict: {
         Dict d;
@@ -467,7 +467,7 @@ class Renderer {
         return std::any_of(container.items().begin(), container.items().end(),
                            [&](const Value& v) { return v == x; });
       case T::dict: return x.type() == T::string && container.entries().find(x.text()) != nullptr;
-      case T::undefined: undefined_error(container, line);
+      case T::undefined: return false;  // Jinja's Undefined iterates as empty
       default: fail(line, fmt::format("argument of type '{}' is not iterable", container.type_name()));
     }
   }
@@ -875,7 +875,7 @@ Value literal(const Expr& e) {
     case Expr::Kind::list: {
       List l;
       for (const auto& a : e.args) l.push_back(literal(*a));
-      return Value::list(std::move(l));
+      return Value::list(std::move(l), false, e.tuple);
     }
     case Expr::Kind::dict: {
       Dict d;

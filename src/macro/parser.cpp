@@ -242,10 +242,11 @@ class ExprParser {
     ExprPtr first = expression();
     if (!is_op(",")) return first;
     ExprPtr l = make(Expr::Kind::list, first->line);
+    l->tuple = true;
     l->args.push_back(std::move(first));
     while (is_op(",")) {
       next();
-      if (at_end()) break;
+      if (at_end() || is_op(")")) break;  // (1,) and a trailing comma
       l->args.push_back(expression());
     }
     return l;
@@ -492,7 +493,9 @@ class ExprParser {
           next();
           if (is_op(")")) {
             next();
-            return make(Expr::Kind::list, t.line);  // empty tuple
+            ExprPtr empty = make(Expr::Kind::list, t.line);
+            empty->tuple = true;
+            return empty;
           }
           ExprPtr inner = tuple_or_expression();
           expect_op(")");

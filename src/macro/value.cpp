@@ -63,9 +63,10 @@ Value Value::string(std::string s) {
   v.s_ = std::move(s);
   return v;
 }
-Value Value::list(List items, bool coord) {
+Value Value::list(List items, bool coord, bool tuple) {
   Value v;
   v.type_ = Type::list;
+  v.tuple_ = tuple || coord;
   for (const Value& e : items) v.depth_ = std::max(v.depth_, e.depth_ + 1);
   if (items.empty()) v.depth_ = 1;
   v.list_ = std::make_shared<const List>(std::move(items));
@@ -163,14 +164,15 @@ std::string Value::str() const {
     case Type::number: return python_float_repr(d_);
     case Type::string: return s_;
     case Type::list: {
-      std::string out = "[";
+      std::string out = tuple_ ? "(" : "[";
       bool first = true;
       for (const Value& v : items()) {
         if (!first) out += ", ";
         first = false;
         out += v.repr();
       }
-      return out + "]";
+      if (tuple_ && items().size() == 1) out += ",";
+      return out + (tuple_ ? ")" : "]");
     }
     case Type::dict: {
       std::string out = "{";
@@ -216,6 +218,7 @@ bool operator==(const Value& a, const Value& b) {
     case T::string:
     case T::function: return a.s_ == b.s_;
     case T::list: {
+      if (a.tuple_ != b.tuple_) return false;  // Python: (1, 2) != [1, 2]
       const List& x = a.items();
       const List& y = b.items();
       if (x.size() != y.size()) return false;

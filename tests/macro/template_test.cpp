@@ -174,7 +174,7 @@ TEST(Template, LiteralsAreReadAsPythonsLiteralEval) {
   EXPECT_EQ(parse_literal("True"), Value::boolean(true));
   EXPECT_EQ(parse_literal("None"), Value::none());
   EXPECT_EQ(parse_literal("[1, 2.5, 'a']").str(), "[1, 2.5, 'a']");
-  EXPECT_EQ(parse_literal("(1, 2)").str(), "[1, 2]");  // a tuple reads as a list
+  EXPECT_EQ(parse_literal("(1, 2)").str(), "(1, 2)");
   EXPECT_EQ(parse_literal("{'a': 1, 'b': [2]}").str(), "{'a': 1, 'b': [2]}");
   EXPECT_THROW(parse_literal("PLA"), TemplateError);   // a bare word is no literal (needs quotes)
   EXPECT_THROW(parse_literal("true"), TemplateError);  // Python spells it True

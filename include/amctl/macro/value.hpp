@@ -43,7 +43,9 @@ class Value {
   static Value integer(std::int64_t i);
   static Value number(double d);
   static Value string(std::string s);
-  static Value list(List items, bool coord = false);
+  /// A list; `tuple`: a Python tuple (prints as "(1, 2)", never equal to a list); `coord`: a
+  /// Klipper Coord, a tuple with .x .y .z .e.
+  static Value list(List items, bool coord = false, bool tuple = false);
   static Value dict(Dict d);
   static Value function(std::string name, std::shared_ptr<const Value> self = nullptr);
 
@@ -61,6 +63,7 @@ class Value {
   [[nodiscard]] const List& items() const;
   [[nodiscard]] const Dict& entries() const;
   [[nodiscard]] bool is_coord() const { return coord_; }
+  [[nodiscard]] bool is_tuple() const { return tuple_; }
   /// Nesting of lists and dicts (0 for a scalar): the evaluator bounds it, so printing,
   /// comparing and destroying a value never recurse deeply.
   [[nodiscard]] std::uint32_t depth() const { return depth_; }
@@ -82,6 +85,7 @@ class Value {
   Type type_ = Type::undefined;
   bool b_ = false;
   bool coord_ = false;
+  bool tuple_ = false;
   std::uint32_t depth_ = 0;
   std::int64_t i_ = 0;
   double d_ = 0.0;
