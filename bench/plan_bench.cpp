@@ -33,6 +33,29 @@ void BM_EstimateKlipper(benchmark::State& state) {
 }
 BENCHMARK(BM_EstimateKlipper)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
 
+/// The same job on a printer.cfg with [gcode_macro] sections the file never calls: every
+/// command that is not a plain move is offered to the macro expander (one name lookup), plain
+/// moves keep the fast path. Must stay within noise of BM_EstimateKlipper (docs/macros.md).
+void BM_EstimateKlipperWithMacros(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  amctl::machine::Machine m;
+  for (const char* name : {"PRINT_START", "PRINT_END", "M109", "_PURGE_LINE"}) {
+    amctl::ConfigSection s;
+    s.name = std::string("gcode_macro ") + name;
+    s.options["gcode"] = amctl::ConfigValue{"G4 P{params.P|default(0)}", {}, {1}};
+    m.klipper_config.push_back(s);
+  }
+  std::uint64_t moves = 0;
+  for (auto _ : state) {
+    auto r = amctl::plan::estimate_text(g, "bench", m);
+    moves = r.moves;
+    benchmark::DoNotOptimize(r.total_time_s);
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+}
+BENCHMARK(BM_EstimateKlipperWithMacros)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
+
 void BM_EstimateMarlinJunctionDeviation(benchmark::State& state) {
   const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
   amctl::machine::Machine m;

@@ -113,6 +113,16 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
       }
     }
   }
+  for (const auto& m : r.macros) {
+    if (m.skipped == 0) {
+      o << fmt::format("  macro            {} (line {}, {}x): expanded, its moves are timed\n", m.name,
+                       m.first_line, m.calls);
+    } else {
+      o << fmt::format("  macro            {} (line {}, {}x): {} expanded, {} skipped (line {}: {})\n",
+                       m.name, m.first_line, m.calls, m.expanded, m.skipped, m.first_skipped_line,
+                       m.skip_reason);
+    }
+  }
   for (const auto& u : r.unknown_commands) {
     o << fmt::format("  unknown command  {} (line {}, {}x): {}\n", u.name, u.first_line, u.count,
                      plan::explain_unknown_command(u.name));

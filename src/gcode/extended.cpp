@@ -76,6 +76,7 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
         gcode_pos_[a] = v;
       }
     }
+    homed_axes_ = 0x7u;  // Klipper marks the axes homed
     sink.on_set_position(pos_, line_no);
     return;
   }
@@ -104,7 +105,13 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     h.target_c = has ? v : 0.0;
     h.wait = iequals(name, "TEMPERATURE_WAIT");
     h.line = line_no;
+    if (!h.wait) heater_target_c_[static_cast<std::size_t>(h.kind)] = h.target_c;
     sink.on_heater(h);
+    return;
+  }
+  if (iequals(name, "TURN_OFF_HEATERS")) {  // Klipper heaters.py: every target to 0
+    heater_target_c_ = {0.0, 0.0, 0.0};
+    note_ignored(name);
     return;
   }
   if (detail::is_untimed_extended(name)) {

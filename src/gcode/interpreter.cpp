@@ -77,18 +77,77 @@ void Interpreter::run(LineReader& reader, EventSink& sink) {
   while (reader.next(line)) feed(line, reader.line_number(), sink);
 }
 
+void Interpreter::set_expander(CommandExpander* expander) {
+  expander_ = expander;
+  general_path_only_ = expander != nullptr && expander->expands_moves();
+}
+
+InterpreterState Interpreter::state() const {
+  InterpreterState s;
+  s.position_mm = pos_;
+  s.gcode_position_mm = gcode_pos_;
+  s.absolute_coordinates = absolute_xyz_;
+  s.absolute_extrude = absolute_e_;
+  s.feed_mm_min = feed_mm_s_ * 60.0 / unit_mm_;
+  s.speed_factor = speed_factor_;
+  s.extrude_factor = extrude_factor_;
+  s.homed_axes = homed_axes_;
+  s.hotend_target_c = heater_target_c_[0];
+  s.bed_target_c = heater_target_c_[1];
+  s.chamber_target_c = heater_target_c_[2];
+  return s;
+}
+
+bool Interpreter::parse(std::string_view line, std::uint64_t line_no) {
+  if (parse_line(line, cmd_, issue_)) return true;
+  if (opt_.strict) fail(line_no, issue_.column, fmt::format("{} in '{}'", issue_.message, trim(line)));
+  ++skipped_lines_;
+  return false;
+}
+
 void Interpreter::feed(std::string_view line, std::uint64_t line_no, EventSink& sink) {
   // Most lines of a sliced file are plain G0/G1 moves: a dedicated lexer takes them without
   // building a Command and a 26-letter Params (docs/gcode.md, "Fast path").
-  if (try_plain_move(line, line_no, sink)) return;
-  if (!parse_line(line, cmd_, issue_)) {
-    if (opt_.strict) {
-      fail(line_no, issue_.column, fmt::format("{} in '{}'", issue_.message, trim(line)));
-    }
-    ++skipped_lines_;
-    return;
-  }
+  if (!general_path_only_ && try_plain_move(line, line_no, sink)) return;
+  if (!parse(line, line_no)) return;
   if (!cmd_.comment.empty()) handle_comment(cmd_.comment, line_no, sink);
+  if (expander_ != nullptr && cmd_.kind != CommandKind::none && expand(line, line_no, sink)) return;
+  dispatch(line_no, sink);
+}
+
+bool Interpreter::expand(std::string_view line, std::uint64_t line_no, EventSink& sink) {
+  Expansion x = expander_->expand(cmd_, line, line_no, state());
+  switch (x.kind) {
+    case Expansion::Kind::none: return false;
+    case Expansion::Kind::done: return true;
+    case Expansion::Kind::builtin:
+      // The renamed built-in: parsed and handled as itself, never offered again.
+      if (parse(x.text, line_no)) dispatch(line_no, sink);
+      return true;
+    case Expansion::Kind::script: {
+      // Every line of the script counts at the calling line (docs/macros.md).
+      std::string_view rest = x.text;
+      while (!rest.empty()) {
+        const std::size_t nl = rest.find('\n');
+        const std::string_view piece = rest.substr(0, nl);
+        try {
+          feed(piece, line_no, sink);
+        } catch (const Error& e) {
+          // The column belongs to the macro's line, not to the file's: name that line instead.
+          fail(line_no, 0, fmt::format("{} (in the lines of macro {}: '{}')", e.detail(), x.name,
+                                       trim(piece)));
+        }
+        if (nl == std::string_view::npos) break;
+        rest.remove_prefix(nl + 1);
+      }
+      expander_->end_script(x.id);
+      return true;
+    }
+  }
+  return false;
+}
+
+void Interpreter::dispatch(std::uint64_t line_no, EventSink& sink) {
   switch (cmd_.kind) {
     case CommandKind::none:
       return;
@@ -142,6 +201,10 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         return;
       case 2:
       case 3:
+        if (!opt_.arcs_enabled) {  // Klipper without [gcode_arcs]: "Unknown command"
+          note_unknown(cmd.name, line_no);
+          return;
+        }
         do_arc(cmd, params(), code == 2, line_no, sink);
         return;
       case 4: {
@@ -161,6 +224,10 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         firmware_retraction(code == 10, params(), line_no, sink);
         return;
       case 17: case 18: case 19:
+        if (!opt_.arcs_enabled) {  // registered by Klipper's gcode_arcs.py too
+          note_unknown(cmd.name, line_no);
+          return;
+        }
         arc_plane_ = code;
         return;
       case 20:
@@ -243,6 +310,7 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         h.target_c = p.has('S') ? p.get('S') : p.get_or('R', 0.0);
         h.tool = static_cast<int>(p.get_or('T', 0.0));
         h.line = line_no;
+        heater_target_c_[static_cast<std::size_t>(h.kind)] = h.target_c;
         sink.on_heater(h);
         return;
       }
@@ -307,6 +375,7 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         if (!any || p.has("XYZ"[a])) {
           pos_[a] = 0.0;
           gcode_pos_[a] = 0.0;
+          homed_axes_ |= 1u << a;
         }
       }
       sink.on_untimed("G28", line_no);

@@ -192,14 +192,16 @@ bool parse_line(std::string_view line, Command& out, ParseIssue& issue) {
   }
 
   const std::size_t word_begin = i;
-  if (!is_alpha(code[i])) {
+  // Klipper's command words may start with '_' (its args_r split takes [A-Z_]+), the usual
+  // name of helper macros such as _PURGE_LINE.
+  if (!is_alpha(code[i]) && code[i] != '_') {
     return set_issue(issue, i, fmt::format("expected a command (such as G1 or M104), found '{}'",
                                            printable(code.substr(i))));
   }
   // Letter + number (G1, M204, G29.1, T0) or a Klipper extended command word.
   std::size_t j = i + 1;
   while (j < n && is_space(code[j])) ++j;  // "G 1" is tolerated by Marlin
-  if (j < n && is_digit(code[j])) {
+  if (code[i] != '_' && j < n && is_digit(code[j])) {
     char letter = upper(code[i]);
     std::int32_t num = 0;
     std::size_t k = j;

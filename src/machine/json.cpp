@@ -56,6 +56,7 @@ Json to_json(const Machine& m) {
       {"max_extrude_cross_section", optional_number(m.extruder.max_extrude_cross_section_mm2)},
   };
   j["arcs"] = {
+      {"enabled", m.arcs.enabled},
       {"resolution", m.arcs.mm_per_arc_segment},
       {"min_segment", m.arcs.min_arc_segment_mm},
       {"max_segment", m.arcs.max_arc_segment_mm},

@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/core/config_section.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
@@ -40,16 +41,8 @@ std::string lowercase(std::string_view s) {
   return out;
 }
 
-struct CfgValue {
-  std::string text;
-  SourceLocation where;  ///< where the value starts (the option line)
-};
-
-struct CfgSection {
-  std::string name;
-  SourceLocation where;
-  std::map<std::string, CfgValue> options;  ///< option names lower-cased, like configparser
-};
+using CfgValue = ConfigValue;
+using CfgSection = ConfigSection;
 
 struct CfgDoc {
   std::vector<CfgSection> sections;  // in order of first appearance
@@ -152,6 +145,7 @@ class CfgReader {
         CfgValue& v = section->options[option];
         v.text += '\n';
         v.text += stripped;
+        v.lines.push_back(line_no);
         continue;
       }
       indent = cur_indent;
@@ -179,8 +173,9 @@ class CfgReader {
       const std::size_t value_col =
           cur_indent + delim + 1 + (lead == std::string_view::npos ? rest.size() : lead) + 1;
       section->options[option] =
-          CfgValue{std::string(value), SourceLocation{file, line_no,
-                                                      static_cast<std::uint32_t>(value_col)}};
+          CfgValue{std::string(value),
+                   SourceLocation{file, line_no, static_cast<std::uint32_t>(value_col)},
+                   {line_no}};
     }
     visiting_.erase(key.string());
   }
@@ -437,6 +432,8 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       m.steppers["e"] = read_stepper(ex);
     }
   }
+  // gcode_arcs.py registers G2/G3 (and G17-G19); without the section they are unknown.
+  m.arcs.enabled = doc.find("gcode_arcs") != nullptr;
   if (CfgSection* as = doc.find("gcode_arcs")) {
     const Section arcs(as, "gcode_arcs", file_loc);
     m.arcs.mm_per_arc_segment = arcs.get_float("resolution", 1.0, {.above = 0.0});
@@ -482,6 +479,9 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     }
     m.steppers[name] = st;
   }
+  // Every section as written: Klipper's printer.configfile and the [gcode_macro] sections,
+  // expanded by the macro module (docs/macros.md).
+  m.klipper_config = doc.sections;
   return m;
 }
 

@@ -148,6 +148,11 @@ const std::vector<KeyDef>& key_table() {
          "nozzle_diameter^2.",
          nullptr, AMCTL_OPT(extruder.max_extrude_cross_section_mm2)});
     // ---- [arcs] ----
+    add({"arcs", "enabled", Kind::boolean, Bound::finite, "",
+         "G2/G3 (and G17-G19) are commands: false = unknown commands, reported and skipped "
+         "(Klipper without a [gcode_arcs] section).",
+         nullptr, nullptr, nullptr, nullptr, nullptr,
+         [](Machine& m) -> bool& { return m.arcs.enabled; }});
     add({"arcs", "resolution", Kind::number, Bound::positive, "mm",
          "Target chord length of G2/G3 segments (Klipper [gcode_arcs] resolution; Marlin "
          "MM_PER_ARC_SEGMENT / MAX_ARC_SEGMENT_MM).",

@@ -20,6 +20,7 @@ enum class Kind {
   integer,          ///< int
   axes4,            ///< [x, y, z, e] doubles
   text,             ///< std::string
+  boolean,          ///< bool
   firmware,
   kinematics,
   junction,
@@ -49,6 +50,7 @@ struct KeyDef {
   int& (*integer)(Machine&) = nullptr;
   std::array<double, 4>& (*axes)(Machine&) = nullptr;
   std::string& (*text)(Machine&) = nullptr;
+  bool& (*boolean)(Machine&) = nullptr;
 };
 
 struct StepperKeyDef {

@@ -154,6 +154,12 @@ void assign(Machine& m, const KeyDef& d, const toml::node& v, const SourceLocati
       d.text(m) = *v.value<std::string>();
       if (d.key == "name") pending.name_given = true;
       return;
+    case Kind::boolean:
+      if (!v.is_boolean()) {
+        throw Error(where, fmt::format("{}: expected true or false, got {}", label, type_name(v)));
+      }
+      d.boolean(m) = *v.value<bool>();
+      return;
     case Kind::firmware:
     case Kind::kinematics:
     case Kind::profile:
@@ -419,6 +425,9 @@ std::string to_toml(const Machine& machine) {
           out += fmt::format("{} = ", d.key);
           append_toml_string(out, d.text(m));
           out += '\n';
+          break;
+        case Kind::boolean:
+          out += fmt::format("{} = {}\n", d.key, d.boolean(m) ? "true" : "false");
           break;
         case Kind::firmware:
         case Kind::kinematics:

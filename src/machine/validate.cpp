@@ -108,6 +108,7 @@ std::vector<KeyInfo> schema() {
       case Kind::integer: type = "integer"; break;
       case Kind::axes4: type = "[x, y, z, e]"; break;
       case Kind::text: type = "text"; break;
+      case Kind::boolean: type = "true | false"; break;
       default: {
         const auto names = detail::enum_names(d.kind);
         type = fmt::format("{}", fmt::join(names, " | "));

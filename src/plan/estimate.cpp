@@ -77,6 +77,7 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   o.unretract_extra_length_mm = m.firmware_retraction.unretract_extra_length_mm;
   o.unretract_speed_mm_s = m.firmware_retraction.unretract_speed_mm_s;
   o.min_circle_segments = m.arcs.min_circle_segments;
+  o.arcs_enabled = m.arcs.enabled;
   o.lift_z_mm = m.firmware_retraction.lift_z_mm;
   // Marlin moves the G10/G11 Z hop at the Z axis's maximum feedrate (fwretract.cpp); Klipper
   // has no hop, so a configured one moves at Klipper's Z speed limit (max_z_velocity, which
@@ -199,6 +200,7 @@ void EstimateSink::finish(const StreamSummary& s) {
   std::erase_if(r_.features, [](const FeatureTime& f) { return f.moves == 0; });
   r_.unknown_commands = s.unknown_commands;
   r_.ignored_commands = s.ignored_commands;
+  r_.macros = s.macros;
   r_.slicer_estimate_s = s.slicer_estimate_s;
   r_.slicer_name = s.slicer_name;
   r_.diagnostics = s.diagnostics;

@@ -8,6 +8,10 @@
 namespace amctl::plan {
 
 std::string explain_unknown_command(const std::string& name) {
+  if (name == "G2" || name == "G3" || name == "G17" || name == "G18" || name == "G19") {
+    return "an arc command, but the machine has no arcs (Klipper without [gcode_arcs] answers "
+           "\"Unknown command\"); skipped, no motion";
+  }
   if (!name.empty() && (name[0] == 'G' || name[0] == 'M') && name.size() > 1 &&
       std::isdigit(static_cast<unsigned char>(name[1]))) {
     return "not a command amctl models; skipped (no motion assumed)";
@@ -77,6 +81,19 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
   }
   j["unknown_commands"] = unk;
   j["ignored_commands"] = r.ignored_commands;
+  Json macros = Json::array();
+  for (const auto& m : r.macros) {
+    macros.push_back({{"name", m.name},
+                      {"description", m.description},
+                      {"defined_at", m.defined_at.to_string()},
+                      {"calls", m.calls},
+                      {"expanded", m.expanded},
+                      {"skipped", m.skipped},
+                      {"first_line", m.first_line},
+                      {"skip_reason", m.skip_reason.empty() ? Json(nullptr) : Json(m.skip_reason)},
+                      {"first_skipped_line", m.skipped > 0 ? Json(m.first_skipped_line) : Json(nullptr)}});
+  }
+  j["macros"] = std::move(macros);
   j["warnings"] = r.diagnostics.warnings;
   if (r.ended_without_newline) {
     j["warnings"].push_back("the file does not end with a newline: it may be truncated");

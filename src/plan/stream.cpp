@@ -58,6 +58,26 @@ gcode::InterpreterOptions source_interpreter_options(const machine::Machine& m, 
 
 }  // namespace
 
+macro::ToolheadInfo toolhead_info(const machine::Machine& m) {
+  macro::ToolheadInfo t;
+  t.max_velocity_mm_s = m.max_velocity_mm_s;
+  t.max_accel_mm_s2 = m.max_accel_mm_s2;
+  t.square_corner_velocity_mm_s = m.square_corner_velocity_mm_s;
+  t.minimum_cruise_ratio = m.minimum_cruise_ratio;
+  std::array<double, 3> lo{}, hi{};
+  for (int a = 0; a < 3; ++a) {
+    const auto it = m.steppers.find(std::string(1, "xyz"[a]));
+    if (it == m.steppers.end() || !it->second.position_min_mm || !it->second.position_max_mm) {
+      return t;  // Klipper's axis_minimum/maximum need every rail's range
+    }
+    lo[static_cast<std::size_t>(a)] = *it->second.position_min_mm;
+    hi[static_cast<std::size_t>(a)] = *it->second.position_max_mm;
+  }
+  t.axis_minimum_mm = lo;
+  t.axis_maximum_mm = hi;
+  return t;
+}
+
 struct PlanSource::Impl {
   Impl(std::unique_ptr<gcode::LineReader> r, const machine::Machine& m, const SourceOptions& o)
       : machine(m),
@@ -67,6 +87,14 @@ struct PlanSource::Impl {
         planner(machine, writer, o.planner) {
     summary.file = reader->name();
     summary.machine_name = machine.name;
+    if (!machine.klipper_config.empty()) {
+      macros.emplace(machine.klipper_config, toolhead_info(machine));
+      if (macros->empty()) {
+        macros.reset();  // no [gcode_macro]: the interpreter's path stays as it is
+      } else {
+        interp.set_expander(&*macros);
+      }
+    }
   }
 
   void fill(PlanBatch& batch);
@@ -76,6 +104,7 @@ struct PlanSource::Impl {
   SourceOptions options;
   std::unique_ptr<gcode::LineReader> reader;
   gcode::Interpreter interp;
+  std::optional<macro::MacroExpander> macros;
   BatchWriter writer;
   Planner planner;
   StreamSummary summary;
@@ -107,6 +136,7 @@ void PlanSource::Impl::close() {
   summary.feature_names = interp.annotations().feature_names;
   summary.unknown_commands = interp.unknown_commands();
   summary.ignored_commands = interp.ignored_commands();
+  if (macros) summary.macros = macros->reports();
   summary.slicer_estimate_s = interp.annotations().slicer_estimate_s;
   summary.slicer_name = interp.annotations().slicer_name;
   summary.diagnostics = planner.diagnostics();

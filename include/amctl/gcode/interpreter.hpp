@@ -14,6 +14,7 @@
 
 #include "amctl/gcode/command.hpp"
 #include "amctl/gcode/events.hpp"
+#include "amctl/gcode/expander.hpp"
 #include "amctl/gcode/parser.hpp"
 
 namespace amctl::gcode {
@@ -47,6 +48,9 @@ struct InterpreterOptions {
   double lift_z_mm = 0.0;
   /// Speed of those Z moves; Marlin uses the Z axis's maximum feedrate.
   double lift_z_speed_mm_s = 12.0;
+  /// G2/G3 and G17-G19 are commands (false: unknown commands, noted and skipped, as Klipper
+  /// without [gcode_arcs] answers "Unknown command").
+  bool arcs_enabled = true;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -76,6 +80,12 @@ class Interpreter {
   /// Reads a whole file or stream through a bounded buffer, feeding every line.
   void run(class LineReader& reader, EventSink& sink);
 
+  /// Offers every command that is not a plain move to `expander` first (Klipper macros;
+  /// nullptr: none). Not owned; it must outlive the interpreter's use.
+  void set_expander(CommandExpander* expander);
+  /// The state a macro may read (position, modes, homed axes, heater targets).
+  [[nodiscard]] InterpreterState state() const;
+
   [[nodiscard]] const Annotations& annotations() const { return notes_; }
   [[nodiscard]] const std::vector<UnknownCommand>& unknown_commands() const { return unknown_; }
   /// Commands understood but with no effect on motion time (M117, M84, ...), by name.
@@ -87,6 +97,12 @@ class Interpreter {
   /// The fast path for plain "G0/G1 X Y Z E F [; comment]" lines: true when it handled the
   /// line, false (with no state changed) when the general path must.
   bool try_plain_move(std::string_view line, std::uint64_t line_no, EventSink& sink);
+  /// The built-in handling of the parsed command cmd_ (and its comment).
+  void dispatch(std::uint64_t line_no, EventSink& sink);
+  /// Parses `line` into cmd_; false (after counting it in lenient mode) if malformed.
+  bool parse(std::string_view line, std::uint64_t line_no);
+  /// Offers cmd_ to the expander; true when it took the command.
+  bool expand(std::string_view line, std::uint64_t line_no, EventSink& sink);
   void handle_word(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void handle_extended(const Command& cmd, std::uint64_t line_no, EventSink& sink);  // extended.cpp
   void handle_comment(std::string_view comment, std::uint64_t line_no, EventSink& sink);
@@ -126,6 +142,10 @@ class Interpreter {
   bool retracted_ = false;
   double hop_mm_ = 0.0;         // Z raised by G10 and not yet lowered by G11
   double hop_from_z_mm_ = 0.0;  // machine Z before that hop
+  unsigned homed_axes_ = 0;       // bit 0 X, 1 Y, 2 Z
+  std::array<double, 3> heater_target_c_{};  // hotend, bed, chamber
+  CommandExpander* expander_ = nullptr;
+  bool general_path_only_ = false;  // the expander may take G0/G1
   Annotations notes_;
   std::vector<UnknownCommand> unknown_;
   std::map<std::string, std::uint64_t> ignored_;

@@ -6,6 +6,9 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
+
+#include "amctl/core/config_section.hpp"
 
 namespace amctl::machine {
 
@@ -66,6 +69,11 @@ struct Stepper {
 
 /// Arc (G2/G3) linearisation.
 struct Arcs {
+  /// G2/G3 (and G17-G19) are commands at all. Klipper registers them only with a
+  /// [gcode_arcs] section (klippy/extras/gcode_arcs.py); without it they are "Unknown
+  /// command" and skipped. A printer.cfg sets this from that section; TOML machines and
+  /// presets default to true.
+  bool enabled = true;
   /// Klipper [gcode_arcs] resolution / Marlin MM_PER_ARC_SEGMENT: target chord length.
   double mm_per_arc_segment = 1.0;
   /// Marlin MIN_ARC_SEGMENT_MM (0 = Klipper behaviour: no lower clamp).
@@ -152,6 +160,10 @@ struct Machine {
   /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis).
   /// rotation_distance_mm is per motor revolution (any gear_ratio is folded in).
   std::map<std::string, Stepper> steppers;
+  /// A Klipper printer.cfg's sections as written (includes resolved, SAVE_CONFIG merged), in
+  /// order of first appearance: Klipper's printer.configfile and the [gcode_macro] sections
+  /// (docs/macros.md). Empty for TOML machines and presets; not written by to_toml.
+  std::vector<ConfigSection> klipper_config;
 
   bool operator==(const Machine&) const = default;
 };

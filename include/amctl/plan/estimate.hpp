@@ -96,6 +96,8 @@ struct EstimateReport {
   std::optional<RangeError> range_error;
   std::vector<gcode::UnknownCommand> unknown_commands;
   std::map<std::string, std::uint64_t> ignored_commands;
+  /// Klipper macros called: expanded (their moves are in the times) or skipped, and why.
+  std::vector<macro::MacroReport> macros;
   std::optional<double> slicer_estimate_s;
   std::string slicer_name;
   std::vector<Checkpoint> checkpoints;

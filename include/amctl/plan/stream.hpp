@@ -27,6 +27,7 @@
 #include "amctl/gcode/events.hpp"
 #include "amctl/gcode/interpreter.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/macro/expander.hpp"
 #include "amctl/plan/planned_move.hpp"
 #include "amctl/plan/planner.hpp"
 
@@ -86,6 +87,8 @@ struct StreamSummary {
   std::vector<std::string> feature_names;  ///< by PlannedMove::feature
   std::vector<gcode::UnknownCommand> unknown_commands;
   std::map<std::string, std::uint64_t> ignored_commands;
+  /// Klipper macros called, expanded or skipped (printer.cfg [gcode_macro]; docs/macros.md).
+  std::vector<macro::MacroReport> macros;
   std::optional<double> slicer_estimate_s;
   std::string slicer_name;
   PlannerDiagnostics diagnostics;
@@ -122,6 +125,9 @@ struct SourceOptions {
 
 /// Interpreter options implied by a machine (arcs, firmware retraction).
 gcode::InterpreterOptions interpreter_options(const machine::Machine& m);
+
+/// What a macro sees of the machine as printer.toolhead (limits and axis ranges).
+macro::ToolheadInfo toolhead_info(const machine::Machine& m);
 
 /// G-code + machine -> planned moves, batch by batch. Every amctl::Error raised while
 /// reading, interpreting or planning carries the source's file name.

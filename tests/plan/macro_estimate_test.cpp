@@ -1,0 +1,57 @@
+// A print whose start and end G-code are Klipper macros (tests/reference/macro/printer.cfg,
+// macros.cfg: home, heat, heat-soak, park, purge line, a renamed M109, park at the end) is
+// timed as the same print with the macros expanded by the real Jinja2
+// (tests/reference/macro/expand_reference.py wrote print_expanded.gcode) on the printer
+// without macros.
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
+
+namespace amctl::plan {
+namespace {
+
+const std::string kDir = std::string(AMCTL_SOURCE_DIR) + "/tests/reference/macro/";
+
+TEST(MacroEstimate, MacrosAreTimedAsTheirJinja2Expansion) {
+  const auto with_macros = machine::load_machine(kDir + "printer.cfg");
+  const auto without = machine::load_machine(kDir + "printer_base.cfg");
+  const EstimateReport a = estimate_file(kDir + "print.gcode", with_macros);
+  const EstimateReport b = estimate_file(kDir + "print_expanded.gcode", without);
+  EXPECT_NEAR(a.total_time_s, b.total_time_s, 1e-9);
+  EXPECT_EQ(a.moves, b.moves);
+  EXPECT_NEAR(a.filament_mm, b.filament_mm, 1e-9);
+  EXPECT_NEAR(a.dwell_time_s, 60.0 + 0.2, 1e-9);  // SOAK=1: one G4 P60000; M84: Klipper 2 x 0.1 s
+  EXPECT_EQ(a.heater_waits.size(), b.heater_waits.size());
+  EXPECT_TRUE(a.unknown_commands.empty());
+  ASSERT_EQ(a.macros.size(), 4u);
+  EXPECT_EQ(a.macros[0].name, "PRINT_START");
+  EXPECT_EQ(a.macros[0].description, "Home, heat, heat-soak and purge");
+  EXPECT_EQ(a.macros[1].name, "M109");
+  EXPECT_EQ(a.macros[2].name, "_PURGE_LINE");
+  EXPECT_EQ(a.macros[3].name, "PRINT_END");
+  for (const auto& m : a.macros) {
+    EXPECT_EQ(m.expanded, 1u) << m.name;
+    EXPECT_EQ(m.skipped, 0u) << m.name << ": " << m.skip_reason;
+  }
+  EXPECT_EQ(a.macros[2].first_line, 2u);  // nested calls count at the file's calling line
+  // Without the macros the calls are unknown commands and the print is shorter.
+  const EstimateReport c = estimate_file(kDir + "print.gcode", without);
+  ASSERT_EQ(c.unknown_commands.size(), 2u);
+  EXPECT_LT(c.total_time_s, a.total_time_s - 60.0);
+}
+
+TEST(MacroEstimate, FilesWithoutMacroCallsAreTimedAsBefore) {
+  const auto with_macros = machine::load_machine(kDir + "printer.cfg");
+  const auto without = machine::load_machine(kDir + "printer_base.cfg");
+  const std::string g = "G28\nG1 X10 Y10 F6000\nG2 X20 Y10 I5 J0\nG1 Z1\nM109 S200\n";
+  const EstimateReport a = estimate_text(g, "t.gcode", with_macros);
+  const EstimateReport b = estimate_text(g, "t.gcode", without);
+  EXPECT_EQ(a.total_time_s, b.total_time_s);  // the M109 macro only adds a message
+  EXPECT_EQ(a.moves, b.moves);
+}
+
+}  // namespace
+}  // namespace amctl::plan
