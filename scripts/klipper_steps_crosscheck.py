@@ -9,7 +9,8 @@ For each file this runs `klippy/klippy.py CFG -i FILE -o out.serial -d out/klipp
 `klippy/parsedump.py` (Klipper's own tools, run, not copied), expands every stepper's
 `queue_step` commands into step clocks (a command's j-th step, j = 1..count, is
 interval * j + add * j (j - 1) / 2 ticks after the previous command's last step;
-`reset_step_clock` sets the base, `set_next_step_dir` the direction of the steps that follow),
+`reset_step_clock` sets the base, `set_next_step_dir` the direction of the steps that follow;
+clocks and intervals are 32-bit on the wire and are unwrapped, see decode_steps),
 runs `amctl steps FILE --machine CFG --csv`, and compares per stepper: the step count, the
 direction of each step, and each time. Klipper's time of a step is clock / CLOCK_FREQ (batch mode
 maps print time to clock as int(print_time * CLOCK_FREQ)); its print time of amctl's t = 0 is
@@ -123,11 +124,21 @@ def decode_steps(dump):
         if name == 'set_next_step_dir':
             s['dir'] = 1 if int(a['dir']) else -1
         elif name == 'reset_step_clock':
-            # 32-bit clock on the wire: the 64-bit clock at or after the last step.
-            c32 = int(a['clock'])
-            s['last'] += (c32 - s['last']) % (1 << 32)
+            # A 32-bit clock on the wire (it wraps every 86 s at 50 MHz, and a stepper can be
+            # idle for longer, e.g. Z through a layer): the 64-bit clock nearest to the latest
+            # step of any stepper so far (commands go out in flush order, seconds ahead).
+            c32, ref = int(a['clock']), max(t['last'] for t in state.values())
+            s['last'] = ref + ((c32 - ref + (1 << 31)) % (1 << 32)) - (1 << 31)
         else:
             interval, count, add = int(a['interval']), int(a['count']), int(a['add'])
+            if count == 1:
+                # A step after a long idle (Z through a layer): stepcompress sends the 64-bit
+                # gap modulo 2^32 (the MCU's timer is 32-bit and the command is timed to arrive
+                # in the right window). Take the gap that puts the step nearest to the latest
+                # step of any stepper so far (commands go out in flush order, seconds ahead).
+                ref = max(t['last'] for t in state.values())
+                k = max(0, round((ref - s['last'] - interval) / (1 << 32)))
+                interval += k << 32
             j = np.arange(1, count + 1, dtype=np.int64)
             c = s['last'] + interval * j + add * j * (j - 1) // 2
             s['clocks'].append(c)
