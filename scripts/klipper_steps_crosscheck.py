@@ -187,6 +187,34 @@ def sds_filter(times, dirs):
     return np.array(keep_t), np.array(keep_d, dtype=np.int8), pairs
 
 
+def piecewise_shifts(amctl_times, diffs, offset, bound, window=200):
+    """Where Klipper's times jump by a constant (a batch-mode stop, README): walking all steps
+    in amctl's time order, a step off by more than the bound starts a new segment when the
+    median of the next `window` steps is off too; its offset is the largest difference within
+    30 us of that median. Returns [(amctl time, shift us)] (re-alignments within 0.1 s are one
+    stop: its final shift) and the steps within the bound of their segment's offset."""
+    t = np.concatenate([amctl_times[n][:len(diffs[n])] for n in diffs])
+    d = np.concatenate([diffs[n] for n in diffs])
+    order = np.argsort(t, kind='stable')
+    t, d = t[order], d[order]
+    off, shifts, within, i = offset, [], 0, 0
+    while i < len(d):
+        if abs(d[i] - off) > bound:
+            nxt = d[i:i + window]
+            med = float(np.median(nxt))
+            if abs(med - off) > bound:
+                near = nxt[np.abs(nxt - med) < 30e-6]
+                off = float(near.max()) if len(near) else med
+                shift = [round(float(t[i]), 6), round((off - offset) * 1e6, 3)]
+                if shifts and t[i] - shifts[-1][0] < 0.1:  # still the same stop
+                    shifts[-1][1] = shift[1]
+                else:
+                    shifts.append(shift)
+        within += int(abs(d[i] - off) <= bound)
+        i += 1
+    return shifts, within
+
+
 def compare(klipper_dir, amctl, cfg, gcode, python):
     with tempfile.TemporaryDirectory(prefix='stepx_') as wd:
         dump, freq, runs = run_klipper(klipper_dir, cfg, gcode, wd, python)
@@ -237,12 +265,14 @@ def compare(klipper_dir, amctl, cfg, gcode, python):
             worst = max(worst, float(np.abs(dt).max()))
             within += int(np.count_nonzero(np.abs(dt) <= bound))
             total += len(dt)
+    shifts, within_pw = piecewise_shifts(filt, diffs, offset, bound)
     return {'file': os.path.basename(gcode), 'cfg': os.path.basename(cfg),
             'clock_freq_hz': freq, 'klipper_print_time_of_amctl_t0_s': offset,
             'fitted_offset_s': round(fitted, 9), 'klipper_runs': runs,
             'amctl_print_time_s': ajson.get('print_time_s'),
             'max_abs_dt_us': round(worst * 1e6, 3), 'bound_us': round(bound * 1e6, 3),
             'steps_compared': total, 'steps_within_bound': within,
+            'time_shifts': shifts, 'steps_within_bound_after_shifts': within_pw,
             'ok': bool(all(r['count_equal'] and r['directions_equal'] for r in rows)
                        and worst <= bound),
             'steppers': rows}
