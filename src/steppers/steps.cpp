@@ -235,11 +235,16 @@ void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::
   const double step = ch.step_distance_mm;
   const double u_end = (end - st.origin_mm) / step;
   const int dir = k > 0.0 ? 1 : -1;
+  // Klipper takes a step when the motor is within kLevelToleranceMm of its half-step level
+  // (itersolve.c), so a move that ends that close short of a level steps at its end.
+  const double reach = kLevelToleranceMm / step;
   std::int64_t n_end = st.n;
   if (dir > 0) {
-    n_end = std::max<std::int64_t>(st.n, static_cast<std::int64_t>(std::floor(u_end + 0.5)));
+    n_end = std::max<std::int64_t>(st.n,
+                                   static_cast<std::int64_t>(std::floor(u_end + reach + 0.5)));
   } else {
-    n_end = std::min<std::int64_t>(st.n, static_cast<std::int64_t>(std::ceil(u_end - 0.5)));
+    n_end = std::min<std::int64_t>(st.n,
+                                   static_cast<std::int64_t>(std::ceil(u_end - reach - 0.5)));
   }
   if (n_end == st.n) return;
   StepperStats& stats = stats_[c];

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -257,6 +258,29 @@ TEST(Steps, RandomZigzagStaysOnTheGrid) {
         EXPECT_EQ(r.stats[c].steps, r.stats[c].steps_positive + r.stats[c].steps_negative);
       }
       EXPECT_GT(r.stats[0].steps_negative, 1000u);
+    }
+  }
+}
+
+// Klipper's itersolve takes a step when the motor is within 1e-9 mm of the half-step level: a
+// move ending 0.5 nm short of the level steps at its end, one ending 5 nm short does not (the
+// step comes in the next move). Found by the Klipper cross-check (docs/steppers.md section 6):
+// a Cura purge line ends at E15, 0.98 nm short of the extruder's level 2116.5.
+TEST(Steps, LevelReachedWithinKlippersTolerance) {
+  const Machine m = test_machine();
+  const double h = 0.0125;
+  for (const double short_mm : {0.5e-9, 5e-9}) {
+    const double x1 = 10.5 * h - short_mm;  // 10 steps, the 11th level 'short_mm' away
+    char g[128];
+    std::snprintf(g, sizeof g, "G1 X%.17g F600\nG4 P100\nG1 X%.17g\n", x1, 20.0 * h);
+    const StepRun r = run(g, m);
+    const auto x = r.of(0);
+    ASSERT_EQ(x.size(), 20u);
+    const double end1 = r.moves[0].end_time_s();
+    if (short_mm < kLevelToleranceMm) {
+      EXPECT_NEAR(x[10].time_s, end1, 1e-9) << short_mm;
+    } else {
+      EXPECT_GT(x[10].time_s, end1 + 0.1) << short_mm;
     }
   }
 }

@@ -24,6 +24,11 @@
 
 namespace amctl::steppers {
 
+/// A motor within this distance of its half-step level has reached it (Klipper's itersolve.c
+/// accepts a step time when the position is within 1e-9 mm of the target): a move that ends
+/// that close short of a level steps at its end, as Klipper does.
+inline constexpr double kLevelToleranceMm = 1e-9;
+
 /// One motor as step generation sees it.
 struct StepperChannel {
   std::string name;        ///< Klipper's name: stepper_x, stepper_z1, extruder, ...
