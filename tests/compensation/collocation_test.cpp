@@ -15,30 +15,13 @@
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/stream.hpp"
+#include "seed_case.hpp"
 
 namespace amctl::compensation {
 namespace {
 
-const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
-const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg";
-
-std::vector<plan::PlannedMove> plan_of(const std::string& gcode_text) {
-  const machine::Machine m = machine::load_machine(kPrinter, {});
-  plan::PlanSource source(std::string_view(gcode_text), "zigzag.gcode", m);
-  plan::CollectSink collect;
-  std::vector<plan::Sink*> sinks{&collect};
-  plan::run_pipeline(source, sinks);
-  return collect.moves;
-}
-
-std::vector<plan::PlannedMove> seed_plan() {
-  const machine::Machine m = machine::load_machine(kPrinter, {});
-  plan::PlanSource source(kGcode, m);
-  plan::CollectSink collect;
-  std::vector<plan::Sink*> sinks{&collect};
-  plan::run_pipeline(source, sinks);
-  return collect.moves;
-}
+using seed_case::plan_text;
+using seed_case::seed_plan;
 
 CompensationOptions seed_collocation() {
   CompensationOptions o;
@@ -155,7 +138,7 @@ TEST(Collocation, ABoundThatCannotMoveRestToRestIsInfeasible) {
 
 TEST(Collocation, WindowsAgreeWithOneSolveOverTheWholePath) {
   // A zigzag of ~1.6 s: three windows of 0.6 s (0.25 s preview) against one window.
-  const auto moves = plan_of("G90\nG1 X0 Y0 F6000\nG1 X20 Y0\nG1 X20 Y15\nG1 X5 Y25\nG1 X40 Y25\nG1 X40 Y0\nG1 X25 Y10\n");
+  const auto moves = plan_text("G90\nG1 X0 Y0 F6000\nG1 X20 Y0\nG1 X20 Y15\nG1 X5 Y25\nG1 X40 Y25\nG1 X40 Y0\nG1 X25 Y10\n");
   CompensationOptions whole = seed_collocation();
   whole.max_base_accel_mm_s2 = 10000.0;
   whole.window_s = 10.0;
@@ -218,7 +201,7 @@ namespace {
 // up to the command's span, X/Y follow the command, Z and E follow the plan (relative E,
 // retraction included).
 TEST(DenseGcode, ReadBackGivesTheCommandThePlansExtrusionAndTheSpan) {
-  const auto moves = plan_of(
+  const auto moves = plan_text(
       "G90\nM83\nG1 X0 Y0 Z0.2 F6000\nG1 X20 Y0 E1.0\nG1 E-0.8 F2400\nG1 X20 Y15 Z0.4 F6000\n"
       "G1 E0.8 F2400\nG1 X5 Y15 E0.75 F6000\n");
   CompensationOptions o = seed_collocation();

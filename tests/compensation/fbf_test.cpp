@@ -11,21 +11,13 @@
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/stream.hpp"
+#include "seed_case.hpp"
 
 namespace amctl::compensation {
 namespace {
 
-const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
-const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg";
 
-std::vector<plan::PlannedMove> seed_plan() {
-  const machine::Machine m = machine::load_machine(kPrinter, {});
-  plan::PlanSource source(kGcode, m);
-  plan::CollectSink collect;
-  std::vector<plan::Sink*> sinks{&collect};
-  plan::run_pipeline(source, sinks);
-  return collect.moves;
-}
+using seed_case::seed_plan;
 
 CompensationOptions seed_fbf() {
   CompensationOptions o;
