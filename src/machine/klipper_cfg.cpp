@@ -350,20 +350,25 @@ constexpr std::string_view kPrinterOptions[] = {
     "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
     "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
+// [printer] options of a linear delta (kinematics/delta.py).
+constexpr std::string_view kDeltaPrinterOptions[] = {"delta_radius", "print_radius",
+                                                     "minimum_z_position"};
+
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
   const SourceLocation where = printer.raw("kinematics")->where;
-  if (kin == "cartesian") return Kinematics::cartesian;
-  if (kin == "corexy") return Kinematics::corexy;
-  static constexpr std::string_view kOthers[] = {
-      "corexz", "hybrid_corexy", "hybrid_corexz", "generic_cartesian", "rotary_delta",
-      "delta",  "deltesian",     "polar",         "winch",             "none"};
+  const auto supported = detail::enum_names(detail::Kind::kinematics);
+  for (std::size_t i = 0; i < supported.size(); ++i) {
+    if (supported[i] == kin) return static_cast<Kinematics>(i);
+  }
+  static constexpr std::string_view kOthers[] = {"generic_cartesian", "rotary_delta", "deltesian",
+                                                 "polar", "winch"};
   if (std::find(std::begin(kOthers), std::end(kOthers), kin) != std::end(kOthers)) {
     throw Error(where, fmt::format("[printer] kinematics: '{}' is a Klipper kinematics amctl "
-                                   "does not support yet (supported: cartesian, corexy)",
-                                   kin));
+                                   "does not support yet (supported: {})",
+                                   kin, fmt::join(supported, ", ")));
   }
-  std::vector<std::string> all = {"cartesian", "corexy"};
+  std::vector<std::string> all(supported.begin(), supported.end());
   all.insert(all.end(), std::begin(kOthers), std::end(kOthers));
   throw Error(where, fmt::format("[printer] kinematics: '{}' is not a Klipper kinematics{}", kin,
                                  detail::did_you_mean(kin, all)));
@@ -389,6 +394,9 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     // of a known option (a misspelt square_corner_velocity would otherwise silently become
     // the default) and ignores the rest, so configs of Klipper forks with extra options load.
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
+    if (m.kinematics == Kinematics::delta) {
+      known.insert(known.end(), std::begin(kDeltaPrinterOptions), std::end(kDeltaPrinterOptions));
+    }
     for (const auto& [key, value] : printer_section->options) {
       if (std::find(known.begin(), known.end(), key) != known.end()) continue;
       if (auto near = detail::closest(key, known)) {
@@ -467,12 +475,41 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});
     in.damping_ratio_y = sh.get_float("damping_ratio_y", 0.1, {.minval = 0.0, .below = 1.0});
   }
+  const bool delta = m.kinematics == Kinematics::delta;
+  if (delta) {
+    // kinematics/delta.py: delta_radius (required, > 0), print_radius (> 0, default the
+    // radius), minimum_z_position (default 0, at most the lowest endstop: delta_geometry).
+    m.delta.radius_mm = printer.require_float("delta_radius", {.above = 0.0});
+    m.delta.print_radius_mm = printer.get_float("print_radius", {.above = 0.0});
+    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
+    for (const char* tower : {"stepper_a", "stepper_b", "stepper_c"}) {
+      if (doc.find(tower) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a delta needs [{}] (towers stepper_a, stepper_b, stepper_c)", tower));
+      }
+    }
+  }
   for (CfgSection& s : doc.sections) {
     if (s.name.rfind("stepper_", 0) != 0) continue;
     const std::string name = s.name.substr(8);
-    if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_a on other kinematics
+    if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_left of a deltesian
+    const bool tower = name == "a" || name == "b" || name == "c";
+    if (tower != delta) continue;  // stepper_a.. belong to a delta (or winch); x.. not to a delta
     const Section sec(&s, s.name, file_loc);
     Stepper st = read_stepper(sec);
+    if (tower) {
+      // delta.py: arm_length required on stepper_a, > delta_radius; b and c default to a's
+      // (delta_geometry applies those defaults); angle 210/330/90; position_endstop required
+      // on a, b and c default to a's.
+      const Limits arm{.above = *m.delta.radius_mm};
+      st.arm_length_mm = name == "a" ? std::optional(sec.require_float("arm_length", arm))
+                                     : sec.get_float("arm_length", arm);
+      st.angle_deg = sec.get_float("angle");
+      st.position_endstop_mm = name == "a" ? std::optional(sec.require_float("position_endstop"))
+                                           : sec.get_float("position_endstop");
+      m.steppers[name] = st;
+      continue;
+    }
     // stepper.py PrinterRail: the rail's first stepper (stepper_x, _y, _z) holds the range;
     // position_min defaults to 0, position_max must lie above it.
     if ((name == "x" || name == "y" || name == "z") && sec.has("position_max")) {

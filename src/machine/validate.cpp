@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/machine/delta.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -95,6 +96,8 @@ void validate(const Machine& machine) {
     throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
                             m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
   }
+  // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
+  if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
 }
 
 std::vector<KeyInfo> schema() {

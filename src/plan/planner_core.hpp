@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "amctl/gcode/events.hpp"
+#include "amctl/machine/delta.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planner.hpp"
 #include "klipper_lookahead.hpp"
@@ -64,6 +65,14 @@ class PlannerCore {
   bool classic_jerk_ = false;
   bool slowdown_ = false;  // Marlin: SLOWDOWN applies (min_segment_time may become > 0)
   double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
+  // Linear delta (Klipper delta.py check_move): moves touching the outer zones run at a half
+  // or a quarter of the configured speed and accel; the build volume is checked.
+  bool delta_ = false;
+  double delta_slow_xy2_ = 0, delta_very_slow_xy2_ = 0;
+  double delta_velocity_mm_s_ = 0, delta_accel_mm_s2_ = 0;
+  machine::DeltaGeometry delta_geometry_{};
+  /// Klipper delta.py: the first move leaving the build volume is posted as a range error.
+  void delta_range(const gcode::MoveRequest& r);
   double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
   double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
   // Derived from lim_, refreshed by update_derived_limits().

@@ -3,6 +3,7 @@
 // with each firmware's semantics.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -74,6 +75,20 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   }
   z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
   z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
+  if (klipper && m.kinematics == machine::Kinematics::none) {
+    // Klipper's `none` kinematics checks nothing: no Z limit (infinite limits are no-ops).
+    z_velocity_mm_s_ = z_accel_mm_s2_ = std::numeric_limits<double>::infinity();
+  }
+  if (klipper && m.kinematics == machine::Kinematics::delta) {
+    // delta.py reads max_velocity / max_accel once at start-up for its slow zones.
+    delta_ = true;
+    delta_geometry_ = machine::delta_geometry(m);
+    delta_slow_xy2_ = delta_geometry_.slow_xy2_mm2;
+    delta_very_slow_xy2_ = delta_geometry_.very_slow_xy2_mm2;
+    delta_velocity_mm_s_ = m.max_velocity_mm_s;
+    delta_accel_mm_s2_ = m.max_accel_mm_s2;
+    range_active_ = true;  // Klipper always checks a delta's build volume
+  }
   const auto& ex = m.extruder;
   filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
   const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;

@@ -47,6 +47,11 @@ struct InterpreterOptions {
   double lift_z_mm = 0.0;
   /// Speed of those Z moves; Marlin uses the Z axis's maximum feedrate.
   double lift_z_speed_mm_s = 12.0;
+  /// G28 homes X, Y and Z together whatever axes it names, to `home_position_mm` (a delta:
+  /// Klipper's delta.py homes all towers at once and the effector ends below the endstops).
+  /// Otherwise each named axis (all without names) goes to 0.
+  bool home_all_axes = false;
+  std::array<double, 3> home_position_mm{0.0, 0.0, 0.0};
 };
 
 /// Layer, feature and slicer figures read from comments.

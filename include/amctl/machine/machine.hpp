@@ -9,8 +9,11 @@
 
 namespace amctl::machine {
 
-/// How the printer maps motor positions to the tool position.
-enum class Kinematics { cartesian, corexy };
+/// How the printer maps motor positions to the tool position (Klipper's kinematics of the
+/// same names, klippy/kinematics/*.py; docs/machine.md "Kinematics"). Cartesian, CoreXY,
+/// CoreXZ and the hybrid (Markforged) gantries map linearly; delta does not. `none` has no
+/// motors (Klipper's developer kinematics: no speed limit but the toolhead's).
+enum class Kinematics { cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none };
 
 /// Whose G-code semantics apply. Klipper ignores M201/M203/M205 and takes accel from
 /// M204 S (or min(P, T)); Marlin applies M201-M205 as slicers emit them; RepRapFirmware
@@ -58,6 +61,10 @@ struct Stepper {
   /// coordinates). Klipper refuses a move whose end lies outside [position_min,
   /// position_max] ("Move out of range"). Unset: no range known (presets, TOML without them).
   std::optional<double> position_min_mm, position_max_mm, position_endstop_mm;
+  /// Delta towers (stepper_a, _b, _c): Klipper arm_length (diagonal rod, > delta radius) and
+  /// angle of the tower around the centre [degrees]. Unset on b and c: a's arm length; the
+  /// angles default to 210, 330, 90 (kinematics/delta.py).
+  std::optional<double> arm_length_mm, angle_deg;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
@@ -108,6 +115,16 @@ struct InputShaper {
   bool operator==(const InputShaper&) const = default;
 };
 
+/// Linear delta geometry (Klipper [printer] delta_radius, print_radius, minimum_z_position);
+/// the towers' arm lengths, angles and endstops are in stepper_a, _b, _c. Read only when
+/// kinematics = delta; machine/delta.hpp derives the build volume and speed zones.
+struct Delta {
+  std::optional<double> radius_mm;              ///< delta_radius (required for a delta)
+  std::optional<double> print_radius_mm;        ///< unset: delta_radius
+  std::optional<double> minimum_z_position_mm;  ///< unset: 0
+  bool operator==(const Delta&) const = default;
+};
+
 struct Machine {
   std::string name = "default";
   Firmware firmware = Firmware::klipper;
@@ -149,7 +166,9 @@ struct Machine {
   Arcs arcs;
   FirmwareRetraction firmware_retraction;
   InputShaper input_shaper;
-  /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis).
+  Delta delta;
+  /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis); a delta's
+  /// towers are "a", "b", "c".
   /// rotation_distance_mm is per motor revolution (any gear_ratio is folded in).
   std::map<std::string, Stepper> steppers;
 
