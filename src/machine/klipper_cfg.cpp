@@ -362,7 +362,7 @@ Kinematics read_kinematics(const Section& printer) {
     if (supported[i] == kin) return static_cast<Kinematics>(i);
   }
   static constexpr std::string_view kOthers[] = {"generic_cartesian", "rotary_delta", "deltesian",
-                                                 "polar", "winch"};
+                                                 "polar"};
   if (std::find(std::begin(kOthers), std::end(kOthers), kin) != std::end(kOthers)) {
     throw Error(where, fmt::format("[printer] kinematics: '{}' is a Klipper kinematics amctl "
                                    "does not support yet (supported: {})",
@@ -489,12 +489,38 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       }
     }
   }
+  const bool winch = m.kinematics == Kinematics::winch;
+  if (winch) {
+    // winch.py: stepper_a, _b, _c required, more (d, e, ...) while present; each with
+    // anchor_x, anchor_y, anchor_z. amctl takes up to four (stepper_e would be the extruder's
+    // name in amctl's TOML form).
+    for (const char* cable : {"stepper_a", "stepper_b", "stepper_c"}) {
+      if (doc.find(cable) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a winch needs [{}] (cables stepper_a, stepper_b, stepper_c)", cable));
+      }
+    }
+    if (doc.find("stepper_d") != nullptr && doc.find("stepper_e") != nullptr) {
+      throw Error(doc.find("stepper_e")->where,
+                  "amctl supports winches of 3 or 4 cables (stepper_a .. stepper_d)");
+    }
+  }
   for (CfgSection& s : doc.sections) {
     if (s.name.rfind("stepper_", 0) != 0) continue;
     const std::string name = s.name.substr(8);
     if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_left of a deltesian
-    const bool tower = name == "a" || name == "b" || name == "c";
-    if (tower != delta) continue;  // stepper_a.. belong to a delta (or winch); x.. not to a delta
+    const bool lettered = name == "a" || name == "b" || name == "c" || name == "d";
+    if (lettered != (delta || winch) || (delta && name == "d")) continue;  // a.. of a delta/winch
+    if (winch) {
+      Stepper st = read_stepper(Section(&s, s.name, file_loc));
+      const Section sec(&s, s.name, file_loc);
+      st.anchor_x_mm = sec.require_float("anchor_x");
+      st.anchor_y_mm = sec.require_float("anchor_y");
+      st.anchor_z_mm = sec.require_float("anchor_z");
+      m.steppers[name] = st;
+      continue;
+    }
+    const bool tower = lettered;
     const Section sec(&s, s.name, file_loc);
     Stepper st = read_stepper(sec);
     if (tower) {

@@ -18,7 +18,7 @@ namespace {
 constexpr std::string_view kFirmwareNames[] = {"klipper", "marlin", "reprap"};
 constexpr std::string_view kKinematicsNames[] = {"cartesian",     "corexy",        "corexz",
                                                   "hybrid_corexy", "hybrid_corexz", "delta",
-                                                  "none"};
+                                                  "none",          "winch"};
 constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "junction_deviation",
                                                "classic_jerk"};
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
@@ -36,7 +36,7 @@ const std::vector<KeyDef>& key_table() {
     add({"printer", "firmware", Kind::firmware, Bound::finite, "",
          "Whose G-code semantics apply: klipper, marlin or reprap."});
     add({"printer", "kinematics", Kind::kinematics, Bound::finite, "",
-         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta or none (Klipper's "
+         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none or winch (Klipper's "
          "kinematics of those names; per-axis limits apply to X, Y, Z, E of the tool)."});
     add({"printer", "junction", Kind::junction, Bound::finite, "",
          "Corner speed policy: square_corner_velocity (Klipper), junction_deviation (Marlin JD) "
@@ -251,6 +251,15 @@ const std::vector<StepperKeyDef>& stepper_table() {
        "Delta towers: angle of the tower around the centre (Klipper angle; unset = 210, 330, "
        "90 for a, b, c).",
        nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.angle_deg; }},
+      {"anchor_x", Kind::optional_number, Bound::finite, "mm",
+       "Winch cables (stepper_a .. stepper_d): X of the cable's anchor (Klipper anchor_x).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.anchor_x_mm; }},
+      {"anchor_y", Kind::optional_number, Bound::finite, "mm",
+       "Winch cables: Y of the cable's anchor (Klipper anchor_y).", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.anchor_y_mm; }},
+      {"anchor_z", Kind::optional_number, Bound::finite, "mm",
+       "Winch cables: Z of the cable's anchor (Klipper anchor_z).", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.anchor_z_mm; }},
   };
   return keys;
 }
@@ -284,7 +293,7 @@ const StepperKeyDef* find_stepper_key(std::string_view key) {
 
 bool valid_stepper_name(std::string_view name) {
   if (name.empty()) return false;
-  if (name == "a" || name == "b" || name == "c") return true;  // delta towers
+  if (name == "a" || name == "b" || name == "c" || name == "d") return true;  // delta, winch
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });

@@ -91,7 +91,7 @@ int enum_of(const toml::node& v, Kind kind, const SourceLocation& where, std::st
   }
   if (kind == Kind::kinematics) {
     static constexpr std::string_view kKlipperOthers[] = {
-        "generic_cartesian", "rotary_delta", "deltesian", "polar", "winch"};
+        "generic_cartesian", "rotary_delta", "deltesian", "polar"};
     for (std::string_view other : kKlipperOthers) {
       if (other == text) {
         throw Error(where, fmt::format("{}: '{}' kinematics is not supported by amctl "

@@ -75,8 +75,10 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   }
   z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
   z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
-  if (klipper && m.kinematics == machine::Kinematics::none) {
-    // Klipper's `none` kinematics checks nothing: no Z limit (infinite limits are no-ops).
+  if (klipper && (m.kinematics == machine::Kinematics::none ||
+                  m.kinematics == machine::Kinematics::winch)) {
+    // Klipper's `none` and `winch` kinematics check nothing: no Z limit (infinite limits are
+    // no-ops).
     z_velocity_mm_s_ = z_accel_mm_s2_ = std::numeric_limits<double>::infinity();
   }
   if (klipper && m.kinematics == machine::Kinematics::delta) {

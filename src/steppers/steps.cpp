@@ -56,10 +56,12 @@ bool key_less(const std::string& a, const std::string& b) {
 
 std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   using K = machine::Kinematics;
+  const bool winch = m.kinematics == K::winch;
   const bool delta = m.kinematics == K::delta;
+  const bool lettered_motors = delta || winch;
   const bool none = m.kinematics == K::none;
   std::vector<const char*> required;
-  if (delta) required = {"a", "b", "c", "e"};
+  if (lettered_motors) required = {"a", "b", "c", "e"};
   else if (none) required = {"e"};
   else required = {"x", "y", "z", "e"};
   std::vector<std::string> missing;
@@ -76,11 +78,13 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
         "TOML needs the same sections, the extruder as [stepper_e])",
         m.name, list));
   }
-  auto is_tower = [](const std::string& k) { return k == "a" || k == "b" || k == "c"; };
+  auto is_tower = [&](const std::string& k) {
+    return k == "a" || k == "b" || k == "c" || (winch && k == "d");
+  };
   std::vector<std::string> keys;
   for (const auto& [k, s] : m.steppers) {
     if (k[0] == 'e' && k != "e") continue;  // extra extruders: amctl plans one E axis
-    if (k[0] != 'e' && (none || is_tower(k) != delta)) continue;  // not a motor of this kinematics
+    if (k[0] != 'e' && (none || is_tower(k) != lettered_motors)) continue;  // not a motor here
     keys.push_back(k);
   }
   const auto rank = [](char c) {
@@ -88,7 +92,8 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
       case 'x': case 'a': return 0;
       case 'y': case 'b': return 1;
       case 'z': case 'c': return 2;
-      default: return 3;
+      case 'd': return 3;
+      default: return 4;
     }
   };
   std::sort(keys.begin(), keys.end(), [&](const std::string& a, const std::string& b) {
@@ -116,7 +121,14 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
       case 'x': c.row = row_x; break;
       case 'y': c.row = row_y; break;
       case 'z': c.row = row_z; break;
-      case 'a': case 'b': case 'c': {
+      case 'a': case 'b': case 'c': case 'd': {
+        if (winch) {
+          const machine::Stepper& s = m.steppers.at(k);
+          c.cable = true;
+          c.anchor_mm = {s.anchor_x_mm.value_or(0.0), s.anchor_y_mm.value_or(0.0),
+                         s.anchor_z_mm.value_or(0.0)};
+          break;
+        }
         const auto i = static_cast<std::size_t>(k[0] - 'a');
         c.arm2_mm2 = g->arm2_mm2[i];
         c.tower_x_mm = g->tower_x_mm[i];
@@ -345,11 +357,13 @@ void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::
 void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
   const StepperChannel& ch = channels_[c];
   State& st = state_[c];
-  const double x0 = move.start_mm[0] - ch.tower_x_mm, y0 = move.start_mm[1] - ch.tower_y_mm;
-  const double z0 = move.start_mm[2];
   const double ax = move.axes_r[0], ay = move.axes_r[1], az = move.axes_r[2];
-  // Carriage height along the move, q(s) = z0 + az s + sqrt(L^2 - (x0 + ax s)^2 - (y0 + ay s)^2),
-  // and its slope q'(s) = az - ((x0 + ax s) ax + (y0 + ay s) ay) / sqrt(...).
+  // Tool position relative to the tower (x, y) or the anchor (x, y, z) at path distance s.
+  const double x0 = move.start_mm[0] - (ch.cable ? ch.anchor_mm[0] : ch.tower_x_mm);
+  const double y0 = move.start_mm[1] - (ch.cable ? ch.anchor_mm[1] : ch.tower_y_mm);
+  const double z0 = move.start_mm[2] - (ch.cable ? ch.anchor_mm[2] : 0.0);
+  // Delta tower: q(s) = z + sqrt(L^2 - x^2 - y^2), concave; q' = az - (x ax + y ay) / sqrt.
+  // Winch cable: q(s) = sqrt(x^2 + y^2 + z^2), convex; q' = (x ax + y ay + z az) / q.
   auto root = [&](double s) {
     const double u = x0 + ax * s, w = y0 + ay * s;
     const double r2 = ch.arm2_mm2 - u * u - w * w;
@@ -360,9 +374,18 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
     }
     return std::sqrt(r2);
   };
-  auto q = [&](double s) { return z0 + az * s + root(s); };
+  auto length = [&](double s) {
+    const double u = x0 + ax * s, w = y0 + ay * s, v = z0 + az * s;
+    return std::sqrt(u * u + w * w + v * v);
+  };
+  auto q = [&](double s) { return ch.cable ? length(s) : z0 + az * s + root(s); };
   auto slope = [&](double s) {
-    return az - ((x0 + ax * s) * ax + (y0 + ay * s) * ay) / root(s);
+    const double u = x0 + ax * s, w = y0 + ay * s;
+    if (ch.cable) {
+      const double l = length(s);
+      return l > 0.0 ? (u * ax + w * ay + (z0 + az * s) * az) / l : 0.0;
+    }
+    return az - (u * ax + w * ay) / root(s);
   };
   const double start = q(0.0);
   if (!st.started) {
@@ -380,15 +403,17 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
   const PathPiece& last = pieces_[piece_count_ - 1];
   const double s_end = horner(last, last.duration_s, dummy);
   st.last_end_mm = q(s_end) + offset;
-  // q is concave in s, so q' decreases: one turning point at most, where q' changes sign.
+  // q is concave (tower) or convex (cable) in s, so q' is monotone: at most one turning point,
+  // where q' changes sign; found by bisection.
   std::array<double, 3> bounds{0.0, s_end, s_end};
   std::size_t segments = 1;
-  if (slope(0.0) > 0.0 && slope(s_end) < 0.0) {
+  const double slope0 = slope(0.0), slope1 = slope(s_end);
+  if ((slope0 > 0.0 && slope1 < 0.0) || (slope0 < 0.0 && slope1 > 0.0)) {
     double a = 0.0, b = s_end;
     while (b - a > 1e-13 * (1.0 + s_end)) {
       const double mid = 0.5 * (a + b);
       if (mid <= a || mid >= b) break;
-      (slope(mid) > 0.0 ? a : b) = mid;
+      ((slope(mid) > 0.0) == (slope0 > 0.0) ? a : b) = mid;
     }
     bounds = {0.0, 0.5 * (a + b), s_end};
     segments = 2;
@@ -399,7 +424,7 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
     const double sa = bounds[seg], sb = bounds[seg + 1];
     const double qb = q(sb);
     const double u_end = (qb + offset - st.origin_mm) / step;
-    // Direction of this monotone piece; steps as for a linear motor, levels n +- 1/2.
+    // This monotone piece's steps, as for a linear motor: levels n +- 1/2.
     std::int64_t n_end = st.n;
     const double up = std::floor(u_end + 0.5), down = std::ceil(u_end - 0.5);
     if (static_cast<double>(st.n) < up) n_end = static_cast<std::int64_t>(up);
@@ -411,9 +436,7 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
       const double level = st.origin_mm + (static_cast<double>(st.n) + 0.5 * dir) * step - offset;
       // g(s) = dir (q(s) - level) rises through 0 on [lo, sb]: safeguarded Newton.
       double a = lo, b = sb, s = lo;
-      double ga = dir * (q(a) - level);
-      if (ga < 0.0) {
-        s = a;
+      if (dir * (q(a) - level) < 0.0) {
         for (int it = 0; it < 100; ++it) {
           const double g = dir * (q(s) - level);
           if (g == 0.0) break;

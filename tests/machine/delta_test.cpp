@@ -118,5 +118,22 @@ TEST(DeltaToml, OverridesReachTheTowers) {
   EXPECT_NEAR(std::sqrt(g.max_xy2_mm2), 120.0, 1e-12);
 }
 
+TEST(WinchCfg, CablesAndAnchorsAreRead) {
+  const Machine m = load_machine(kDir + "winch.cfg");
+  EXPECT_EQ(m.kinematics, Kinematics::winch);
+  ASSERT_EQ(m.steppers.count("d"), 1u);
+  EXPECT_DOUBLE_EQ(*m.steppers.at("d").anchor_z_mm, 3000.0);
+  EXPECT_DOUBLE_EQ(*m.steppers.at("a").anchor_y_mm, -2000.0);
+  EXPECT_EQ(parse_machine_toml(to_toml(m), "w.toml"), m);
+  const std::string no_anchor =
+      "[printer]\nkinematics: winch\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[stepper_a]\nmicrosteps: 16\nrotation_distance: 40\nanchor_x: 0\nanchor_y: 0\n"
+      "[stepper_b]\nmicrosteps: 16\nrotation_distance: 40\n"
+      "[stepper_c]\nmicrosteps: 16\nrotation_distance: 40\n";
+  EXPECT_NE(cfg_error(no_anchor).find("option 'anchor_z' in section [stepper_a] must be specified"),
+            std::string::npos)
+      << cfg_error(no_anchor);
+}
+
 }  // namespace
 }  // namespace amctl::machine

@@ -92,6 +92,13 @@ TEST(GantryLimits, CoreXZAndHybridLimitZLikeCartesian) {
   }
 }
 
+TEST(GantryLimits, WinchHasNoZLimit) {
+  // winch.py check_move checks nothing: a Z move runs at the toolhead's limits.
+  const auto r = estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG1 Z100 F18000\n", "w.gcode",
+                               machine::load_machine(kDir + "winch.cfg"));
+  EXPECT_NEAR(r.total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
+}
+
 TEST(GantryLimits, NoneHasNoZLimit) {
   // Klipper's none kinematics checks nothing: the toolhead's 300 mm/s and 3000 mm/s^2 apply.
   const auto r = estimate_text("G1 Z100 F18000\n", "z.gcode", gantry(machine::Kinematics::none));

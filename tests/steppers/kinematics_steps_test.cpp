@@ -165,6 +165,74 @@ TEST(DeltaSteps, OutOfReachIsAnErrorNamingTheTower) {
   }
 }
 
+// A winch (the anchors of Klipper's config/example-winch.cfg): cable length |p - anchor|,
+// convex along a move, so a cable can shorten then lengthen within one move.
+constexpr std::array<std::array<double, 3>, 4> kAnchors{
+    {{0, -2000, -100}, {2000, 1000, -100}, {-2000, 1000, -100}, {0, 0, 3000}}};
+
+Machine winch_machine() {
+  Machine m;
+  m.kinematics = machine::Kinematics::winch;
+  for (std::size_t i = 0; i < 4; ++i) {
+    machine::Stepper s{40.0, 16, 200};
+    s.anchor_x_mm = kAnchors[i][0];
+    s.anchor_y_mm = kAnchors[i][1];
+    s.anchor_z_mm = kAnchors[i][2];
+    m.steppers[std::string(1, static_cast<char>('a' + i))] = s;
+  }
+  m.steppers["e"] = {33.5, 16, 200};
+  return m;
+}
+
+double cable(std::size_t i, double x, double y, double z) {
+  const auto& a = kAnchors[i];
+  return std::sqrt((x - a[0]) * (x - a[0]) + (y - a[1]) * (y - a[1]) + (z - a[2]) * (z - a[2]));
+}
+
+TEST(WinchSteps, CablesStayOnTheGridAndCountAsSampled) {
+  // The move along y = -1000... passes the point of cable a nearest its anchor (x = 0): a
+  // turning point; the others are monotone or turn elsewhere.
+  const std::string g =
+      "SET_KINEMATIC_POSITION X=-150 Y=-100 Z=10\nG1 X150 Y-100 F6000\nG1 X0 Y100 Z40\n"
+      "G1 E-1 F2400\nG1 X-50 Y0 Z10 F9000\n";
+  const KinRun r = run(g, winch_machine());
+  ASSERT_EQ(r.channels.size(), 5u);
+  EXPECT_EQ(r.channels[3].name, "stepper_d");
+  const trajectory::Trajectory traj(r.moves);
+  const auto p0 = traj.evaluate(r.moves.front().start_time_s);
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double origin = cable(i, p0.pos_mm[0], p0.pos_mm[1], p0.pos_mm[2]);
+    const double h = 0.0125;
+    long n = 0, count = 0;
+    for (const Step& s : r.steps) {
+      if (s.stepper != i) continue;
+      const double level = origin + (static_cast<double>(n) + 0.5 * s.direction) * h;
+      n += s.direction;
+      ++count;
+      const auto p = traj.evaluate(s.time_s);
+      ASSERT_NEAR(cable(i, p.pos_mm[0], p.pos_mm[1], p.pos_mm[2]), level, 1e-9) << i;
+    }
+    const double t0 = r.moves.front().start_time_s, t1 = r.moves.back().end_time_s();
+    const auto samples = static_cast<long>((t1 - t0) * 2e5) + 1;
+    long changes = 0, prev = 0;
+    for (long k = 0; k <= samples; ++k) {
+      const auto p = traj.evaluate(t0 + (t1 - t0) * static_cast<double>(k) / static_cast<double>(samples));
+      const long gk = std::lround((cable(i, p.pos_mm[0], p.pos_mm[1], p.pos_mm[2]) - origin) / h);
+      changes += std::labs(gk - prev);
+      prev = gk;
+    }
+    EXPECT_EQ(count, changes) << "cable " << i;
+    EXPECT_EQ(n, prev) << "cable " << i;
+  }
+  // Cable a shortens while x runs from -150 to 0 and lengthens after: both directions.
+  int down = 0, up = 0;
+  for (const Step& s : r.steps) {
+    if (s.stepper == 0 && s.time_s < r.moves.front().end_time_s()) (s.direction < 0 ? down : up)++;
+  }
+  EXPECT_GT(down, 0);
+  EXPECT_GT(up, 0);
+}
+
 TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
   Machine m;
   m.steppers["x"] = {40.0, 16, 200};

@@ -12,8 +12,10 @@ namespace amctl::machine {
 /// How the printer maps motor positions to the tool position (Klipper's kinematics of the
 /// same names, klippy/kinematics/*.py; docs/machine.md "Kinematics"). Cartesian, CoreXY,
 /// CoreXZ and the hybrid (Markforged) gantries map linearly; delta does not. `none` has no
-/// motors (Klipper's developer kinematics: no speed limit but the toolhead's).
-enum class Kinematics { cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none };
+/// motors (Klipper's developer kinematics: no speed limit but the toolhead's). A winch (cable
+/// robot) has 3 or 4 cables, each motor's position the cable length |tool - anchor|; Klipper
+/// checks no limit on it either.
+enum class Kinematics { cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch };
 
 /// Whose G-code semantics apply. Klipper ignores M201/M203/M205 and takes accel from
 /// M204 S (or min(P, T)); Marlin applies M201-M205 as slicers emit them; RepRapFirmware
@@ -65,6 +67,9 @@ struct Stepper {
   /// angle of the tower around the centre [degrees]. Unset on b and c: a's arm length; the
   /// angles default to 210, 330, 90 (kinematics/delta.py).
   std::optional<double> arm_length_mm, angle_deg;
+  /// Winch cables (stepper_a .. stepper_d): the anchor point of the cable [mm] (Klipper
+  /// anchor_x, anchor_y, anchor_z; required for a winch).
+  std::optional<double> anchor_x_mm, anchor_y_mm, anchor_z_mm;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }

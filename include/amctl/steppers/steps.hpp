@@ -37,7 +37,11 @@ struct StepperChannel {
   /// most one turning point per move.
   double arm2_mm2 = 0.0;
   double tower_x_mm = 0.0, tower_y_mm = 0.0;
-  [[nodiscard]] bool linear() const { return arm2_mm2 == 0.0; }
+  /// A winch cable (cable = true): its length |tool - anchor| (Klipper kin_winch.c), the norm
+  /// of an affine function of the path distance, hence convex: at most one turning point.
+  bool cable = false;
+  std::array<double, 3> anchor_mm{};
+  [[nodiscard]] bool linear() const { return arm2_mm2 == 0.0 && !cable; }
 };
 
 /// Klipper stepper.py: rotation_distance / (full_steps_per_rotation * microsteps), the gear
@@ -51,7 +55,8 @@ struct StepperChannel {
 /// (klippy/kinematics/*.py, chelper/kin_*.c): cartesian stepper_x = X, stepper_y = Y,
 /// stepper_z* = Z; CoreXY stepper_x = X + Y, stepper_y = X - Y; CoreXZ stepper_x = X + Z,
 /// stepper_z* = X - Z; hybrid_corexy stepper_x = X - Y; hybrid_corexz stepper_x = X - Z;
-/// delta towers z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2); `none` only the extruder; extruder =
+/// delta towers z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2); winch cables (stepper_a .. _d)
+/// |tool - anchor|; `none` only the extruder; extruder =
 /// E. Throws amctl::Error naming every missing section (x, y, z and e, or a, b, c and e) or a
 /// bad parameter. Extra extruders (e1, ...) are not generated (amctl plans one E axis).
 [[nodiscard]] std::vector<StepperChannel> stepper_channels(const machine::Machine& m);
@@ -96,7 +101,7 @@ class StepGenerator {
     double last_step_s = -std::numeric_limits<double>::infinity();
   };
   void stepper_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
-  /// The same for a non-linear motor (a delta tower).
+  /// The same for a non-linear motor (a delta tower, a winch cable).
   void tower_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
   /// Records one step of channel c at time t.
   void record_step(std::uint32_t c, double t, int dir, std::vector<Step>& out);

@@ -28,6 +28,8 @@ CASES = [
     ("delta/syn_delta", "delta.cfg", "", "syn_delta.gcode"),
     ("delta/benchy_centre", "delta.cfg", "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG92 X60 Y60 Z0\n", BENCHY),
     ("delta/benchy_edge", "delta.cfg", "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG92 X-60 Y60 Z0\n", BENCHY),
+    ("winch/syn_winch", "winch.cfg", "", "syn_winch.gcode"),
+    ("winch/benchy", "winch.cfg", "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\n", BENCHY),
 ]
 
 MARK = re.compile(r"REPORT_PRINT_TIME tag=(\w+) print_time=([0-9.]+)")
