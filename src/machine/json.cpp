@@ -95,6 +95,9 @@ Json to_json(const Machine& m) {
     if (s.position_endstop_mm) steppers[name]["position_endstop"] = *s.position_endstop_mm;
     if (s.arm_length_mm) steppers[name]["arm_length"] = *s.arm_length_mm;
     if (s.angle_deg) steppers[name]["angle"] = *s.angle_deg;
+    if (s.anchor_x_mm) steppers[name]["anchor_x"] = *s.anchor_x_mm;
+    if (s.anchor_y_mm) steppers[name]["anchor_y"] = *s.anchor_y_mm;
+    if (s.anchor_z_mm) steppers[name]["anchor_z"] = *s.anchor_z_mm;
   }
   j["steppers"] = steppers;
   if (m.kinematics == Kinematics::delta) {

@@ -70,7 +70,6 @@ class PlannerCore {
   bool delta_ = false;
   double delta_slow_xy2_ = 0, delta_very_slow_xy2_ = 0;
   double delta_velocity_mm_s_ = 0, delta_accel_mm_s2_ = 0;
-  machine::DeltaGeometry delta_geometry_{};
   /// Klipper delta.py: the first move leaving the build volume is posted as a range error.
   void delta_range(const gcode::MoveRequest& r);
   double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
@@ -87,6 +86,8 @@ class PlannerCore {
   const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);
   std::uint64_t warned_overextrusion_ = 0;
   std::uint64_t next_seq_ = 1;
+  // Last: large and read only by the delta's range check, so it stays off the hot fields.
+  machine::DeltaGeometry delta_geometry_{};
 };
 
 }  // namespace amctl::plan::detail

@@ -23,7 +23,8 @@ files = sys.argv[3:]
 bad = 0
 checked = 0
 unsupported = 0
-SUPPORTED = ('cartesian', 'corexy', 'corexz', 'hybrid_corexy', 'hybrid_corexz', 'delta', 'none')
+SUPPORTED = ('cartesian', 'corexy', 'corexz', 'hybrid_corexy', 'hybrid_corexz', 'delta', 'none',
+             'winch')
 
 
 def close(a, b):
@@ -76,7 +77,7 @@ for fn in files:
         exp[('effective', 'max_extrude_only_accel')] = g('extruder', 'max_extrude_only_accel', ma * ratio)
         exp[('effective', 'max_extrude_cross_section')] = g('extruder', 'max_extrude_cross_section', 4. * nd ** 2)
     for sec in fc.sections():
-        towers = ('a', 'b', 'c') if kin == 'delta' else ('x', 'y', 'z')
+        towers = {'delta': ('a', 'b', 'c'), 'winch': ('a', 'b', 'c', 'd')}.get(kin, ('x', 'y', 'z'))
         if sec.startswith('stepper_') and sec[8:] in towers or sec == 'extruder':
             if not fc.has_option(sec, 'rotation_distance'):
                 continue
@@ -90,6 +91,11 @@ for fn in files:
                     gear *= float(a) / float(b)
             steps_per_mm = full * fc.getint(sec, 'microsteps') * gear / rd
             exp[('steppers', name)] = steps_per_mm
+    if kin == 'winch':
+        for t in 'abcd':
+            if fc.has_section('stepper_' + t):
+                for axis in 'xyz':
+                    exp[('winch', t + axis)] = fc.getfloat('stepper_' + t, 'anchor_' + axis)
     if kin == 'delta':
         # delta.py: delta_radius; rods and endstops of b and c default to a's.
         exp[('delta', 'radius')] = fc.getfloat('printer', 'delta_radius')
@@ -100,7 +106,9 @@ for fn in files:
         exp[('delta', 'arm_length_c')] = g('stepper_c', 'arm_length', arm_a)
     mism = []
     for (sec, key), want in exp.items():
-        if (sec, key) == ('delta', 'arm_length_c'):
+        if sec == 'winch':
+            have = got['steppers'][key[0]]['anchor_' + key[1]]
+        elif (sec, key) == ('delta', 'arm_length_c'):
             have = got['steppers']['c'].get('arm_length', got['steppers']['a']['arm_length'])
         else:
             have = got[sec][key]['steps_per_mm'] if sec == 'steppers' else got[sec][key]
