@@ -32,7 +32,7 @@ def test_delta_steps_equal_the_cli(cli, source_dir):
 def test_delta_machine_shows_its_geometry(cli, source_dir):
     cfg = str(source_dir / "tests/reference/klipper/delta.cfg")
     d = amctl.Machine.load(cfg).to_dict()
-    assert d["kinematics"] == "delta"
+    assert d["printer"]["kinematics"] == "delta"
     # Klipper's own log for this cfg: "Delta max build radius 157.11mm (moves slowed past
     # 141.17mm and 153.73mm)".
     assert d["delta"]["build_radius"] == pytest.approx(157.11, abs=0.005)
