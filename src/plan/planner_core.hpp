@@ -51,7 +51,6 @@ class PlannerCore {
   /// Recomputes the cached values that depend on lim_ (after a limits command).
   void update_derived_limits();
 
-  machine::Machine machine_;
   PlannerOptions opt_;
   Planner::Limits lim_{};
   PlannerDiagnostics diag_;
@@ -86,7 +85,9 @@ class PlannerCore {
   const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);
   std::uint64_t warned_overextrusion_ = 0;
   std::uint64_t next_seq_ = 1;
-  // Last: large and read only by the delta's range check, so it stays off the hot fields.
+  // Last: large and read little per move (a few scalars), so the hot state above stays
+  // compact whatever the machine description holds.
+  machine::Machine machine_;
   machine::DeltaGeometry delta_geometry_{};
 };
 

@@ -17,12 +17,14 @@ namespace {
 
 using machine::Firmware;
 
-/// The machine description checked by the one validation of the machine module (every bound
-/// of the key table and the cross-key rules, the same that loading a TOML or printer.cfg
-/// applies): a Machine built in code is held to the same rules as one read from a file.
-const machine::Machine& validated(const machine::Machine& m) {
+/// The options, once the machine is checked by the one validation of the machine module (every
+/// bound of the key table and the cross-key rules, the same that loading a TOML or printer.cfg
+/// applies): a Machine built in code is held to the same rules as one read from a file. The
+/// first member initialised does it, before any other member reads the machine (machine_
+/// itself sits last in PlannerCore, off the hot fields).
+PlannerOptions validated_options(const machine::Machine& m, const PlannerOptions& options) {
   machine::validate(m);
-  return m;
+  return options;
 }
 
 std::size_t buffer_size_of(const machine::Machine& m, const PlannerOptions& opt) {
@@ -32,12 +34,12 @@ std::size_t buffer_size_of(const machine::Machine& m, const PlannerOptions& opt)
 }  // namespace
 
 PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptions options)
-    : machine_(validated(m)),
-      opt_(options),
+    : opt_(validated_options(m, options)),
       ramps_(m.profile == machine::VelocityProfile::scurve7),
       timeline_(sink, ramps_.jerk_limited()),
       lookahead_(ramps_, timeline_),
-      buffer_(ramps_, timeline_, buffer_size_of(m, options)) {
+      buffer_(ramps_, timeline_, buffer_size_of(m, options)),
+      machine_(m) {
   classic_jerk_ = m.junction == machine::JunctionPolicy::classic_jerk;
   const bool klipper = m.firmware == Firmware::klipper;
   slowdown_ = m.firmware == Firmware::marlin;  // SLOWDOWN is Marlin's (M205 B)
