@@ -343,15 +343,41 @@ void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::
     n_end = std::min<std::int64_t>(st.n, static_cast<std::int64_t>(std::ceil(u_end - 0.5)));
   }
   if (n_end == st.n) return;
-  PieceCursor cursor(pieces_, piece_count_, move.start_time_s);
+  // The hot loop of every linear motor, kept with its state in locals (the piece walk of
+  // PieceCursor and the bookkeeping of record_step, written out: through them this loop ran
+  // 16 % slower on BM_StepsBoxbossCoreXY).
+  StepperStats& stats = stats_[c];
+  std::size_t pi = 0;
+  double piece_t0 = move.start_time_s;
+  double piece_end_s = horner(pieces_[0], pieces_[0].duration_s, dummy);
+  double lo = 0.0;
   const double inv_k = 1.0 / k;
   const std::int64_t count = dir > 0 ? n_end - st.n : st.n - n_end;
   for (std::int64_t i = 0; i < count; ++i) {
     // The half-step level between n and n + dir.
     const double level = static_cast<double>(st.n) + 0.5 * dir;
     const double s_target = (st.origin_mm + level * step - base) * inv_k;
-    record_step(c, cursor.time_at(s_target), dir, out);
+    while (pi + 1 < piece_count_ && s_target > piece_end_s) {
+      piece_t0 += pieces_[pi].duration_s;
+      ++pi;
+      piece_end_s = horner(pieces_[pi], pieces_[pi].duration_s, dummy);
+      lo = 0.0;
+    }
+    lo = solve_crossing_s(pieces_[pi], s_target, lo);
+    const double t = piece_t0 + lo;
+    st.n += dir;
+    const double interval = t - st.last_step_s;
+    if (interval < stats.min_interval_s) {
+      stats.min_interval_s = interval;
+      stats.peak_time_s = t;
+    }
+    st.last_step_s = t;
+    out.push_back(Step{t, c, dir});
   }
+  stats.steps += static_cast<std::uint64_t>(count);
+  if (dir > 0) stats.steps_positive += static_cast<std::uint64_t>(count);
+  else stats.steps_negative += static_cast<std::uint64_t>(count);
+  stats.position_steps = st.n;
 }
 
 void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
