@@ -134,3 +134,95 @@ DeltaGeometry delta_geometry(const Machine& m) {
 }
 
 }  // namespace amctl::machine
+
+namespace amctl::machine {
+
+double DeltesianGeometry::pillars_z_max(double x) const {
+  const double l = std::sqrt(arm2_mm2[0] - (arm_x_mm[0] + x) * (arm_x_mm[0] + x));
+  const double r = std::sqrt(arm2_mm2[1] - (arm_x_mm[1] - x) * (arm_x_mm[1] - x));
+  return std::min(abs_endstop_mm[0] - l, abs_endstop_mm[1] - r);
+}
+
+DeltesianGeometry deltesian_geometry(const Machine& m) {
+  DeltesianGeometry g;
+  const Stepper* towers[2] = {nullptr, nullptr};
+  for (int i = 0; i < 2; ++i) {
+    const char* name = i == 0 ? "left" : "right";
+    const auto it = m.steppers.find(name);
+    if (it == m.steppers.end()) {
+      throw Error(fmt::format("a deltesian needs [stepper_left], [stepper_right] and "
+                              "[stepper_y]; stepper_{} is missing",
+                              name));
+    }
+    towers[i] = &it->second;
+  }
+  const auto y = m.steppers.find("y");
+  if (y == m.steppers.end() || !y->second.position_max_mm) {
+    throw Error("a deltesian needs [stepper_y] with position_max");
+  }
+  const Stepper& left = *towers[0];
+  if (!left.arm_x_length_mm) throw Error("stepper_left.arm_x_length must be given for a deltesian");
+  if (!left.arm_length_mm) throw Error("stepper_left.arm_length must be given for a deltesian");
+  if (!left.position_endstop_mm) {
+    throw Error("stepper_left.position_endstop must be given for a deltesian");
+  }
+  std::array<double, 2> arm{}, endstop{};
+  for (std::size_t i = 0; i < 2; ++i) {
+    const Stepper& s = *towers[i];
+    g.arm_x_mm[i] = s.arm_x_length_mm.value_or(*left.arm_x_length_mm);
+    arm[i] = s.arm_length_mm.value_or(*left.arm_length_mm);
+    if (!(arm[i] > g.arm_x_mm[i])) {
+      throw Error(fmt::format("stepper_{}.arm_length ({} mm) must be > arm_x_length ({} mm)",
+                              i == 0 ? "left" : "right", arm[i], g.arm_x_mm[i]));
+    }
+    g.arm2_mm2[i] = arm[i] * arm[i];
+    endstop[i] = s.position_endstop_mm.value_or(*left.position_endstop_mm);
+    g.abs_endstop_mm[i] = endstop[i] + std::sqrt(g.arm2_mm2[i] - g.arm_x_mm[i] * g.arm_x_mm[i]);
+  }
+  g.tower_x_mm = {-g.arm_x_mm[0], g.arm_x_mm[1]};
+  // X: where the arms keep min_angle with the horizontal, or print_width centred.
+  const double min_angle = m.delta.min_angle_deg.value_or(5.0);
+  if (min_angle > 90.0) throw Error(fmt::format("delta.min_angle must be <= 90, got {}", min_angle));
+  const double cos_angle = std::cos(min_angle * std::numbers::pi / 180.0);
+  const double x_min = std::ceil(-std::min(g.arm_x_mm[0], cos_angle * arm[1] - g.arm_x_mm[1]));
+  const double x_max = std::floor(std::min(g.arm_x_mm[1], cos_angle * arm[0] - g.arm_x_mm[0]));
+  const double x_range = std::min({x_max - x_min, 2.0 * x_max, -2.0 * x_min});
+  const double width = m.delta.print_width_mm.value_or(0.0);
+  if (width > x_range) {
+    throw Error(fmt::format("delta.print_width ({} mm) must be <= {} mm, what the arms reach",
+                            width, x_range));
+  }
+  g.limits_mm[0] = width > 0.0 ? std::array<double, 2>{-0.5 * width, 0.5 * width}
+                               : std::array<double, 2>{x_min, x_max};
+  g.limits_mm[1] = {y->second.position_min_mm.value_or(0.0), *y->second.position_max_mm};
+  g.home_y_mm = y->second.position_endstop_mm.value_or(0.0);
+  // Home: trilateration of the two pivots in the XZ plane with the carriages at the endstops.
+  {
+    const double dx = g.arm_x_mm[0] + g.arm_x_mm[1];
+    const double dz = g.abs_endstop_mm[1] - g.abs_endstop_mm[0];
+    const double pivots = std::sqrt(dx * dx + dz * dz);
+    const double xt = (pivots * pivots + g.arm2_mm2[0] - g.arm2_mm2[1]) / (2.0 * pivots);
+    const double zt = std::sqrt(g.arm2_mm2[0] - xt * xt);
+    g.home_z_mm = xt * dz / pivots - zt * dx / pivots + g.abs_endstop_mm[0];
+  }
+  const double z_max = std::min(g.pillars_z_max(g.limits_mm[0][0]), g.pillars_z_max(g.limits_mm[0][1]));
+  const double z_min = m.delta.minimum_z_position_mm.value_or(0.0);
+  if (z_min > z_max) {
+    throw Error(fmt::format("delta.minimum_z_position ({} mm) must be <= {} mm", z_min, z_max));
+  }
+  g.limits_mm[2] = {z_min, z_max};
+  const double ratio = m.delta.slow_ratio.value_or(3.0);
+  if (ratio > 0.0) {
+    const double sr2 = ratio * ratio;
+    double slow = std::numeric_limits<double>::infinity(), very = slow;
+    for (std::size_t i = 0; i < 2; ++i) {
+      slow = std::min(slow, std::sqrt(sr2 * g.arm2_mm2[i] / (sr2 + 1.0)) - g.arm_x_mm[i]);
+      very = std::min(very, std::sqrt(2.0 * sr2 * g.arm2_mm2[i] / (2.0 * sr2 + 1.0)) - g.arm_x_mm[i]);
+    }
+    g.slow_x2_mm2 = slow * slow;
+    g.very_slow_x2_mm2 = very * very;
+  }
+  return g;
+}
+
+}  // namespace amctl::machine

@@ -350,9 +350,11 @@ constexpr std::string_view kPrinterOptions[] = {
     "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
     "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
-// [printer] options of a linear delta (kinematics/delta.py).
+// [printer] options of a linear delta (kinematics/delta.py) and a deltesian (deltesian.py).
 constexpr std::string_view kDeltaPrinterOptions[] = {"delta_radius", "print_radius",
                                                      "minimum_z_position"};
+constexpr std::string_view kDeltesianPrinterOptions[] = {"min_angle", "print_width", "slow_ratio",
+                                                         "minimum_z_position"};
 
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
@@ -361,8 +363,7 @@ Kinematics read_kinematics(const Section& printer) {
   for (std::size_t i = 0; i < supported.size(); ++i) {
     if (supported[i] == kin) return static_cast<Kinematics>(i);
   }
-  static constexpr std::string_view kOthers[] = {"generic_cartesian", "rotary_delta", "deltesian",
-                                                 "polar"};
+  static constexpr std::string_view kOthers[] = {"generic_cartesian", "rotary_delta", "polar"};
   if (std::find(std::begin(kOthers), std::end(kOthers), kin) != std::end(kOthers)) {
     throw Error(where, fmt::format("[printer] kinematics: '{}' is a Klipper kinematics amctl "
                                    "does not support yet (supported: {})",
@@ -396,6 +397,10 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
     if (m.kinematics == Kinematics::delta) {
       known.insert(known.end(), std::begin(kDeltaPrinterOptions), std::end(kDeltaPrinterOptions));
+    }
+    if (m.kinematics == Kinematics::deltesian) {
+      known.insert(known.end(), std::begin(kDeltesianPrinterOptions),
+                   std::end(kDeltesianPrinterOptions));
     }
     for (const auto& [key, value] : printer_section->options) {
       if (std::find(known.begin(), known.end(), key) != known.end()) continue;
@@ -489,6 +494,22 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       }
     }
   }
+  const bool deltesian = m.kinematics == Kinematics::deltesian;
+  if (deltesian) {
+    // deltesian.py: min_angle (5, [0, 90]), print_width (>= 0, at most the arms' reach:
+    // deltesian_geometry), slow_ratio (3, >= 0), minimum_z_position (0).
+    m.delta.min_angle_deg = printer.get_float("min_angle", {.minval = 0.0, .maxval = 90.0});
+    m.delta.print_width_mm = printer.get_float("print_width", {.minval = 0.0});
+    m.delta.slow_ratio = printer.get_float("slow_ratio", {.minval = 0.0});
+    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
+    for (const char* tower : {"stepper_left", "stepper_right", "stepper_y"}) {
+      if (doc.find(tower) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a deltesian needs [{}] (stepper_left, stepper_right, stepper_y)",
+                                tower));
+      }
+    }
+  }
   const bool winch = m.kinematics == Kinematics::winch;
   if (winch) {
     // winch.py: stepper_a, _b, _c required, more (d, e, ...) while present; each with
@@ -517,6 +538,24 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       st.anchor_x_mm = sec.require_float("anchor_x");
       st.anchor_y_mm = sec.require_float("anchor_y");
       st.anchor_z_mm = sec.require_float("anchor_z");
+      m.steppers[name] = st;
+      continue;
+    }
+    if ((name == "left" || name == "right") != deltesian && (name == "left" || name == "right")) {
+      continue;
+    }
+    if (deltesian && (name == "left" || name == "right")) {
+      // deltesian.py: arm_x_length (> 0) and arm_length (> arm_x_length) required on left,
+      // right defaults to left's; position_endstop required on left.
+      const Section sec(&s, s.name, file_loc);
+      Stepper st = read_stepper(sec);
+      const bool is_left = name == "left";
+      st.arm_x_length_mm = is_left ? std::optional(sec.require_float("arm_x_length", {.above = 0.0}))
+                                   : sec.get_float("arm_x_length", {.above = 0.0});
+      st.arm_length_mm = is_left ? std::optional(sec.require_float("arm_length", {.above = 0.0}))
+                                 : sec.get_float("arm_length", {.above = 0.0});
+      st.position_endstop_mm = is_left ? std::optional(sec.require_float("position_endstop"))
+                                       : sec.get_float("position_endstop");
       m.steppers[name] = st;
       continue;
     }

@@ -18,7 +18,7 @@ namespace {
 constexpr std::string_view kFirmwareNames[] = {"klipper", "marlin", "reprap"};
 constexpr std::string_view kKinematicsNames[] = {"cartesian",     "corexy",        "corexz",
                                                   "hybrid_corexy", "hybrid_corexz", "delta",
-                                                  "none",          "winch"};
+                                                  "none",          "winch",         "deltesian"};
 constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "junction_deviation",
                                                "classic_jerk"};
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
@@ -36,7 +36,7 @@ const std::vector<KeyDef>& key_table() {
     add({"printer", "firmware", Kind::firmware, Bound::finite, "",
          "Whose G-code semantics apply: klipper, marlin or reprap."});
     add({"printer", "kinematics", Kind::kinematics, Bound::finite, "",
-         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none or winch (Klipper's "
+         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch or deltesian (Klipper's "
          "kinematics of those names; per-axis limits apply to X, Y, Z, E of the tool)."});
     add({"printer", "junction", Kind::junction, Bound::finite, "",
          "Corner speed policy: square_corner_velocity (Klipper), junction_deviation (Marlin JD) "
@@ -216,6 +216,18 @@ const std::vector<KeyDef>& key_table() {
     add({"delta", "minimum_z_position", Kind::optional_number, Bound::finite, "mm",
          "Delta: lowest Z a move may reach (Klipper minimum_z_position; unset = 0).", nullptr,
          AMCTL_OPT(delta.minimum_z_position_mm)});
+    add({"delta", "min_angle", Kind::optional_number, Bound::non_negative, "degrees",
+         "Deltesian: smallest angle of the arms with the horizontal (Klipper min_angle; unset = "
+         "5).",
+         nullptr, AMCTL_OPT(delta.min_angle_deg)});
+    add({"delta", "print_width", Kind::optional_number, Bound::non_negative, "mm",
+         "Deltesian: printable width in X, centred (Klipper print_width; unset = the arms' "
+         "reach).",
+         nullptr, AMCTL_OPT(delta.print_width_mm)});
+    add({"delta", "slow_ratio", Kind::optional_number, Bound::non_negative, "",
+         "Deltesian: carriage-to-effector speed ratio beyond which moves run at half (twice it: "
+         "a quarter) of the limits (Klipper slow_ratio; unset = 3, 0 = off).",
+         nullptr, AMCTL_OPT(delta.slow_ratio)});
     return k;
   }();
   return keys;
@@ -260,6 +272,10 @@ const std::vector<StepperKeyDef>& stepper_table() {
       {"anchor_z", Kind::optional_number, Bound::finite, "mm",
        "Winch cables: Z of the cable's anchor (Klipper anchor_z).", nullptr, nullptr,
        [](Stepper& s) -> std::optional<double>& { return s.anchor_z_mm; }},
+      {"arm_x_length", Kind::optional_number, Bound::positive, "mm",
+       "Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to "
+       "the arm's carriage joint (Klipper arm_x_length; required on left).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.arm_x_length_mm; }},
   };
   return keys;
 }
@@ -294,6 +310,7 @@ const StepperKeyDef* find_stepper_key(std::string_view key) {
 bool valid_stepper_name(std::string_view name) {
   if (name.empty()) return false;
   if (name == "a" || name == "b" || name == "c" || name == "d") return true;  // delta, winch
+  if (name == "left" || name == "right") return true;                         // deltesian
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });

@@ -91,7 +91,7 @@ int enum_of(const toml::node& v, Kind kind, const SourceLocation& where, std::st
   }
   if (kind == Kind::kinematics) {
     static constexpr std::string_view kKlipperOthers[] = {
-        "generic_cartesian", "rotary_delta", "deltesian", "polar"};
+        "generic_cartesian", "rotary_delta", "polar"};
     for (std::string_view other : kKlipperOthers) {
       if (other == text) {
         throw Error(where, fmt::format("{}: '{}' kinematics is not supported by amctl "
@@ -388,7 +388,10 @@ std::string to_toml(const Machine& machine) {
     // [input_shaper] is written only when it says something (Klipper's defaults: off).
     if (section == "input_shaper" && m.input_shaper == InputShaper{}) continue;
     // [delta] only for a delta (or a machine that carries delta keys).
-    if (section == "delta" && m.kinematics != Kinematics::delta && m.delta == Delta{}) continue;
+    if (section == "delta" && m.kinematics != Kinematics::delta &&
+        m.kinematics != Kinematics::deltesian && m.delta == Delta{}) {
+      continue;
+    }
     out += fmt::format("\n[{}]\n", section);
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;

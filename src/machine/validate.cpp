@@ -98,6 +98,7 @@ void validate(const Machine& machine) {
   }
   // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
   if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
+  if (m.kinematics == Kinematics::deltesian) (void)deltesian_geometry(m);
   if (m.kinematics == Kinematics::winch) {
     for (const char* cable : {"a", "b", "c", "d"}) {
       const auto it = m.steppers.find(cable);

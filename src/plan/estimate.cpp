@@ -100,6 +100,13 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
     o.home_all_axes = true;
     o.home_position_mm = machine::delta_geometry(m).home_position_mm;
   }
+  if (m.kinematics == machine::Kinematics::deltesian) {
+    // deltesian.py home(): X and Z home together to (0, home_z); Y to its endstop. amctl homes
+    // all three on any G28.
+    const auto g = machine::deltesian_geometry(m);
+    o.home_all_axes = true;
+    o.home_position_mm = {0.0, g.home_y_mm, g.home_z_mm};
+  }
   return o;
 }
 

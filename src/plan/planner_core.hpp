@@ -66,11 +66,14 @@ class PlannerCore {
   double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
   // Linear delta (Klipper delta.py check_move): moves touching the outer zones run at a half
   // or a quarter of the configured speed and accel; the build volume is checked.
+  // A deltesian (deltesian.py) slows moves with X motion by |x| the same way.
   bool delta_ = false;
+  bool deltesian_ = false;
   double delta_slow_xy2_ = 0, delta_very_slow_xy2_ = 0;
   double delta_velocity_mm_s_ = 0, delta_accel_mm_s2_ = 0;
   /// Klipper delta.py: the first move leaving the build volume is posted as a range error.
   void delta_range(const gcode::MoveRequest& r);
+  void deltesian_range(const gcode::MoveRequest& r);
   double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
   double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
   // Derived from lim_, refreshed by update_derived_limits().
@@ -89,6 +92,7 @@ class PlannerCore {
   // compact whatever the machine description holds.
   machine::Machine machine_;
   machine::DeltaGeometry delta_geometry_{};
+  machine::DeltesianGeometry deltesian_geometry_{};
 };
 
 }  // namespace amctl::plan::detail

@@ -93,6 +93,17 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
     delta_accel_mm_s2_ = m.max_accel_mm_s2;
     range_active_ = true;  // Klipper always checks a delta's build volume
   }
+  if (klipper && m.kinematics == machine::Kinematics::deltesian) {
+    // deltesian.py: moves with X motion beyond slow_x2 (very_slow_x2) at 1/2 (1/4) of the
+    // configured limits; its X, Y, Z ranges always checked.
+    delta_ = deltesian_ = true;
+    deltesian_geometry_ = machine::deltesian_geometry(m);
+    delta_slow_xy2_ = deltesian_geometry_.slow_x2_mm2;
+    delta_very_slow_xy2_ = deltesian_geometry_.very_slow_x2_mm2;
+    delta_velocity_mm_s_ = m.max_velocity_mm_s;
+    delta_accel_mm_s2_ = m.max_accel_mm_s2;
+    range_active_ = true;
+  }
   const auto& ex = m.extruder;
   filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
   const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;

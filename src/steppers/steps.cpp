@@ -60,8 +60,10 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   const bool delta = m.kinematics == K::delta;
   const bool lettered_motors = delta || winch;
   const bool none = m.kinematics == K::none;
+  const bool deltesian = m.kinematics == K::deltesian;
   std::vector<const char*> required;
   if (lettered_motors) required = {"a", "b", "c", "e"};
+  else if (deltesian) required = {"left", "right", "y", "e"};
   else if (none) required = {"e"};
   else required = {"x", "y", "z", "e"};
   std::vector<std::string> missing;
@@ -85,10 +87,15 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   for (const auto& [k, s] : m.steppers) {
     if (k[0] == 'e' && k != "e") continue;  // extra extruders: amctl plans one E axis
     if (k[0] != 'e' && (none || is_tower(k) != lettered_motors)) continue;  // not a motor here
+    const bool side = k == "left" || k == "right";
+    if (side != deltesian && side) continue;
+    if (deltesian && !side && k != "y" && k[0] != 'e') continue;
     keys.push_back(k);
   }
-  const auto rank = [](char c) {
-    switch (c) {
+  const auto rank = [](const std::string& k) {
+    if (k == "left") return -2;
+    if (k == "right") return -1;
+    switch (k[0]) {
       case 'x': case 'a': return 0;
       case 'y': case 'b': return 1;
       case 'z': case 'c': return 2;
@@ -97,7 +104,7 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
     }
   };
   std::sort(keys.begin(), keys.end(), [&](const std::string& a, const std::string& b) {
-    if (rank(a[0]) != rank(b[0])) return rank(a[0]) < rank(b[0]);
+    if (rank(a) != rank(b)) return rank(a) < rank(b);
     return key_less(a, b);
   });
   using Row = std::array<double, 4>;
@@ -111,12 +118,22 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   }
   std::optional<machine::DeltaGeometry> g;
   if (delta) g = machine::delta_geometry(m);
+  std::optional<machine::DeltesianGeometry> dg;
+  if (deltesian) dg = machine::deltesian_geometry(m);
   std::vector<StepperChannel> out;
   for (const std::string& k : keys) {
     StepperChannel c;
     c.key = k;
     c.name = klipper_name(k);
     c.step_distance_mm = step_distance_mm(m.steppers.at(k), c.name);
+    if (deltesian && (k == "left" || k == "right")) {
+      const std::size_t i = k == "left" ? 0 : 1;
+      c.arm2_mm2 = dg->arm2_mm2[i];
+      c.tower_x_mm = dg->tower_x_mm[i];
+      c.planar = true;
+      out.push_back(std::move(c));
+      continue;
+    }
     switch (k[0]) {
       case 'x': c.row = row_x; break;
       case 'y': c.row = row_y; break;
@@ -383,10 +400,10 @@ void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::
 void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
   const StepperChannel& ch = channels_[c];
   State& st = state_[c];
-  const double ax = move.axes_r[0], ay = move.axes_r[1], az = move.axes_r[2];
+  const double ax = move.axes_r[0], ay = ch.planar ? 0.0 : move.axes_r[1], az = move.axes_r[2];
   // Tool position relative to the tower (x, y) or the anchor (x, y, z) at path distance s.
   const double x0 = move.start_mm[0] - (ch.cable ? ch.anchor_mm[0] : ch.tower_x_mm);
-  const double y0 = move.start_mm[1] - (ch.cable ? ch.anchor_mm[1] : ch.tower_y_mm);
+  const double y0 = ch.planar ? 0.0 : move.start_mm[1] - (ch.cable ? ch.anchor_mm[1] : ch.tower_y_mm);
   const double z0 = move.start_mm[2] - (ch.cable ? ch.anchor_mm[2] : 0.0);
   // Delta tower: q(s) = z + sqrt(L^2 - x^2 - y^2), concave; q' = az - (x ax + y ay) / sqrt.
   // Winch cable: q(s) = sqrt(x^2 + y^2 + z^2), convex; q' = (x ax + y ay + z az) / q.

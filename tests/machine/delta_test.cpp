@@ -118,6 +118,26 @@ TEST(DeltaToml, OverridesReachTheTowers) {
   EXPECT_NEAR(std::sqrt(g.max_xy2_mm2), 120.0, 1e-12);
 }
 
+TEST(DeltesianCfg, GeometryMatchesKlippersStartupLog) {
+  // Klipper's log for deltesian.cfg: "Deltesian kinematics: moves slowed past 45.86mm and
+  // 51.21mm"; X limits from min_angle 5: floor(cos 5 deg 217 - 160) = 56.
+  const Machine m = load_machine(kDir + "deltesian.cfg");
+  EXPECT_EQ(m.kinematics, Kinematics::deltesian);
+  const DeltesianGeometry g = deltesian_geometry(m);
+  EXPECT_NEAR(std::sqrt(g.slow_x2_mm2), 45.86, 0.005);
+  EXPECT_NEAR(std::sqrt(g.very_slow_x2_mm2), 51.21, 0.005);
+  EXPECT_DOUBLE_EQ(g.limits_mm[0][0], -56.0);
+  EXPECT_DOUBLE_EQ(g.limits_mm[0][1], 56.0);
+  EXPECT_DOUBLE_EQ(g.limits_mm[1][1], 200.0);
+  // Symmetric arms: home straight below the middle, the carriages at 268: z = 268.
+  EXPECT_NEAR(g.home_z_mm, 268.0, 1e-9);
+  // Top of the volume at the X limits: there the far tower's arm stands steepest, its carriage
+  // (at its endstop) holds the effector at abs_endstop - sqrt(L^2 - (160 - 56)^2).
+  const double abs_endstop = 268.0 + std::sqrt(217.0 * 217.0 - 160.0 * 160.0);
+  EXPECT_NEAR(g.limits_mm[2][1], abs_endstop - std::sqrt(217.0 * 217.0 - 104.0 * 104.0), 1e-9);
+  EXPECT_EQ(parse_machine_toml(to_toml(m), "d.toml"), m);
+}
+
 TEST(WinchCfg, CablesAndAnchorsAreRead) {
   const Machine m = load_machine(kDir + "winch.cfg");
   EXPECT_EQ(m.kinematics, Kinematics::winch);

@@ -92,6 +92,31 @@ TEST(GantryLimits, CoreXZAndHybridLimitZLikeCartesian) {
   }
 }
 
+EstimateReport deltesian_estimate(const std::string& moves) {
+  // tests/reference/klipper/deltesian.cfg: 500 mm/s, 3000 mm/s^2, moves with X motion
+  // slowed past |x| = 45.86 mm (1/2) and 51.21 mm (1/4), x in [-56, 56], y in [0, 200].
+  return estimate_text("SET_KINEMATIC_POSITION X=0 Y=100 Z=10\n" + moves, "d.gcode",
+                       machine::load_machine(kDir + "deltesian.cfg"));
+}
+
+TEST(DeltesianLimits, SlowZonesByX) {
+  EXPECT_NEAR(deltesian_estimate("G1 X40 F12000\n").total_time_s, trapezoid_s(40, 200, 3000), 1e-9);
+  EXPECT_NEAR(deltesian_estimate("G1 X50 F18000\n").total_time_s, trapezoid_s(50, 250, 1500), 1e-9);
+  EXPECT_NEAR(deltesian_estimate("G1 X55 F18000\n").total_time_s, trapezoid_s(55, 125, 750), 1e-9);
+  // A Y move out at x = 50 has no X motion: not slowed.
+  EXPECT_NEAR(deltesian_estimate("G1 X50 F18000\nG4 P0\nG1 Y190\n").total_time_s,
+              trapezoid_s(50, 250, 1500) + trapezoid_s(90, 300, 3000), 1e-9);
+}
+
+TEST(DeltesianLimits, RangesOfEachAxis) {
+  const auto r = deltesian_estimate("G1 X57 F18000\n");
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->axis, 'x');
+  EXPECT_DOUBLE_EQ(r.range_error->limit_mm, 56.0);
+  EXPECT_TRUE(deltesian_estimate("G1 Y201\n").range_error.has_value());
+  EXPECT_FALSE(deltesian_estimate("G1 Y200 Z100\n").range_error.has_value());
+}
+
 TEST(GantryLimits, WinchHasNoZLimit) {
   // winch.py check_move checks nothing: a Z move runs at the toolhead's limits.
   const auto r = estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG1 Z100 F18000\n", "w.gcode",

@@ -24,7 +24,7 @@ bad = 0
 checked = 0
 unsupported = 0
 SUPPORTED = ('cartesian', 'corexy', 'corexz', 'hybrid_corexy', 'hybrid_corexz', 'delta', 'none',
-             'winch')
+             'winch', 'deltesian')
 
 
 def close(a, b):
@@ -77,7 +77,8 @@ for fn in files:
         exp[('effective', 'max_extrude_only_accel')] = g('extruder', 'max_extrude_only_accel', ma * ratio)
         exp[('effective', 'max_extrude_cross_section')] = g('extruder', 'max_extrude_cross_section', 4. * nd ** 2)
     for sec in fc.sections():
-        towers = {'delta': ('a', 'b', 'c'), 'winch': ('a', 'b', 'c', 'd')}.get(kin, ('x', 'y', 'z'))
+        towers = {'delta': ('a', 'b', 'c'), 'winch': ('a', 'b', 'c', 'd'),
+                  'deltesian': ('left', 'right', 'y')}.get(kin, ('x', 'y', 'z'))
         if sec.startswith('stepper_') and sec[8:] in towers or sec == 'extruder':
             if not fc.has_option(sec, 'rotation_distance'):
                 continue

@@ -233,6 +233,46 @@ TEST(WinchSteps, CablesStayOnTheGridAndCountAsSampled) {
   EXPECT_GT(up, 0);
 }
 
+TEST(DeltesianSteps, TowersInTheXZPlaneStayOnTheGrid) {
+  // tests/reference/klipper/deltesian.cfg geometry: arms 217, arm_x 160; left tower at
+  // x = -160, right at +160; y is cartesian.
+  Machine m;
+  m.kinematics = machine::Kinematics::deltesian;
+  m.steppers["left"] = {40.0, 16, 200};
+  m.steppers["left"].arm_length_mm = 217.0;
+  m.steppers["left"].arm_x_length_mm = 160.0;
+  m.steppers["left"].position_endstop_mm = 268.0;
+  m.steppers["right"] = {40.0, 16, 200};
+  m.steppers["y"] = {40.0, 16, 200};
+  m.steppers["y"].position_min_mm = 0.0;
+  m.steppers["y"].position_max_mm = 200.0;
+  m.steppers["e"] = {33.5, 16, 200};
+  const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=100 Z=10\nG1 X40 Y120 F6000\nG1 X-40 Z20\nG1 Y20\n", m);
+  ASSERT_EQ(r.channels.size(), 4u);
+  EXPECT_EQ(r.channels[0].name, "stepper_left");
+  EXPECT_EQ(r.channels[1].name, "stepper_right");
+  EXPECT_EQ(r.channels[2].name, "stepper_y");
+  const trajectory::Trajectory traj(r.moves);
+  const auto p0 = traj.evaluate(r.moves.front().start_time_s);
+  auto carriage_lr = [](int i, double x, double z) {
+    const double tx = i == 0 ? -160.0 : 160.0;
+    return z + std::sqrt(217.0 * 217.0 - (x - tx) * (x - tx));
+  };
+  for (int i = 0; i < 2; ++i) {
+    const double origin = carriage_lr(i, p0.pos_mm[0], p0.pos_mm[2]);
+    long n = 0;
+    for (const Step& s : r.steps) {
+      if (s.stepper != static_cast<std::uint32_t>(i)) continue;
+      const double level = origin + (static_cast<double>(n) + 0.5 * s.direction) * 0.0125;
+      n += s.direction;
+      const auto p = traj.evaluate(s.time_s);
+      ASSERT_NEAR(carriage_lr(i, p.pos_mm[0], p.pos_mm[2]), level, 1e-9) << i;
+    }
+    const auto pe = traj.evaluate(r.moves.back().end_time_s());
+    EXPECT_EQ(n, std::lround((carriage_lr(i, pe.pos_mm[0], pe.pos_mm[2]) - origin) / 0.0125)) << i;
+  }
+}
+
 TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
   Machine m;
   m.steppers["x"] = {40.0, 16, 200};

@@ -56,3 +56,30 @@ struct DeltaGeometry {
                                                       const std::array<double, 3>& r2);
 
 }  // namespace amctl::machine
+
+namespace amctl::machine {
+
+/// Deltesian geometry as Klipper's kinematics/deltesian.py derives it: two towers in the XZ
+/// plane at x = -arm_x_left and x = +arm_x_right whose carriages hold arms of length L to the
+/// effector, a cartesian Y. Carriage height of the left tower c = z + sqrt(L^2 - (x + ax)^2),
+/// the right one c = z + sqrt(L^2 - (x - ax)^2) (kin_deltesian.c).
+struct DeltesianGeometry {
+  std::array<double, 2> arm_x_mm{};       ///< arm_x_length of left, right
+  std::array<double, 2> arm2_mm2{};       ///< squared arm lengths
+  std::array<double, 2> tower_x_mm{};     ///< -arm_x_left, +arm_x_right
+  std::array<double, 2> abs_endstop_mm{}; ///< endstop + sqrt(L^2 - ax^2)
+  std::array<std::array<double, 2>, 3> limits_mm{};  ///< [min, max] of x, y, z
+  double home_z_mm = 0.0;
+  double home_y_mm = 0.0;             ///< stepper_y's position_endstop
+  double slow_x2_mm2 = 0.0;           ///< beyond |x|: half speed (0 = no slow zone)
+  double very_slow_x2_mm2 = 0.0;      ///< beyond: a quarter
+  /// Highest z the carriages allow at x (both below their endstops).
+  [[nodiscard]] double pillars_z_max(double x_mm) const;
+};
+
+/// Klipper's defaults applied (arm_x_length and arm_length of right = left's, min_angle 5,
+/// slow_ratio 3, minimum_z_position 0). Throws amctl::Error naming the missing or inconsistent
+/// key.
+[[nodiscard]] DeltesianGeometry deltesian_geometry(const Machine& m);
+
+}  // namespace amctl::machine

@@ -15,7 +15,10 @@ namespace amctl::machine {
 /// motors (Klipper's developer kinematics: no speed limit but the toolhead's). A winch (cable
 /// robot) has 3 or 4 cables, each motor's position the cable length |tool - anchor|; Klipper
 /// checks no limit on it either.
-enum class Kinematics { cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch };
+/// A deltesian has two towers (stepper_left, stepper_right) in the XZ plane and a cartesian Y.
+enum class Kinematics {
+  cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian
+};
 
 /// Whose G-code semantics apply. Klipper ignores M201/M203/M205 and takes accel from
 /// M204 S (or min(P, T)); Marlin applies M201-M205 as slicers emit them; RepRapFirmware
@@ -70,6 +73,9 @@ struct Stepper {
   /// Winch cables (stepper_a .. stepper_d): the anchor point of the cable [mm] (Klipper
   /// anchor_x, anchor_y, anchor_z; required for a winch).
   std::optional<double> anchor_x_mm, anchor_y_mm, anchor_z_mm;
+  /// Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to the
+  /// arm's joint on the carriage (Klipper arm_x_length; required on left, right defaults to it).
+  std::optional<double> arm_x_length_mm;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
@@ -126,7 +132,12 @@ struct InputShaper {
 struct Delta {
   std::optional<double> radius_mm;              ///< delta_radius (required for a delta)
   std::optional<double> print_radius_mm;        ///< unset: delta_radius
-  std::optional<double> minimum_z_position_mm;  ///< unset: 0
+  std::optional<double> minimum_z_position_mm;  ///< unset: 0 (delta and deltesian)
+  /// Deltesian only (Klipper [printer] min_angle, print_width, slow_ratio): the arms' smallest
+  /// angle with the horizontal (default 5 degrees), the printable width in X (unset: what
+  /// the arms reach), and the tower-to-effector speed ratio beyond which moves slow down
+  /// (default 3; 0 = never).
+  std::optional<double> min_angle_deg, print_width_mm, slow_ratio;
   bool operator==(const Delta&) const = default;
 };
 

@@ -37,6 +37,8 @@ struct StepperChannel {
   /// most one turning point per move.
   double arm2_mm2 = 0.0;
   double tower_x_mm = 0.0, tower_y_mm = 0.0;
+  /// A deltesian tower: the same with the arm in the XZ plane (y ignored).
+  bool planar = false;
   /// A winch cable (cable = true): its length |tool - anchor| (Klipper kin_winch.c), the norm
   /// of an affine function of the path distance, hence convex: at most one turning point.
   bool cable = false;
@@ -56,7 +58,8 @@ struct StepperChannel {
 /// stepper_z* = Z; CoreXY stepper_x = X + Y, stepper_y = X - Y; CoreXZ stepper_x = X + Z,
 /// stepper_z* = X - Z; hybrid_corexy stepper_x = X - Y; hybrid_corexz stepper_x = X - Z;
 /// delta towers z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2); winch cables (stepper_a .. _d)
-/// |tool - anchor|; `none` only the extruder; extruder =
+/// |tool - anchor|; deltesian stepper_left/_right z + sqrt(L^2 - (x -+ ax)^2), stepper_y = Y;
+/// `none` only the extruder; extruder =
 /// E. Throws amctl::Error naming every missing section (x, y, z and e, or a, b, c and e) or a
 /// bad parameter. Extra extruders (e1, ...) are not generated (amctl plans one E axis).
 [[nodiscard]] std::vector<StepperChannel> stepper_channels(const machine::Machine& m);
