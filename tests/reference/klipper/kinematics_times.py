@@ -34,7 +34,7 @@ CASES = [
     # The benchy spans x 29.6-89.7 (60 mm): centred on x = 0 it stays inside |x| < 30.2, clear
     # of the slow zone (where Klipper 84104bbb fails, docs/machine.md).
     ("deltesian/benchy", "deltesian.cfg", "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG92 X60 Y00 Z0\n", BENCHY,
-     0.05),  # amctl 0.018 s shorter, not explained yet (docs/machine.md, "Deltesian")
+     0.05),  # amctl 0.018 s shorter, likely batch-mode runout stops (docs/machine.md, "Deltesian")
 ]
 
 MARK = re.compile(r"REPORT_PRINT_TIME tag=(\w+) print_time=([0-9.]+)")
