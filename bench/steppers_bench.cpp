@@ -68,4 +68,13 @@ void BM_StepsBoxbossScurve7(benchmark::State& state) {
 }
 BENCHMARK(BM_StepsBoxbossScurve7)->Unit(benchmark::kMillisecond);
 
+// A delta's towers are non-linear (a Newton solve per step on the carriage height, then the
+// time solve): tests/reference/klipper/syn_delta.gcode, 336 718 steps.
+void BM_StepsDeltaSynthetic(benchmark::State& state) {
+  static const Planned p = plan_file("tests/reference/klipper/syn_delta.gcode",
+                                     "tests/reference/klipper/delta.cfg");
+  run_steps(state, p);
+}
+BENCHMARK(BM_StepsDeltaSynthetic)->Unit(benchmark::kMillisecond);
+
 }  // namespace

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages amctl needs, only those that are missing.
-# Usage: scripts/install-deps.sh [--with-slicer]
+# Usage: scripts/install-deps.sh [--with-slicer] [--with-klipper]
 set -euo pipefail
 
 pkgs=(
@@ -12,9 +12,14 @@ pkgs=(
   chromium  # the report page's test: headless screenshot (tests/report/page_screenshot_test.sh)
 )
 # The real-slicer tests slice a model with Debian's prusa-slicer.
-if [[ "${1:-}" == "--with-slicer" ]]; then
-  pkgs+=(prusa-slicer)
-fi
+for arg in "$@"; do
+  case "$arg" in
+    --with-slicer) pkgs+=(prusa-slicer) ;;
+    # Running Klipper's batch mode for the reference times (tests/reference/klipper/README.md)
+    # and its Linux-process MCU build: klippy's Python modules.
+    --with-klipper) pkgs+=(python3-greenlet python3-cffi python3-serial python3-jinja2) ;;
+  esac
+done
 
 missing=()
 for p in "${pkgs[@]}"; do

@@ -370,11 +370,11 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
   if (detail::is_untimed_word(L, code)) {
     if (L == 'G' && code == 28) {
       const Params& p = params();
-      bool any = p.has('X') || p.has('Y') || p.has('Z');
+      const bool any = !opt_.home_all_axes && (p.has('X') || p.has('Y') || p.has('Z'));
       for (int a = 0; a < 3; ++a) {
         if (!any || p.has("XYZ"[a])) {
-          pos_[a] = 0.0;
-          gcode_pos_[a] = 0.0;
+          pos_[a] = opt_.home_position_mm[static_cast<std::size_t>(a)];
+          gcode_pos_[a] = pos_[a];
           homed_axes_ |= 1u << a;
         }
       }

@@ -1,6 +1,10 @@
 #include "amctl/machine/json.hpp"
+
+#include <cmath>
+
 #include <fmt/format.h>
 
+#include "amctl/machine/delta.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 
@@ -90,8 +94,25 @@ Json to_json(const Machine& m) {
     if (s.position_min_mm) steppers[name]["position_min"] = *s.position_min_mm;
     if (s.position_max_mm) steppers[name]["position_max"] = *s.position_max_mm;
     if (s.position_endstop_mm) steppers[name]["position_endstop"] = *s.position_endstop_mm;
+    if (s.arm_length_mm) steppers[name]["arm_length"] = *s.arm_length_mm;
+    if (s.angle_deg) steppers[name]["angle"] = *s.angle_deg;
+    if (s.anchor_x_mm) steppers[name]["anchor_x"] = *s.anchor_x_mm;
+    if (s.anchor_y_mm) steppers[name]["anchor_y"] = *s.anchor_y_mm;
+    if (s.anchor_z_mm) steppers[name]["anchor_z"] = *s.anchor_z_mm;
   }
   j["steppers"] = steppers;
+  if (m.kinematics == Kinematics::delta) {
+    // The keys as given, and what Klipper derives from them (machine/delta.hpp).
+    const DeltaGeometry g = delta_geometry(m);
+    j["delta"] = {{"radius", g.radius_mm},
+                  {"print_radius", optional_number(m.delta.print_radius_mm)},
+                  {"minimum_z_position", optional_number(m.delta.minimum_z_position_mm)},
+                  {"build_radius", std::sqrt(g.max_xy2_mm2)},
+                  {"slow_radius", std::sqrt(g.slow_xy2_mm2)},
+                  {"very_slow_radius", std::sqrt(g.very_slow_xy2_mm2)},
+                  {"max_z", g.max_z_mm},
+                  {"cone_start_z", g.limit_z_mm}};
+  }
   j["effective"] = {
       {"max_z_velocity", effective_max_z_velocity_mm_s(m)},
       {"max_z_accel", effective_max_z_accel_mm_s2(m)},

@@ -345,20 +345,26 @@ constexpr std::string_view kPrinterOptions[] = {
     "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
     "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
+// [printer] options of a linear delta (kinematics/delta.py) and a deltesian (deltesian.py).
+constexpr std::string_view kDeltaPrinterOptions[] = {"delta_radius", "print_radius",
+                                                     "minimum_z_position"};
+constexpr std::string_view kDeltesianPrinterOptions[] = {"min_angle", "print_width", "slow_ratio",
+                                                         "minimum_z_position"};
+
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
   const SourceLocation where = printer.raw("kinematics")->where;
-  if (kin == "cartesian") return Kinematics::cartesian;
-  if (kin == "corexy") return Kinematics::corexy;
-  static constexpr std::string_view kOthers[] = {
-      "corexz", "hybrid_corexy", "hybrid_corexz", "generic_cartesian", "rotary_delta",
-      "delta",  "deltesian",     "polar",         "winch",             "none"};
+  const auto supported = detail::enum_names(detail::Kind::kinematics);
+  for (std::size_t i = 0; i < supported.size(); ++i) {
+    if (supported[i] == kin) return static_cast<Kinematics>(i);
+  }
+  static constexpr std::string_view kOthers[] = {"generic_cartesian", "rotary_delta", "polar"};
   if (std::find(std::begin(kOthers), std::end(kOthers), kin) != std::end(kOthers)) {
     throw Error(where, fmt::format("[printer] kinematics: '{}' is a Klipper kinematics amctl "
-                                   "does not support yet (supported: cartesian, corexy)",
-                                   kin));
+                                   "does not support yet (supported: {})",
+                                   kin, fmt::join(supported, ", ")));
   }
-  std::vector<std::string> all = {"cartesian", "corexy"};
+  std::vector<std::string> all(supported.begin(), supported.end());
   all.insert(all.end(), std::begin(kOthers), std::end(kOthers));
   throw Error(where, fmt::format("[printer] kinematics: '{}' is not a Klipper kinematics{}", kin,
                                  detail::did_you_mean(kin, all)));
@@ -384,6 +390,13 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     // of a known option (a misspelt square_corner_velocity would otherwise silently become
     // the default) and ignores the rest, so configs of Klipper forks with extra options load.
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
+    if (m.kinematics == Kinematics::delta) {
+      known.insert(known.end(), std::begin(kDeltaPrinterOptions), std::end(kDeltaPrinterOptions));
+    }
+    if (m.kinematics == Kinematics::deltesian) {
+      known.insert(known.end(), std::begin(kDeltesianPrinterOptions),
+                   std::end(kDeltesianPrinterOptions));
+    }
     for (const auto& [key, value] : printer_section->options) {
       if (std::find(known.begin(), known.end(), key) != known.end()) continue;
       if (auto near = detail::closest(key, known)) {
@@ -464,12 +477,101 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});
     in.damping_ratio_y = sh.get_float("damping_ratio_y", 0.1, {.minval = 0.0, .below = 1.0});
   }
+  const bool delta = m.kinematics == Kinematics::delta;
+  if (delta) {
+    // kinematics/delta.py: delta_radius (required, > 0), print_radius (> 0, default the
+    // radius), minimum_z_position (default 0, at most the lowest endstop: delta_geometry).
+    m.delta.radius_mm = printer.require_float("delta_radius", {.above = 0.0});
+    m.delta.print_radius_mm = printer.get_float("print_radius", {.above = 0.0});
+    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
+    for (const char* tower : {"stepper_a", "stepper_b", "stepper_c"}) {
+      if (doc.find(tower) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a delta needs [{}] (towers stepper_a, stepper_b, stepper_c)", tower));
+      }
+    }
+  }
+  const bool deltesian = m.kinematics == Kinematics::deltesian;
+  if (deltesian) {
+    // deltesian.py: min_angle (5, [0, 90]), print_width (>= 0, at most the arms' reach:
+    // deltesian_geometry), slow_ratio (3, >= 0), minimum_z_position (0).
+    m.delta.min_angle_deg = printer.get_float("min_angle", {.minval = 0.0, .maxval = 90.0});
+    m.delta.print_width_mm = printer.get_float("print_width", {.minval = 0.0});
+    m.delta.slow_ratio = printer.get_float("slow_ratio", {.minval = 0.0});
+    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
+    for (const char* tower : {"stepper_left", "stepper_right", "stepper_y"}) {
+      if (doc.find(tower) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a deltesian needs [{}] (stepper_left, stepper_right, stepper_y)",
+                                tower));
+      }
+    }
+  }
+  const bool winch = m.kinematics == Kinematics::winch;
+  if (winch) {
+    // winch.py: stepper_a, _b, _c required, more (d, e, ...) while present; each with
+    // anchor_x, anchor_y, anchor_z. amctl takes up to four (stepper_e would be the extruder's
+    // name in amctl's TOML form).
+    for (const char* cable : {"stepper_a", "stepper_b", "stepper_c"}) {
+      if (doc.find(cable) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a winch needs [{}] (cables stepper_a, stepper_b, stepper_c)", cable));
+      }
+    }
+    if (doc.find("stepper_d") != nullptr && doc.find("stepper_e") != nullptr) {
+      throw Error(doc.find("stepper_e")->where,
+                  "amctl supports winches of 3 or 4 cables (stepper_a .. stepper_d)");
+    }
+  }
   for (CfgSection& s : doc.sections) {
     if (s.name.rfind("stepper_", 0) != 0) continue;
     const std::string name = s.name.substr(8);
-    if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_a on other kinematics
+    if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_left of a deltesian
+    const bool lettered = name == "a" || name == "b" || name == "c" || name == "d";
+    if (lettered != (delta || winch) || (delta && name == "d")) continue;  // a.. of a delta/winch
+    if (winch) {
+      Stepper st = read_stepper(Section(&s, s.name, file_loc));
+      const Section sec(&s, s.name, file_loc);
+      st.anchor_x_mm = sec.require_float("anchor_x");
+      st.anchor_y_mm = sec.require_float("anchor_y");
+      st.anchor_z_mm = sec.require_float("anchor_z");
+      m.steppers[name] = st;
+      continue;
+    }
+    if ((name == "left" || name == "right") != deltesian && (name == "left" || name == "right")) {
+      continue;
+    }
+    if (deltesian && (name == "left" || name == "right")) {
+      // deltesian.py: arm_x_length (> 0) and arm_length (> arm_x_length) required on left,
+      // right defaults to left's; position_endstop required on left.
+      const Section sec(&s, s.name, file_loc);
+      Stepper st = read_stepper(sec);
+      const bool is_left = name == "left";
+      st.arm_x_length_mm = is_left ? std::optional(sec.require_float("arm_x_length", {.above = 0.0}))
+                                   : sec.get_float("arm_x_length", {.above = 0.0});
+      st.arm_length_mm = is_left ? std::optional(sec.require_float("arm_length", {.above = 0.0}))
+                                 : sec.get_float("arm_length", {.above = 0.0});
+      st.position_endstop_mm = is_left ? std::optional(sec.require_float("position_endstop"))
+                                       : sec.get_float("position_endstop");
+      m.steppers[name] = st;
+      continue;
+    }
+    const bool tower = lettered;
     const Section sec(&s, s.name, file_loc);
     Stepper st = read_stepper(sec);
+    if (tower) {
+      // delta.py: arm_length required on stepper_a, > delta_radius; b and c default to a's
+      // (delta_geometry applies those defaults); angle 210/330/90; position_endstop required
+      // on a, b and c default to a's.
+      const Limits arm{.above = *m.delta.radius_mm};
+      st.arm_length_mm = name == "a" ? std::optional(sec.require_float("arm_length", arm))
+                                     : sec.get_float("arm_length", arm);
+      st.angle_deg = sec.get_float("angle");
+      st.position_endstop_mm = name == "a" ? std::optional(sec.require_float("position_endstop"))
+                                           : sec.get_float("position_endstop");
+      m.steppers[name] = st;
+      continue;
+    }
     // stepper.py PrinterRail: the rail's first stepper (stepper_x, _y, _z) holds the range;
     // position_min defaults to 0, position_max must lie above it.
     if ((name == "x" || name == "y" || name == "z") && sec.has("position_max")) {

@@ -16,13 +16,15 @@ namespace {
 #define AMCTL_AXES(expr) [](Machine& m) -> std::array<double, 4>& { return m.expr; }
 
 constexpr std::string_view kFirmwareNames[] = {"klipper", "marlin", "reprap"};
-constexpr std::string_view kKinematicsNames[] = {"cartesian", "corexy"};
+constexpr std::string_view kKinematicsNames[] = {"cartesian",     "corexy",        "corexz",
+                                                  "hybrid_corexy", "hybrid_corexz", "delta",
+                                                  "none",          "winch",         "deltesian"};
 constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "junction_deviation",
                                                "classic_jerk"};
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
 
 constexpr std::string_view kSections[] = {"printer", "marlin", "extruder", "arcs",
-                                          "firmware_retraction", "input_shaper"};
+                                          "firmware_retraction", "input_shaper", "delta"};
 
 const std::vector<KeyDef>& key_table() {
   static const std::vector<KeyDef> keys = [] {
@@ -34,7 +36,8 @@ const std::vector<KeyDef>& key_table() {
     add({"printer", "firmware", Kind::firmware, Bound::finite, "",
          "Whose G-code semantics apply: klipper, marlin or reprap."});
     add({"printer", "kinematics", Kind::kinematics, Bound::finite, "",
-         "cartesian or corexy (per-axis limits apply to X, Y, Z, E of the tool)."});
+         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch or deltesian (Klipper's "
+         "kinematics of those names; per-axis limits apply to X, Y, Z, E of the tool)."});
     add({"printer", "junction", Kind::junction, Bound::finite, "",
          "Corner speed policy: square_corner_velocity (Klipper), junction_deviation (Marlin JD) "
          "or classic_jerk (Marlin/RRF jerk). Default: square_corner_velocity for klipper, "
@@ -207,6 +210,29 @@ const std::vector<KeyDef>& key_table() {
     add({"input_shaper", "damping_ratio_y", Kind::number, Bound::ratio, "",
          "Damping ratio the Y shaper is designed for (Klipper damping_ratio_y).",
          AMCTL_NUM(input_shaper.damping_ratio_y)});
+    // ---- [delta] (kinematics = "delta") ----
+    add({"delta", "radius", Kind::optional_number, Bound::positive, "mm",
+         "Delta: horizontal distance from the centre to each tower's arm joint (Klipper "
+         "[printer] delta_radius; required for a delta).",
+         nullptr, AMCTL_OPT(delta.radius_mm)});
+    add({"delta", "print_radius", Kind::optional_number, Bound::positive, "mm",
+         "Delta: radius of the printable disc (Klipper print_radius; unset = radius).", nullptr,
+         AMCTL_OPT(delta.print_radius_mm)});
+    add({"delta", "minimum_z_position", Kind::optional_number, Bound::finite, "mm",
+         "Delta: lowest Z a move may reach (Klipper minimum_z_position; unset = 0).", nullptr,
+         AMCTL_OPT(delta.minimum_z_position_mm)});
+    add({"delta", "min_angle", Kind::optional_number, Bound::non_negative, "degrees",
+         "Deltesian: smallest angle of the arms with the horizontal (Klipper min_angle; unset = "
+         "5).",
+         nullptr, AMCTL_OPT(delta.min_angle_deg)});
+    add({"delta", "print_width", Kind::optional_number, Bound::non_negative, "mm",
+         "Deltesian: printable width in X, centred (Klipper print_width; unset = the arms' "
+         "reach).",
+         nullptr, AMCTL_OPT(delta.print_width_mm)});
+    add({"delta", "slow_ratio", Kind::optional_number, Bound::non_negative, "",
+         "Deltesian: carriage-to-effector speed ratio beyond which moves run at half (twice it: "
+         "a quarter) of the limits (Klipper slow_ratio; unset = 3, 0 = off).",
+         nullptr, AMCTL_OPT(delta.slow_ratio)});
     return k;
   }();
   return keys;
@@ -234,6 +260,27 @@ const std::vector<StepperKeyDef>& stepper_table() {
       {"position_endstop", Kind::optional_number, Bound::finite, "mm",
        "Klipper position_endstop: the position after homing (informative).", nullptr, nullptr,
        [](Stepper& s) -> std::optional<double>& { return s.position_endstop_mm; }},
+      {"arm_length", Kind::optional_number, Bound::positive, "mm",
+       "Delta towers (stepper_a, _b, _c): length of the diagonal rods (Klipper arm_length; "
+       "unset on b and c = a's).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.arm_length_mm; }},
+      {"angle", Kind::optional_number, Bound::finite, "degrees",
+       "Delta towers: angle of the tower around the centre (Klipper angle; unset = 210, 330, "
+       "90 for a, b, c).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.angle_deg; }},
+      {"anchor_x", Kind::optional_number, Bound::finite, "mm",
+       "Winch cables (stepper_a .. stepper_d): X of the cable's anchor (Klipper anchor_x).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.anchor_x_mm; }},
+      {"anchor_y", Kind::optional_number, Bound::finite, "mm",
+       "Winch cables: Y of the cable's anchor (Klipper anchor_y).", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.anchor_y_mm; }},
+      {"anchor_z", Kind::optional_number, Bound::finite, "mm",
+       "Winch cables: Z of the cable's anchor (Klipper anchor_z).", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.anchor_z_mm; }},
+      {"arm_x_length", Kind::optional_number, Bound::positive, "mm",
+       "Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to "
+       "the arm's carriage joint (Klipper arm_x_length; required on left).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.arm_x_length_mm; }},
   };
   return keys;
 }
@@ -267,6 +314,8 @@ const StepperKeyDef* find_stepper_key(std::string_view key) {
 
 bool valid_stepper_name(std::string_view name) {
   if (name.empty()) return false;
+  if (name == "a" || name == "b" || name == "c" || name == "d") return true;  // delta, winch
+  if (name == "left" || name == "right") return true;                         // deltesian
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });

@@ -91,8 +91,7 @@ int enum_of(const toml::node& v, Kind kind, const SourceLocation& where, std::st
   }
   if (kind == Kind::kinematics) {
     static constexpr std::string_view kKlipperOthers[] = {
-        "corexz", "hybrid_corexy", "hybrid_corexz", "generic_cartesian", "rotary_delta",
-        "delta", "deltesian", "polar", "winch", "none"};
+        "generic_cartesian", "rotary_delta", "polar"};
     for (std::string_view other : kKlipperOthers) {
       if (other == text) {
         throw Error(where, fmt::format("{}: '{}' kinematics is not supported by amctl "
@@ -394,6 +393,11 @@ std::string to_toml(const Machine& machine) {
   for (std::string_view section : detail::machine_sections()) {
     // [input_shaper] is written only when it says something (Klipper's defaults: off).
     if (section == "input_shaper" && m.input_shaper == InputShaper{}) continue;
+    // [delta] only for a delta (or a machine that carries delta keys).
+    if (section == "delta" && m.kinematics != Kinematics::delta &&
+        m.kinematics != Kinematics::deltesian && m.delta == Delta{}) {
+      continue;
+    }
     out += fmt::format("\n[{}]\n", section);
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;
@@ -406,7 +410,7 @@ std::string to_toml(const Machine& machine) {
           if (d.optional_number(m)) {
             out += fmt::format("{} = {}{}\n", d.key,
                                detail::format_number(*d.optional_number(m)), unit);
-          } else if (d.section != "marlin") {  // unset soft endstops: nothing written
+          } else if (d.section != "marlin" && d.section != "delta") {  // unset soft endstops: nothing written
             out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
           }
           break;

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/machine/delta.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -94,6 +95,25 @@ void validate(const Machine& machine) {
       m.arcs.min_arc_segment_mm > m.arcs.max_arc_segment_mm) {
     throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
                             m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
+  }
+  // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
+  if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
+  if (m.kinematics == Kinematics::deltesian) (void)deltesian_geometry(m);
+  if (m.kinematics == Kinematics::winch) {
+    for (const char* cable : {"a", "b", "c", "d"}) {
+      const auto it = m.steppers.find(cable);
+      if (it == m.steppers.end()) {
+        if (cable[0] == 'd') break;
+        throw Error(fmt::format("a winch needs stepper_a, stepper_b and stepper_c; stepper_{} is "
+                                "missing",
+                                cable));
+      }
+      const Stepper& s = it->second;
+      if (!s.anchor_x_mm || !s.anchor_y_mm || !s.anchor_z_mm) {
+        throw Error(fmt::format("stepper_{}: a winch cable needs anchor_x, anchor_y and anchor_z",
+                                cable));
+      }
+    }
   }
 }
 

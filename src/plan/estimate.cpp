@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/machine/delta.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -25,6 +26,14 @@ const char* heater_name(gcode::HeaterCommand::Kind k) {
 
 std::string describe_range_error(const RangeError& e) {
   const bool below = e.position_mm < e.limit_mm;
+  if (e.axis == 'r') {
+    return fmt::format(
+        "line {}: move out of range: radius sqrt(X^2 + Y^2) = {:.3f} mm is beyond the delta's "
+        "build radius {:.3f} mm at that height; Klipper refuses it (\"Move out of range\") and "
+        "the print would stop here at t = {:.3f} s; the times reported cover the whole file as "
+        "if it did not",
+        e.line, e.position_mm, e.limit_mm, e.at_s);
+  }
   return fmt::format(
       "line {}: move out of range: {} = {:.3f} mm is {} {} = {:.3f} mm; Klipper refuses it "
       "(\"Move out of range\") and the print would stop here at t = {:.3f} s; the times "
@@ -87,6 +96,18 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
                             : m.max_feedrate_mm_s[2];
   // Klipper's M84/M18 dwells DISABLE_STALL_TIME (0.1 s) before and after switching off.
   o.motor_off_dwell_s = m.firmware == machine::Firmware::klipper ? 0.2 : 0.0;
+  if (m.kinematics == machine::Kinematics::delta) {
+    // delta.py home(): all towers home together; the effector ends at the home position.
+    o.home_all_axes = true;
+    o.home_position_mm = machine::delta_geometry(m).home_position_mm;
+  }
+  if (m.kinematics == machine::Kinematics::deltesian) {
+    // deltesian.py home(): X and Z home together to (0, home_z); Y to its endstop. amctl homes
+    // all three on any G28.
+    const auto g = machine::deltesian_geometry(m);
+    o.home_all_axes = true;
+    o.home_position_mm = {0.0, g.home_y_mm, g.home_z_mm};
+  }
   return o;
 }
 

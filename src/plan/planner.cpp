@@ -33,6 +33,19 @@ constexpr double kExtrudeOnlyAccel = 99999999.9;  // Klipper: extrude-only moves
     const double z_ratio = move_d / std::fabs(d[2]);
     limit_speed(z_velocity_mm_s_ * z_ratio, z_accel_mm_s2_ * z_ratio);
   }
+  // Linear delta: a move touching the outer zones (either end beyond the radius where a
+  // tower moves 3x (6x) faster than the effector) runs at 1/2 (1/4) of the configured limits.
+  if (delta_ && m.kinematic) [[unlikely]] {
+    // A deltesian measures |x| only and only for moves with X motion.
+    const double sy = deltesian_ ? 0.0 : o.start_mm[1], ey = deltesian_ ? 0.0 : r.end_mm[1];
+    const double ex = r.end_mm[0];
+    const double extreme_xy2 = std::max(o.start_mm[0] * o.start_mm[0] + sy * sy, ex * ex + ey * ey);
+    const bool applies = !deltesian_ || (d[0] != 0.0 && delta_slow_xy2_ > 0.0 && delta_very_slow_xy2_ > 0.0);
+    if (applies && extreme_xy2 > delta_slow_xy2_) {
+      const double f = extreme_xy2 > delta_very_slow_xy2_ ? 0.25 : 0.5;
+      limit_speed(delta_velocity_mm_s_ * f, delta_accel_mm_s2_ * f);
+    }
+  }
   // Extruder: extrude-only and retraction moves get the extruder's own limits.
   if (d[3] != 0.0) {
     const auto& ex = machine_.extruder;
@@ -81,6 +94,14 @@ const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
     // klippy/kinematics/cartesian.py check_move: an axis that moves must end inside
     // [position_min, position_max], else "Move out of range" and the print stops.
     if (range_reported_) return r;
+    if (deltesian_) {
+      deltesian_range(r);
+      return r;
+    }
+    if (delta_) {
+      delta_range(r);
+      return r;
+    }
     for (std::size_t i = 0; i < 3; ++i) {
       if (!range_min_mm_[i] || r.end_mm[i] == r.start_mm[i]) continue;
       const double p = r.end_mm[i];
@@ -120,6 +141,63 @@ const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
   }
   if (clamped) ++diag_.clamped_moves;
   return changed || start_moved ? scratch : r;
+}
+
+void PlannerCore::delta_range(const gcode::MoveRequest& r) {
+  // delta.py check_move: a kinematic move must end inside the build volume: z in [min_z,
+  // max_z] and the radius within max_xy2, tapered above limit_z. A move to the home position
+  // (homing) is allowed.
+  const double dx = r.end_mm[0] - r.start_mm[0], dy = r.end_mm[1] - r.start_mm[1],
+               dz = r.end_mm[2] - r.start_mm[2];
+  if (std::sqrt(dx * dx + dy * dy + dz * dz) < 1e-9) return;
+  const machine::DeltaGeometry& g = delta_geometry_;
+  const double x = r.end_mm[0], y = r.end_mm[1], z = r.end_mm[2];
+  const double xy2 = x * x + y * y;
+  const double limit_xy2 = g.limit_xy2_at(z);
+  if (xy2 <= limit_xy2 && z <= g.max_z_mm && z >= g.min_z_mm) return;
+  if (x == g.home_position_mm[0] && y == g.home_position_mm[1] && z >= g.min_z_mm &&
+      z <= g.home_position_mm[2]) {
+    return;
+  }
+  RangeError e;
+  e.line = r.line;
+  if (z > g.max_z_mm || z < g.min_z_mm) {
+    e.axis = 'z';
+    e.position_mm = z;
+    e.limit_mm = z > g.max_z_mm ? g.max_z_mm : g.min_z_mm;
+  } else {
+    e.axis = 'r';
+    e.position_mm = std::sqrt(xy2);
+    e.limit_mm = std::sqrt(std::max(0.0, limit_xy2));
+  }
+  range_reported_ = true;
+  post(PendingEvent::make_range_error(e));
+}
+
+void PlannerCore::deltesian_range(const gcode::MoveRequest& r) {
+  // deltesian.py check_move: every moving axis must end inside its limits; above the top of
+  // the volume the Z limit is the carriages' reach at that X; a move to (0, home_z) without Y
+  // motion is homing and allowed.
+  const machine::DeltesianGeometry& g = deltesian_geometry_;
+  const double x = r.end_mm[0], z = r.end_mm[2];
+  const bool homing = x == 0.0 && z == g.home_z_mm && r.end_mm[1] == r.start_mm[1];
+  if (homing) return;
+  auto limits = g.limits_mm;
+  if (z > limits[2][1]) limits[2][1] = g.pillars_z_max(x);
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (r.end_mm[i] == r.start_mm[i]) continue;
+    const double p = r.end_mm[i];
+    if (p < limits[i][0] || p > limits[i][1]) {
+      RangeError e;
+      e.line = r.line;
+      e.axis = "xyz"[i];
+      e.position_mm = p;
+      e.limit_mm = p < limits[i][0] ? limits[i][0] : limits[i][1];
+      range_reported_ = true;
+      post(PendingEvent::make_range_error(e));
+      return;
+    }
+  }
 }
 
 void PlannerCore::on_move(const gcode::MoveRequest& request) {

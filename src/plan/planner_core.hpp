@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "amctl/gcode/events.hpp"
+#include "amctl/machine/delta.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planner.hpp"
 #include "klipper_lookahead.hpp"
@@ -50,7 +51,6 @@ class PlannerCore {
   /// Recomputes the cached values that depend on lim_ (after a limits command).
   void update_derived_limits();
 
-  machine::Machine machine_;
   PlannerOptions opt_;
   Planner::Limits lim_{};
   PlannerDiagnostics diag_;
@@ -64,6 +64,16 @@ class PlannerCore {
   bool classic_jerk_ = false;
   bool slowdown_ = false;  // Marlin: SLOWDOWN applies (min_segment_time may become > 0)
   double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
+  // Linear delta (Klipper delta.py check_move): moves touching the outer zones run at a half
+  // or a quarter of the configured speed and accel; the build volume is checked.
+  // A deltesian (deltesian.py) slows moves with X motion by |x| the same way.
+  bool delta_ = false;
+  bool deltesian_ = false;
+  double delta_slow_xy2_ = 0, delta_very_slow_xy2_ = 0;
+  double delta_velocity_mm_s_ = 0, delta_accel_mm_s2_ = 0;
+  /// Klipper delta.py: the first move leaving the build volume is posted as a range error.
+  void delta_range(const gcode::MoveRequest& r);
+  void deltesian_range(const gcode::MoveRequest& r);
   double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
   double max_cross_section_mm2_ = 0, max_extrude_ratio_ = 0;
   // Derived from lim_, refreshed by update_derived_limits().
@@ -78,6 +88,11 @@ class PlannerCore {
   const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);
   std::uint64_t warned_overextrusion_ = 0;
   std::uint64_t next_seq_ = 1;
+  // Last: large and read little per move (a few scalars), so the hot state above stays
+  // compact whatever the machine description holds.
+  machine::Machine machine_;
+  machine::DeltaGeometry delta_geometry_{};
+  machine::DeltesianGeometry deltesian_geometry_{};
 };
 
 }  // namespace amctl::plan::detail

@@ -3,6 +3,7 @@
 // with each firmware's semantics.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -16,12 +17,14 @@ namespace {
 
 using machine::Firmware;
 
-/// The machine description checked by the one validation of the machine module (every bound
-/// of the key table and the cross-key rules, the same that loading a TOML or printer.cfg
-/// applies): a Machine built in code is held to the same rules as one read from a file.
-const machine::Machine& validated(const machine::Machine& m) {
+/// The options, once the machine is checked by the one validation of the machine module (every
+/// bound of the key table and the cross-key rules, the same that loading a TOML or printer.cfg
+/// applies): a Machine built in code is held to the same rules as one read from a file. The
+/// first member initialised does it, before any other member reads the machine (machine_
+/// itself sits last in PlannerCore, off the hot fields).
+PlannerOptions validated_options(const machine::Machine& m, const PlannerOptions& options) {
   machine::validate(m);
-  return m;
+  return options;
 }
 
 std::size_t buffer_size_of(const machine::Machine& m, const PlannerOptions& opt) {
@@ -31,12 +34,12 @@ std::size_t buffer_size_of(const machine::Machine& m, const PlannerOptions& opt)
 }  // namespace
 
 PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptions options)
-    : machine_(validated(m)),
-      opt_(options),
+    : opt_(validated_options(m, options)),
       ramps_(m.profile == machine::VelocityProfile::scurve7),
       timeline_(sink, ramps_.jerk_limited()),
       lookahead_(ramps_, timeline_),
-      buffer_(ramps_, timeline_, buffer_size_of(m, options)) {
+      buffer_(ramps_, timeline_, buffer_size_of(m, options)),
+      machine_(m) {
   classic_jerk_ = m.junction == machine::JunctionPolicy::classic_jerk;
   const bool klipper = m.firmware == Firmware::klipper;
   slowdown_ = m.firmware == Firmware::marlin;  // SLOWDOWN is Marlin's (M205 B)
@@ -74,6 +77,33 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   }
   z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
   z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
+  if (klipper && (m.kinematics == machine::Kinematics::none ||
+                  m.kinematics == machine::Kinematics::winch)) {
+    // Klipper's `none` and `winch` kinematics check nothing: no Z limit (infinite limits are
+    // no-ops).
+    z_velocity_mm_s_ = z_accel_mm_s2_ = std::numeric_limits<double>::infinity();
+  }
+  if (klipper && m.kinematics == machine::Kinematics::delta) {
+    // delta.py reads max_velocity / max_accel once at start-up for its slow zones.
+    delta_ = true;
+    delta_geometry_ = machine::delta_geometry(m);
+    delta_slow_xy2_ = delta_geometry_.slow_xy2_mm2;
+    delta_very_slow_xy2_ = delta_geometry_.very_slow_xy2_mm2;
+    delta_velocity_mm_s_ = m.max_velocity_mm_s;
+    delta_accel_mm_s2_ = m.max_accel_mm_s2;
+    range_active_ = true;  // Klipper always checks a delta's build volume
+  }
+  if (klipper && m.kinematics == machine::Kinematics::deltesian) {
+    // deltesian.py: moves with X motion beyond slow_x2 (very_slow_x2) at 1/2 (1/4) of the
+    // configured limits; its X, Y, Z ranges always checked.
+    delta_ = deltesian_ = true;
+    deltesian_geometry_ = machine::deltesian_geometry(m);
+    delta_slow_xy2_ = deltesian_geometry_.slow_x2_mm2;
+    delta_very_slow_xy2_ = deltesian_geometry_.very_slow_x2_mm2;
+    delta_velocity_mm_s_ = m.max_velocity_mm_s;
+    delta_accel_mm_s2_ = m.max_accel_mm_s2;
+    range_active_ = true;
+  }
   const auto& ex = m.extruder;
   filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
   const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;

@@ -95,11 +95,12 @@ TEST(KlipperCfg, MisspeltPrinterOptionIsAnErrorWithASuggestion) {
 }
 
 TEST(KlipperCfg, OtherKinematicsAreReportedAsUnsupported) {
-  EXPECT_EQ(cfg_error("[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\n"),
-            "printer.cfg:2:13: [printer] kinematics: 'delta' is a Klipper kinematics amctl does "
-            "not support yet (supported: cartesian, corexy)");
-  EXPECT_NE(cfg_error("[printer]\nkinematics: corexz\nmax_velocity: 300\nmax_accel: 3000\n")
-                .find("'corexz' is a Klipper kinematics amctl does not support"),
+  EXPECT_EQ(cfg_error("[printer]\nkinematics: polar\nmax_velocity: 300\nmax_accel: 3000\n"),
+            "printer.cfg:2:13: [printer] kinematics: 'polar' is a Klipper kinematics amctl does "
+            "not support yet (supported: cartesian, corexy, corexz, hybrid_corexy, "
+            "hybrid_corexz, delta, none, winch, deltesian)");
+  EXPECT_NE(cfg_error("[printer]\nkinematics: rotary_delta\nmax_velocity: 300\nmax_accel: 3000\n")
+                .find("'rotary_delta' is a Klipper kinematics amctl does not support"),
             std::string::npos);
   EXPECT_EQ(cfg_error("[printer]\nkinematics: corexyy\nmax_velocity: 300\nmax_accel: 3000\n"),
             "printer.cfg:2:13: [printer] kinematics: 'corexyy' is not a Klipper kinematics; did "

@@ -90,9 +90,9 @@ TEST(MachineToml, TopLevelKeysAreRejected) {
 }
 
 TEST(MachineToml, UnsupportedKinematicsSaysSo) {
-  EXPECT_EQ(parse_error("[printer]\nkinematics = \"delta\"\n"),
-            "m.toml:2:14: printer.kinematics: 'delta' kinematics is not supported by amctl "
-            "(supported: cartesian, corexy)");
+  EXPECT_EQ(parse_error("[printer]\nkinematics = \"polar\"\n"),
+            "m.toml:2:14: printer.kinematics: 'polar' kinematics is not supported by amctl "
+            "(supported: cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian)");
   EXPECT_EQ(parse_error("[printer]\nfirmware = \"marlinn\"\n"),
             "m.toml:2:12: printer.firmware: 'marlinn' is not one of klipper, marlin, reprap; did "
             "you mean 'marlin'?");

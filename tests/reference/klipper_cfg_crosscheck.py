@@ -23,6 +23,8 @@ files = sys.argv[3:]
 bad = 0
 checked = 0
 unsupported = 0
+SUPPORTED = ('cartesian', 'corexy', 'corexz', 'hybrid_corexy', 'hybrid_corexz', 'delta', 'none',
+             'winch', 'deltesian')
 
 
 def close(a, b):
@@ -36,7 +38,7 @@ for fn in files:
         continue
     kin = fc.get('printer', 'kinematics')
     res = subprocess.run([amctl, 'machine', 'show', fn, '--json'], capture_output=True, text=True)
-    if kin not in ('cartesian', 'corexy'):
+    if kin not in SUPPORTED:
         ok = res.returncode != 0 and 'does not support' in res.stderr
         unsupported += 1
         if not ok:
@@ -75,7 +77,9 @@ for fn in files:
         exp[('effective', 'max_extrude_only_accel')] = g('extruder', 'max_extrude_only_accel', ma * ratio)
         exp[('effective', 'max_extrude_cross_section')] = g('extruder', 'max_extrude_cross_section', 4. * nd ** 2)
     for sec in fc.sections():
-        if sec.startswith('stepper_') and sec[8:] in ('x', 'y', 'z') or sec == 'extruder':
+        towers = {'delta': ('a', 'b', 'c'), 'winch': ('a', 'b', 'c', 'd'),
+                  'deltesian': ('left', 'right', 'y')}.get(kin, ('x', 'y', 'z'))
+        if sec.startswith('stepper_') and sec[8:] in towers or sec == 'extruder':
             if not fc.has_option(sec, 'rotation_distance'):
                 continue
             name = 'e' if sec == 'extruder' else sec[8:]
@@ -88,15 +92,33 @@ for fn in files:
                     gear *= float(a) / float(b)
             steps_per_mm = full * fc.getint(sec, 'microsteps') * gear / rd
             exp[('steppers', name)] = steps_per_mm
+    if kin == 'winch':
+        for t in 'abcd':
+            if fc.has_section('stepper_' + t):
+                for axis in 'xyz':
+                    exp[('winch', t + axis)] = fc.getfloat('stepper_' + t, 'anchor_' + axis)
+    if kin == 'delta':
+        # delta.py: delta_radius; rods and endstops of b and c default to a's.
+        exp[('delta', 'radius')] = fc.getfloat('printer', 'delta_radius')
+        arm_a = fc.getfloat('stepper_a', 'arm_length')
+        es_a = fc.getfloat('stepper_a', 'position_endstop')
+        exp[('delta', 'max_z')] = min(
+            g('stepper_' + t, 'position_endstop', es_a) for t in 'abc')
+        exp[('delta', 'arm_length_c')] = g('stepper_c', 'arm_length', arm_a)
     mism = []
     for (sec, key), want in exp.items():
-        have = got[sec][key]['steps_per_mm'] if sec == 'steppers' else got[sec][key]
+        if sec == 'winch':
+            have = got['steppers'][key[0]]['anchor_' + key[1]]
+        elif (sec, key) == ('delta', 'arm_length_c'):
+            have = got['steppers']['c'].get('arm_length', got['steppers']['a']['arm_length'])
+        else:
+            have = got[sec][key]['steps_per_mm'] if sec == 'steppers' else got[sec][key]
         if not close(have, want):
             mism.append(f'{sec}.{key}: amctl {have} klipper {want}')
     checked += 1
     if mism:
         bad += 1
         print(f'MISMATCH {fn}: ' + '; '.join(mism))
-print(f'{checked} cartesian/corexy configs compared, {unsupported} other kinematics rejected, '
+print(f'{checked} configs of supported kinematics compared, {unsupported} other kinematics rejected, '
       f'{bad} mismatches')
 sys.exit(1 if bad else 0)

@@ -51,6 +51,11 @@ struct InterpreterOptions {
   /// G2/G3 and G17-G19 are commands (false: unknown commands, noted and skipped, as Klipper
   /// without [gcode_arcs] answers "Unknown command").
   bool arcs_enabled = true;
+  /// G28 homes X, Y and Z together whatever axes it names, to `home_position_mm` (a delta:
+  /// Klipper's delta.py homes all towers at once and the effector ends below the endstops).
+  /// Otherwise each named axis (all without names) goes to 0.
+  bool home_all_axes = false;
+  std::array<double, 3> home_position_mm{0.0, 0.0, 0.0};
 };
 
 /// Layer, feature and slicer figures read from comments.

@@ -12,8 +12,16 @@
 
 namespace amctl::machine {
 
-/// How the printer maps motor positions to the tool position.
-enum class Kinematics { cartesian, corexy };
+/// How the printer maps motor positions to the tool position (Klipper's kinematics of the
+/// same names, klippy/kinematics/*.py; docs/machine.md "Kinematics"). Cartesian, CoreXY,
+/// CoreXZ and the hybrid (Markforged) gantries map linearly; delta does not. `none` has no
+/// motors (Klipper's developer kinematics: no speed limit but the toolhead's). A winch (cable
+/// robot) has 3 or 4 cables, each motor's position the cable length |tool - anchor|; Klipper
+/// checks no limit on it either.
+/// A deltesian has two towers (stepper_left, stepper_right) in the XZ plane and a cartesian Y.
+enum class Kinematics {
+  cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian
+};
 
 /// Whose G-code semantics apply. Klipper ignores M201/M203/M205 and takes accel from
 /// M204 S (or min(P, T)); Marlin applies M201-M205 as slicers emit them; RepRapFirmware
@@ -61,6 +69,16 @@ struct Stepper {
   /// coordinates). Klipper refuses a move whose end lies outside [position_min,
   /// position_max] ("Move out of range"). Unset: no range known (presets, TOML without them).
   std::optional<double> position_min_mm, position_max_mm, position_endstop_mm;
+  /// Delta towers (stepper_a, _b, _c): Klipper arm_length (diagonal rod, > delta radius) and
+  /// angle of the tower around the centre [degrees]. Unset on b and c: a's arm length; the
+  /// angles default to 210, 330, 90 (kinematics/delta.py).
+  std::optional<double> arm_length_mm, angle_deg;
+  /// Winch cables (stepper_a .. stepper_d): the anchor point of the cable [mm] (Klipper
+  /// anchor_x, anchor_y, anchor_z; required for a winch).
+  std::optional<double> anchor_x_mm, anchor_y_mm, anchor_z_mm;
+  /// Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to the
+  /// arm's joint on the carriage (Klipper arm_x_length; required on left, right defaults to it).
+  std::optional<double> arm_x_length_mm;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
@@ -116,6 +134,21 @@ struct InputShaper {
   bool operator==(const InputShaper&) const = default;
 };
 
+/// Linear delta geometry (Klipper [printer] delta_radius, print_radius, minimum_z_position);
+/// the towers' arm lengths, angles and endstops are in stepper_a, _b, _c. Read only when
+/// kinematics = delta; machine/delta.hpp derives the build volume and speed zones.
+struct Delta {
+  std::optional<double> radius_mm;              ///< delta_radius (required for a delta)
+  std::optional<double> print_radius_mm;        ///< unset: delta_radius
+  std::optional<double> minimum_z_position_mm;  ///< unset: 0 (delta and deltesian)
+  /// Deltesian only (Klipper [printer] min_angle, print_width, slow_ratio): the arms' smallest
+  /// angle with the horizontal (default 5 degrees), the printable width in X (unset: what
+  /// the arms reach), and the tower-to-effector speed ratio beyond which moves slow down
+  /// (default 3; 0 = never).
+  std::optional<double> min_angle_deg, print_width_mm, slow_ratio;
+  bool operator==(const Delta&) const = default;
+};
+
 struct Machine {
   std::string name = "default";
   Firmware firmware = Firmware::klipper;
@@ -157,7 +190,9 @@ struct Machine {
   Arcs arcs;
   FirmwareRetraction firmware_retraction;
   InputShaper input_shaper;
-  /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis).
+  Delta delta;
+  /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis); a delta's
+  /// towers are "a", "b", "c".
   /// rotation_distance_mm is per motor revolution (any gear_ratio is folded in).
   std::map<std::string, Stepper> steppers;
   /// A Klipper printer.cfg's sections as written (includes resolved, SAVE_CONFIG merged), in

@@ -33,7 +33,7 @@ namespace amctl::plan {
 /// [position_min, position_max] of a moving axis. Klipper stops the print there.
 struct RangeError {
   std::uint64_t line = 0;
-  char axis = 'x';           ///< 'x', 'y' or 'z'
+  char axis = 'x';           ///< 'x', 'y' or 'z'; 'r' for a delta's radius sqrt(x^2 + y^2)
   double position_mm = 0.0;  ///< the move's end on that axis (machine coordinates)
   double limit_mm = 0.0;     ///< the position_min or position_max it passes
   double at_s = 0.0;         ///< print time at which the move would start (the print stops)

@@ -33,9 +33,22 @@ inline constexpr double kLevelToleranceMm = 1e-9;
 struct StepperChannel {
   std::string name;        ///< Klipper's name: stepper_x, stepper_z1, extruder, ...
   std::string key;         ///< Machine::steppers key: x, z1, e, ...
-  /// Motor position = row . (X, Y, Z, E) [mm of the motor's own axis].
+  /// Motor position = row . (X, Y, Z, E) [mm of the motor's own axis] (linear motors).
   std::array<double, 4> row{};
   double step_distance_mm = 0.0;
+  /// A delta tower (arm2_mm2 > 0): carriage height z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2)
+  /// instead of the row (Klipper kin_delta.c). Along a straight move the square root is of
+  /// a concave quadratic in the path distance, so the carriage height is concave in it: at
+  /// most one turning point per move.
+  double arm2_mm2 = 0.0;
+  double tower_x_mm = 0.0, tower_y_mm = 0.0;
+  /// A deltesian tower: the same with the arm in the XZ plane (y ignored).
+  bool planar = false;
+  /// A winch cable (cable = true): its length |tool - anchor| (Klipper kin_winch.c), the norm
+  /// of an affine function of the path distance, hence convex: at most one turning point.
+  bool cable = false;
+  std::array<double, 3> anchor_mm{};
+  [[nodiscard]] bool linear() const { return arm2_mm2 == 0.0 && !cable; }
 };
 
 /// Klipper stepper.py: rotation_distance / (full_steps_per_rotation * microsteps), the gear
@@ -45,10 +58,15 @@ struct StepperChannel {
 [[nodiscard]] double step_distance_mm(const machine::Stepper& s, const std::string& label);
 
 /// The channels of a machine, in the order stepper_x, stepper_y, stepper_z, stepper_z1, ...,
-/// extruder. Cartesian: stepper_x = X, stepper_y = Y. CoreXY (Klipper corexy.py):
-/// stepper_x = A = X + Y, stepper_y = B = X - Y. stepper_z* = Z, extruder = E. Throws
-/// amctl::Error naming every missing section (x, y, z and e are required) or a bad parameter.
-/// Extra extruders (e1, ...) are not generated (amctl plans one E axis).
+/// extruder (a delta: stepper_a, _b, _c, extruder). As Klipper's kinematics allocate them
+/// (klippy/kinematics/*.py, chelper/kin_*.c): cartesian stepper_x = X, stepper_y = Y,
+/// stepper_z* = Z; CoreXY stepper_x = X + Y, stepper_y = X - Y; CoreXZ stepper_x = X + Z,
+/// stepper_z* = X - Z; hybrid_corexy stepper_x = X - Y; hybrid_corexz stepper_x = X - Z;
+/// delta towers z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2); winch cables (stepper_a .. _d)
+/// |tool - anchor|; deltesian stepper_left/_right z + sqrt(L^2 - (x -+ ax)^2), stepper_y = Y;
+/// `none` only the extruder; extruder =
+/// E. Throws amctl::Error naming every missing section (x, y, z and e, or a, b, c and e) or a
+/// bad parameter. Extra extruders (e1, ...) are not generated (amctl plans one E axis).
 [[nodiscard]] std::vector<StepperChannel> stepper_channels(const machine::Machine& m);
 
 /// One step. Steps are delivered in time order (ties: channel order).
@@ -91,6 +109,10 @@ class StepGenerator {
     double last_step_s = -std::numeric_limits<double>::infinity();
   };
   void stepper_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
+  /// The same for a non-linear motor (a delta tower, a winch cable).
+  void tower_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
+  /// Records one step of channel c at time t.
+  void record_step(std::uint32_t c, double t, int dir, std::vector<Step>& out);
 
   std::vector<StepperChannel> channels_;
   std::vector<State> state_;

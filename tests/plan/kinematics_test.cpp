@@ -1,0 +1,134 @@
+// The planner's kinematics-specific limits (Klipper's check_move of delta.py, corexz.py,
+// hybrid_*.py, none.py), each against a hand calculation of a single rest-to-rest move:
+// t = d / v + v / a when the move reaches v, also under Klipper's minimum_cruise_ratio 0.5
+// (the smoothed pass lets a lone move peak at sqrt(d a_smooth) with a_smooth = min(a,
+// max_accel / 2), so every case here has d a_smooth >= v^2).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
+
+namespace amctl::plan {
+namespace {
+
+const std::string kDir = std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/";
+
+double trapezoid_s(double d, double v, double a) { return d / v + v / a; }
+
+EstimateReport delta_estimate(const std::string& moves) {
+  // tests/reference/klipper/delta.cfg: 300 mm/s, 3000 mm/s^2, slowed past r = 141.17 mm
+  // (1/2) and 153.73 mm (1/4), build radius 157.11 mm, z in [-5, 297.05].
+  return estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=10\n" + moves, "d.gcode",
+                       machine::load_machine(kDir + "delta.cfg"));
+}
+
+TEST(DeltaLimits, InnerZoneRunsAtTheToolheadLimits) {
+  EXPECT_NEAR(delta_estimate("G1 X100 F18000\n").total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
+}
+
+TEST(DeltaLimits, HalfSpeedBeyondTheSlowRadius) {
+  // r = 150 > 141.17: v = 150, a = 1500.
+  EXPECT_NEAR(delta_estimate("G1 X150 F18000\n").total_time_s, trapezoid_s(150, 150, 1500), 1e-9);
+}
+
+TEST(DeltaLimits, QuarterSpeedBeyondTheVerySlowRadius) {
+  // r = 155 > 153.73: v = 75, a = 750.
+  EXPECT_NEAR(delta_estimate("G1 X155 F18000\n").total_time_s, trapezoid_s(155, 75, 750), 1e-9);
+}
+
+TEST(DeltaLimits, TheStartCountsAsMuchAsTheEnd) {
+  // From r = 150 back to the centre: still the half-speed move (Klipper takes the larger of
+  // the start and end radius).
+  const auto r = delta_estimate("G1 X150 F18000\nG4 P0\nG1 X0\n");
+  EXPECT_NEAR(r.total_time_s, 2.0 * trapezoid_s(150, 150, 1500), 1e-9);
+}
+
+TEST(DeltaLimits, ZMovesUseTheZLimits) {
+  // max_z_velocity 150, max_z_accel 1500; a pure Z move of 50 mm at 300 mm/s requested.
+  EXPECT_NEAR(delta_estimate("G1 Z60 F18000\n").total_time_s, trapezoid_s(50, 150, 1500), 1e-9);
+}
+
+TEST(DeltaLimits, LeavingTheBuildVolumeIsARangeError) {
+  const auto r = delta_estimate("G1 X100 F18000\nG4 P0\nG1 X158\n");
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->axis, 'r');
+  EXPECT_EQ(r.range_error->line, 4u);
+  EXPECT_NEAR(r.range_error->limit_mm, 157.11, 0.005);
+  EXPECT_NEAR(r.range_error->at_s, trapezoid_s(100, 300, 3000), 1e-9);
+  const auto high = delta_estimate("G1 Z298\n");
+  ASSERT_TRUE(high.range_error.has_value());
+  EXPECT_EQ(high.range_error->axis, 'z');
+  EXPECT_DOUBLE_EQ(high.range_error->limit_mm, 297.05);
+  // Above the cone start the radius shrinks: x = 40 is fine at z = 200, not at z = 280.
+  EXPECT_FALSE(delta_estimate("G1 X40 Z200\n").range_error.has_value());
+  EXPECT_TRUE(delta_estimate("G1 X40 Z280\n").range_error.has_value());
+  EXPECT_NE(describe_range_error(*r.range_error).find("build radius"), std::string::npos);
+}
+
+TEST(DeltaLimits, HomingPutsTheEffectorAtTheTop) {
+  // G28 on a delta: every tower at its endstop, effector at (0, 0, 297.05); the move down to
+  // Z 10 is a Z move limited to 150 mm/s and 1500 mm/s^2.
+  const auto r = estimate_text("G28 X\nG1 Z10 F18000\n", "h.gcode",
+                               machine::load_machine(kDir + "delta.cfg"));
+  EXPECT_NEAR(r.total_time_s, trapezoid_s(287.05, 150, 1500), 1e-9);
+}
+
+machine::Machine gantry(machine::Kinematics k) {
+  machine::Machine m;
+  m.kinematics = k;
+  m.max_z_velocity_mm_s = 10;
+  m.max_z_accel_mm_s2 = 100;
+  return m;
+}
+
+TEST(GantryLimits, CoreXZAndHybridLimitZLikeCartesian) {
+  for (auto k : {machine::Kinematics::corexz, machine::Kinematics::hybrid_corexy,
+                 machine::Kinematics::hybrid_corexz}) {
+    const auto r = estimate_text("G1 Z20 F6000\n", "z.gcode", gantry(k));
+    EXPECT_NEAR(r.total_time_s, trapezoid_s(20, 10, 100), 1e-9) << machine::to_string(k);
+  }
+}
+
+EstimateReport deltesian_estimate(const std::string& moves) {
+  // tests/reference/klipper/deltesian.cfg: 500 mm/s, 3000 mm/s^2, moves with X motion
+  // slowed past |x| = 45.86 mm (1/2) and 51.21 mm (1/4), x in [-56, 56], y in [0, 200].
+  return estimate_text("SET_KINEMATIC_POSITION X=0 Y=100 Z=10\n" + moves, "d.gcode",
+                       machine::load_machine(kDir + "deltesian.cfg"));
+}
+
+TEST(DeltesianLimits, SlowZonesByX) {
+  EXPECT_NEAR(deltesian_estimate("G1 X40 F12000\n").total_time_s, trapezoid_s(40, 200, 3000), 1e-9);
+  EXPECT_NEAR(deltesian_estimate("G1 X50 F18000\n").total_time_s, trapezoid_s(50, 250, 1500), 1e-9);
+  EXPECT_NEAR(deltesian_estimate("G1 X55 F18000\n").total_time_s, trapezoid_s(55, 125, 750), 1e-9);
+  // A Y move out at x = 50 has no X motion: not slowed.
+  EXPECT_NEAR(deltesian_estimate("G1 X50 F18000\nG4 P0\nG1 Y190\n").total_time_s,
+              trapezoid_s(50, 250, 1500) + trapezoid_s(90, 300, 3000), 1e-9);
+}
+
+TEST(DeltesianLimits, RangesOfEachAxis) {
+  const auto r = deltesian_estimate("G1 X57 F18000\n");
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->axis, 'x');
+  EXPECT_DOUBLE_EQ(r.range_error->limit_mm, 56.0);
+  EXPECT_TRUE(deltesian_estimate("G1 Y201\n").range_error.has_value());
+  EXPECT_FALSE(deltesian_estimate("G1 Y200 Z100\n").range_error.has_value());
+}
+
+TEST(GantryLimits, WinchHasNoZLimit) {
+  // winch.py check_move checks nothing: a Z move runs at the toolhead's limits.
+  const auto r = estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG1 Z100 F18000\n", "w.gcode",
+                               machine::load_machine(kDir + "winch.cfg"));
+  EXPECT_NEAR(r.total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
+}
+
+TEST(GantryLimits, NoneHasNoZLimit) {
+  // Klipper's none kinematics checks nothing: the toolhead's 300 mm/s and 3000 mm/s^2 apply.
+  const auto r = estimate_text("G1 Z100 F18000\n", "z.gcode", gantry(machine::Kinematics::none));
+  EXPECT_NEAR(r.total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
+}
+
+}  // namespace
+}  // namespace amctl::plan
