@@ -29,6 +29,12 @@ std::string cfg_error(const std::string& text) {
   return error_of([&] { (void)parse_klipper_cfg(text, "printer.cfg"); });
 }
 
+// A printer.cfg machine keeps its sections as written (for the macros); TOML does not carry them.
+Machine without_cfg_sections(Machine m) {
+  m.klipper_config.clear();
+  return m;
+}
+
 TEST(DeltaCfg, GeometryMatchesKlippersStartupLog) {
   const Machine m = load_machine(kDir + "delta.cfg");
   EXPECT_EQ(m.kinematics, Kinematics::delta);
@@ -99,7 +105,7 @@ TEST(DeltaToml, RoundTripsAndKeepsTheTowers) {
   EXPECT_NE(text.find("[delta]\nradius = 174.75"), std::string::npos) << text;
   EXPECT_NE(text.find("[stepper_a]"), std::string::npos);
   EXPECT_NE(text.find("arm_length = 333"), std::string::npos);
-  EXPECT_EQ(parse_machine_toml(text, "delta.toml"), m);
+  EXPECT_EQ(parse_machine_toml(text, "delta.toml"), without_cfg_sections(m));
   // A cartesian machine writes no [delta] section.
   EXPECT_EQ(to_toml(Machine{}).find("[delta]"), std::string::npos);
 }
@@ -135,7 +141,7 @@ TEST(DeltesianCfg, GeometryMatchesKlippersStartupLog) {
   // (at its endstop) holds the effector at abs_endstop - sqrt(L^2 - (160 - 56)^2).
   const double abs_endstop = 268.0 + std::sqrt(217.0 * 217.0 - 160.0 * 160.0);
   EXPECT_NEAR(g.limits_mm[2][1], abs_endstop - std::sqrt(217.0 * 217.0 - 104.0 * 104.0), 1e-9);
-  EXPECT_EQ(parse_machine_toml(to_toml(m), "d.toml"), m);
+  EXPECT_EQ(parse_machine_toml(to_toml(m), "d.toml"), without_cfg_sections(m));
 }
 
 TEST(WinchCfg, CablesAndAnchorsAreRead) {
@@ -144,7 +150,7 @@ TEST(WinchCfg, CablesAndAnchorsAreRead) {
   ASSERT_EQ(m.steppers.count("d"), 1u);
   EXPECT_DOUBLE_EQ(*m.steppers.at("d").anchor_z_mm, 3000.0);
   EXPECT_DOUBLE_EQ(*m.steppers.at("a").anchor_y_mm, -2000.0);
-  EXPECT_EQ(parse_machine_toml(to_toml(m), "w.toml"), m);
+  EXPECT_EQ(parse_machine_toml(to_toml(m), "w.toml"), without_cfg_sections(m));
   const std::string no_anchor =
       "[printer]\nkinematics: winch\nmax_velocity: 300\nmax_accel: 3000\n"
       "[stepper_a]\nmicrosteps: 16\nrotation_distance: 40\nanchor_x: 0\nanchor_y: 0\n"
