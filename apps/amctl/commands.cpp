@@ -1,5 +1,11 @@
 #include "commands.hpp"
 
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+
 namespace amctl::cli {
 void register_all(CLI::App& app) {
   register_estimate(app);
@@ -14,5 +20,17 @@ void register_all(CLI::App& app) {
   register_shaper(app);
   register_resonance(app);
   register_steps(app);
+}
+
+void require_positive_flag(std::string_view flag, double value) {
+  if (!(std::isfinite(value) && value > 0.0)) {
+    throw Error(fmt::format("{}: must be a finite number > 0, got {}", flag, value));
+  }
+}
+
+void require_non_negative_flag(std::string_view flag, double value) {
+  if (!(std::isfinite(value) && value >= 0.0)) {
+    throw Error(fmt::format("{}: must be a finite number >= 0, got {}", flag, value));
+  }
 }
 }  // namespace amctl::cli

@@ -135,14 +135,14 @@ double auto_tail_s(const CompensationOptions& options) {
 
 void validate_options(const CompensationOptions& o) {
   if (!(o.sample_rate_hz > 0.0) || !std::isfinite(o.sample_rate_hz))
-    throw Error(fmt::format("--sample-rate-hz {} must be > 0", o.sample_rate_hz));
+    throw Error(fmt::format("--sample-rate-hz: must be > 0, got {}", o.sample_rate_hz));
   if (o.model_x.is_rigid() || o.model_y.is_rigid())
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
                                   {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
   if (o.method == Method::fbf || o.method == Method::lpfbf || o.method == Method::rfbf) {
     if (o.degree < 1 || o.degree > 7)
-      throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
+      throw Error(fmt::format("--degree: must be between 1 and 7, got {}", o.degree));
   }
 }
 

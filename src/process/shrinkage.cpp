@@ -111,13 +111,13 @@ std::vector<ShrinkSample> read_shrink_samples(const CsvTable& t) {
   if (!nominal || !measured) {
     std::string cols;
     for (const auto& h : t.header()) cols += (cols.empty() ? "" : ", ") + h;
-    throw Error(SourceLocation{t.file(), 1, 0},
-                fmt::format("header needs columns nominal_mm and measured_mm (or _um, _in in "
-                            "both; found: {})",
+    throw Error(SourceLocation{t.file(), t.header_line(), 0},
+                fmt::format("expected columns nominal_mm and measured_mm (or _um, _in in "
+                            "both) in the header, found: {}",
                             cols));
   }
   if (nominal->unit != measured->unit) {
-    throw Error(SourceLocation{t.file(), 1, 0},
+    throw Error(SourceLocation{t.file(), t.header_line(), 0},
                 fmt::format("units do not match: '{}' is in {} but '{}' is in {}; give both "
                             "columns in the same unit",
                             t.header()[nominal->index], nominal->unit,

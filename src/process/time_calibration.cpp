@@ -31,13 +31,13 @@ std::vector<PrintTiming> read_print_timings(const CsvTable& t) {
   for (const auto& [name, s] : {std::pair<const char*, double>{"duration_s", 1.0},
                                 {"duration_min", 60.0}, {"duration_h", 3600.0}}) {
     if (auto c = t.find(name)) {
-      if (dc) throw Error(SourceLocation{t.file(), 1, 0}, "give exactly one duration column");
+      if (dc) throw Error(SourceLocation{t.file(), t.header_line(), 0}, "give exactly one duration column");
       dc = c;
       scale = s;
     }
   }
   if (!dc) {
-    throw Error(SourceLocation{t.file(), 1, 0},
+    throw Error(SourceLocation{t.file(), t.header_line(), 0},
                 "missing duration column: expected duration_s, duration_min or duration_h");
   }
   const auto lc = t.find("layer");
