@@ -86,6 +86,10 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
                             : m.max_feedrate_mm_s[2];
   // Klipper's M84/M18 dwells DISABLE_STALL_TIME (0.1 s) before and after switching off.
   o.motor_off_dwell_s = m.firmware == machine::Firmware::klipper ? 0.2 : 0.0;
+  if (m.firmware == machine::Firmware::marlin) {
+    o.soft_min_mm = m.soft_min_position_mm;
+    o.soft_max_mm = m.soft_max_position_mm;
+  }
   return o;
 }
 
