@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -57,8 +58,10 @@ std::vector<PrintTiming> read_print_timings(const CsvTable& t) {
     p.duration_s = d * scale;
     if (lc) {
       const double l = t.number(r, *lc);
-      if (l < 0 || l != static_cast<double>(static_cast<long>(l))) {
-        throw Error(t.where(r, *lc), fmt::format("layer must be a whole number >= 0, got {}", l));
+      // Range first: converting a double beyond long's range is undefined behaviour.
+      if (!(l >= 0 && l <= 1e9) || l != std::floor(l)) {
+        throw Error(t.where(r, *lc),
+                    fmt::format("layer must be a whole number in [0, 1e9], got {}", l));
       }
       p.layer = static_cast<long>(l);
     }
