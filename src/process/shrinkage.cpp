@@ -143,6 +143,16 @@ std::vector<ShrinkSample> read_shrink_samples(const CsvTable& t) {
     }
     s.nominal_mm = nom * nominal->scale;
     s.measured_mm = meas * measured->scale;
+    // A test part is not a kilometre long; larger values (1e308) overflow the fit's sums of
+    // squares into a NaN slope and a factor of 0.
+    constexpr double kMaxSize_mm = 1e6;
+    if (s.nominal_mm > kMaxSize_mm || s.measured_mm > kMaxSize_mm) {
+      const bool nominal_big = s.nominal_mm > kMaxSize_mm;
+      throw Error(t.where(r, nominal_big ? nominal->index : measured->index),
+                  fmt::format("{} size {} mm is out of range: expected at most 1e6 mm (1 km)",
+                              nominal_big ? "nominal" : "measured",
+                              nominal_big ? s.nominal_mm : s.measured_mm));
+    }
     if (axis_col) {
       const std::string a = lower(t.text(r, *axis_col));
       if (a == "x" || a == "y" || a == "z") {
