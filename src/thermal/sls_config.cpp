@@ -43,7 +43,9 @@ class Section {
   void get(const char* key, int& out) const {
     const toml::node* n = tbl_ ? tbl_->get(key) : nullptr;
     if (!n) return;
-    if (auto v = n->value<std::int64_t>()) {
+    // Only an integer node: toml++'s value<int64_t>() converts a float node with a plain
+    // cast, undefined for 1e308 (found by fuzz_sls_config under UBSan).
+    if (auto v = n->is_integer() ? n->value<std::int64_t>() : std::nullopt) {
       if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max()) {
         throw Error(where(path_, n->source()), "[" + name_ + "] " + key + ": found " +
                                                    std::to_string(*v) +
@@ -131,7 +133,7 @@ SlsBuildConfig load_sls_config(const std::string& path) {
       const toml::table* t = el.as_table();
       auto from = t ? t->get("from_layer") : nullptr;
       auto sp = t ? t->get("setpoint_c") : nullptr;
-      if (!t || !from || !sp || !from->value<std::int64_t>() || !sp->value<double>())
+      if (!t || !from || !sp || !from->is_integer() || !sp->value<double>())
         throw Error(where(path, el.source()),
                     "setpoint_changes entries need integer from_layer and number setpoint_c");
       const std::int64_t from_layer = *from->value<std::int64_t>();
