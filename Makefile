@@ -1,7 +1,7 @@
 # amctl: the two commands a new user needs.
 #   make demo   install missing Debian packages, build, run the main job on a bundled example
 #   make test   install missing Debian packages, build, run every test
-#   make fuzz   build the libFuzzer target (clang) and fuzz the G-code reader for FUZZ_TIME s
+#   make fuzz   build the libFuzzer targets (clang) and fuzz every reader for FUZZ_TIME s each
 BUILD_DIR ?= build/release
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
@@ -28,18 +28,25 @@ test: build
 bench: build
 	$(BUILD_DIR)/bench/amctl_bench --benchmark_min_time=0.2
 
-# libFuzzer on the G-code reader + planner (docs/testing.md). The seed corpus is copied so
-# the checked-in one is never modified; findings (crash-*, timeout-*, leak-*) land in
-# build/fuzz/artifacts/.
+# libFuzzer on every reader (docs/testing.md), one target after the other, FUZZ_TIME s each;
+# FUZZ_TARGETS="stl gcode" picks some. Each target's corpus lives in build/fuzz/corpus/<name>/:
+# the checked-in seeds (fuzz/corpus/<name>/) are copied in, what earlier runs found is kept.
+# Findings (crash-*, timeout-*, leak-*) land in build/fuzz/artifacts/<name>/; the recipe
+# stops at the first target with a finding.
 FUZZ_TIME ?= 60
 FUZZ_DIR ?= build/fuzz
+FUZZ_TARGETS ?= gcode machine_toml klipper_cfg accel_csv process_csv process_json stl sls_config
 fuzz:
 	cmake --preset fuzz
-	cmake --build $(FUZZ_DIR) -j $(JOBS) --target fuzz_gcode
-	rm -rf $(FUZZ_DIR)/corpus && mkdir -p $(FUZZ_DIR)/corpus $(FUZZ_DIR)/artifacts
-	cp fuzz/corpus/gcode/* $(FUZZ_DIR)/corpus/
-	$(FUZZ_DIR)/fuzz/fuzz_gcode -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
-	  -artifact_prefix=$(FUZZ_DIR)/artifacts/ $(FUZZ_DIR)/corpus
+	cmake --build $(FUZZ_DIR) -j $(JOBS) $(addprefix --target fuzz_,$(FUZZ_TARGETS))
+	@set -e; for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_DIR)/corpus/$$t $(FUZZ_DIR)/artifacts/$$t; \
+	  cp fuzz/corpus/$$t/* $(FUZZ_DIR)/corpus/$$t/; \
+	  echo "== fuzz_$$t ($(FUZZ_TIME) s)"; \
+	  $(FUZZ_DIR)/fuzz/fuzz_$$t -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=10 \
+	    -dict=fuzz/dict/$$t.dict -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t/ \
+	    $(FUZZ_DIR)/corpus/$$t; \
+	done
 
 clean:
 	rm -rf build

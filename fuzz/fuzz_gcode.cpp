@@ -114,6 +114,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       m.junction = fw == amctl::machine::Firmware::klipper
                        ? amctl::machine::JunctionPolicy::square_corner_velocity
                        : amctl::machine::JunctionPolicy::classic_jerk;
+      // Range checks: Klipper's stepper limits stop the print, Marlin's soft endstops clamp
+      // (after G28) and later relative moves continue from the clamped point.
+      if (fw == amctl::machine::Firmware::marlin) {
+        m.soft_min_position_mm = {0.0, -5.0, 0.0};
+        m.soft_max_position_mm = {220.0, 220.0, 250.0};
+      }
       amctl::plan::EstimateOptions opt;
       opt.strict = strict;
       std::uint64_t moves = 0;

@@ -52,18 +52,18 @@ void run_compensate(const CompensateArgs& a) {
   } else {
     if (!a.f_hz) throw Error("--natural-frequency-hz is required (or --mode F,Z[,G])");
     if (!(*a.f_hz > 0.0))
-      throw Error(fmt::format("--natural-frequency-hz {} must be > 0", *a.f_hz));
+      throw Error(fmt::format("--natural-frequency-hz: must be > 0, got {}", *a.f_hz));
     const double z = a.zeta.value_or(0.1);
-    if (!(z >= 0.0)) throw Error(fmt::format("--damping-ratio {} must be >= 0", z));
+    if (!(z >= 0.0)) throw Error(fmt::format("--damping-ratio: must be >= 0, got {}", z));
     o.model_x = o.model_y = dynamics::AxisModel::belt(*a.f_hz, z);
   }
   o.plant_x = o.model_x;
   o.plant_y = o.model_y;
   if (a.plant_f_hz || a.plant_zeta) {
     if (a.plant_f_hz && !(*a.plant_f_hz > 0.0))
-      throw Error(fmt::format("--plant-natural-frequency-hz {} must be > 0", *a.plant_f_hz));
+      throw Error(fmt::format("--plant-natural-frequency-hz: must be > 0, got {}", *a.plant_f_hz));
     if (a.plant_zeta && !(*a.plant_zeta >= 0.0))
-      throw Error(fmt::format("--plant-damping-ratio {} must be >= 0", *a.plant_zeta));
+      throw Error(fmt::format("--plant-damping-ratio: must be >= 0, got {}", *a.plant_zeta));
     if (o.model_x.modes().size() != 1)
       throw Error("--plant-natural-frequency-hz needs a one-mode model (--natural-frequency-hz)");
     const dynamics::Mode& m = o.model_x.modes()[0];
@@ -72,9 +72,9 @@ void run_compensate(const CompensateArgs& a) {
   }
   o.sample_rate_hz = a.rate_hz;
   if (a.knot_spacing_s && !(*a.knot_spacing_s > 0.0))
-    throw Error(fmt::format("--knot-spacing-s {} must be > 0", *a.knot_spacing_s));
+    throw Error(fmt::format("--knot-spacing-s: must be > 0, got {}", *a.knot_spacing_s));
   if (a.lead_in_s && !(*a.lead_in_s >= 0.0))
-    throw Error(fmt::format("--lead-in-s {} must be >= 0", *a.lead_in_s));
+    throw Error(fmt::format("--lead-in-s: must be >= 0, got {}", *a.lead_in_s));
   o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
   o.degree = a.degree;
   o.lead_in_s = a.lead_in_s.value_or(-1.0);
@@ -88,9 +88,9 @@ void run_compensate(const CompensateArgs& a) {
   o.effort_weight_s2 = a.effort_weight_s2;
   o.max_solver_iterations = a.max_iterations;
   if (a.window_s && !(*a.window_s > 0.0))
-    throw Error(fmt::format("--window-s {} must be > 0", *a.window_s));
+    throw Error(fmt::format("--window-s: must be > 0, got {}", *a.window_s));
   if (a.overlap_s && !(*a.overlap_s >= 0.0))
-    throw Error(fmt::format("--overlap-s {} must be >= 0", *a.overlap_s));
+    throw Error(fmt::format("--overlap-s: must be >= 0, got {}", *a.overlap_s));
   o.window_s = a.window_s.value_or(-1.0);
   o.overlap_s = a.overlap_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);

@@ -42,6 +42,8 @@ dy::AxisModel build_model(const ModelFlags& m, bool y_axis) {
   }
   const auto f = y_axis && m.f_hz_y ? m.f_hz_y : m.f_hz;
   const auto z = y_axis && m.zeta_y ? m.zeta_y : m.zeta;
+  if (f) require_positive_flag(y_axis && m.f_hz_y ? "--natural-frequency-y-hz" : "--natural-frequency-hz", *f);
+  if (z) require_non_negative_flag(y_axis && m.zeta_y ? "--damping-ratio-y" : "--damping-ratio", *z);
   if (m.mass_kg || m.stiffness) {
     if (!m.mass_kg || !m.stiffness) {
       throw Error("--mass-kg and --stiffness-n-per-m must be given together");
@@ -137,7 +139,7 @@ void do_simulate(const SimulateArgs& a) {
   // look-ahead with that profile's reachable speeds), exactly as --set printer.profile=P.
   if (!a.profile.empty()) mach.profile = parse_profile(a.profile);
   if (a.jerk) {
-    require_positive("--jerk", *a.jerk);
+    require_positive_flag("--jerk", *a.jerk);
     mach.max_jerk_mm_s3 = *a.jerk;
   }
   const dy::AxisModel mx = build_model(a.model, false), my = build_model(a.model, true);

@@ -165,7 +165,7 @@ void run_estimate(const EstimateArgs& a) {
   plan::EstimateOptions opt;
   opt.strict = !a.lenient;
   if (!a.m73_out.empty()) {
-    require_positive("--m73-interval", a.m73_interval_s);
+    require_positive_flag("--m73-interval", a.m73_interval_s);
     opt.checkpoint_interval_s = a.m73_interval_s;
   }
   const auto t0 = std::chrono::steady_clock::now();

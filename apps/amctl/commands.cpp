@@ -1,5 +1,11 @@
 #include "commands.hpp"
 
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+
 namespace amctl::cli {
 void register_all(CLI::App& app) {
   register_estimate(app);
@@ -15,5 +21,17 @@ void register_all(CLI::App& app) {
   register_resonance(app);
   register_steps(app);
   register_stepper(app);
+}
+
+void require_positive_flag(std::string_view flag, double value) {
+  if (!(std::isfinite(value) && value > 0.0)) {
+    throw Error(fmt::format("{}: must be a finite number > 0, got {}", flag, value));
+  }
+}
+
+void require_non_negative_flag(std::string_view flag, double value) {
+  if (!(std::isfinite(value) && value >= 0.0)) {
+    throw Error(fmt::format("{}: must be a finite number >= 0, got {}", flag, value));
+  }
 }
 }  // namespace amctl::cli

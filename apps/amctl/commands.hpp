@@ -1,5 +1,6 @@
 #pragma once
 #include <string>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 
@@ -39,4 +40,9 @@ void register_compensate(CLI::App& app);
 void register_stepper(CLI::App& app);
 /// `amctl compare` (cmd_compare.cpp).
 void register_compare(CLI::App& app);
+
+/// Command-line values in amctl's form for bad input, with the flag as the place:
+/// "--damping-ratio: must be a finite number >= 0, got -1" (amctl::Error otherwise).
+void require_positive_flag(std::string_view flag, double value);
+void require_non_negative_flag(std::string_view flag, double value);
 }  // namespace amctl::cli

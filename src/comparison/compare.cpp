@@ -211,12 +211,12 @@ void validate(const ComparisonOptions& o) {
   if (!(o.max_base_accel_mm_s2 > 0.0))
     throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", o.max_base_accel_mm_s2));
   if (!(o.natural_frequency_hz > 0.0) || !std::isfinite(o.natural_frequency_hz))
-    throw Error(fmt::format("--natural-frequency-hz {} must be > 0", o.natural_frequency_hz));
+    throw Error(fmt::format("--natural-frequency-hz: must be > 0, got {}", o.natural_frequency_hz));
   if (!(o.damping_ratio >= 0.0) || !std::isfinite(o.damping_ratio))
-    throw Error(fmt::format("--damping-ratio {} must be >= 0", o.damping_ratio));
+    throw Error(fmt::format("--damping-ratio: must be >= 0, got {}", o.damping_ratio));
   const bool shapers = std::any_of(o.methods.begin(), o.methods.end(), is_shaper);
   if (shapers && !(o.damping_ratio < 1.0))
-    throw Error(fmt::format("--damping-ratio {} must be < 1 for the shapers (zv, mzv, ei)", o.damping_ratio));
+    throw Error(fmt::format("--damping-ratio: must be < 1 for the shapers (zv, mzv, ei), got {}", o.damping_ratio));
 }
 
 ComparisonResult compare_file(const std::string& path, const machine::Machine& machine,

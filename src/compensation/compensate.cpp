@@ -177,7 +177,7 @@ double auto_tail_s(const CompensationOptions& options) {
 
 void validate_options(const CompensationOptions& o) {
   if (!(o.sample_rate_hz > 0.0) || !std::isfinite(o.sample_rate_hz))
-    throw Error(fmt::format("--sample-rate-hz {} must be > 0", o.sample_rate_hz));
+    throw Error(fmt::format("--sample-rate-hz: must be > 0, got {}", o.sample_rate_hz));
   if (o.model_x.is_rigid() || o.model_y.is_rigid())
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
@@ -186,7 +186,7 @@ void validate_options(const CompensationOptions& o) {
     throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", o.max_base_accel_mm_s2));
   if (o.method == Method::fbf || o.method == Method::lpfbf || o.method == Method::rfbf) {
     if (o.degree < 1 || o.degree > 7)
-      throw Error(fmt::format("--degree {} must be between 1 and 7", o.degree));
+      throw Error(fmt::format("--degree: must be between 1 and 7, got {}", o.degree));
   }
 }
 

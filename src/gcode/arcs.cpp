@@ -82,7 +82,8 @@ void Interpreter::do_arc(const Command& cmd, const Params& p, bool clockwise,
     off1 = p.get_or(c1, 0.0) * unit_mm_;
     if (off0 == 0.0 && off1 == 0.0) {
       fail(line_no, cmd.args_column,
-           fmt::format("{} needs a centre offset ({} {}) or a radius R", cmd.name, c0, c1));
+           fmt::format("{} without a centre offset, expected {} or {} (the centre) or R (a radius)",
+                       cmd.name, c0, c1));
     }
   }
   // Angular travel from start radius vector to end radius vector.
@@ -122,7 +123,10 @@ void Interpreter::do_arc(const Command& cmd, const Params& p, bool clockwise,
       t[ah] = start[ah] + linear * static_cast<double>(i) / segments_d;
       t[3] = start_e + e_total * static_cast<double>(i) / segments_d;
     }
-    emit_move(t, feed_mm_s_ * speed_factor_, line_no, sink, true);
+    // Marlin clamps every segment (plan_arc -> apply_motion_limits); the file's position
+    // follows the clamp of the last one.
+    const bool clamped = soft_endstops_ && soft_clamp(t, i == segments ? &new_gcode : nullptr);
+    emit_move(t, feed_mm_s_ * speed_factor_, line_no, sink, true, false, clamped);
   }
   gcode_pos_ = new_gcode;
 }

@@ -33,15 +33,16 @@ using detail::trim;
   const bool has_f = (pm.present >> 4) & 1u;
   if (has_f && !(pm.value[4] > 0.0)) return false;
   std::array<double, 4> new_gcode;
-  const std::array<double, 4> target = modal_target(pm.present & 0xFu, pm.value.data(), new_gcode);
+  std::array<double, 4> target = modal_target(pm.present & 0xFu, pm.value.data(), new_gcode);
   for (std::size_t a = 0; a < 4; ++a) {
     if (!(std::fabs(target[a]) <= kMaxCoordinate_mm)) return false;
   }
   if (pm.has_comment && !pm.comment.empty()) handle_comment(pm.comment, line_no, sink);
   if (has_f) feed_mm_s_ = pm.value[4] * unit_mm_ / 60.0;
   if ((pm.present & 0xFu) == 0) return true;  // F only: sets the speed of later moves
+  const bool clamped = soft_endstops_ && soft_clamp(target, &new_gcode);
   gcode_pos_ = new_gcode;
-  if (target == pos_) return true;
+  if (target == pos_ && !clamped) return true;
   MoveRequest m;
   m.start_mm = pos_;
   m.end_mm = target;
@@ -49,6 +50,7 @@ using detail::trim;
   m.line = line_no;
   m.layer = notes_.layer;
   m.feature = notes_.feature;
+  m.clamped = clamped;
   pos_ = target;
   sink.on_move(m);
   return true;
@@ -56,6 +58,11 @@ using detail::trim;
 
 Interpreter::Interpreter(InterpreterOptions options, std::string source_name)
     : opt_(options), source_(std::move(source_name)) {
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (opt_.soft_min_mm[a]) require_finite("soft endstop minimum", *opt_.soft_min_mm[a]);
+    if (opt_.soft_max_mm[a]) require_finite("soft endstop maximum", *opt_.soft_max_mm[a]);
+    soft_endstops_ = soft_endstops_ || opt_.soft_min_mm[a] || opt_.soft_max_mm[a];
+  }
   require_positive("arcs.mm_per_arc_segment", opt_.mm_per_arc_segment);
   require_non_negative("arcs.min_arc_segment_mm", opt_.min_arc_segment_mm);
   require_non_negative("arcs.max_arc_segment_mm", opt_.max_arc_segment_mm);
@@ -277,6 +284,13 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         else sink.on_wait_moves(line_no);
         note_ignored(cmd.name);
         return;
+      case 211: {
+        // Marlin M211 S0/S1: software endstops off/on (soft_endstop._enabled); without S it
+        // only reports them.
+        const Params& p = params();
+        if (p.has('S')) soft_enabled_ = p.get('S') != 0.0;
+        return;
+      }
       case 220: {
         const Params& p = params();
         double s = p.get_or('S', 100.0);
@@ -447,9 +461,26 @@ void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sin
                                   (1u << ('Z' - 'A')) | (1u << ('E' - 'A'));
   if ((p.present & kAxes) == 0) return;  // F only: sets the speed of later moves
   std::array<double, 4> new_gcode;
-  const std::array<double, 4> target = target_of(p, new_gcode);
+  std::array<double, 4> target = target_of(p, new_gcode);
+  const bool clamped = soft_endstops_ && soft_clamp(target, &new_gcode);
   gcode_pos_ = new_gcode;
-  emit_move(target, feed_mm_s_ * speed_factor_, line_no, sink, false);
+  emit_move(target, feed_mm_s_ * speed_factor_, line_no, sink, false, false, clamped);
+}
+
+bool Interpreter::soft_clamp(std::array<double, 4>& target, std::array<double, 4>* gcode) const {
+  bool changed = false;
+  if (!soft_enabled_) return false;  // M211 S0
+  for (std::size_t a = 0; a < 3; ++a) {
+    if ((homed_axes_ & (1u << a)) == 0) continue;  // Marlin: axis_was_homed()
+    double v = target[a];
+    if (opt_.soft_min_mm[a]) v = std::max(v, *opt_.soft_min_mm[a]);
+    if (opt_.soft_max_mm[a]) v = std::min(v, *opt_.soft_max_mm[a]);
+    if (v == target[a]) continue;
+    if (gcode) (*gcode)[a] -= target[a] - v;
+    target[a] = v;
+    changed = true;
+  }
+  return changed;
 }
 
 void Interpreter::require_numbers(const Params& p, std::uint64_t line_no) const {
@@ -465,8 +496,9 @@ void Interpreter::require_numbers(const Params& p, std::uint64_t line_no) const 
 
 void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm_s,
                             std::uint64_t line_no, EventSink& sink, bool from_arc,
-                            bool from_retract) {
-  if (target == pos_) return;
+                            bool from_retract, bool clamped) {
+  // A move clamped to no motion still reaches the planner (which drops it) to be counted.
+  if (target == pos_ && !clamped) return;
   // Every coordinate must stay finite and within a sane range: larger values come from
   // overflowing arithmetic (G20 with 1e308, G91 accumulation, M221 S1e308, huge arc offsets)
   // and would poison the planner with inf/NaN.
@@ -489,6 +521,7 @@ void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm
   m.feature = notes_.feature;
   m.from_arc = from_arc;
   m.from_firmware_retract = from_retract;
+  m.clamped = clamped;
   pos_ = target;
   sink.on_move(m);
 }

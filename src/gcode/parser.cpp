@@ -151,7 +151,7 @@ bool parse_line(std::string_view line, Command& out, ParseIssue& issue) {
     for (std::size_t j = 0; j < star; ++j) x ^= static_cast<unsigned char>(code[j]);
     if (x != expected) {
       return set_issue(issue, star,
-                       fmt::format("checksum mismatch: line says {}, computed {}", expected, int{x}));
+                       fmt::format("checksum mismatch: found *{}, expected *{}", expected, int{x}));
     }
     code = code.substr(0, star);
   }

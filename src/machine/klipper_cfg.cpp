@@ -96,12 +96,16 @@ class CfgReader {
   explicit CfgReader(CfgDoc& doc) : doc_(doc) {}
 
   /// Parses one file's text. `file` names it in messages and anchors its includes.
-  void parse(std::string_view text, const std::string& file) {
+  /// `included_at` is the [include] line that pulled the file in (null for the main file).
+  void parse(std::string_view text, const std::string& file,
+             const SourceLocation* included_at = nullptr) {
     std::error_code ec;
     fs::path key = fs::absolute(fs::path(file), ec).lexically_normal();
     if (!visiting_.insert(key.string()).second) {
-      throw Error(SourceLocation{file, 0, 0},
-                  fmt::format("recursive include of config file '{}'", file));
+      throw Error(included_at ? *included_at : SourceLocation{file, 0, 0},
+                  fmt::format("recursive include of config file '{}', expected each file to "
+                              "be included at most once on any chain of includes",
+                              file));
     }
     CfgSection* section = nullptr;
     std::string option;       // option being continued
@@ -204,13 +208,15 @@ class CfgReader {
     } else {
       std::error_code ec;
       if (!fs::is_regular_file(pattern, ec)) {
-        throw Error(where, fmt::format("include file '{}' does not exist", pattern.string()));
+        throw Error(where, fmt::format("include file '{}' does not exist, expected a file (relative to the "
+                                       "including file's directory)",
+                                       pattern.string()));
       }
       files.push_back(pattern);
     }
     for (const fs::path& f : files) {
       std::string text = read_file(f, where);
-      parse(text, f.string());
+      parse(text, f.string(), &where);
     }
   }
 
@@ -286,6 +292,21 @@ class Section {
   int require_int(std::string_view key, const Limits& lim = {}) const {
     if (auto x = get_int(key, lim)) return *x;
     throw missing(key);
+  }
+
+  /// Klipper's choice options: the value, lower-cased, must be one of `choices`; `def` when
+  /// the option is absent.
+  std::string get_choice(std::string_view key, std::string_view def,
+                         std::initializer_list<std::string_view> choices) const {
+    const CfgValue* v = raw(key);
+    if (v == nullptr) return std::string(def);
+    std::string t(trim(v->text));
+    for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (std::string_view c : choices) {
+      if (c == t) return t;
+    }
+    throw Error(v->where, fmt::format("[{}] {}: found '{}', expected one of {}", name_, key,
+                                      trim(v->text), fmt::join(choices, ", ")));
   }
 
   std::string require_text(std::string_view key) const {
@@ -366,7 +387,7 @@ Kinematics read_kinematics(const Section& printer) {
   }
   std::vector<std::string> all(supported.begin(), supported.end());
   all.insert(all.end(), std::begin(kOthers), std::end(kOthers));
-  throw Error(where, fmt::format("[printer] kinematics: '{}' is not a Klipper kinematics{}", kin,
+  throw Error(where, fmt::format("[printer] kinematics: found '{}', expected a Klipper kinematics{}", kin,
                                  detail::did_you_mean(kin, all)));
 }
 
@@ -465,13 +486,12 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     // damping < 1 (a shaper is not defined at 1).
     const Section sh(is, "input_shaper", file_loc);
     InputShaper& in = m.input_shaper;
-    const std::string both = sh.has("shaper_type") ? sh.require_text("shaper_type") : "mzv";
-    auto lower = [](std::string t) {
-      for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      return t;
-    };
-    in.shaper_type_x = lower(sh.has("shaper_type_x") ? sh.require_text("shaper_type_x") : both);
-    in.shaper_type_y = lower(sh.has("shaper_type_y") ? sh.require_text("shaper_type_y") : both);
+    // Klipper refuses any other type ("Unsupported shaper type", shaper_defs.INPUT_SHAPERS).
+    const std::initializer_list<std::string_view> kShapers = {
+        "zv", "mzv", "zvd", "ei", "2hump_ei", "3hump_ei"};
+    const std::string both = sh.get_choice("shaper_type", "mzv", kShapers);
+    in.shaper_type_x = sh.get_choice("shaper_type_x", both, kShapers);
+    in.shaper_type_y = sh.get_choice("shaper_type_y", both, kShapers);
     in.shaper_freq_x_hz = sh.get_float("shaper_freq_x", 0.0, {.minval = 0.0});
     in.shaper_freq_y_hz = sh.get_float("shaper_freq_y", 0.0, {.minval = 0.0});
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});

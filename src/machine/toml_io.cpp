@@ -100,7 +100,7 @@ int enum_of(const toml::node& v, Kind kind, const SourceLocation& where, std::st
       }
     }
   }
-  throw Error(where, fmt::format("{}: '{}' is not one of {}{}", label, text, listed,
+  throw Error(where, fmt::format("{}: found '{}', expected one of {}{}", label, text, listed,
                                  detail::did_you_mean(text, options)));
 }
 
@@ -239,7 +239,7 @@ std::vector<std::string> stepper_key_names() {
 /// "unknown key 'x' in [s]; did you mean 'y'?" or "...; 'x' belongs in [marlin]".
 std::string unknown_key_message(std::string_view section, std::string_view key,
                                 std::vector<std::string> candidates) {
-  std::string msg = fmt::format("unknown key '{}' in [{}]", key, section);
+  std::string msg = fmt::format("unknown key '{}' in [{}], expected a key that `amctl machine keys` lists", key, section);
   std::string hint;
   for (const KeyDef& d : detail::machine_keys()) {
     if (d.key == key && d.section != section) {
@@ -305,7 +305,7 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
     root = toml::parse(text, source_name);
   } catch (const toml::parse_error& e) {
     throw Error(location_of(e.source(), source_name),
-                fmt::format("invalid TOML: {}", e.description()));
+                fmt::format("invalid TOML ({}), expected a machine description in TOML", e.description()));
   }
   Machine m;
   Pending pending;
@@ -343,7 +343,7 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
         const StepperKeyDef* d = detail::find_stepper_key(key);
         if (d == nullptr) {
           throw Error(location_of(k->source(), source_name),
-                      fmt::format("unknown key '{}' in [{}]{}", key, section,
+                      fmt::format("unknown key '{}' in [{}], expected a stepper key{}", key, section,
                                   detail::did_you_mean(key, stepper_key_names())));
         }
         assign_stepper(s, gearing, *d, *v, location_of(v->source(), source_name),
@@ -364,7 +364,7 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
       if (auto c = detail::closest(section, section_candidates())) {
         hint = fmt::format("; did you mean [{}]?", *c);
       }
-      throw Error(section_where, fmt::format("unknown section [{}]{}", section, hint));
+      throw Error(section_where, fmt::format("unknown section [{}], expected a section that `amctl machine keys` lists{}", section, hint));
     }
   }
   finish(m, pending);
@@ -509,13 +509,13 @@ void apply_override(Machine& m, std::string_view assignment) {
   if (parts[0].rfind("stepper_", 0) == 0) {
     const std::string name = parts[0].substr(8);
     if (!detail::valid_stepper_name(name) || parts.size() != 2) {
-      throw Error(where, fmt::format("unknown key '{}' (stepper sections are stepper_x, "
-                                     "stepper_y, stepper_z, stepper_e, stepper_z1, ...)",
+      throw Error(where, fmt::format("unknown key '{}', expected a stepper section stepper_x, "
+                                     "stepper_y, stepper_z, stepper_e, stepper_z1, ...",
                                      path));
     }
     const StepperKeyDef* d = detail::find_stepper_key(parts[1]);
     if (d == nullptr) {
-      throw Error(where, fmt::format("unknown key '{}'{}", path,
+      throw Error(where, fmt::format("unknown key '{}', expected a key that `amctl machine keys` lists{}", path,
                                      detail::did_you_mean(parts[1], stepper_key_names())));
     }
     const auto it = m.steppers.find(name);
@@ -537,13 +537,13 @@ void apply_override(Machine& m, std::string_view assignment) {
       }
     }
     if (hint.empty()) hint = detail::did_you_mean(dotted, all);
-    throw Error(where, fmt::format("unknown key '{}'{}", dotted, hint));
+    throw Error(where, fmt::format("unknown key '{}', expected a key that `amctl machine keys` lists{}", dotted, hint));
   }
   if (parts.size() == 3) {
     static constexpr std::string_view kAxis[] = {"x", "y", "z", "e"};
     const auto it = std::find(std::begin(kAxis), std::end(kAxis), parts[2]);
     if (d->kind != Kind::axes4 || it == std::end(kAxis)) {
-      throw Error(where, fmt::format("unknown key '{}'{}", path,
+      throw Error(where, fmt::format("unknown key '{}', expected a key that `amctl machine keys` lists{}", path,
                                      d->kind == Kind::axes4
                                          ? " (the element must be x, y, z or e)"
                                          : fmt::format(" ('{}' has no elements)", dotted)));

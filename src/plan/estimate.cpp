@@ -108,6 +108,10 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
     o.home_all_axes = true;
     o.home_position_mm = {0.0, g.home_y_mm, g.home_z_mm};
   }
+  if (m.firmware == machine::Firmware::marlin) {
+    o.soft_min_mm = m.soft_min_position_mm;
+    o.soft_max_mm = m.soft_max_position_mm;
+  }
   return o;
 }
 

@@ -89,7 +89,7 @@ inline double PlannerCore::marlin_move_limits(const std::array<double, 4>& d, Mo
 }
 
 const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
-                                                   gcode::MoveRequest& scratch) {
+                                                   gcode::MoveRequest& /*scratch*/) {
   if (klipper_) {
     // klippy/kinematics/cartesian.py check_move: an axis that moves must end inside
     // [position_min, position_max], else "Move out of range" and the print stops.
@@ -118,29 +118,10 @@ const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
     }
     return r;
   }
-  // Marlin apply_motion_limits: the target is clamped into the soft endstops. The start is
-  // the previous (clamped) target, so clamping it too gives the path Marlin follows.
-  bool any = false;
-  for (std::size_t i = 0; i < 3; ++i) any = any || range_min_mm_[i] || range_max_mm_[i];
-  if (!any) return r;
-  scratch = r;
-  bool clamped = false, changed = false, start_moved = false;
-  for (std::size_t i = 0; i < 3; ++i) {
-    auto clamp = [&](double v) {
-      if (range_min_mm_[i]) v = std::max(v, *range_min_mm_[i]);
-      if (range_max_mm_[i]) v = std::min(v, *range_max_mm_[i]);
-      return v;
-    };
-    scratch.start_mm[i] = clamp(r.start_mm[i]);
-    scratch.end_mm[i] = clamp(r.end_mm[i]);
-    // Counted when the axis moves in the file's terms (an axis the move does not name keeps
-    // the position the interpreter holds, which may lie beyond the limit: no new clamp).
-    clamped = clamped || (scratch.end_mm[i] != r.end_mm[i] && r.end_mm[i] != r.start_mm[i]);
-    changed = changed || scratch.end_mm[i] != r.end_mm[i];
-    start_moved = start_moved || scratch.start_mm[i] != r.start_mm[i];
-  }
-  if (clamped) ++diag_.clamped_moves;
-  return changed || start_moved ? scratch : r;
+  // Marlin: the interpreter clamps targets into the soft endstops (apply_motion_limits,
+  // InterpreterOptions::soft_min_mm) and marks the moves it clamped.
+  if (r.clamped) ++diag_.clamped_moves;
+  return r;
 }
 
 void PlannerCore::delta_range(const gcode::MoveRequest& r) {

@@ -91,7 +91,7 @@ CsvTable CsvTable::parse(std::string_view text, std::string file) {
         }
         if (!closed) {
           throw Error(SourceLocation{t.file_, line_no, static_cast<std::uint32_t>(j + 1)},
-                      "unterminated quoted field");
+                      "unterminated quoted field, expected a closing '\"'");
         }
         while (k < line.size() && line[k] != ',') ++k;
         cols.push_back(static_cast<std::uint32_t>(j + 1));
@@ -116,7 +116,7 @@ CsvTable CsvTable::parse(std::string_view text, std::string file) {
     } else {
       if (fields.size() != t.header_.size()) {
         throw Error(SourceLocation{t.file_, line_no, 1},
-                    fmt::format("row has {} field(s) but the header names {} column(s)",
+                    fmt::format("found {} field(s), expected {} (the columns of the header)",
                                 fields.size(), t.header_.size()));
       }
       t.rows_.push_back(std::move(fields));
@@ -143,7 +143,7 @@ std::size_t CsvTable::require(std::string_view name) const {
   std::string cols;
   for (const auto& h : header_) cols += (cols.empty() ? "" : ", ") + h;
   throw Error(SourceLocation{file_, header_line_, 0},
-              fmt::format("missing column '{}' in header (found: {})", name, cols));
+              fmt::format("expected a column '{}' in the header, found: {}", name, cols));
 }
 
 const std::string& CsvTable::text(std::size_t row, std::size_t col) const {

@@ -124,6 +124,14 @@ JsonFile JsonFile::parse(std::string_view text, std::string name) {
     const std::size_t colon = what.find(": ", what.find("parse error"));
     if (colon != std::string::npos) what = what.substr(colon + 2);
     throw Error(SourceLocation{f.name_, line, col}, "not valid JSON: " + what);
+  } catch (const Json::out_of_range& e) {
+    // A number beyond the range of a double ("1e400"): thrown once the number was read, so
+    // the line counted so far is the number's (or the next one when a newline ended it).
+    std::string what = e.what();
+    const std::size_t at = what.find("] ");
+    if (at != std::string::npos) what = what.substr(at + 2);
+    throw Error(SourceLocation{f.name_, newlines + 1 - (last == '\n' ? 1 : 0), 0},
+                "not valid JSON: " + what + ", expected a number within the range of a double");
   }
   return f;
 }

@@ -124,7 +124,7 @@ std::array<AxisMap, 3> parse_factor_spec(std::string_view spec) {
       try {
         out[a] = AxisMap(factors, breaks);
       } catch (const Error& e) {
-        throw Error(fmt::format("--factors {}: {}", name, e.what()));
+        throw Error(fmt::format("--factors: {} {}", name, e.what()));
       }
     }
     if (comma == spec.size()) break;

@@ -111,13 +111,13 @@ std::vector<ShrinkSample> read_shrink_samples(const CsvTable& t) {
   if (!nominal || !measured) {
     std::string cols;
     for (const auto& h : t.header()) cols += (cols.empty() ? "" : ", ") + h;
-    throw Error(SourceLocation{t.file(), 1, 0},
-                fmt::format("header needs columns nominal_mm and measured_mm (or _um, _in in "
-                            "both; found: {})",
+    throw Error(SourceLocation{t.file(), t.header_line(), 0},
+                fmt::format("expected columns nominal_mm and measured_mm (or _um, _in in "
+                            "both) in the header, found: {}",
                             cols));
   }
   if (nominal->unit != measured->unit) {
-    throw Error(SourceLocation{t.file(), 1, 0},
+    throw Error(SourceLocation{t.file(), t.header_line(), 0},
                 fmt::format("units do not match: '{}' is in {} but '{}' is in {}; give both "
                             "columns in the same unit",
                             t.header()[nominal->index], nominal->unit,
@@ -143,6 +143,16 @@ std::vector<ShrinkSample> read_shrink_samples(const CsvTable& t) {
     }
     s.nominal_mm = nom * nominal->scale;
     s.measured_mm = meas * measured->scale;
+    // A test part is not a kilometre long; larger values (1e308) overflow the fit's sums of
+    // squares into a NaN slope and a factor of 0.
+    constexpr double kMaxSize_mm = 1e6;
+    if (s.nominal_mm > kMaxSize_mm || s.measured_mm > kMaxSize_mm) {
+      const bool nominal_big = s.nominal_mm > kMaxSize_mm;
+      throw Error(t.where(r, nominal_big ? nominal->index : measured->index),
+                  fmt::format("{} size {} mm is out of range: expected at most 1e6 mm (1 km)",
+                              nominal_big ? "nominal" : "measured",
+                              nominal_big ? s.nominal_mm : s.measured_mm));
+    }
     if (axis_col) {
       const std::string a = lower(t.text(r, *axis_col));
       if (a == "x" || a == "y" || a == "z") {

@@ -67,13 +67,19 @@ struct Lexer {
   std::size_t pos = 0;
   std::uint64_t line = 1;
   std::string file;
+  std::size_t line_begin = 0;  // offset of the current line's first byte
+  std::uint32_t column = 0;    // 1-based column of the last word read, 0 at the end of file
   std::string_view next() {
     while (pos < s.size() && std::isspace(static_cast<unsigned char>(s[pos]))) {
-      if (s[pos] == '\n') ++line;
+      if (s[pos] == '\n') {
+        ++line;
+        line_begin = pos + 1;
+      }
       ++pos;
     }
     const std::size_t b = pos;
     while (pos < s.size() && !std::isspace(static_cast<unsigned char>(s[pos]))) ++pos;
+    column = b < s.size() ? static_cast<std::uint32_t>(b - line_begin + 1) : 0;
     return s.substr(b, pos - b);
   }
   std::string rest_of_line() {
@@ -85,7 +91,7 @@ struct Lexer {
     return r;
   }
   [[noreturn]] void fail(const std::string& msg) const {
-    throw Error(SourceLocation{file, line, 0}, msg);
+    throw Error(SourceLocation{file, line, column}, msg);
   }
   void expect(std::string_view word) {
     const auto w = next();
@@ -184,16 +190,32 @@ Mesh parse_stl(std::string_view b, const std::string& file) {
 
 Mesh read_stl(const std::string& path) { return parse_stl(read_file_bytes(path), path); }
 
+namespace {
+// The name after "solid" ends at the line's end: a binary header may hold line breaks and
+// other control bytes (and then text such as "outer loop" that would be read as the mesh),
+// so each of them becomes a space.
+std::string ascii_solid_name(const std::string& name) {
+  std::string out = name;
+  for (char& c : out) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  }
+  const auto b = out.find_first_not_of(' ');
+  if (b == std::string::npos) return "amctl";
+  return out.substr(b, out.find_last_not_of(' ') + 1 - b);
+}
+}  // namespace
+
 std::string serialize_stl(const Mesh& m, StlFormat format) {
   if (format == StlFormat::ascii) {
-    std::string out = fmt::format("solid {}\n", m.name.empty() ? "amctl" : m.name);
+    const std::string name = ascii_solid_name(m.name);
+    std::string out = fmt::format("solid {}\n", name);
     for (const auto& t : m.triangles) {
       const Vec3 n = unit_normal(t);
       out += fmt::format("  facet normal {:.9g} {:.9g} {:.9g}\n    outer loop\n", n[0], n[1], n[2]);
       for (const auto& v : t.v) out += fmt::format("      vertex {:.9g} {:.9g} {:.9g}\n", v[0], v[1], v[2]);
       out += "    endloop\n  endfacet\n";
     }
-    out += fmt::format("endsolid {}\n", m.name.empty() ? "amctl" : m.name);
+    out += fmt::format("endsolid {}\n", name);
     return out;
   }
   std::string out(84 + 50 * m.triangles.size(), '\0');

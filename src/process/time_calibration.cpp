@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -31,13 +32,13 @@ std::vector<PrintTiming> read_print_timings(const CsvTable& t) {
   for (const auto& [name, s] : {std::pair<const char*, double>{"duration_s", 1.0},
                                 {"duration_min", 60.0}, {"duration_h", 3600.0}}) {
     if (auto c = t.find(name)) {
-      if (dc) throw Error(SourceLocation{t.file(), 1, 0}, "give exactly one duration column");
+      if (dc) throw Error(SourceLocation{t.file(), t.header_line(), 0}, "give exactly one duration column");
       dc = c;
       scale = s;
     }
   }
   if (!dc) {
-    throw Error(SourceLocation{t.file(), 1, 0},
+    throw Error(SourceLocation{t.file(), t.header_line(), 0},
                 "missing duration column: expected duration_s, duration_min or duration_h");
   }
   const auto lc = t.find("layer");
@@ -57,8 +58,10 @@ std::vector<PrintTiming> read_print_timings(const CsvTable& t) {
     p.duration_s = d * scale;
     if (lc) {
       const double l = t.number(r, *lc);
-      if (l < 0 || l != static_cast<double>(static_cast<long>(l))) {
-        throw Error(t.where(r, *lc), fmt::format("layer must be a whole number >= 0, got {}", l));
+      // Range first: converting a double beyond long's range is undefined behaviour.
+      if (!(l >= 0 && l <= 1e9) || l != std::floor(l)) {
+        throw Error(t.where(r, *lc),
+                    fmt::format("layer must be a whole number in [0, 1e9], got {}", l));
       }
       p.layer = static_cast<long>(l);
     }

@@ -1,4 +1,5 @@
 // TOML reader for SlsBuildConfig (configs/sls_pa12.toml documents every key).
+#include <limits>
 #include <set>
 #include <string>
 
@@ -27,7 +28,8 @@ class Section {
     for (const auto& [k, v] : *tbl_)
       if (!keys_.count(std::string(k.str())))
         throw Error(where(path, v.source()),
-                    "unknown key '" + std::string(k.str()) + "' in [" + name_ + "]");
+                    "unknown key '" + std::string(k.str()) + "' in [" + name_ +
+                        "], expected one of the keys of configs/sls_pa12.toml");
   }
   void get(const char* key, double& out) const {
     const toml::node* n = tbl_ ? tbl_->get(key) : nullptr;
@@ -41,7 +43,14 @@ class Section {
   void get(const char* key, int& out) const {
     const toml::node* n = tbl_ ? tbl_->get(key) : nullptr;
     if (!n) return;
-    if (auto v = n->value<std::int64_t>()) {
+    // Only an integer node: toml++'s value<int64_t>() converts a float node with a plain
+    // cast, undefined for 1e308 (found by fuzz_sls_config under UBSan).
+    if (auto v = n->is_integer() ? n->value<std::int64_t>() : std::nullopt) {
+      if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max()) {
+        throw Error(where(path_, n->source()), "[" + name_ + "] " + key + ": found " +
+                                                   std::to_string(*v) +
+                                                   ", expected an integer in [-2147483648, 2147483647]");
+      }
       out = int(*v);
       return;
     }
@@ -65,6 +74,23 @@ class Section {
   const toml::table* tbl_ = nullptr;
 };
 
+// validate() names the field first ("density_kg_m3 (rho) must be ..."): the place of the
+// key in the file that sets it, or the file alone when the value is a default or a
+// combination of keys.
+SourceLocation validated_key_location(const std::string& path, const toml::table& root,
+                                      const std::string& message) {
+  std::string field = message.substr(0, message.find_first_of(" ("));
+  if (field == "layer_thickness_m") field = "layer_thickness_mm";
+  for (const auto& [section, node] : root) {
+    const toml::table* t = node.as_table();
+    if (!t) continue;
+    std::string key = field;
+    if (section.str() == "laser" && key.rfind("laser_", 0) == 0) key = key.substr(6);
+    if (const toml::node* n = t->get(key)) return where(path, n->source());
+  }
+  return SourceLocation{path, 0, 0};
+}
+
 }  // namespace
 
 SlsBuildConfig load_sls_config(const std::string& path) {
@@ -77,7 +103,9 @@ SlsBuildConfig load_sls_config(const std::string& path) {
   static const std::set<std::string> top{"material", "build", "controller", "laser", "numerics"};
   for (const auto& [k, v] : root)
     if (!top.count(std::string(k.str())))
-      throw Error(where(path, v.source()), "unknown section '" + std::string(k.str()) + "'");
+      throw Error(where(path, v.source()), "unknown section '" + std::string(k.str()) +
+                                              "', expected material, build, controller, "
+                                              "laser or numerics");
 
   SlsBuildConfig c;
   const Section mat(path, root, "material",
@@ -105,10 +133,15 @@ SlsBuildConfig load_sls_config(const std::string& path) {
       const toml::table* t = el.as_table();
       auto from = t ? t->get("from_layer") : nullptr;
       auto sp = t ? t->get("setpoint_c") : nullptr;
-      if (!t || !from || !sp || !from->value<std::int64_t>() || !sp->value<double>())
+      if (!t || !from || !sp || !from->is_integer() || !sp->value<double>())
         throw Error(where(path, el.source()),
                     "setpoint_changes entries need integer from_layer and number setpoint_c");
-      c.setpoint_changes.push_back({int(*from->value<std::int64_t>()), *sp->value<double>()});
+      const std::int64_t from_layer = *from->value<std::int64_t>();
+      if (from_layer < 0 || from_layer > std::numeric_limits<int>::max())
+        throw Error(where(path, from->source()),
+                    "setpoint_changes from_layer: found " + std::to_string(from_layer) +
+                        ", expected a layer number >= 0");
+      c.setpoint_changes.push_back({int(from_layer), *sp->value<double>()});
     }
   }
 
@@ -160,7 +193,7 @@ SlsBuildConfig load_sls_config(const std::string& path) {
   try {
     c.validate();
   } catch (const Error& e) {
-    throw Error(SourceLocation{path, 0, 0}, e.detail());
+    throw Error(validated_key_location(path, root, e.detail()), e.detail());
   }
   return c;
 }

@@ -6,6 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
+#include <fmt/format.h>
+
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 #include "test_util.hpp"
@@ -103,8 +107,8 @@ TEST(KlipperCfg, OtherKinematicsAreReportedAsUnsupported) {
                 .find("'rotary_delta' is a Klipper kinematics amctl does not support"),
             std::string::npos);
   EXPECT_EQ(cfg_error("[printer]\nkinematics: corexyy\nmax_velocity: 300\nmax_accel: 3000\n"),
-            "printer.cfg:2:13: [printer] kinematics: 'corexyy' is not a Klipper kinematics; did "
-            "you mean 'corexy'?");
+            "printer.cfg:2:13: [printer] kinematics: found 'corexyy', expected a Klipper "
+            "kinematics; did you mean 'corexy'?");
 }
 
 TEST(KlipperCfg, ExtruderAndArcAndRetractionSectionsAreRead) {
@@ -161,6 +165,22 @@ TEST(KlipperCfg, InputShaperSectionIsReadWithKlippersDefaults) {
   EXPECT_NE(toml.find("[input_shaper]"), std::string::npos);
   EXPECT_EQ(to_toml(cfg(kMinimal)).find("[input_shaper]"), std::string::npos);
   EXPECT_EQ(parse_machine_toml(toml, "m.toml").input_shaper, m.input_shaper);
+}
+
+TEST(KlipperCfg, UnknownShaperTypesAreRefusedAsKlipperDoes) {
+  // Found by fuzz_klipper_cfg: any text was taken as a shaper type, and bytes that are not
+  // UTF-8 made `machine show` write a TOML file amctl could not read back. Klipper refuses
+  // every type outside shaper_defs.INPUT_SHAPERS ("Unsupported shaper type").
+  const std::string base = kMinimal + "[input_shaper]\n";
+  const int line = 1 + static_cast<int>(std::count(base.begin(), base.end(), '\n'));
+  const std::string msg = cfg_error(base + "shaper_type_x: m\x86\x86\n");
+  EXPECT_NE(msg.find(fmt::format("printer.cfg:{}:16: [input_shaper] shaper_type_x: found '", line)),
+            std::string::npos) << msg;
+  EXPECT_NE(msg.find("expected one of zv, mzv, zvd, ei, 2hump_ei, 3hump_ei"), std::string::npos)
+      << msg;
+  EXPECT_NE(cfg_error(base + "shaper_type: zvdd\n").find("shaper_type: found 'zvdd'"),
+            std::string::npos);
+  EXPECT_NE(cfg_error(base + "shaper_type_y: smooth\n").find("shaper_type_y"), std::string::npos);
 }
 
 TEST(KlipperCfg, ExtruderOmissionsGetKlippersDerivedDefaults) {
@@ -301,6 +321,8 @@ TEST(KlipperCfg, RecursiveIncludeIsAnError) {
   dir.write("b.cfg", "[include a.cfg]\n");
   const std::string msg = error_of([&] { (void)load_machine((dir.path() / "a.cfg").string()); });
   EXPECT_NE(msg.find("recursive include"), std::string::npos) << msg;
+  // Reported at the [include] line that closes the loop.
+  EXPECT_NE(msg.find("b.cfg:1:1: recursive include of config file"), std::string::npos) << msg;
 }
 
 TEST(KlipperCfg, OptionsRightAfterAnIncludeNeedASectionHeader) {

@@ -48,14 +48,14 @@ TEST(Override, MaxAccelToDecelUsesTheCurrentMaxAccel) {
 TEST(Override, UnknownKeysSuggestTheClosestKey) {
   Machine m;
   EXPECT_EQ(error_of([&] { apply_override(m, "printer.max_acel=5000"); }),
-            "--set printer.max_acel=5000: unknown key 'printer.max_acel'; did you mean "
-            "'printer.max_accel'?");
+            "--set printer.max_acel=5000: unknown key 'printer.max_acel', expected a key that `amctl machine keys` lists; "
+            "did you mean 'printer.max_accel'?");
   EXPECT_EQ(error_of([&] { apply_override(m, "printer.jerk=[1,1,1,1]"); }),
-            "--set printer.jerk=[1,1,1,1]: unknown key 'printer.jerk'; did you mean "
-            "'marlin.jerk'?");
+            "--set printer.jerk=[1,1,1,1]: unknown key 'printer.jerk', expected a key that `amctl machine keys` lists; "
+            "did you mean 'marlin.jerk'?");
   EXPECT_EQ(error_of([&] { apply_override(m, "stepper_x.microstep=8"); }),
-            "--set stepper_x.microstep=8: unknown key 'stepper_x.microstep'; did you mean "
-            "'microsteps'?");
+            "--set stepper_x.microstep=8: unknown key 'stepper_x.microstep', expected a key that `amctl machine keys` lists; "
+            "did you mean 'microsteps'?");
   EXPECT_EQ(error_of([&] { apply_override(m, "max_accel=5000"); }),
             "--set max_accel=5000: expected section.key=value, e.g. printer.max_accel=5000");
   EXPECT_EQ(error_of([&] { apply_override(m, "printer.max_accel"); }),
@@ -71,11 +71,11 @@ TEST(Override, ValuesAreTypeAndRangeChecked) {
             "--set printer.max_accel=-1: printer.max_accel must be a finite number > 0 mm/s^2, "
             "got -1");
   EXPECT_EQ(error_of([&] { apply_override(m, "marlin.jerk.w=3"); }),
-            "--set marlin.jerk.w=3: unknown key 'marlin.jerk.w' (the element must be x, y, z or "
-            "e)");
+            "--set marlin.jerk.w=3: unknown key 'marlin.jerk.w', expected a key that `amctl machine keys` lists (the "
+            "element must be x, y, z or e)");
   EXPECT_EQ(error_of([&] { apply_override(m, "printer.firmware=grbl"); }),
-            "--set printer.firmware=grbl: printer.firmware: 'grbl' is not one of klipper, "
-            "marlin, reprap");
+            "--set printer.firmware=grbl: printer.firmware: found 'grbl', expected one of "
+            "klipper, marlin, reprap");
   EXPECT_NE(error_of([&] { apply_override(m, "stepper_y.microsteps=0"); }).find(">= 1"),
             std::string::npos);
   EXPECT_EQ(m, Machine{});  // failed overrides leave the machine as it was

@@ -34,18 +34,20 @@ TEST(MachineToml, MissingKeysKeepTheDocumentedDefaults) {
 
 TEST(MachineToml, UnknownKeyNamesFileLineColumnAndSuggestsTheClosestKey) {
   EXPECT_EQ(parse_error("[printer]\nmax_velocity = 300\n  max_acel = 5000\n"),
-            "m.toml:3:3: unknown key 'max_acel' in [printer]; did you mean 'max_accel'?");
+            "m.toml:3:3: unknown key 'max_acel' in [printer], expected a key that `amctl machine keys` lists; did you mean "
+            "'max_accel'?");
 }
 
 TEST(MachineToml, KeyInTheWrongSectionPointsToItsSection) {
   EXPECT_EQ(parse_error("[printer]\nprint_accel = 500\n"),
-            "m.toml:2:1: unknown key 'print_accel' in [printer]; 'print_accel' belongs in "
-            "[marlin]");
+            "m.toml:2:1: unknown key 'print_accel' in [printer], expected a key that `amctl machine keys` lists; "
+            "'print_accel' belongs in [marlin]");
 }
 
 TEST(MachineToml, UnknownSectionSuggestsTheClosestSection) {
   EXPECT_EQ(parse_error("[printr]\nmax_accel = 1\n"),
-            "m.toml:1:2: unknown section [printr]; did you mean [printer]?");
+            "m.toml:1:2: unknown section [printr], expected a section that `amctl machine keys` "
+            "lists; did you mean [printer]?");
   EXPECT_NE(parse_error("[stepper_q]\nmicrosteps = 16\n").find("unknown section [stepper_q]"),
             std::string::npos);
 }
@@ -94,8 +96,8 @@ TEST(MachineToml, UnsupportedKinematicsSaysSo) {
             "m.toml:2:14: printer.kinematics: 'polar' kinematics is not supported by amctl "
             "(supported: cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian)");
   EXPECT_EQ(parse_error("[printer]\nfirmware = \"marlinn\"\n"),
-            "m.toml:2:12: printer.firmware: 'marlinn' is not one of klipper, marlin, reprap; did "
-            "you mean 'marlin'?");
+            "m.toml:2:12: printer.firmware: found 'marlinn', expected one of klipper, marlin, "
+            "reprap; did you mean 'marlin'?");
 }
 
 TEST(MachineToml, JunctionPolicyDefaultsFromTheFirmware) {

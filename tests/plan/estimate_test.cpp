@@ -160,9 +160,9 @@ TEST(Estimate, MarlinClampsToItsSoftEndstops) {
   std::vector<PlannedMove> moves;
   EstimateOptions o;
   o.on_move = [&](const PlannedMove& pm) { moves.push_back(pm); };
-  // X150 is clamped to 100: 100 mm from rest to rest, 2 * 0.02 + 98 / 100 = 1.02 s. Then
-  // G4 and a move to Y10 that starts at the clamped X = 100.
-  const auto r = estimate_text("G1 X150 F6000\nG4 P0\nG1 Y10\n", "t", m, o);
+  // X150 is clamped to 100 (X was homed by G28): 100 mm from rest to rest,
+  // 2 * 0.02 + 98 / 100 = 1.02 s. Then G4 and a move to Y10 that starts at the clamped X = 100.
+  const auto r = estimate_text("G28\nG1 X150 F6000\nG4 P0\nG1 Y10\n", "t", m, o);
   EXPECT_EQ(r.diagnostics.clamped_moves, 1u);
   ASSERT_EQ(moves.size(), 2u);
   EXPECT_DOUBLE_EQ(moves[0].distance_mm, 100.0);
@@ -172,6 +172,78 @@ TEST(Estimate, MarlinClampsToItsSoftEndstops) {
   // 10 mm: 0.12 s.
   EXPECT_NEAR(r.total_time_s, 1.02 + 0.12, 1e-9);
   EXPECT_FALSE(r.range_error.has_value());
+}
+
+namespace {
+// Marlin with soft endstops [0, 100] on X, Y, Z, 5000 mm/s^2 and junction deviation: a
+// 10 mm move from rest to rest at F6000 takes 2 * 0.02 + 8 / 100 = 0.12 s.
+machine::Machine marlin_with_soft_endstops() {
+  machine::Machine m = simple();
+  m.firmware = machine::Firmware::marlin;
+  m.junction = machine::JunctionPolicy::junction_deviation;
+  m.print_accel_mm_s2 = m.travel_accel_mm_s2 = m.retract_accel_mm_s2 = 5000;
+  m.soft_min_position_mm = {0.0, 0.0, 0.0};
+  m.soft_max_position_mm = {100.0, 100.0, 100.0};
+  return m;
+}
+}  // namespace
+
+TEST(Estimate, MarlinRelativeMoveAfterAClampStartsFromTheClampedPosition) {
+  // Marlin's prepare_line_to_destination clamps `destination` and makes it current_position,
+  // so G91 X-10 after X150 -> 100 goes to X90: 10 mm (0.12 s). Adding the offset to the
+  // unclamped 150 instead would give 140, clamped to 100 again: no motion.
+  std::vector<PlannedMove> moves;
+  EstimateOptions o;
+  o.on_move = [&](const PlannedMove& pm) { moves.push_back(pm); };
+  const auto r = estimate_text("G28\nG1 X150 F6000\nG4 P0\nG91\nG1 X-10\n", "t",
+                               marlin_with_soft_endstops(), o);
+  ASSERT_EQ(moves.size(), 2u);
+  EXPECT_DOUBLE_EQ(moves[1].start_mm[0], 100.0);
+  EXPECT_DOUBLE_EQ(moves[1].distance_mm, 10.0);
+  EXPECT_DOUBLE_EQ(moves[1].start_mm[0] + moves[1].axes_r[0] * moves[1].distance_mm, 90.0);
+  EXPECT_EQ(r.diagnostics.clamped_moves, 1u);
+  EXPECT_NEAR(r.total_time_s, 1.02 + 0.12, 1e-9);
+}
+
+TEST(Estimate, MarlinAbsoluteMoveAfterAClampKeepsTheG92Offset) {
+  // G92 X50 at machine X = 0: file X = machine X + 50. X170 is machine 120, clamped to 100
+  // (file 150). Then G90 X140 is machine 90: a 10 mm move back, 0.12 s.
+  std::vector<PlannedMove> moves;
+  EstimateOptions o;
+  o.on_move = [&](const PlannedMove& pm) { moves.push_back(pm); };
+  const auto r = estimate_text("G28\nG92 X50\nG1 X170 F6000\nG4 P0\nG1 X140\n", "t",
+                               marlin_with_soft_endstops(), o);
+  ASSERT_EQ(moves.size(), 2u);
+  EXPECT_DOUBLE_EQ(moves[0].distance_mm, 100.0);
+  EXPECT_DOUBLE_EQ(moves[1].start_mm[0], 100.0);
+  EXPECT_DOUBLE_EQ(moves[1].start_mm[0] + moves[1].axes_r[0] * moves[1].distance_mm, 90.0);
+  EXPECT_EQ(r.diagnostics.clamped_moves, 1u);
+  EXPECT_NEAR(r.total_time_s, 1.02 + 0.12, 1e-9);
+}
+
+TEST(Estimate, MarlinClampsOnlyAxesHomedByG28) {
+  // apply_motion_limits clamps an axis only once axis_was_homed(): before any G28 nothing is
+  // clamped (150 mm: 2 * 0.02 + 148 / 100 = 1.52 s); after G28 X only X is.
+  const auto before = estimate_text("G1 X150 F6000\n", "t", marlin_with_soft_endstops());
+  EXPECT_EQ(before.diagnostics.clamped_moves, 0u);
+  EXPECT_NEAR(before.total_time_s, 1.52, 1e-9);
+  std::vector<PlannedMove> moves;
+  EstimateOptions o;
+  o.on_move = [&](const PlannedMove& pm) { moves.push_back(pm); };
+  const auto x_only = estimate_text("G28 X\nG1 X150 Y150 F6000\n", "t",
+                                    marlin_with_soft_endstops(), o);
+  ASSERT_EQ(moves.size(), 1u);
+  const auto& m = moves[0];
+  EXPECT_DOUBLE_EQ(m.start_mm[0] + m.axes_r[0] * m.distance_mm, 100.0);
+  EXPECT_DOUBLE_EQ(m.start_mm[1] + m.axes_r[1] * m.distance_mm, 150.0);
+  EXPECT_DOUBLE_EQ(m.distance_mm, std::hypot(100.0, 150.0));
+  EXPECT_EQ(x_only.diagnostics.clamped_moves, 1u);
+  // M211 S0 switches the soft endstops off: X150 is reached (1.52 s), then M211 S1 clamps
+  // G1 X200 to 100 (back 50 mm: 2 * 0.02 + 48 / 100 = 0.52 s).
+  const auto off = estimate_text("G28\nM211 S0\nG1 X150 F6000\nG4 P0\nM211 S1\nG1 X200\n", "t",
+                                 marlin_with_soft_endstops());
+  EXPECT_EQ(off.diagnostics.clamped_moves, 1u);
+  EXPECT_NEAR(off.total_time_s, 1.52 + 0.52, 1e-9);
 }
 
 TEST(Estimate, ErrorsNameFileLineAndColumn) {

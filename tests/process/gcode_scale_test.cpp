@@ -23,14 +23,27 @@ pr::ScaleMap make_map(const char* spec, std::array<double, 3> origin) {
   return m;
 }
 
-fs::path scratch_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() /
-                       (std::string("amctl_gcode_scale_") + info->name() + "_" +
-                        std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
-}
+// A directory of its own per test and process, removed when the test is done with it (the
+// tests used to leave one /tmp/amctl_gcode_scale_* directory behind per test and run).
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() / (std::string("amctl_gcode_scale_") + info->name() + "_" +
+                                         std::to_string(::getpid()));
+    fs::create_directories(path_);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
 
 std::string read_all(const fs::path& p) {
   std::ifstream f(p, std::ios::binary);
@@ -42,7 +55,8 @@ std::string read_all(const fs::path& p) {
 // Writes `in` to a file, scales it into another and returns the output text.
 std::string scale_text(const std::string& in, const pr::ScaleMap& map,
                        pr::GcodeScaleReport* report = nullptr, pr::GcodeScaleOptions opt = {}) {
-  const fs::path dir = scratch_dir();
+  const ScratchDir scratch;
+  const fs::path& dir = scratch.path();
   std::ofstream(dir / "t.gcode", std::ios::binary) << in;
   const auto rep = pr::scale_gcode_file((dir / "t.gcode").string(), (dir / "o.gcode").string(),
                                         map, opt);
@@ -175,7 +189,8 @@ TEST(GcodeScale, ChecksumsAreRecomputedForRewrittenLines) {
 }
 
 TEST(GcodeScale, MalformedLinesNameFileLineAndColumnAndWriteNothing) {
-  const fs::path dir = scratch_dir();
+  const ScratchDir scratch;
+  const fs::path& dir = scratch.path();
   std::ofstream(dir / "bad.gcode") << "G1 X10\nG1 X10 E\n";
   const auto map = make_map("x=2", {0, 0, 0});
   try {
@@ -197,7 +212,8 @@ TEST(GcodeScale, IdentityMapReproducesARealSlicerFile) {
   // every number keeps its value, so every byte must stay.
   const std::string src =
       std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode";
-  const fs::path dir = scratch_dir();
+  const ScratchDir scratch;
+  const fs::path& dir = scratch.path();
   pr::ScaleMap identity;
   const auto rep = pr::scale_gcode_file(src, (dir / "o.gcode").string(), identity, {});
   EXPECT_EQ(read_all(dir / "o.gcode"), read_all(src));

@@ -179,6 +179,24 @@ TEST(EmpiricalParams, MalformedFilesNameFileAndLine) {
   EXPECT_EQ(e.where().line, 2u) << e.what();
 }
 
+TEST(JsonFile, NumbersBeyondADoubleAreErrorsWithTheirLine) {
+  // Found by fuzz_process_json: nlohmann's out_of_range (number overflow) escaped as a foreign
+  // exception; amctl printed it without a file or line, and a library caller got no
+  // amctl::Error at all.
+  for (const char* text : {"{\n\"link_speeds_mm_s\": [1e30920]\n}", "{\n\"link_speeds_mm_s\": [-1e400\n]}"}) {
+    const auto e = expect_error([&] { (void)pr::parse_empirical_params(text, "p.json"); });
+    EXPECT_EQ(e.where().file, "p.json");
+    EXPECT_EQ(e.where().line, 2u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected a number within the range of a double"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(expect_error([] { (void)pr::parse_shrink_model("{\"axis\": \"Z\", \"factor\": 1e999}", "m.json"); })
+                .where()
+                .line,
+            1u);
+}
+
 TEST(JsonFile, EveryValueHasTheLineItStartsOn) {
   const auto f = pr::JsonFile::parse("{\n \"a\": 1,\n \"b\": [\n  2,\n  {\"c\": 3}\n ],\n \"d/e\": 4\n}",
                                      "f.json");

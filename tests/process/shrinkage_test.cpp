@@ -36,6 +36,19 @@ std::string expect_error(auto&& fn) {
 
 }  // namespace
 
+TEST(Shrinkage, SizesBeyondAKilometreAreRefusedBeforeTheFitOverflows) {
+  // Found by fuzz_process_csv: measured_mm = 1e308 is finite, but the fit's sums of squares
+  // overflowed to a NaN slope and `shrink fit` printed factor 0 with null statistics.
+  EXPECT_EQ(expect_error([] {
+              (void)from_csv("nominal_mm,measured_mm\n10,10.1\n20,1e308\n30,30.2\n");
+            }),
+            "test.csv:3:4: measured size 1e+308 mm is out of range: expected at most 1e6 mm (1 km)");
+  EXPECT_NE(expect_error([] { (void)from_csv("nominal_in,measured_in\n1e5,1\n"); })
+                .find("test.csv:2:1: nominal size 2540000 mm is out of range"),
+            std::string::npos);
+  EXPECT_EQ(from_csv("nominal_mm,measured_mm\n1e6,1e6\n").size(), 1u);  // the limit itself
+}
+
 TEST(Shrinkage, Table1SingleLineMatchesScipyLinregress) {
   const auto fit = pr::fit_shrinkage(table1(), {});
   ASSERT_EQ(fit.size(), 1u);

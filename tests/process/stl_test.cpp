@@ -49,6 +49,21 @@ TEST(Stl, BinaryAndAsciiRoundTripKeepsTheGeometry) {
   }
 }
 
+TEST(Stl, AsciiOutputOfABinaryHeaderWithLineBreaksReadsBack) {
+  // Found by fuzz_stl: a binary header is 80 free bytes. Written after "solid" as it was,
+  // its line break put "outer loop" on a line of its own and the ASCII file was refused.
+  pr::Mesh m = cube(1.0);
+  m.name = std::string("part\nouter loop\r\x01 v2", 20);
+  const std::string ascii = pr::serialize_stl(m, pr::StlFormat::ascii);
+  EXPECT_EQ(ascii.substr(0, ascii.find('\n')), "solid part outer loop   v2");
+  const pr::Mesh back = pr::parse_stl(ascii, "back.stl");
+  ASSERT_EQ(back.triangles.size(), m.triangles.size());
+  for (std::size_t i = 0; i < m.triangles.size(); ++i) {
+    EXPECT_EQ(back.triangles[i].v, m.triangles[i].v) << i;  // small integers: exact in %.9g
+  }
+  EXPECT_EQ(back.name, "part outer loop   v2");
+}
+
 TEST(Stl, ScalingAboutAnOriginMultipliesExtentsAndVolume) {
   pr::ScaleMap map;
   map.axes = pr::parse_factor_spec("x=1.01,y=1.02,z=0.99");

@@ -51,6 +51,25 @@ TEST(TimeCalibration, TimingsCsvResolvesPathsAndUnits) {
                amctl::Error);
 }
 
+TEST(TimeCalibration, LayerNumbersBeyondALongAreErrorsNotOverflows) {
+  // Found by fuzz_process_csv (UBSan): a layer of 1.4e127 was converted to long before any
+  // range check. Now the cell is named.
+  for (const char* layer : {"1.4e127", "3e9", "-1", "2.5"}) {
+    const std::string csv = std::string("gcode,layer,duration_min\na.gcode,0,1.5\na.gcode,") +
+                            layer + ",2\n";
+    try {
+      (void)pr::read_print_timings(pr::CsvTable::parse(csv, "t.csv"));
+      ADD_FAILURE() << layer << " was accepted";
+    } catch (const amctl::Error& e) {
+      EXPECT_EQ(e.where().line, 3u) << e.what();
+      EXPECT_EQ(e.where().column, 9u) << e.what();
+      EXPECT_NE(std::string(e.what()).find("layer must be a whole number in [0, 1e9]"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(TimeCalibration, PlannerDurationsAreExplainedByTheLimitsThatMadeThem) {
   const fs::path dir = fs::temp_directory_path() / "amctl_time_calibration_test";
   fs::remove_all(dir);

@@ -16,6 +16,20 @@ using amctl::control::PidGains;
 namespace {
 const PowderMaterial kPa12{};
 const PidGains kPaperPi = PidGains::standard(0.3, 0.5);
+
+// Under AddressSanitizer (the asan preset defines AMCTL_SANITIZE) the slowest tests took
+// minutes: there they run a smaller problem with the same assertions. Fewer modes in the
+// Hamiltonian realisation of G (the assertions that use it are bounds or counts), and a
+// shallower bed with fewer modes for the two-ways agreement.
+#ifdef AMCTL_SANITIZE
+constexpr int kHamiltonianModes = 20;
+constexpr double kDeepBedM = 3e-3;  // 30 layers
+constexpr int kDeepBedModes = 24;
+#else
+constexpr int kHamiltonianModes = 60;
+constexpr double kDeepBedM = 10e-3;  // 100 layers
+constexpr int kDeepBedModes = 60;
+#endif
 }  // namespace
 
 TEST(RobustMargin, PaperPiOnOneLayerMatchesScipyBothWays) {
@@ -67,12 +81,13 @@ TEST(RobustMargin, TheoremTwoIsNotApplicableWhenTheTruncationErrorExceedsTheMarg
 TEST(RobustMargin, BothWaysAgreeOnADeepBedWithManyModes) {
   // 100 layers: the modal poles come down to the loop crossover; the Hamiltonian on G_60 plus
   // the one-pole tail must still match the sweep of the exact G (and the sweep of its own
-  // state-space realisation).
-  const PowderBedTf g(kPa12, 10e-3);
-  const auto r = compute_margins(g, kPaperPi, 1, -0.01, 60);
+  // state-space realisation). Under sanitizers: 30 layers, G_24.
+  const PowderBedTf g(kPa12, kDeepBedM);
+  const auto r = compute_margins(g, kPaperPi, 1, -0.01, kDeepBedModes);
   EXPECT_NEAR(r.margin_on_g_hamiltonian, r.margin_on_g_sweep, 1e-7 * r.margin_on_g_sweep);
   EXPECT_NEAR(r.margin_on_gn_hamiltonian, r.margin_on_gn_sweep, 1e-8 * r.margin_on_gn_sweep);
-  const auto t = control_sensitivity(modal_realization(g, 60, TailModel::one_pole), kPaperPi);
+  const auto t =
+      control_sensitivity(modal_realization(g, kDeepBedModes, TailModel::one_pole), kPaperPi);
   SweepOptions o;
   o.w_min_rad_s = 1e-6;
   o.w_max_rad_s = 1e6;
@@ -84,7 +99,7 @@ TEST(RobustMargin, MarginCannotExceedOneOverKp) {
   // |C S| -> kp as w -> inf because G -> 0, so 1/kp is a ceiling for every plant and l.
   const PidGains pi = PidGains::standard(0.3, 2.0);
   const PowderBedTf g(kPa12, 1e-6);
-  const auto r = compute_margins(g, pi, 1);
+  const auto r = compute_margins(g, pi, 1, -0.01, kHamiltonianModes);
   EXPECT_LE(r.margin_on_gn_sweep, 1.0 / 0.3 + 1e-12);
   EXPECT_LE(r.margin_on_g_sweep, 1.0 / 0.3 + 1e-12);
 }
@@ -154,7 +169,7 @@ TEST(RobustMargin, NyquistCountFindsTheUnstablePolesOfAThirdOrderLoop) {
 }
 
 TEST(RobustMargin, PaperPiStabilisesTheExactIrrationalPlant) {
-  const auto r = compute_margins(PowderBedTf(kPa12, 1e-4), kPaperPi, 1);
+  const auto r = compute_margins(PowderBedTf(kPa12, 1e-4), kPaperPi, 1, -0.01, kHamiltonianModes);
   EXPECT_EQ(r.nyquist_rhp_poles_g, 0);
   // With a pure delay of 100 s the same PI no longer stabilises G (phase lag at the 0.055 rad/s
   // crossover is 5.5 rad): the count must become positive.

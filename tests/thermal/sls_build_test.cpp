@@ -159,3 +159,23 @@ TEST(SlsBuild, ConfigErrorsCarryFileLineAndColumn) {
     EXPECT_NE(std::string(e.what()).find("kd"), std::string::npos);
   }
 }
+
+TEST(SlsBuild, IntegerKeysRefuseFloatsInsteadOfConvertingThem) {
+  // Found by fuzz_sls_config (UBSan): `cells_per_layer = 1e308` went through toml++'s
+  // float-to-integer cast, undefined for a value beyond int64. An integer key now needs an
+  // integer, and the error names its place.
+  const std::string path = std::string(AMCTL_BINARY_DIR) + "/float_sls.toml";
+  for (const char* v : {"1e308", "2.0", "99999999999"}) {
+    {
+      std::ofstream f(path);
+      f << "[numerics]\ncells_per_layer = " << v << "\n";
+    }
+    try {
+      (void)load_sls_config(path);
+      ADD_FAILURE() << v << " was accepted";
+    } catch (const amctl::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("float_sls.toml:2:19:"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("cells_per_layer"), std::string::npos) << e.what();
+    }
+  }
+}

@@ -1,7 +1,7 @@
 #pragma once
 // Turns G-code text into EventSink events: G0/G1, G2/G3 (I/J and R forms), G4, G10/G11,
 // G17-G19, G20/G21, G28, G90/G91, M82/M83, G92, M73, M104/M109/M140/M190/M141/M191,
-// M106/M107, M201/M203/M204/M205, M220/M221, M400, M566, Klipper's SET_VELOCITY_LIMIT,
+// M106/M107, M201/M203/M204/M205, M211 (soft endstops on/off), M220/M221, M400, M566, Klipper's SET_VELOCITY_LIMIT,
 // SET_KINEMATIC_POSITION, TEMPERATURE_WAIT, M593 (input shaping, passed on as an event), and slicer annotations for layers and features
 // (PrusaSlicer/SuperSlicer, Cura, OrcaSlicer/Bambu, ideaMaker).
 #include <array>
@@ -56,6 +56,13 @@ struct InterpreterOptions {
   /// Otherwise each named axis (all without names) goes to 0.
   bool home_all_axes = false;
   std::array<double, 3> home_position_mm{0.0, 0.0, 0.0};
+  /// Marlin's software endstops [mm, machine coordinates X Y Z] (unset: no limit). As in
+  /// Marlin's apply_motion_limits, the target of a move (G0/G1, each arc segment) is clamped
+  /// into them on every axis that has been homed (G28), and the clamped point becomes the
+  /// current position: a later relative move continues from it. Before an axis is homed it
+  /// is not clamped; M211 S0 / S1 switch the clamping off / on. Firmware-retraction moves
+  /// are not clamped.
+  std::array<std::optional<double>, 3> soft_min_mm{}, soft_max_mm{};
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -119,7 +126,11 @@ class Interpreter {
   /// M207 or M208 (`code`): firmware retraction settings (retraction.cpp).
   void set_firmware_retraction(int code, const Params& p);
   void emit_move(const std::array<double, 4>& target, double speed_mm_s, std::uint64_t line_no,
-                 EventSink& sink, bool from_arc, bool from_retract = false);
+                 EventSink& sink, bool from_arc, bool from_retract = false, bool clamped = false);
+  /// Clamps `target` into the soft endstops on the homed axes; the file's coordinates
+  /// `gcode` (when given) follow the clamp, as Marlin's current_position does. True when a
+  /// coordinate changed.
+  bool soft_clamp(std::array<double, 4>& target, std::array<double, 4>* gcode) const;
   void require_numbers(const Params& p, std::uint64_t line_no) const;
   void apply_feed(const Params& p, std::uint64_t line_no);
   /// Machine-coordinate target of the X/Y/Z/E words under the modal state; the file's own
@@ -145,9 +156,11 @@ class Interpreter {
   double extrude_factor_ = 1.0;         // M221
   int arc_plane_ = 17;
   bool retracted_ = false;
+  bool soft_endstops_ = false;          // any soft endstop configured
+  bool soft_enabled_ = true;            // M211 S0 switches the soft endstops off
   double hop_mm_ = 0.0;         // Z raised by G10 and not yet lowered by G11
   double hop_from_z_mm_ = 0.0;  // machine Z before that hop
-  unsigned homed_axes_ = 0;       // bit 0 X, 1 Y, 2 Z
+  unsigned homed_axes_ = 0;       // bit 0 X, 1 Y, 2 Z: homed by G28 (printer.toolhead.homed_axes; Marlin's soft endstops apply)
   std::array<double, 3> heater_target_c_{};  // hotend, bed, chamber
   CommandExpander* expander_ = nullptr;
   bool general_path_only_ = false;  // the expander may take G0/G1

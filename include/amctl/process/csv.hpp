@@ -30,6 +30,8 @@ class CsvTable {
   [[nodiscard]] double number(std::size_t row, std::size_t col) const;
   [[nodiscard]] SourceLocation where(std::size_t row, std::size_t col) const;
   [[nodiscard]] const std::string& file() const { return file_; }
+  /// 1-based line of the header row.
+  [[nodiscard]] std::uint64_t header_line() const { return header_line_; }
 
  private:
   std::string file_;

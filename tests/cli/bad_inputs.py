@@ -1,0 +1,283 @@
+#!/usr/bin/env python3
+"""Every bad input gets exit code 2, one message on stderr naming where it is and what was
+expected, and leaves no output file behind (docs/testing.md, "Bad input").
+
+Each row of CASES is a command run by the real amctl binary in a fresh directory holding
+the row's files. The first line of stderr must be
+
+    amctl: error: WHERE: MESSAGE
+
+where WHERE is the row's `where` exactly (FILE:LINE[:COL] for a file, the flag for a
+command-line value) and MESSAGE says what was found and what was expected ("found X, expected Y"
+or "must be Y, got X"). Every path in `outputs` must not exist afterwards, nor any other
+new file.
+
+usage: bad_inputs.py AMCTL [-k SUBSTRING]
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+GOOD_GCODE = "G28\nG90\nM82\nG1 X10 Y10 F6000\nG1 X20 E1\nG1 Y20 E2\n"
+GOOD_TOML = '[printer]\nname = "t"\nmax_velocity = 300\nmax_accel = 3000\n'
+GOOD_CFG = "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+STEPPER_CFG = GOOD_CFG + "".join(
+    f"[{s}]\nrotation_distance: {r}\nmicrosteps: 16\nposition_max: 200\n"
+    for s, r in (("stepper_x", 40), ("stepper_y", 40), ("stepper_z", 8))) + (
+    "[extruder]\nrotation_distance: 33.5\nmicrosteps: 16\nnozzle_diameter: 0.4\n"
+    "filament_diameter: 1.75\n")
+RAW_HEADER = "#time,accel_x,accel_y,accel_z\n"
+RAW_ROWS = "".join(f"{i / 1000:.3f},{(i % 5) - 2},{(i % 3) - 1},9800\n" for i in range(2000))
+CUBE_FACET = ("facet normal 0 0 -1\n outer loop\n  vertex 0 0 0\n  vertex 0 1 0\n"
+              "  vertex 1 0 0\n endloop\nendfacet\n")
+
+
+def case(name, args, files, where, outputs=()):
+    return {"name": name, "args": args, "files": files, "where": where, "outputs": outputs}
+
+
+CASES = [
+    # ---- G-code (estimate and the commands that write a file) ----
+    case("gcode_word_without_number", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X10\nG1 Xabc\n"}, "f.gcode:2:5"),
+    case("gcode_nan_coordinate", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X10\nG1 Ynan\n"}, "f.gcode:2:5"),
+    case("gcode_two_decimal_points", ["estimate", "f.gcode"],
+         {"f.gcode": "G90\nG1 X1.2.3\n"}, "f.gcode:2:8"),
+    case("gcode_double_sign", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X--5\n"}, "f.gcode:1:5"),
+    case("gcode_negative_feedrate", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X10\nG1 X20 F-100\n"}, "f.gcode:2:8"),
+    case("gcode_checksum_mismatch", ["estimate", "f.gcode"],
+         {"f.gcode": "N1 G1 X10*99\n"}, "f.gcode:1:10"),
+    case("gcode_negative_velocity_limit", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X1\nSET_VELOCITY_LIMIT ACCEL=-5\n"}, "f.gcode:2:20"),
+    case("gcode_negative_m204", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X1\n\nM204 S-100\n"}, "f.gcode:3:6"),
+    case("gcode_negative_dwell", ["estimate", "f.gcode"],
+         {"f.gcode": "G4 P-1\n"}, "f.gcode:1:4"),
+    case("gcode_coordinate_beyond_1e9_mm", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X10000000000\n"}, "f.gcode:1:4"),
+    case("gcode_arc_without_centre", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X10 Y10\nG2 X20 Y10\n"}, "f.gcode:2:4"),
+    case("gcode_binary_bytes", ["estimate", "f.gcode"],
+         {"f.gcode": "G1 X10\nG1 X\x01\x02\n"}, "f.gcode:2:5"),
+    case("gcode_truncated_word", ["estimate", "f.gcode"],
+         {"f.gcode": GOOD_GCODE + "G1 X20 Y"}, "f.gcode:7:9"),
+    case("m73_output_not_left_behind", ["estimate", "f.gcode", "--write-m73", "out.gcode"],
+         {"f.gcode": GOOD_GCODE + "G1 Xq\n"}, "f.gcode:7:5", ["out.gcode"]),
+    case("plan_csv_not_left_behind", ["plan", "f.gcode", "-o", "out.csv"],
+         {"f.gcode": GOOD_GCODE + "G1 Xq\n"}, "f.gcode:7:5", ["out.csv"]),
+    case("steps_csv_not_left_behind", ["steps", "f.gcode", "-m", "p.cfg", "--csv", "out.csv"],
+         {"f.gcode": GOOD_GCODE + "G1 Xq\n", "p.cfg": STEPPER_CFG}, "f.gcode:7:5", ["out.csv"]),
+    case("report_html_not_left_behind", ["report", "f.gcode", "-o", "out.html"],
+         {"f.gcode": GOOD_GCODE + "G1 Xq\n"}, "f.gcode:7:5", ["out.html"]),
+    case("simulate_csv_not_left_behind",
+         ["simulate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "out.csv"],
+         {"f.gcode": GOOD_GCODE + "G1 Xq\n"}, "f.gcode:7:5", ["out.csv"]),
+    case("compensate_csv_not_left_behind",
+         ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "out.csv"],
+         {"f.gcode": GOOD_GCODE + "G1 Xq\n"}, "f.gcode:7:5", ["out.csv"]),
+    # ---- amctl machine TOML ----
+    case("toml_unknown_key", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": GOOD_TOML + "max_acel = 5\n"}, "m.toml:5:1"),
+    case("toml_unknown_section", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": GOOD_TOML + "[bogus]\nx = 1\n"}, "m.toml:5:2"),
+    case("toml_negative_limit", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nmax_accel = -3000\n'}, "m.toml:2:13"),
+    case("toml_nan_limit", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nmax_velocity = nan\n'}, "m.toml:2:16"),
+    case("toml_text_for_number", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nmax_accel = "fast"\n'}, "m.toml:2:13"),
+    case("toml_syntax_error", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer\nmax_accel = 3\n'}, "m.toml:1:9"),
+    case("toml_truncated_string", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nname = "abc'}, "m.toml:2:12"),
+    case("toml_unknown_firmware", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nfirmware = "repetier"\n'}, "m.toml:2:12"),
+    case("toml_short_jerk_array", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nfirmware = "marlin"\n[marlin]\njerk = [1, 2]\n'},
+         "m.toml:4:8"),
+    case("toml_negative_microsteps", ["machine", "show", "m.toml"],
+         {"m.toml": '[stepper_x]\nmicrosteps = -16\n'}, "m.toml:2:14"),
+    # ---- Klipper printer.cfg ----
+    case("cfg_negative_accel", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("max_accel: 3000", "max_accel: -5")},
+         "p.cfg:4:12"),
+    case("cfg_malformed_number", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("max_accel: 3000", "max_accel: 3e")},
+         "p.cfg:4:12"),
+    case("cfg_nan_velocity", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("max_velocity: 300", "max_velocity: nan")},
+         "p.cfg:3:15"),
+    case("cfg_unknown_kinematics", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("cartesian", "cartesianish")},
+         "p.cfg:2:13"),
+    case("cfg_option_before_section", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": "max_accel: 5\n" + GOOD_CFG}, "p.cfg:1:1"),
+    case("cfg_line_without_colon", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG + "garbage\n"}, "p.cfg:5:1"),
+    case("cfg_missing_include", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG + "[include nothere.cfg]\n"}, "p.cfg:5:1"),
+    case("cfg_error_inside_include", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": "[include sub/x.cfg]\n" + GOOD_CFG,
+          "sub/x.cfg": "[extruder]\nnozzle_diameter: -0.4\n"}, "sub/x.cfg:2:18"),
+    case("cfg_recursive_include", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG + "[include p.cfg]\n"}, "p.cfg:5:1"),
+    case("cfg_position_min_above_max", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE,
+          "p.cfg": GOOD_CFG + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
+                   "position_min: 50\nposition_max: 10\n"}, "p.cfg:9:15"),
+    # ---- --set and other command-line values ----
+    case("set_negative_limit", ["estimate", "f.gcode", "--set", "printer.max_accel=-1"],
+         {"f.gcode": GOOD_GCODE}, "--set printer.max_accel=-1"),
+    case("set_unknown_key", ["estimate", "f.gcode", "--set", "printer.max_acel=1"],
+         {"f.gcode": GOOD_GCODE}, "--set printer.max_acel=1"),
+    case("set_without_value", ["estimate", "f.gcode", "--set", "printer.max_accel"],
+         {"f.gcode": GOOD_GCODE}, "--set printer.max_accel"),
+    case("flag_not_a_number", ["estimate", "f.gcode", "--m73-interval", "abc"],
+         {"f.gcode": GOOD_GCODE}, "--m73-interval"),
+    case("flag_nan", ["estimate", "f.gcode", "--write-m73", "out.gcode", "--m73-interval", "nan"],
+         {"f.gcode": GOOD_GCODE}, "--m73-interval", ["out.gcode"]),
+    case("flag_unknown", ["estimate", "f.gcode", "--bogus"], {"f.gcode": GOOD_GCODE}, "--bogus"),
+    case("flag_not_in_choices", ["estimate", "f.gcode", "--mode", "fast"],
+         {"f.gcode": GOOD_GCODE}, "--mode"),
+    case("flag_missing_required", ["resonance", "calibrate", "a.csv"],
+         {"a.csv": RAW_HEADER + RAW_ROWS}, "--axis"),
+    case("flag_negative_damping", ["simulate", "f.gcode", "--natural-frequency-hz", "40",
+                                   "--damping-ratio", "-1"], {"f.gcode": GOOD_GCODE},
+         "--damping-ratio"),
+    case("flag_zero_sample_rate", ["compensate", "f.gcode", "--natural-frequency-hz", "40",
+                                   "--sample-rate-hz", "0", "--csv", "out.csv"],
+         {"f.gcode": GOOD_GCODE}, "--sample-rate-hz", ["out.csv"]),
+    case("flag_integer_expected", ["plan", "f.gcode", "--layer-begin", "1.5"],
+         {"f.gcode": GOOD_GCODE}, "--layer-begin"),
+    # ---- accelerometer CSV (resonance calibrate) ----
+    case("accel_bad_header", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": "#t,ax,ay,az\n0,1,2,3\n"}, "a.csv:1"),
+    case("accel_malformed_number", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": RAW_HEADER + "0.000,1,2,3\n0.001,1,abc,3\n"}, "a.csv:3"),
+    case("accel_time_not_increasing", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": RAW_HEADER + "0.002,1,2,3\n0.001,1,2,3\n"}, "a.csv:3"),
+    case("accel_truncated_row", ["resonance", "calibrate", "a.csv", "--axis", "y"],
+         {"a.csv": RAW_HEADER + RAW_ROWS + "2.000,1,2"}, "a.csv:2002"),
+    case("accel_nan_value", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": RAW_HEADER + "0.000,1,2,3\n0.001,nan,2,3\n"}, "a.csv:3"),
+    case("accel_psd_not_left_behind",
+         ["resonance", "calibrate", "a.csv", "--axis", "x", "--csv", "out.csv"],
+         {"a.csv": RAW_HEADER + RAW_ROWS[:5000] + "x,1,2,3\n"}, "a.csv:{rows}", ["out.csv"]),
+    # ---- process CSVs (shrink fit, calibrate-time) ----
+    case("shrink_missing_column", ["shrink", "fit", "s.csv"],
+         {"s.csv": "nominal_mm,measurd_mm\n10,10.1\n"}, "s.csv:1"),
+    case("shrink_negative_nominal", ["shrink", "fit", "s.csv"],
+         {"s.csv": "nominal_mm,measured_mm\n10,10.1\n-5,5\n20,20.2\n"}, "s.csv:3:1"),
+    case("shrink_malformed_number", ["shrink", "fit", "s.csv"],
+         {"s.csv": "nominal_mm,measured_mm\n10,10.1\n15,1.2.3\n20,20.2\n"}, "s.csv:3:4"),
+    case("shrink_nan", ["shrink", "fit", "s.csv"],
+         {"s.csv": "nominal_mm,measured_mm\n10,nan\n15,15.1\n20,20.2\n"}, "s.csv:2:4"),
+    case("shrink_unterminated_quote", ["shrink", "fit", "s.csv"],
+         {"s.csv": 'nominal_mm,measured_mm\n10,"10.1\n'}, "s.csv:2:4"),
+    case("shrink_ragged_row", ["shrink", "fit", "s.csv"],
+         {"s.csv": "nominal_mm,measured_mm\n10,10.1\n15\n20,20.2\n"}, "s.csv:3:1"),
+    case("timings_negative_duration", ["calibrate-time", "t.csv"],
+         {"t.csv": "gcode,duration_s\nf.gcode,-5\n", "f.gcode": GOOD_GCODE}, "t.csv:2:9"),
+    case("timings_missing_gcode_column", ["calibrate-time", "t.csv"],
+         {"t.csv": "file,duration_s\nf.gcode,5\n"}, "t.csv:1"),
+    case("timings_save_not_left_behind", ["calibrate-time", "t.csv", "--save", "out.toml"],
+         {"t.csv": "gcode,duration_s\nf.gcode,12\nf.gcode,abc\n", "f.gcode": GOOD_GCODE},
+         "t.csv:3:9", ["out.toml"]),
+    # ---- STL and the shrink model (shrink apply) ----
+    case("stl_truncated", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01", "-o",
+                           "out.stl"], {"m.stl": "solid t\n" + CUBE_FACET[:60]}, "m.stl:5",
+         ["out.stl"]),
+    case("stl_malformed_vertex", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01",
+                                  "-o", "out.stl"],
+         {"m.stl": "solid t\n" + CUBE_FACET.replace("vertex 0 1 0", "vertex 0 abc 0") + "endsolid t\n"},
+         "m.stl:5:12", ["out.stl"]),
+    case("stl_nan_vertex", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01", "-o",
+                            "out.stl"],
+         {"m.stl": "solid t\n" + CUBE_FACET.replace("vertex 0 1 0", "vertex 0 nan 0") + "endsolid t\n"},
+         "m.stl:5:12", ["out.stl"]),
+    case("shrink_factors_negative", ["shrink", "apply", "--gcode", "f.gcode", "--factors",
+                                     "x=-1", "-o", "out.gcode"], {"f.gcode": GOOD_GCODE},
+         "--factors", ["out.gcode"]),
+    case("shrink_model_bad_json", ["shrink", "apply", "--gcode", "f.gcode", "--factors",
+                                   "model.json", "-o", "out.gcode"],
+         {"f.gcode": GOOD_GCODE, "model.json": '{"axis": "Z",\n "factor": }\n'}, "model.json:2:12",
+         ["out.gcode"]),
+    case("shrink_model_factor_text", ["shrink", "apply", "--gcode", "f.gcode", "--factors",
+                                      "model.json", "-o", "out.gcode"],
+         {"f.gcode": GOOD_GCODE, "model.json": '{"axis": "Z",\n "factor": "big"}\n'},
+         "model.json:2", ["out.gcode"]),
+    case("shrink_gcode_not_left_behind", ["shrink", "apply", "--gcode", "f.gcode", "--factors",
+                                          "x=1.01", "-o", "out.gcode"],
+         {"f.gcode": GOOD_GCODE + "G1 X10 E\n"}, "f.gcode:7:9", ["out.gcode"]),
+    # ---- thermal SLS configuration ----
+    case("sls_unknown_section", ["thermal", "sls", "--config", "s.toml", "--csv", "out.csv"],
+         {"s.toml": "[material]\ndensity_kg_m3 = 930\n[bogus]\nx = 1\n"}, "s.toml:3:1", ["out.csv"]),
+    case("sls_negative_density", ["thermal", "sls", "--config", "s.toml", "--csv", "out.csv"],
+         {"s.toml": "[material]\ndensity_kg_m3 = -930\n"}, "s.toml:2:17", ["out.csv"]),
+]
+
+
+def says_found_and_expected(message):
+    """'..., expected ...' or '... must be ..., got/found ...'."""
+    if "expected" in message:
+        return True
+    return "must" in message and ("got" in message or "found" in message)
+
+
+def run_case(amctl, c):
+    with tempfile.TemporaryDirectory(prefix="amctl_bad_input_") as d:
+        for rel, text in c["files"].items():
+            p = os.path.join(d, rel)
+            os.makedirs(os.path.dirname(p), exist_ok=True)
+            with open(p, "wb") as f:
+                f.write(text.encode("latin-1"))
+        r = subprocess.run([amctl] + c["args"], cwd=d, capture_output=True, timeout=60)
+        problems = []
+        if r.returncode != 2:
+            problems.append(f"exit code {r.returncode}, expected 2")
+        err = r.stderr.decode("utf-8", "replace")
+        first = err.splitlines()[0] if err else ""
+        where = c["where"]
+        if where.endswith("{rows}"):
+            where = re.escape(where[:-6]) + r"\d+"
+        else:
+            where = re.escape(where)
+        m = re.match(r"amctl: error: " + where + r": (.+)$", first)
+        if not m:
+            problems.append(f"stderr does not start with 'amctl: error: {c['where']}: '")
+        elif not says_found_and_expected(m.group(1)):
+            problems.append("the message does not say what was found and what was expected")
+        for out in c["outputs"]:
+            if os.path.exists(os.path.join(d, out)):
+                problems.append(f"left {out} behind")
+        leftovers = [f for f in os.listdir(d) if f not in c["files"] and
+                     not any(f == o for o in c["outputs"]) and f not in {"sub"}]
+        if leftovers:
+            problems.append(f"left files behind: {leftovers}")
+        return problems, first
+
+
+def main():
+    amctl = os.path.abspath(sys.argv[1])
+    only = sys.argv[3] if len(sys.argv) > 3 and sys.argv[2] == "-k" else None
+    failed = 0
+    ran = 0
+    for c in CASES:
+        if only and only not in c["name"]:
+            continue
+        ran += 1
+        problems, first = run_case(amctl, c)
+        if problems:
+            failed += 1
+            print(f"FAIL {c['name']}: {'; '.join(problems)}\n     stderr: {first}")
+    print(f"{ran - failed} of {ran} bad inputs answered as required")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
