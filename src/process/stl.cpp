@@ -25,9 +25,17 @@ Vec3 cross(const Vec3& a, const Vec3& b) {
 double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 Vec3 unit_normal(const Triangle& t) {
-  Vec3 n = cross(sub(t.v[1], t.v[0]), sub(t.v[2], t.v[0]));
+  // The edges scaled by their largest component first: the cross product of coordinates near
+  // the double range (an STL may hold 1e301) would overflow to inf and NaN.
+  Vec3 a = sub(t.v[1], t.v[0]), b = sub(t.v[2], t.v[0]);
+  for (Vec3* e : {&a, &b}) {
+    const double s = std::max({std::abs((*e)[0]), std::abs((*e)[1]), std::abs((*e)[2])});
+    if (s > 0 && std::isfinite(s)) *e = {(*e)[0] / s, (*e)[1] / s, (*e)[2] / s};
+  }
+  Vec3 n = cross(a, b);
   const double l = std::sqrt(dot(n, n));
-  if (l > 0) n = {n[0] / l, n[1] / l, n[2] / l};
+  if (l > 0 && std::isfinite(l)) n = {n[0] / l, n[1] / l, n[2] / l};
+  if (!(std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]))) n = {0.0, 0.0, 0.0};
   return n;
 }
 

@@ -64,6 +64,23 @@ TEST(Stl, AsciiOutputOfABinaryHeaderWithLineBreaksReadsBack) {
   EXPECT_EQ(back.name, "part outer loop   v2");
 }
 
+TEST(Stl, HugeCoordinatesWriteAFiniteNormalAndReadBack) {
+  // Found by fuzz_stl: an ASCII STL may hold 1e301 and 7.8e38; the facet normal's cross product
+  // overflowed to NaN, amctl wrote "facet normal nan ..." and refused its own file.
+  const std::string text =
+      "solid big\n facet normal 0 0 -1\n  outer loop\n   vertex 0 0 0\n   vertex 10 0 1e301\n"
+      "   vertex 7.8e38 0 10\n  endloop\n endfacet\nendsolid big\n";
+  const pr::Mesh m = pr::parse_stl(text, "big.stl");
+  const std::string ascii = pr::serialize_stl(m, pr::StlFormat::ascii);
+  EXPECT_EQ(ascii.find("nan"), std::string::npos) << ascii;
+  EXPECT_EQ(ascii.find("inf"), std::string::npos) << ascii;
+  const pr::Mesh back = pr::parse_stl(ascii, "back.stl");
+  ASSERT_EQ(back.triangles.size(), 1u);
+  EXPECT_EQ(back.triangles[0].v, m.triangles[0].v);
+  // The normal: (10, 0, 1e301) x (7.8e38, 0, 10) = (0, 1e301 * 7.8e38 - 100, 0), along +y.
+  EXPECT_NE(ascii.find("facet normal 0 1 0"), std::string::npos) << ascii;
+}
+
 TEST(Stl, ScalingAboutAnOriginMultipliesExtentsAndVolume) {
   pr::ScaleMap map;
   map.axes = pr::parse_factor_spec("x=1.01,y=1.02,z=0.99");
