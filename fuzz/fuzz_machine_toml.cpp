@@ -10,6 +10,7 @@
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "fuzz_support.hpp"
+#include "machine_round_trip.hpp"
 
 namespace mc = amctl::machine;
 using amctl::fuzz::require;
@@ -18,14 +19,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   try {
     const mc::Machine m = mc::parse_machine_toml(text, "fuzz.toml");
-    const std::string again = mc::to_toml(m);
-    mc::Machine back;
-    try {
-      back = mc::parse_machine_toml(again, "again.toml");
-    } catch (const amctl::Error&) {
-      __builtin_trap();  // amctl wrote a file it refuses to read
-    }
-    require(back == m);
+    amctl::fuzz::require_toml_round_trip(m);
   } catch (const amctl::Error&) {
   }
   // Lines shaped like "section.key=value" (a '.' before the '='), at most 8 of them, as
