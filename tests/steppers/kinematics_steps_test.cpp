@@ -13,6 +13,7 @@
 #include "amctl/machine/loader.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/trajectory.hpp"
+#include "step_run.hpp"
 
 namespace amctl::steppers {
 namespace {
@@ -40,23 +41,8 @@ double carriage(int i, double x, double y, double z) {
   return z + std::sqrt(kArm * kArm - (x - tx) * (x - tx) - (y - ty) * (y - ty));
 }
 
-struct KinRun {
-  std::vector<StepperChannel> channels;
-  std::vector<Step> steps;
-  std::vector<plan::PlannedMove> moves;
-};
-
-KinRun run(const std::string& gcode, const Machine& m) {
-  KinRun r;
-  r.channels = stepper_channels(m);
-  plan::PlanSource source(std::string_view(gcode), "test", m);
-  StepSink sink(r.channels, [&](std::span<const Step> s) { r.steps.insert(r.steps.end(), s.begin(), s.end()); });
-  plan::CollectSink collect;
-  plan::Sink* sinks[] = {&sink, &collect};
-  plan::run_pipeline(source, sinks);
-  r.moves = collect.moves;
-  return r;
-}
+using test::run;
+using KinRun = test::StepRun;
 
 TEST(DeltaSteps, ChannelsAreTheTowersAndTheExtruder) {
   const auto ch = stepper_channels(delta_machine());

@@ -11,6 +11,7 @@
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/kinematics.hpp"
 #include "amctl/trajectory/trajectory.hpp"
+#include "step_run.hpp"
 
 namespace amctl::steppers {
 namespace {
@@ -30,30 +31,8 @@ Machine test_machine(machine::Kinematics k = machine::Kinematics::cartesian,
   return m;
 }
 
-struct StepRun {
-  std::vector<StepperChannel> channels;
-  std::vector<Step> steps;
-  std::vector<plan::PlannedMove> moves;
-  std::vector<StepperStats> stats;
-  [[nodiscard]] std::vector<Step> of(std::uint32_t c) const {
-    std::vector<Step> out;
-    for (const Step& s : steps) if (s.stepper == c) out.push_back(s);
-    return out;
-  }
-};
-
-StepRun run(const std::string& gcode, const Machine& m) {
-  StepRun r;
-  r.channels = stepper_channels(m);
-  plan::PlanSource source(std::string_view(gcode), "test", m);
-  StepSink sink(r.channels, [&](std::span<const Step> s) { r.steps.insert(r.steps.end(), s.begin(), s.end()); });
-  plan::CollectSink collect;
-  plan::Sink* sinks[] = {&sink, &collect};
-  plan::run_pipeline(source, sinks);
-  r.moves = collect.moves;
-  r.stats = sink.generator().stats();
-  return r;
-}
+using test::run;
+using test::StepRun;
 
 // Every step sits on its half-step level: motor position at the step time, from
 // Trajectory::evaluate, equals origin + (n - dir/2) * step after the step to 1e-9 mm.
