@@ -27,8 +27,7 @@
 
 namespace amctl::compensation::detail {
 
-CollocationAxis::CollocationAxis(const dynamics::AxisModel& model, double w_ref_per_s, double h)
-    : h_(h) {
+CollocationAxis::CollocationAxis(const dynamics::AxisModel& model, double w_ref_per_s, double h) {
   const Eigen::MatrixXd Am = model.A();
   const Eigen::VectorXd Bm = model.B();
   const Eigen::RowVectorXd Cm = model.C();

@@ -237,7 +237,6 @@ class CollocationAxis {
   const Eigen::RowVectorXd& output_row() const { return out_; }
 
  private:
-  double h_ = 0.0;
   Eigen::MatrixXd P_, Q_;
   Eigen::VectorXd e1_, e2_;
   Eigen::RowVectorXd out_;
