@@ -43,6 +43,7 @@ void DriveParameters::validate(const char* prefix) const {
   positive(prefix, "current_amplitude_a", current_amplitude_a);
   positive(prefix, "current_loop_bandwidth_hz", current_loop_bandwidth_hz);
   positive(prefix, "max_step_rate_hz", max_step_rate_hz);
+  non_negative(prefix, "max_current_a", max_current_a);
   if (microsteps <= 0) {
     throw Error(std::string(prefix) + ".microsteps = " + std::to_string(microsteps) +
                 ": expected a positive number of microsteps per full step");
@@ -65,6 +66,7 @@ void AxisMechanics::validate(const char* prefix) const {
   non_negative(prefix, "bump_force_n", bump_force_n);
   require_finite(std::string(prefix) + ".bump_position_mm", bump_position_mm);
   non_negative(prefix, "bump_half_width_mm", bump_half_width_mm);
+  non_negative(prefix, "backlash_mm", backlash_mm);
 }
 
 double AxisMechanics::pulley_radius_m() const {
@@ -88,6 +90,7 @@ StepperAxisModel::StepperAxisModel(const MotorParameters& motor, const DrivePara
   inv_m_ = 1.0 / axis_.belt.mass_kg;
   k_ = axis_.belt.stiffness_n_per_m;
   c_ = axis_.belt.damping_n_s_per_m;
+  half_backlash_ = 0.5 * axis_.backlash_mm * 1e-3;
   end_k_ = axis_.end_load_n_per_mm * 1e3;
   end_x_ = axis_.end_load_start_mm * 1e-3;
   bump_lo_ = (axis_.bump_position_mm - axis_.bump_half_width_mm) * 1e-3;
@@ -107,6 +110,7 @@ MotorState StepperAxisModel::rest_state(double x_mm) const {
   set_microstep(s, n);
   s.theta_rad = static_cast<double>(n) * rad_per_micro_ / p_;
   s.x_m = s.theta_rad * r_;
+  set_current(s, drive_.current_amplitude_a);
   s.i_a = s.ref_a;
   s.i_b = s.ref_b;
   return s;
@@ -115,8 +119,18 @@ MotorState StepperAxisModel::rest_state(double x_mm) const {
 void StepperAxisModel::set_microstep(MotorState& s, std::int64_t n) const {
   s.microstep = n;
   const double phi = static_cast<double>(n) * rad_per_micro_;
-  s.ref_a = drive_.current_amplitude_a * std::cos(phi);
-  s.ref_b = drive_.current_amplitude_a * std::sin(phi);
+  const double amp = s.current_a > 0.0 ? s.current_a : drive_.current_amplitude_a;
+  s.ref_a = amp * std::cos(phi);
+  s.ref_b = amp * std::sin(phi);
+}
+
+double StepperAxisModel::max_current_a() const {
+  return drive_.max_current_a > 0.0 ? drive_.max_current_a : motor_.rated_current_a;
+}
+
+void StepperAxisModel::set_current(MotorState& s, double amplitude_a) const {
+  s.current_a = std::clamp(amplitude_a, 1e-6, std::max(max_current_a(), drive_.current_amplitude_a));
+  set_microstep(s, s.microstep);
 }
 
 void StepperAxisModel::step(MotorState& s, double h) const {
@@ -147,7 +161,15 @@ void StepperAxisModel::step(MotorState& s, double h) const {
   const double tm = kt_ * (-s.i_a * sn + s.i_b * cs) - motor_.detent_torque_n_m * s4;
   s.torque_n_m = tm;
   const double stretch = r_ * s.theta_rad - s.x_m;
-  const double f_belt = k_ * stretch + c_ * (r_ * s.omega_rad_s - s.v_m_s);
+  const double stretch_rate = r_ * s.omega_rad_s - s.v_m_s;
+  double f_belt = 0.0;
+  if (half_backlash_ == 0.0) {
+    f_belt = k_ * stretch + c_ * stretch_rate;
+  } else if (stretch > half_backlash_) {  // engaged pulling +x: a contact pushes, never pulls
+    f_belt = std::max(0.0, k_ * (stretch - half_backlash_) + c_ * stretch_rate);
+  } else if (stretch < -half_backlash_) {
+    f_belt = std::min(0.0, k_ * (stretch + half_backlash_) + c_ * stretch_rate);
+  }
   const double t_rotor = tm - motor_.rotor_damping_n_m_s_per_rad * s.omega_rad_s - r_ * f_belt;
   const double sgn = std::tanh(s.v_m_s / axis_.friction_smoothing_m_s);
   const double f_cart = f_belt - (axis_.coulomb_friction_n + axis_.drag_force_n) * sgn -
@@ -170,10 +192,14 @@ std::int64_t StepperAxisModel::slip_cycles(const MotorState& s) const {
 }
 
 double StepperAxisModel::pull_out_torque_at_n_m(double omega) const {
+  return pull_out_torque_at_n_m(omega, drive_.current_amplitude_a);
+}
+
+double StepperAxisModel::pull_out_torque_at_n_m(double omega, double current_a) const {
   const double we = p_ * std::abs(omega);
   const double z = std::hypot(motor_.phase_resistance_ohm, we * motor_.phase_inductance_h);
   const double headroom = drive_.supply_voltage_v - kt_ * std::abs(omega);
-  const double i = std::clamp(headroom / z, 0.0, drive_.current_amplitude_a);
+  const double i = std::clamp(headroom / z, 0.0, current_a);
   return kt_ * i;
 }
 

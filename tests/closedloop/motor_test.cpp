@@ -107,6 +107,58 @@ TEST(StepperPhysics, ALoadBeyondPullOutSlipsWholeElectricalCycles) {
   EXPECT_EQ(ok.slip_cycles(t), 0);
 }
 
+TEST(StepperPhysics, BacklashShiftsTheHeldCarriageByHalfTheLostMotion) {
+  // A steady force F on the carriage: the belt holds it at stretch -(F/k) beyond the edge of
+  // the deadband, so the carriage sits F/k + B/2 ahead of the pulley; the rotor's torque is the
+  // same with or without backlash, so the two positions differ by exactly B/2.
+  const double f = 20.0, b_mm = 0.3;
+  AxisMechanics with = loaded_axis(f);
+  with.backlash_mm = b_mm;
+  const StepperAxisModel tight(damped_motor(), DriveParameters{}, loaded_axis(f));
+  const StepperAxisModel loose(damped_motor(), DriveParameters{}, with);
+  MotorState a = tight.rest_state(0.0), b = loose.rest_state(0.0);
+  for (int k = 0; k < 25000; ++k) {
+    tight.step(a, 20e-6);
+    loose.step(b, 20e-6);
+  }
+  EXPECT_NEAR(StepperAxisModel::position_mm(b) - StepperAxisModel::position_mm(a), b_mm / 2, 1e-6);
+  EXPECT_NEAR(loose.load_angle_rad(b), tight.load_angle_rad(a), 1e-9);
+  // Stretch of the engaged belt: F / k beyond the deadband's edge.
+  const double k = with.belt.stiffness_n_per_m;
+  const double stretch_mm = (b.theta_rad * loose.pulley_radius_m() - b.x_m) * 1e3;
+  EXPECT_NEAR(stretch_mm, -(f / k * 1e3 + b_mm / 2), 1e-6);
+}
+
+TEST(StepperPhysics, InsideTheDeadbandTheBeltCarriesNoForce) {
+  AxisMechanics a;
+  a.backlash_mm = 0.4;
+  a.coulomb_friction_n = 0.0;
+  a.viscous_friction_n_s_per_m = 0.0;
+  const StepperAxisModel model(damped_motor(), DriveParameters{}, a);
+  MotorState s = model.rest_state(0.0);
+  s.x_m += 0.15e-3;  // within +-0.2 mm of the pulley: no contact
+  const double x0 = s.x_m;
+  for (int k = 0; k < 1000; ++k) model.step(s, 20e-6);
+  EXPECT_EQ(s.x_m, x0);
+  EXPECT_EQ(s.v_m_s, 0.0);
+}
+
+TEST(StepperPhysics, ABoostedCurrentHoldsTheLoadAtTheSmallerAngle) {
+  // set_current raises the phase current reference: the static load angle becomes
+  // asin(r F / (Kt I)) at the new I; and it is clamped to the drive's maximum.
+  const double f = 30.0, r = 0.040 / (2.0 * std::numbers::pi);
+  DriveParameters d;
+  d.current_amplitude_a = 1.0;
+  d.max_current_a = 1.5;
+  const StepperAxisModel model(damped_motor(), d, loaded_axis(f));
+  MotorState s = model.rest_state(0.0);
+  model.set_current(s, 2.0);
+  EXPECT_DOUBLE_EQ(s.current_a, 1.5);
+  for (int k = 0; k < 25000; ++k) model.step(s, 20e-6);
+  const double kt = 0.40 / (std::numbers::sqrt2 * 1.7);
+  EXPECT_NEAR(model.load_angle_rad(s), std::asin(-r * f / (kt * 1.5)), 1e-4);
+}
+
 TEST(StepperPhysics, PullOutTorqueFallsWithSpeed) {
   const StepperAxisModel model(MotorParameters{}, DriveParameters{}, AxisMechanics{});
   const double kt = 0.40 / (std::numbers::sqrt2 * 1.7);

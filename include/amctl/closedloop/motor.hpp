@@ -14,6 +14,8 @@
 // p w L leave less voltage for the current, so I and the pull-out torque fall. Ke = Kt (the
 // same flux linkage, SI). Mechanics (belt of seed 000, dynamics::BeltParameters):
 //   J th'' = T_m - b th' - r F,       F = k (r th - x) + c (r th' - x')     (belt force)
+//   (with backlash B: F = k dz(r th - x) + c (r th' - x') while engaged, 0 inside the deadband
+//   |r th - x| <= B/2, dz(s) = s -+ B/2; a pushing contact never pulls)
 //   m x''  = F - F_c tanh(x'/v_s) - c_v x' - F_drag tanh(x'/v_s) + F_ext + k_e max(0, x_e - x)
 //            - F_bump tanh(x'/v_s) [x within the bump]
 // r = rotation_distance / (2 pi), J = rotor + pulley inertia. A step is lost when d leaves
@@ -51,7 +53,12 @@ struct MotorParameters {
 /// The driver (TMC2209-class current-mode chopper on a 24 V supply).
 struct DriveParameters {
   double supply_voltage_v = 24.0;         ///< [V]
-  double current_amplitude_a = 1.7;       ///< peak of the sine/cosine phase currents [A]
+  /// Peak of the sine/cosine phase currents [A] (the run current: Klipper's run_current is
+  /// RMS, this is sqrt(2) times it).
+  double current_amplitude_a = 1.7;
+  /// Largest amplitude a controller may request while the motor is loaded (a closed-loop
+  /// drive's current boost) [A]; 0 = the motor's rated current.
+  double max_current_a = 0.0;
   /// Bandwidth of the averaged current loop: Kc = 2 pi f L [ohm]. A real chopper switches at
   /// 20-40 kHz and reaches its target as fast as the voltage allows.
   double current_loop_bandwidth_hz = 5000.0;
@@ -83,6 +90,9 @@ struct AxisMechanics {
   double bump_force_n = 0.0;
   double bump_position_mm = 0.0;
   double bump_half_width_mm = 0.0;
+  /// Backlash: total lost motion between the pulley and the carriage at a reversal of the belt
+  /// force (pulley teeth, a loose set screw) [mm]. 0 = none.
+  double backlash_mm = 0.0;
   /// Speed below which Coulomb friction is smoothed (tanh(v / v_s)) [m/s].
   double friction_smoothing_m_s = 1.0e-3;
   void validate(const char* prefix = "axis") const;
@@ -97,6 +107,7 @@ struct MotorState {
   double v_m_s = 0.0;
   double i_a = 0.0, i_b = 0.0;  ///< phase currents [A]
   std::int64_t microstep = 0;   ///< commanded microstep n
+  double current_a = 0.0;       ///< commanded current amplitude I [A]
   double ref_a = 0.0, ref_b = 0.0;  ///< I cos(phi), I sin(phi) of that microstep [A]
   double torque_n_m = 0.0;      ///< motor torque of the last step
 };
@@ -111,6 +122,11 @@ class StepperAxisModel {
   [[nodiscard]] MotorState rest_state(double x_mm) const;
   /// Commands microstep n (updates the current reference).
   void set_microstep(MotorState& s, std::int64_t n) const;
+  /// Commands the current amplitude, clamped to (0, max_current_a()] (updates the reference).
+  void set_current(MotorState& s, double amplitude_a) const;
+  /// The largest current a controller may request: drive.max_current_a, or the motor's rated
+  /// current when that is 0 [A].
+  [[nodiscard]] double max_current_a() const;
   /// One integration step of h seconds. Electrical side: backward Euler (the current loop's
   /// pole (R + Kc)/L ~ 3e4 1/s is stiff); mechanics: semi-implicit (symplectic) Euler, stable
   /// for h well under 2/w_max with w_max the rotor's magnetic-spring frequency (~1.8e3 rad/s).
@@ -132,6 +148,8 @@ class StepperAxisModel {
   /// Steady pull-out torque at a constant speed w [rad/s] (phasor of the current loop with
   /// the back-EMF and the voltage limit): the torque falls with speed.
   [[nodiscard]] double pull_out_torque_at_n_m(double omega_rad_s) const;
+  /// The same at a commanded current amplitude [A].
+  [[nodiscard]] double pull_out_torque_at_n_m(double omega_rad_s, double current_a) const;
   [[nodiscard]] const MotorParameters& motor() const { return motor_; }
   [[nodiscard]] const DriveParameters& drive() const { return drive_; }
   [[nodiscard]] const AxisMechanics& axis() const { return axis_; }
@@ -144,7 +162,7 @@ class StepperAxisModel {
   AxisMechanics axis_;
   int p_ = 50;
   double kt_ = 0, r_ = 0, j_ = 0, kc_ = 0, step_mm_ = 0, rad_per_micro_ = 0;
-  double inv_m_ = 0, k_ = 0, c_ = 0, end_k_ = 0, end_x_ = 0, bump_lo_ = 0, bump_hi_ = 0;
+  double inv_m_ = 0, k_ = 0, c_ = 0, half_backlash_ = 0, end_k_ = 0, end_x_ = 0, bump_lo_ = 0, bump_hi_ = 0;
 };
 
 }  // namespace amctl::closedloop
