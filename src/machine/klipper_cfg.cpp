@@ -601,6 +601,24 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     }
     m.steppers[name] = st;
   }
+  // Trinamic driver sections ([tmc2209 stepper_x], ... klippy/extras/tmc*.py): run_current
+  // (RMS) of the stepper they drive, for step-level physics. Other options (hold_current,
+  // sense_resistor, stealthchop_threshold, ...) change no motion amctl models.
+  static constexpr std::string_view kTmc[] = {"tmc2130", "tmc2208", "tmc2209", "tmc2240",
+                                              "tmc2660", "tmc5160"};
+  for (CfgSection& s : doc.sections) {
+    const std::size_t sp = s.name.find(' ');
+    if (sp == std::string::npos) continue;
+    const std::string_view driver = std::string_view(s.name).substr(0, sp);
+    if (std::find(std::begin(kTmc), std::end(kTmc), driver) == std::end(kTmc)) continue;
+    const std::string target(trim(std::string_view(s.name).substr(sp + 1)));
+    std::string name;
+    if (target.rfind("stepper_", 0) == 0) name = target.substr(8);
+    else if (target == "extruder") name = "e";
+    const auto it = m.steppers.find(name);
+    if (it == m.steppers.end()) continue;
+    it->second.run_current_a = Section(&s, s.name, file_loc).get_float("run_current", {.above = 0.0});
+  }
   // Every section as written: Klipper's printer.configfile and the [gcode_macro] sections,
   // expanded by the macro module (docs/macros.md).
   m.klipper_config = doc.sections;

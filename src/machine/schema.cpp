@@ -281,6 +281,39 @@ const std::vector<StepperKeyDef>& stepper_table() {
        "Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to "
        "the arm's carriage joint (Klipper arm_x_length; required on left).",
        nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.arm_x_length_mm; }},
+
+      {"run_current", Kind::optional_number, Bound::positive, "A",
+       "Motor current, RMS (Klipper [tmc2209 stepper_x] run_current; the phase current "
+       "amplitude is sqrt(2) times it). Step-level physics only (amctl stepper simulate).",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.run_current_a; }},
+      {"supply_voltage", Kind::optional_number, Bound::positive, "V",
+       "Driver supply voltage (the pull-out torque falls with speed as the back-EMF uses it "
+       "up). Step-level physics only.",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.supply_voltage_v; }},
+      {"holding_torque", Kind::optional_number, Bound::positive, "N m",
+       "Motor datasheet: holding torque, two phases at the rated current. Step-level physics "
+       "only.",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.holding_torque_n_m; }},
+      {"rated_current", Kind::optional_number, Bound::positive, "A",
+       "Motor datasheet: rated current per phase (also the most a closed-loop drive boosts to). "
+       "Step-level physics only.",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.rated_current_a; }},
+      {"phase_resistance", Kind::optional_number, Bound::positive, "ohm",
+       "Motor datasheet: phase resistance. Step-level physics only.", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.phase_resistance_ohm; }},
+      {"phase_inductance", Kind::optional_number, Bound::positive, "H",
+       "Motor datasheet: phase inductance. Step-level physics only.", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.phase_inductance_h; }},
+      {"rotor_inertia", Kind::optional_number, Bound::positive, "kg m^2",
+       "Motor datasheet: rotor inertia (54 g cm^2 = 5.4e-6 kg m^2). Step-level physics only.",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.rotor_inertia_kg_m2; }},
+      {"detent_torque", Kind::optional_number, Bound::non_negative, "N m",
+       "Motor datasheet: detent torque. Step-level physics only.", nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.detent_torque_n_m; }},
+      {"backlash", Kind::optional_number, Bound::non_negative, "mm",
+       "Lost motion between motor and carriage at a reversal of the belt force (pulley teeth, "
+       "a loose set screw; Marlin's BACKLASH_DISTANCE_MM). Step-level physics only.",
+       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.backlash_mm; }},
   };
   return keys;
 }

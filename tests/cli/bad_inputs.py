@@ -130,6 +130,12 @@ CASES = [
          {"f.gcode": GOOD_GCODE,
           "p.cfg": GOOD_CFG + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
                    "position_min: 50\nposition_max: 10\n"}, "p.cfg:9:15"),
+    case("cfg_negative_run_current", ["stepper", "simulate", "--scenario", "seed003", "-m", "p.cfg"],
+         {"p.cfg": GOOD_CFG + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
+                   "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\n"
+                   "[tmc2209 stepper_x]\nrun_current: -0.8\n"}, "p.cfg:12:14"),
+    case("toml_negative_backlash", ["machine", "show", "m.toml"],
+         {"m.toml": '[stepper_x]\nbacklash = -0.1\n'}, "m.toml:2:12"),
     # ---- --set and other command-line values ----
     case("set_negative_limit", ["estimate", "f.gcode", "--set", "printer.max_accel=-1"],
          {"f.gcode": GOOD_GCODE}, "--set printer.max_accel=-1"),

@@ -28,6 +28,26 @@ std::string cfg_error(const std::string& text) {
 const std::string kMinimal =
     "[printer]\nkinematics: cartesian\nmax_velocity: 250\nmax_accel: 4000\n";
 
+TEST(KlipperCfg, TrinamicRunCurrentReachesItsStepper) {
+  const std::string steppers =
+      "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
+      "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\n"
+      "[extruder]\nnozzle_diameter: 0.4\nfilament_diameter: 1.75\nrotation_distance: 22\n"
+      "microsteps: 16\n";
+  const Machine m = cfg(kMinimal + steppers +
+                        "[tmc2209 stepper_x]\nrun_current: 0.8\nhold_current: 0.5\n"
+                        "[tmc5160  stepper_y]\nrun_current: 1.1\nsense_resistor: 0.075\n"
+                        "[tmc2208 extruder]\nrun_current: 0.65\n"
+                        "[tmc2130 stepper_z]\nrun_current: 0.9\n");  // no [stepper_z]: ignored
+  EXPECT_DOUBLE_EQ(m.steppers.at("x").run_current_a.value(), 0.8);
+  EXPECT_DOUBLE_EQ(m.steppers.at("y").run_current_a.value(), 1.1);
+  EXPECT_DOUBLE_EQ(m.steppers.at("e").run_current_a.value(), 0.65);
+  EXPECT_EQ(m.steppers.count("z"), 0u);
+  const std::string msg = cfg_error(kMinimal + steppers + "[tmc2209 stepper_x]\nrun_current: -1\n");
+  EXPECT_NE(msg.find("run_current"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("printer.cfg:"), std::string::npos) << msg;
+}
+
 TEST(KlipperCfg, MinimalPrinterGetsKlippersDefaults) {
   const Machine m = cfg(kMinimal);
   EXPECT_EQ(m.firmware, Firmware::klipper);

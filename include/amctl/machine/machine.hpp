@@ -79,6 +79,12 @@ struct Stepper {
   /// Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to the
   /// arm's joint on the carriage (Klipper arm_x_length; required on left, right defaults to it).
   std::optional<double> arm_x_length_mm;
+  /// The motor, its driver and the drive train, for step-level physics (amctl stepper
+  /// simulate, docs/closedloop.md); unset: the library defaults there (a 17HS4401-class
+  /// NEMA17). run_current is RMS, as Klipper's [tmc* stepper_x] run_current.
+  std::optional<double> run_current_a, supply_voltage_v, holding_torque_n_m, rated_current_a,
+      phase_resistance_ohm, phase_inductance_h, rotor_inertia_kg_m2, detent_torque_n_m,
+      backlash_mm;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
