@@ -96,12 +96,18 @@ void register_stepper(CLI::App& app) {
   sim->add_option("--drag-n", a->req.drag_force_n, "scenario load: drag force opposing motion [N]");
   sim->add_option("--end-load-n-per-mm", a->req.end_load_n_per_mm, "scenario load: stiffness of the cable pulled taut beyond -25 mm [N/mm]");
   sim->add_option("--bump-n", a->req.bump_force_n, "scenario load: drag of the curled edge scraped near -29 mm [N]");
+  sim->add_option("--drag-n-s-per-m", a->req.drag_n_s_per_m, "scenario load: drag growing with speed [N s/m]");
+  sim->add_option("--backlash-mm", a->req.backlash_mm, "scenario: lost motion at each reversal [mm] (default: the machine's, else 0.05)");
+  sim->add_option("--run-current-a", a->req.run_current_a, "scenario: motor current, RMS as Klipper's run_current [A] (default: the machine's, else 0.8)");
+  sim->add_option("--max-current-a", a->req.max_current_a, "scenario: peak phase current best may boost to [A] (default: the motor's rated current)");
   sim->add_flag("--no-load", a->no_load, "scenario without its drag load");
   sim->add_option("--csv", a->req.csv_path, "trace CSV (time, reference, position, error, command, encoder, load angle per axis)");
   sim->add_flag("--json", a->json, "print the result as JSON");
   sim->add_option("--kp", a->req.kp, "position gain of pid/best [-]");
   sim->add_option("--ki", a->req.ki_per_s, "integral gain of pid/best [1/s]");
   sim->add_option("--kd", a->req.kd_s, "derivative gain of pid/best [s]");
+ sim->add_option("--drag-gain", a->req.drag_gain_per_s, "best: adaptation gain of the learned drag [1/s] (default 20; 0 = off)");
+  sim->add_option("--load-angle-deg", a->req.load_angle_deg, "best: load angle the current is sized for [deg] (default 45; 0 = run current only)");
   sim->add_option("--alpha", a->req.alpha_per_s, "seed003's alpha [1/s] (default 0.6)");
   sim->add_option("--corrupt-probability", a->req.corrupt_probability, "probability that an encoder frame is corrupted on the wire");
   sim->callback([a] { run_simulate(*a); });

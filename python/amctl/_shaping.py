@@ -117,7 +117,9 @@ def steps(path, machine=None, set=None, *, csv=None):
 
 def stepper_simulate(path=None, machine=None, set=None, *, controller="open", scenario=None,
                      speed_mm_s=90.0, load=True, csv=None, kp=None, ki=None, kd=None,
-                     alpha=None, corrupt_probability=0.0):
+                     alpha=None, corrupt_probability=0.0, drag_n=None, drag_n_s_per_m=None,
+                     bump_n=None, end_load_n_per_mm=None, backlash_mm=None, run_current_a=None,
+                     max_current_a=None, drag_gain=None, load_angle_deg=None):
     """Stepper motors, drives, AS5311 encoders and a controller simulated together
     (``amctl stepper simulate``, docs/closedloop.md) on a G-code file (``path``) or on
     ``scenario="seed003"`` (seed 003's reversing strokes at ``speed_mm_s`` [mm/s], with its
@@ -125,18 +127,25 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
 
     Returns the dict of ``amctl stepper simulate --json``: ``axes.x`` / ``axes.y`` with
     ``max_tracking_error_mm``, ``rms_tracking_error_mm``, ``lost_steps`` (microsteps),
-    ``lost_full_steps``, ``max_load_angle_deg``, ... With ``csv`` the traces are written there.
-    kp [-], ki [1/s], kd [s] override the pid/best gains, alpha [1/s] seed003's.
+    ``lost_full_steps``, ``max_load_angle_deg``, ``peak_current_a``, ... With ``csv`` the traces
+    are written there. The other keywords are the command's flags of the same names (None: the
+    default): kp [-], ki [1/s], kd [s] override the pid/best gains, alpha [1/s] seed003's;
+    the scenario's load (drag_n [N], drag_n_s_per_m [N s/m], bump_n [N], end_load_n_per_mm),
+    backlash_mm, run_current_a (RMS, as Klipper's run_current), max_current_a (peak, best's
+    boost limit); best's drag_gain [1/s] and load_angle_deg.
     """
     p = "" if path is None else _args.path(path, "path")
     m = _args.machine(machine, set)
     sc = "" if scenario is None else _args.text(scenario, "scenario")
     v = _args.number(speed_mm_s, "speed_mm_s", "mm/s")
     out = "" if csv is None else _args.path(csv, "csv")
-    opt = lambda x, name: -1.0 if x is None else _args.number(x, name)
+    given = dict(kp=kp, ki=ki, kd=kd, alpha=alpha, drag_n=drag_n, drag_n_s_per_m=drag_n_s_per_m,
+                 bump_n=bump_n, end_load_n_per_mm=end_load_n_per_mm, backlash_mm=backlash_mm,
+                 run_current_a=run_current_a, max_current_a=max_current_a, drag_gain=drag_gain,
+                 load_angle_deg=load_angle_deg)
+    overrides = {k: _args.number(x, k) for k, x in given.items() if x is not None}
     return _amctl._stepper_simulate(p, m, _args.text(controller, "controller"), sc, v,
-                                    _args.boolean(load, "load"), out, opt(kp, "kp"),
-                                    opt(ki, "ki"), opt(kd, "kd"), opt(alpha, "alpha"),
+                                    _args.boolean(load, "load"), out, overrides,
                                     _args.number(corrupt_probability, "corrupt_probability"))
 
 

@@ -1,29 +1,49 @@
 // Closed-loop stepper simulation: the binding calls closedloop::stepper_simulate, the one
 // library function `amctl stepper simulate` calls (apps/amctl/cmd_stepper.cpp), with the GIL
 // released, and returns its JSON form as a dict.
+#include <map>
+#include <optional>
 #include <string>
 
 #include "amctl/closedloop/simulate.hpp"
+#include "amctl/core/error.hpp"
 #include "common.hpp"
+
+#include <pybind11/stl.h>
 
 namespace amctl::py_bind {
 namespace {
 
+// The numeric overrides by keyword (< 0: default), the fields of SimulateRequest.
+std::optional<double>* override_field(closedloop::SimulateRequest& r, const std::string& name) {
+  if (name == "kp") return &r.kp;
+  if (name == "ki") return &r.ki_per_s;
+  if (name == "kd") return &r.kd_s;
+  if (name == "alpha") return &r.alpha_per_s;
+  if (name == "drag_n") return &r.drag_force_n;
+  if (name == "drag_n_s_per_m") return &r.drag_n_s_per_m;
+  if (name == "bump_n") return &r.bump_force_n;
+  if (name == "end_load_n_per_mm") return &r.end_load_n_per_mm;
+  if (name == "backlash_mm") return &r.backlash_mm;
+  if (name == "run_current_a") return &r.run_current_a;
+  if (name == "max_current_a") return &r.max_current_a;
+  if (name == "drag_gain") return &r.drag_gain_per_s;
+  if (name == "load_angle_deg") return &r.load_angle_deg;
+  throw Error("stepper_simulate: unknown option '" + name + "'");
+}
+
 py::object stepper_simulate(const std::string& path, const MachineValue& mv,
                             const std::string& controller, const std::string& scenario,
-                            double speed_mm_s, bool load, const std::string& csv, double kp,
-                            double ki, double kd, double alpha, double corrupt) {
+                            double speed_mm_s, bool load, const std::string& csv,
+                            const std::map<std::string, double>& overrides, double corrupt) {
   closedloop::SimulateRequest r;
+  for (const auto& [name, value] : overrides) *override_field(r, name) = value;
   r.file = path;
   r.scenario = scenario;
   r.controller = controller;
   r.speed_mm_s = speed_mm_s;
   r.load = load;
   r.csv_path = csv;
-  r.kp = kp;
-  r.ki_per_s = ki;
-  r.kd_s = kd;
-  r.alpha_per_s = alpha;
   r.corrupt_probability = corrupt;
   Json j;
   {
@@ -38,8 +58,7 @@ py::object stepper_simulate(const std::string& path, const MachineValue& mv,
 void register_closedloop(py::module_& m) {
   m.def("_stepper_simulate", &stepper_simulate, py::arg("path"), py::arg("machine"),
         py::arg("controller"), py::arg("scenario"), py::arg("speed_mm_s"), py::arg("load"),
-        py::arg("csv"), py::arg("kp"), py::arg("ki"), py::arg("kd"), py::arg("alpha"),
-        py::arg("corrupt"),
+        py::arg("csv"), py::arg("overrides"), py::arg("corrupt"),
         "amctl stepper simulate --json (closedloop::stepper_simulate + to_json); see "
         "amctl.stepper_simulate.");
 }

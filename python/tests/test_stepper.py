@@ -31,3 +31,25 @@ def test_stepper_simulate_rejects_an_unstable_gain_and_a_bad_controller():
         amctl.stepper_simulate(machine="ender3", controller="pid", scenario="seed003", kp=20.0)
     with pytest.raises(amctl.Error, match="--controller"):
         amctl.stepper_simulate(machine="ender3", controller="fuzzy", scenario="seed003")
+
+
+def test_stepper_simulate_load_keywords_equal_the_cli_flags(cli):
+    # The scenario's load, backlash and currents by keyword are the command's flags.
+    kw = dict(drag_n=10.0, drag_n_s_per_m=120.0, backlash_mm=0.1, run_current_a=0.9,
+              max_current_a=1.5, drag_gain=10.0, load_angle_deg=50.0)
+    r = amctl.stepper_simulate(machine="ender3", controller="best", scenario="seed003", **kw)
+    ref = cli.json("stepper", "simulate", "--scenario", "seed003", "--machine", "ender3",
+                   "--controller", "best", "--drag-n", "10", "--drag-n-s-per-m", "120",
+                   "--backlash-mm", "0.1", "--run-current-a", "0.9", "--max-current-a", "1.5",
+                   "--drag-gain", "10", "--load-angle-deg", "50", "--json")
+    assert r == ref
+    for axis in ("x", "y"):
+        a = r["axes"][axis]
+        # Kt I at the run current: 0.40 N m / (sqrt 2 x 1.7 A) x sqrt 2 x 0.9 A.
+        assert a["pull_out_torque_n_m"] == pytest.approx(0.40 / 1.7 * 0.9, rel=1e-12)
+        assert 0.9 * 2 ** 0.5 - 1e-12 <= a["mean_current_a"] <= a["peak_current_a"] <= 1.5 + 1e-12
+
+
+def test_stepper_simulate_names_a_negative_load():
+    with pytest.raises(amctl.Error, match="--drag-n must be"):
+        amctl.stepper_simulate(machine="ender3", scenario="seed003", drag_n=-5.0)

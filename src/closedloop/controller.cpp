@@ -44,6 +44,9 @@ void ControllerParameters::validate() const {
   require_non_negative("controller.best_ki_per_s", best_ki_per_s);
   require_non_negative("controller.best_kd_s", best_kd_s);
   require_non_negative("controller.latency_s", latency_s);
+  require_non_negative("controller.best_drag_gain_per_s", best_drag_gain_per_s);
+  require_non_negative("controller.best_load_angle_deg", best_load_angle_deg);
+  require_positive("controller.best_flip_speed_mm_s", best_flip_speed_mm_s);
 }
 
 namespace {
@@ -109,32 +112,70 @@ class Best final : public Controller {
  public:
   Best(const ControllerParameters& p, const StepperAxisModel& m)
       : pid_(make_pid(p.best_kp, p.best_ki_per_s, p.best_kd_s, p.output_limit_mm)),
-        period_(p.period_s), m_(m) {}
+        period_(p.period_s), drag_gain_(p.best_drag_gain_per_s),
+        flip_mm_s_(p.best_flip_speed_mm_s), m_(m) {
+    const double deg = p.best_load_angle_deg;
+    sin_angle_ = (deg > 0.0 && deg < 90.0) ? std::sin(deg * std::numbers::pi / 180.0) : 0.0;
+    current_ = m.drive().current_amplitude_a;
+  }
 
   double target_mm(const ControlInput& in) override {
     const double u = pid_.update(in.measured_ref_mm, in.measured_mm, period_);
-    return in.next_ref_mm + model_lead_mm(in.next_vel_mm_s, in.next_acc_mm_s2) + u;
+    // Learned drag: the steady force the integral holds, k I, correlated with the direction of
+    // motion, moves into the drag estimate, which the feedforward flips with the direction (the
+    // integral then unloads). Driven by the integral rather than the raw error, the estimate is
+    // filtered twice and cannot ring with the loop. The drag opposes motion: never negative.
+    const double dir = std::tanh(in.ref_vel_mm_s / flip_mm_s_);
+    const double k = m_.axis().belt.stiffness_n_per_m;
+    drag_n_ = std::max(0.0, drag_n_ + drag_gain_ * period_ * k * pid_.integral() * 1e-3 * dir);
+    // The force the reference needs next period from the model (inertia, rail friction) and
+    // the learned drag; the integral holds the rest as a lead k I (it is not fed forward again).
+    const double f = force_n(in.next_vel_mm_s, in.next_acc_mm_s2);
+    const double r = m_.pulley_radius_m();
+    const double w = in.next_vel_mm_s * 1e-3 / r;
+    const double tau = r * f + m_.inertia_kg_m2() * in.next_acc_mm_s2 * 1e-3 / r +
+                       m_.motor().rotor_damping_n_m_s_per_rad * w;
+    if (sin_angle_ > 0.0) {
+      // Current sized so that the torque is reached at the design load angle (closed-loop
+      // current scaling): the larger of the model's torque and the torque the measured lead
+      // implies. The lead of the command over the head (belt stretch plus the rotor's lag) times
+      // the belt stiffness over-estimates the belt force by the lag's share, so it errs on the
+      // side of more current; it rises as soon as a load holds the head back, before any
+      // integral has learned it. Never below the run current, never above the drive's maximum.
+      const double kt = m_.motor().torque_constant_n_m_per_a();
+      const double f_lead = k * (in.command_mm - in.measured_mm) * 1e-3;
+      const double tau_need = std::max(std::abs(tau), r * std::abs(f_lead));
+      current_ = std::clamp(tau_need / (kt * sin_angle_), m_.drive().current_amplitude_a,
+                            m_.max_current_a());
+    }
+    return in.next_ref_mm + lead_mm(f, tau, w) + u;
   }
+  [[nodiscard]] double current_request_a() const override { return current_; }
   [[nodiscard]] ControllerKind kind() const override { return ControllerKind::best; }
 
  private:
-  // Where the motor must be ahead of the carriage to produce the force the reference needs:
-  // belt stretch F / k and the rotor's load angle asin(tau / T_po(w)) / p.
-  [[nodiscard]] double model_lead_mm(double v_mm_s, double a_mm_s2) const {
+  // Force on the carriage the reference asks for, from the model and the learned drag [N].
+  [[nodiscard]] double force_n(double v_mm_s, double a_mm_s2) const {
     const AxisMechanics& ax = m_.axis();
-    const double v = v_mm_s * 1e-3, a = a_mm_s2 * 1e-3;
-    const double f = ax.belt.mass_kg * a +
-                     ax.coulomb_friction_n * std::tanh(v / ax.friction_smoothing_m_s) +
-                     ax.viscous_friction_n_s_per_m * v;
-    const double r = m_.pulley_radius_m();
-    const double w = v / r;
-    const double tau = r * f + m_.inertia_kg_m2() * a / r + m_.motor().rotor_damping_n_m_s_per_rad * w;
-    const double po = std::max(m_.pull_out_torque_at_n_m(w), 1e-9);
+    const double v = v_mm_s * 1e-3;
+    return ax.belt.mass_kg * a_mm_s2 * 1e-3 +
+           ax.coulomb_friction_n * std::tanh(v / ax.friction_smoothing_m_s) +
+           drag_n_ * std::tanh(v_mm_s / flip_mm_s_) + ax.viscous_friction_n_s_per_m * v;
+  }
+  // Where the motor must be ahead of the carriage to produce force f: belt stretch f / k, the
+  // backlash's half on the side the belt pulls, and the rotor's load angle asin(tau / T_po) / p
+  // at the current it runs.
+  [[nodiscard]] double lead_mm(double f, double tau, double w) const {
+    const AxisMechanics& ax = m_.axis();
+    const double po = std::max(m_.pull_out_torque_at_n_m(w, current_), 1e-9);
     const double d = std::asin(std::clamp(tau / po, -0.95, 0.95));
-    return 1e3 * (f / ax.belt.stiffness_n_per_m + r * d / m_.motor().pole_pairs());
+    const double r = m_.pulley_radius_m();
+    return 1e3 * (f / ax.belt.stiffness_n_per_m + r * d / m_.motor().pole_pairs()) +
+           0.5 * ax.backlash_mm * std::tanh(f / 0.5);
   }
   control::PidController pid_;
-  double period_;
+  double period_, drag_gain_, flip_mm_s_, sin_angle_ = 0.0;
+  double drag_n_ = 0.0, current_ = 0.0;
   StepperAxisModel m_;  // a copy: the caller's model may move
 };
 

@@ -77,7 +77,7 @@ struct AxisRun {
   double command_mm = 0.0;
   std::deque<double> x_hist, ref_hist;  // at control periods, newest last (latency)
   std::int64_t last_slip = 0;
-  double err2 = 0.0;
+  double err2 = 0.0, current_sum = 0.0;
   std::uint64_t samples = 0, steps_last = 0;
   double last_measured = 0.0;
   AxisResult res;
@@ -116,7 +116,7 @@ ClosedLoopSimulator::ClosedLoopSimulator(std::vector<AxisSetup> axes,
     EncoderParameters ep = options.encoder;
     ep.seed = options.encoder.seed + i;
     AxisRun run{axes[i], model, model.rest_state(start_mm[i]), nullptr,
-                As5311Encoder(ep, start_mm[i]), 0.0, {}, {}, 0, 0.0, 0, 0, 0.0, {}};
+                As5311Encoder(ep, start_mm[i]), 0.0, {}, {}, 0, 0.0, 0.0, 0, 0, 0.0, {}};
     run.controller = make_controller(options.controller, gains, run.model);
     run.command_mm = static_cast<double>(run.state.microstep) * run.model.step_distance_mm();
     run.res.name = axes[i].name;
@@ -177,6 +177,10 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     in.command_mm = r.command_mm;
     in.steps_since_last = r.steps_last;
     const double target = r.controller->target_mm(in);
+    const double current = r.controller->current_request_a();
+    if (current > 0.0 && current != r.state.current_a) r.model.set_current(r.state, current);
+    r.res.peak_current_a = std::max(r.res.peak_current_a, r.state.current_a);
+    r.current_sum += r.state.current_a;
     const double step = r.model.step_distance_mm();
     double v = (target - r.command_mm) / T;
     const double vmax = r.setup.drive.max_step_rate_hz * step;
@@ -232,6 +236,7 @@ SimulationResult ClosedLoopSimulator::finish() {
   for (AxisRun& r : s.runs) {
     AxisResult a = r.res;
     a.rms_tracking_error_mm = r.samples ? std::sqrt(r.err2 / static_cast<double>(r.samples)) : 0.0;
+    a.mean_current_a = r.samples ? r.current_sum / static_cast<double>(r.samples) : 0.0;
     a.encoder_rejected_frames = r.encoder.rejected_frames();
     out.axes.push_back(a);
   }
@@ -254,6 +259,16 @@ std::vector<AxisSetup> machine_axes(const machine::Machine& m) {
     a.drive.microsteps = st.microsteps;
     a.motor.full_steps_per_rotation = st.full_steps_per_rotation;
     a.mechanics.rotation_distance_mm = st.rotation_distance_mm;
+    // The machine's motor keys (docs/machine.md; unset: the defaults of motor.hpp).
+    if (st.run_current_a) a.drive.current_amplitude_a = std::numbers::sqrt2 * *st.run_current_a;
+    if (st.supply_voltage_v) a.drive.supply_voltage_v = *st.supply_voltage_v;
+    if (st.holding_torque_n_m) a.motor.holding_torque_n_m = *st.holding_torque_n_m;
+    if (st.rated_current_a) a.motor.rated_current_a = *st.rated_current_a;
+    if (st.phase_resistance_ohm) a.motor.phase_resistance_ohm = *st.phase_resistance_ohm;
+    if (st.phase_inductance_h) a.motor.phase_inductance_h = *st.phase_inductance_h;
+    if (st.rotor_inertia_kg_m2) a.motor.rotor_inertia_kg_m2 = *st.rotor_inertia_kg_m2;
+    if (st.detent_torque_n_m) a.motor.detent_torque_n_m = *st.detent_torque_n_m;
+    if (st.backlash_mm) a.mechanics.backlash_mm = *st.backlash_mm;
     out.push_back(a);
   }
   return out;
@@ -286,7 +301,16 @@ SimulationResult simulate_seed003(const machine::Machine& m, const Seed003Scenar
     const double w = 2.0 * std::numbers::pi * 40.0;
     a.mechanics.belt.stiffness_n_per_m = a.mechanics.belt.mass_kg * w * w;
     a.mechanics.belt.damping_n_s_per_m = 2.0 * 0.1 * w * a.mechanics.belt.mass_kg;
-    a.drive.supply_voltage_v = sc.supply_voltage_v;
+    // The scenario's printer class where the machine does not say (its motor keys win; the
+    // request's overrides win over both).
+    const machine::Stepper& st = m.steppers.at(a.name);
+    a.drive.supply_voltage_v =
+        sc.supply_voltage_v.value_or(st.supply_voltage_v.value_or(sc.default_supply_voltage_v));
+    a.drive.current_amplitude_a =
+        std::numbers::sqrt2 *
+        sc.run_current_a.value_or(st.run_current_a.value_or(sc.default_run_current_a));
+    a.mechanics.backlash_mm = sc.backlash_mm.value_or(st.backlash_mm.value_or(sc.default_backlash_mm));
+    if (sc.max_current_a > 0.0) a.drive.max_current_a = sc.max_current_a;
     if (sc.load) {
       a.mechanics.drag_force_n = sc.drag_force_n;
       a.mechanics.end_load_n_per_mm = sc.end_load_n_per_mm;
@@ -294,6 +318,7 @@ SimulationResult simulate_seed003(const machine::Machine& m, const Seed003Scenar
       a.mechanics.bump_force_n = sc.bump_force_n;
       a.mechanics.bump_position_mm = sc.bump_position_mm;
       a.mechanics.bump_half_width_mm = sc.bump_half_width_mm;
+      a.mechanics.viscous_friction_n_s_per_m += sc.drag_n_s_per_m;
     }
     require_step_rate(a, sc.speed_mm_s, "scenario seed003");
   }
@@ -475,10 +500,24 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   o.controller = controller_from_string(a.controller);
   o.csv_path = a.csv_path;
   o.gains.max_accel_mm_s2 = m.max_accel_mm_s2;
-  if (a.kp >= 0) o.gains.kp = o.gains.best_kp = a.kp;
-  if (a.ki_per_s >= 0) o.gains.ki_per_s = o.gains.best_ki_per_s = a.ki_per_s;
-  if (a.kd_s >= 0) o.gains.kd_s = o.gains.best_kd_s = a.kd_s;
-  if (a.alpha_per_s >= 0) o.gains.alpha_per_s = a.alpha_per_s;
+  // Every override is checked first, named by its flag.
+  const std::pair<const char*, const std::optional<double>*> given[] = {
+      {"--kp", &a.kp}, {"--ki", &a.ki_per_s}, {"--kd", &a.kd_s}, {"--alpha", &a.alpha_per_s},
+      {"--drag-n", &a.drag_force_n}, {"--bump-n", &a.bump_force_n},
+      {"--end-load-n-per-mm", &a.end_load_n_per_mm}, {"--drag-n-s-per-m", &a.drag_n_s_per_m},
+      {"--backlash-mm", &a.backlash_mm}, {"--drag-gain", &a.drag_gain_per_s},
+      {"--load-angle-deg", &a.load_angle_deg}};
+  for (const auto& [flag, v] : given) {
+    if (*v) require_non_negative(flag, **v);
+  }
+  if (a.run_current_a) require_positive("--run-current-a", *a.run_current_a);
+  if (a.max_current_a) require_positive("--max-current-a", *a.max_current_a);
+  if (a.kp) o.gains.kp = o.gains.best_kp = *a.kp;
+  if (a.ki_per_s) o.gains.ki_per_s = o.gains.best_ki_per_s = *a.ki_per_s;
+  if (a.kd_s) o.gains.kd_s = o.gains.best_kd_s = *a.kd_s;
+  if (a.alpha_per_s) o.gains.alpha_per_s = *a.alpha_per_s;
+  if (a.drag_gain_per_s) o.gains.best_drag_gain_per_s = *a.drag_gain_per_s;
+  if (a.load_angle_deg) o.gains.best_load_angle_deg = *a.load_angle_deg;
   o.encoder.corrupt_probability = a.corrupt_probability;
   if (!a.scenario.empty()) {
     if (!a.file.empty()) throw Error("give either FILE or --scenario, not both");
@@ -488,9 +527,13 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
     Seed003Scenario sc;
     sc.speed_mm_s = a.speed_mm_s;
     sc.load = a.load;
-    if (a.drag_force_n >= 0) sc.drag_force_n = a.drag_force_n;
-    if (a.bump_force_n >= 0) sc.bump_force_n = a.bump_force_n;
-    if (a.end_load_n_per_mm >= 0) sc.end_load_n_per_mm = a.end_load_n_per_mm;
+    if (a.drag_force_n) sc.drag_force_n = *a.drag_force_n;
+    if (a.bump_force_n) sc.bump_force_n = *a.bump_force_n;
+    if (a.end_load_n_per_mm) sc.end_load_n_per_mm = *a.end_load_n_per_mm;
+    if (a.drag_n_s_per_m) sc.drag_n_s_per_m = *a.drag_n_s_per_m;
+    if (a.backlash_mm) sc.backlash_mm = *a.backlash_mm;
+    if (a.run_current_a) sc.run_current_a = *a.run_current_a;
+    if (a.max_current_a) sc.max_current_a = *a.max_current_a;
     return simulate_seed003(m, sc, o);
   }
   if (a.file.empty()) throw Error("give a G-code FILE or --scenario seed003");
@@ -521,6 +564,8 @@ Json to_json(const SimulationResult& r) {
     x["step_rate_limited_periods"] = a.step_rate_limited_periods;
     x["encoder_rejected_frames"] = a.encoder_rejected_frames;
     x["pull_out_torque_n_m"] = json_number(a.pull_out_torque_n_m);
+    x["peak_current_a"] = json_number(a.peak_current_a);
+    x["mean_current_a"] = json_number(a.mean_current_a);
     axes[a.name] = x;
   }
   j["axes"] = axes;

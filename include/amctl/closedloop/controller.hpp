@@ -48,6 +48,16 @@ struct ControllerParameters {
   double best_kp = 3.0;           ///< [-]
   double best_ki_per_s = 250.0;   ///< [1/s]
   double best_kd_s = 0.001;       ///< [s]
+  /// best: adaptation gain of the learned drag (a Coulomb-like load opposing motion that the
+  /// model does not know), N of drag per (N of force error . s) [1/s]. 0: not learned.
+  double best_drag_gain_per_s = 20.0;
+  /// best: the load angle the current is sized for [deg]: I = tau / (Kt sin(angle)), between
+  /// the run current and the drive's max_current (a closed-loop drive's current boost). 0 or
+  /// >= 90: the run current always.
+  double best_load_angle_deg = 45.0;
+  /// best: the reference speed over which the direction of the drag and of the backlash flips
+  /// in the feedforward (tanh(v / v_flip)) [mm/s].
+  double best_flip_speed_mm_s = 2.0;
   /// Encoder latency the controller aligns its reference with [s].
   double latency_s = 100e-6;
   void validate() const;
@@ -69,6 +79,9 @@ class Controller {
   virtual ~Controller() = default;
   /// The motor command position wanted at t + T [mm].
   virtual double target_mm(const ControlInput& in) = 0;
+  /// The current amplitude wanted for the next period [A], computed by target_mm; 0 = the
+  /// drive's run current (every controller but best).
+  [[nodiscard]] virtual double current_request_a() const { return 0.0; }
   [[nodiscard]] virtual ControllerKind kind() const = 0;
 };
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -61,7 +62,9 @@ struct AxisResult {
   double peak_step_rate_hz = 0.0;      ///< of the command, over a control period
   std::uint64_t step_rate_limited_periods = 0;  ///< periods clipped to drive.max_step_rate_hz
   std::uint64_t encoder_rejected_frames = 0;
-  double pull_out_torque_n_m = 0.0;    ///< static, Kt I
+  double pull_out_torque_n_m = 0.0;    ///< static, Kt I at the run current
+  double peak_current_a = 0.0;         ///< largest commanded current amplitude
+  double mean_current_a = 0.0;         ///< mean commanded current amplitude (heating)
 };
 
 struct SimulationResult {
@@ -108,15 +111,27 @@ struct Seed003Scenario {
   bool load = true;
   double stroke_mm = 30.0;
   int strokes = 6;
-  double drag_force_n = 5.0;      ///< the load: drag opposing motion [N]
+  /// The load: a drag opposing motion that grows with speed (a nozzle ploughing through an
+  /// over-extruded, curled layer; a stiff cable chain), drag_force_n + drag_n_s_per_m v.
+  double drag_force_n = 12.0;
+  double drag_n_s_per_m = 150.0;
   double end_load_n_per_mm = 0.0;   ///< a cable pulled taut near the -30 mm end [N/mm]
   double end_load_start_mm = -25.0;
-  /// A curled edge the nozzle scrapes just before the reversal at -30 mm: drag bump_force_n
-  /// within +-bump_half_width_mm of bump_position_mm.
-  double bump_force_n = 30.0;
+  /// A curled edge scraped just before the reversal at -30 mm: drag bump_force_n within
+  /// +-bump_half_width_mm of bump_position_mm (0 = none; a sudden load no controller acting
+  /// through the belt can follow, docs/closedloop.md).
+  double bump_force_n = 0.0;
   double bump_position_mm = -29.0;
   double bump_half_width_mm = 0.3;
-  double supply_voltage_v = 12.0; ///< the seed's printer class runs its steppers on 12 V
+  /// The seed's printer class where the machine's [stepper_x|y] give no run_current,
+  /// supply_voltage or backlash: Klipper run_current 0.8 A RMS (phase current amplitude
+  /// sqrt(2) 0.8 = 1.13 A), 12 V, 0.05 mm of lost motion at each reversal of the belt force.
+  double default_run_current_a = 0.8;   ///< RMS, as Klipper's run_current
+  double default_supply_voltage_v = 12.0;
+  double default_backlash_mm = 0.05;
+  /// Overrides of both the machine and the defaults (the CLI's flags) [A RMS, V, mm].
+  std::optional<double> run_current_a, supply_voltage_v, backlash_mm;
+  double max_current_a = 0.0;     ///< closed-loop boost limit, amplitude [A]; 0 = the motor's rated
   double x_mass_kg = 0.5;         ///< X carriage
   double y_mass_kg = 0.8;         ///< Y (a bed slinger's bed)
 };
@@ -149,9 +164,13 @@ struct SimulateRequest {
   double speed_mm_s = 90.0;
   bool load = true;
   std::string csv_path;
-  /// Overrides (< 0: default): kp and ki/kd apply to pid and best, alpha to seed003.
-  double kp = -1, ki_per_s = -1, kd_s = -1, alpha_per_s = -1;
-  double drag_force_n = -1, bump_force_n = -1, end_load_n_per_mm = -1;
+  /// Overrides (unset: default; a negative or non-finite value is an error naming the flag):
+  /// kp and ki/kd apply to pid and best, alpha to seed003, drag_gain and load_angle to best;
+  /// the load, backlash and currents to the scenario (run_current RMS, max_current peak).
+  std::optional<double> kp, ki_per_s, kd_s, alpha_per_s;
+  std::optional<double> drag_force_n, bump_force_n, end_load_n_per_mm, drag_n_s_per_m;
+  std::optional<double> backlash_mm, run_current_a, max_current_a;
+  std::optional<double> drag_gain_per_s, load_angle_deg;
   double corrupt_probability = 0.0;
 };
 /// Validates the request (amctl::Error naming the flag), then simulate_seed003 or
