@@ -106,6 +106,8 @@ void register_stepper(CLI::App& app) {
   sim->add_option("--kp", a->req.kp, "position gain of pid/best [-]");
   sim->add_option("--ki", a->req.ki_per_s, "integral gain of pid/best [1/s]");
   sim->add_option("--kd", a->req.kd_s, "derivative gain of pid/best [s]");
+ sim->add_option("--model-mass-scale", a->req.model_mass_scale, "best: factor on the carriage mass its model believes (robustness; default 1)");
+  sim->add_option("--model-stiffness-scale", a->req.model_stiffness_scale, "best: factor on the belt stiffness its model believes (robustness; default 1)");
  sim->add_option("--drag-gain", a->req.drag_gain_per_s, "best: adaptation gain of the learned drag [1/s] (default 20; 0 = off)");
   sim->add_option("--load-angle-deg", a->req.load_angle_deg, "best: load angle the current is sized for [deg] (default 45; 0 = run current only)");
   sim->add_option("--alpha", a->req.alpha_per_s, "seed003's alpha [1/s] (default 0.6)");

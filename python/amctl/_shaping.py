@@ -119,7 +119,8 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
                      speed_mm_s=90.0, load=True, csv=None, kp=None, ki=None, kd=None,
                      alpha=None, corrupt_probability=0.0, drag_n=None, drag_n_s_per_m=None,
                      bump_n=None, end_load_n_per_mm=None, backlash_mm=None, run_current_a=None,
-                     max_current_a=None, drag_gain=None, load_angle_deg=None):
+                     max_current_a=None, drag_gain=None, load_angle_deg=None,
+                     model_mass_scale=None, model_stiffness_scale=None):
     """Stepper motors, drives, AS5311 encoders and a controller simulated together
     (``amctl stepper simulate``, docs/closedloop.md) on a G-code file (``path``) or on
     ``scenario="seed003"`` (seed 003's reversing strokes at ``speed_mm_s`` [mm/s], with its
@@ -132,7 +133,8 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
     default): kp [-], ki [1/s], kd [s] override the pid/best gains, alpha [1/s] seed003's;
     the scenario's load (drag_n [N], drag_n_s_per_m [N s/m], bump_n [N], end_load_n_per_mm),
     backlash_mm, run_current_a (RMS, as Klipper's run_current), max_current_a (peak, best's
-    boost limit); best's drag_gain [1/s] and load_angle_deg.
+    boost limit); best's drag_gain [1/s], load_angle_deg and the model error it runs with
+    (model_mass_scale, model_stiffness_scale: factors on the mass and belt stiffness).
     """
     p = "" if path is None else _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -142,7 +144,8 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
     given = dict(kp=kp, ki=ki, kd=kd, alpha=alpha, drag_n=drag_n, drag_n_s_per_m=drag_n_s_per_m,
                  bump_n=bump_n, end_load_n_per_mm=end_load_n_per_mm, backlash_mm=backlash_mm,
                  run_current_a=run_current_a, max_current_a=max_current_a, drag_gain=drag_gain,
-                 load_angle_deg=load_angle_deg)
+                 load_angle_deg=load_angle_deg, model_mass_scale=model_mass_scale,
+                 model_stiffness_scale=model_stiffness_scale)
     overrides = {k: _args.number(x, k) for k, x in given.items() if x is not None}
     return _amctl._stepper_simulate(p, m, _args.text(controller, "controller"), sc, v,
                                     _args.boolean(load, "load"), out, overrides,

@@ -29,6 +29,8 @@ std::optional<double>* override_field(closedloop::SimulateRequest& r, const std:
   if (name == "max_current_a") return &r.max_current_a;
   if (name == "drag_gain") return &r.drag_gain_per_s;
   if (name == "load_angle_deg") return &r.load_angle_deg;
+  if (name == "model_mass_scale") return &r.model_mass_scale;
+  if (name == "model_stiffness_scale") return &r.model_stiffness_scale;
   throw Error("stepper_simulate: unknown option '" + name + "'");
 }
 

@@ -47,6 +47,8 @@ void ControllerParameters::validate() const {
   require_non_negative("controller.best_drag_gain_per_s", best_drag_gain_per_s);
   require_non_negative("controller.best_load_angle_deg", best_load_angle_deg);
   require_positive("controller.best_flip_speed_mm_s", best_flip_speed_mm_s);
+  require_positive("controller.best_model_mass_scale", best_model_mass_scale);
+  require_positive("controller.best_model_stiffness_scale", best_model_stiffness_scale);
 }
 
 namespace {
@@ -108,12 +110,22 @@ class PidLoop final : public Controller {
   double period_, stretch_per_acc_;
 };
 
+// The axis as best believes it: the true one with its mass and belt stiffness scaled (the
+// belt's damping ratio kept).
+StepperAxisModel believed_model(const ControllerParameters& p, const StepperAxisModel& m) {
+  AxisMechanics ax = m.axis();
+  ax.belt.mass_kg *= p.best_model_mass_scale;
+  ax.belt.stiffness_n_per_m *= p.best_model_stiffness_scale;
+  ax.belt.damping_n_s_per_m *= std::sqrt(p.best_model_mass_scale * p.best_model_stiffness_scale);
+  return StepperAxisModel(m.motor(), m.drive(), ax);
+}
+
 class Best final : public Controller {
  public:
   Best(const ControllerParameters& p, const StepperAxisModel& m)
       : pid_(make_pid(p.best_kp, p.best_ki_per_s, p.best_kd_s, p.output_limit_mm)),
         period_(p.period_s), drag_gain_(p.best_drag_gain_per_s),
-        flip_mm_s_(p.best_flip_speed_mm_s), m_(m) {
+        flip_mm_s_(p.best_flip_speed_mm_s), m_(believed_model(p, m)) {
     const double deg = p.best_load_angle_deg;
     sin_angle_ = (deg > 0.0 && deg < 90.0) ? std::sin(deg * std::numbers::pi / 180.0) : 0.0;
     current_ = m.drive().current_amplitude_a;

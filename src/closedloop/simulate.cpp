@@ -512,6 +512,10 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   }
   if (a.run_current_a) require_positive("--run-current-a", *a.run_current_a);
   if (a.max_current_a) require_positive("--max-current-a", *a.max_current_a);
+  if (a.model_mass_scale) require_positive("--model-mass-scale", *a.model_mass_scale);
+  if (a.model_stiffness_scale) require_positive("--model-stiffness-scale", *a.model_stiffness_scale);
+  if (a.model_mass_scale) o.gains.best_model_mass_scale = *a.model_mass_scale;
+  if (a.model_stiffness_scale) o.gains.best_model_stiffness_scale = *a.model_stiffness_scale;
   if (a.kp) o.gains.kp = o.gains.best_kp = *a.kp;
   if (a.ki_per_s) o.gains.ki_per_s = o.gains.best_ki_per_s = *a.ki_per_s;
   if (a.kd_s) o.gains.kd_s = o.gains.best_kd_s = *a.kd_s;

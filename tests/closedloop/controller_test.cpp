@@ -131,6 +131,26 @@ TEST(Seed003Scenario, BestCutsTheLoadedErrorByNinetyNinePercentAtBothSpeeds) {
   }
 }
 
+TEST(Seed003Scenario, BestKeepsItsFigureWithItsModelTwentyPercentOff) {
+  // Robustness: best believing a belt 20 % softer or stiffer and a carriage 20 % lighter or
+  // heavier than the true one still loses no step and stays within 1 % of open loop.
+  const SimulationResult open = simulate_seed003(ender3(), Seed003Scenario{}, SimulationOptions{});
+  for (double mass : {0.8, 1.2}) {
+    for (double stiffness : {0.8, 1.2}) {
+      SimulationOptions o;
+      o.controller = ControllerKind::best;
+      o.gains.best_model_mass_scale = mass;
+      o.gains.best_model_stiffness_scale = stiffness;
+      const SimulationResult best = simulate_seed003(ender3(), Seed003Scenario{}, o);
+      for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(best.axes[i].lost_steps, 0u) << mass << " " << stiffness;
+        EXPECT_LT(best.axes[i].max_tracking_error_mm, 0.01 * open.axes[i].max_tracking_error_mm)
+            << mass << " " << stiffness;
+      }
+    }
+  }
+}
+
 TEST(Seed003Scenario, OpenLoopErrorGrowsFrom90To120) {
   // The load grows with speed (12 N + 150 N s/m): at 120 mm/s open loop slips more (seed 003:
   // "open-loop error grows from 90 to 120 mm/s").

@@ -58,6 +58,10 @@ struct ControllerParameters {
   /// best: the reference speed over which the direction of the drag and of the backlash flips
   /// in the feedforward (tanh(v / v_flip)) [mm/s].
   double best_flip_speed_mm_s = 2.0;
+  /// best: how far the model it believes is off the true axis, as factors on the carriage mass
+  /// and on the belt stiffness (1 = the true values; robustness studies).
+  double best_model_mass_scale = 1.0;
+  double best_model_stiffness_scale = 1.0;
   /// Encoder latency the controller aligns its reference with [s].
   double latency_s = 100e-6;
   void validate() const;

@@ -171,6 +171,8 @@ struct SimulateRequest {
   std::optional<double> drag_force_n, bump_force_n, end_load_n_per_mm, drag_n_s_per_m;
   std::optional<double> backlash_mm, run_current_a, max_current_a;
   std::optional<double> drag_gain_per_s, load_angle_deg;
+  /// best's model error: factors on the mass and belt stiffness it believes (> 0).
+  std::optional<double> model_mass_scale, model_stiffness_scale;
   double corrupt_probability = 0.0;
 };
 /// Validates the request (amctl::Error naming the flag), then simulate_seed003 or
