@@ -1,9 +1,8 @@
 // `amctl stepper simulate [FILE] --machine M --controller open|seed003|pid|best
 //  [--scenario seed003 --speed-mm-s V] [--no-load] [--csv OUT] [--json]`: stepper, drive,
 // encoder and controller simulated together (docs/closedloop.md).
-// `amctl stepper sweep --machine M [--csv OUT]`: the seed003 scenario over 30..150 mm/s for
-// every controller.
-#include <fstream>
+// `amctl stepper sweep --machine M [--csv OUT] [--svg CHART]`: the seed003 scenario over
+// 30..150 mm/s for every controller, as a table and a chart.
 #include <iostream>
 #include <memory>
 #include <string>
@@ -12,6 +11,9 @@
 
 #include "amctl/closedloop/simulate.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/process/atomic_file.hpp"
+#include "amctl/report/line_chart.hpp"
+#include "amctl/report/stepper_sweep_chart.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
 
@@ -42,42 +44,45 @@ void run_simulate(const StepperArgs& a) {
   for (const closedloop::AxisResult& x : r.axes) {
     std::cout << fmt::format(
         "  {}: max error {:.4f} mm at {:.3f} s, rms {:.4f} mm, lost {} steps ({} full steps), "
-        "max load angle {:.1f} deg, peak {:.0f} steps/s\n",
+        "max load angle {:.1f} deg, peak {:.0f} steps/s, current {:.2f} A peak / {:.2f} A mean\n",
         x.name, x.max_tracking_error_mm, x.max_error_time_s, x.rms_tracking_error_mm,
-        x.lost_steps, x.lost_full_steps, x.max_load_angle_deg, x.peak_step_rate_hz);
+        x.lost_steps, x.lost_full_steps, x.max_load_angle_deg, x.peak_step_rate_hz,
+        x.peak_current_a, x.mean_current_a);
   }
   if (!a.req.csv_path.empty()) std::cout << "  traces written to " << a.req.csv_path << "\n";
 }
 
 struct SweepArgs {
   MachineOptions machine;
-  std::string csv;
+  std::string csv, svg;
   bool no_load = false;
+  bool json = false;
 };
 
 void run_sweep(const SweepArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
-  closedloop::SimulationOptions o;
-  o.gains.max_accel_mm_s2 = m.max_accel_mm_s2;
-  const closedloop::ControllerKind kinds[] = {
-      closedloop::ControllerKind::open, closedloop::ControllerKind::seed003,
-      closedloop::ControllerKind::pid, closedloop::ControllerKind::best};
-  const double speeds[] = {30, 60, 90, 120, 150};
-  const auto rows = closedloop::sweep_seed003(m, kinds, speeds, !a.no_load, o);
+  const auto rows = closedloop::stepper_sweep(m, !a.no_load);
   const std::string csv = closedloop::sweep_csv(rows);
-  if (a.csv.empty()) {
+  // Both outputs are built before either is written: a bad chart leaves no file behind.
+  const std::string svg = a.svg.empty() ? "" : report::to_svg(report::stepper_sweep_chart(rows, !a.no_load));
+  if (a.json) {
+    std::cout << closedloop::sweep_json(rows).dump(2) << "\n";
+  } else if (a.csv.empty()) {
     std::cout << csv;
-    return;
   }
-  const std::string tmp = a.csv + ".part";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw Error(fmt::format("{}: cannot open for writing", a.csv));
-    f << csv;
-    if (!f) throw Error(fmt::format("{}: write failed", a.csv));
+  auto write = [](const std::string& path, const std::string& text) {
+    process::AtomicFileWriter w(path);
+    w.write(text);
+    w.commit();
+  };
+  if (!a.csv.empty()) {
+    write(a.csv, csv);
+    if (!a.json) std::cout << fmt::format("{} rows written to {}\n", rows.size(), a.csv);
   }
-  std::rename(tmp.c_str(), a.csv.c_str());
-  std::cout << fmt::format("{} rows written to {}\n", rows.size(), a.csv);
+  if (!a.svg.empty()) {
+    write(a.svg, svg);
+    if (!a.json) std::cout << fmt::format("chart written to {}\n", a.svg);
+  }
 }
 
 }  // namespace
@@ -119,6 +124,8 @@ void register_stepper(CLI::App& app) {
   add_machine_options(*sw, s->machine);
   sw->add_option("--csv", s->csv, "write the table here (default: standard output)");
   sw->add_flag("--no-load", s->no_load, "without the scenario's drag load");
+  sw->add_flag("--json", s->json, "print the rows as JSON (a list of {controller, speed_mm_s, x, y})");
+  sw->add_option("--svg", s->svg, "also draw the maximum error against speed per controller, X and Y, as an SVG chart");
   sw->callback([s] { run_sweep(*s); });
 }
 

@@ -20,12 +20,12 @@ from ._dynamics import simulate
 from ._thermal import bed, hotend, sls_build, sls_margins
 from ._process import estimate_empirical, shrink_fit
 from ._shaping import (compare, compensate, report, resonance_calibrate, shaper_show, steps,
-                       stepper_simulate)
+                       stepper_simulate, stepper_sweep)
 
 __all__ = [
     "Error", "InternalError", "Machine", "AxisModel", "MOVE_DTYPE",
     "estimate", "plan", "iter_plan", "simulate",
     "sls_margins", "sls_build", "hotend", "bed",
     "shrink_fit", "estimate_empirical",
-    "shaper_show", "resonance_calibrate", "report", "steps", "stepper_simulate", "compensate", "compare",
+    "shaper_show", "resonance_calibrate", "report", "steps", "stepper_simulate", "stepper_sweep", "compensate", "compare",
 ]

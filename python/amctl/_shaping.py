@@ -152,6 +152,19 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
                                     _args.number(corrupt_probability, "corrupt_probability"))
 
 
+def stepper_sweep(machine=None, set=None, *, load=True, csv=None, svg=None):
+    """The seed003 scenario for every controller (open, seed003, pid, best) at 30, 60, 90, 120
+    and 150 mm/s (``amctl stepper sweep --json``, docs/closedloop.md section 4), with its load
+    unless ``load=False``. Returns a list of dicts ``{controller, speed_mm_s, x, y}`` with the
+    axes as in :func:`stepper_simulate`. ``csv`` writes the table, ``svg`` the chart of the
+    maximum error against speed (each whole or not at all).
+    """
+    m = _args.machine(machine, set)
+    out_csv = "" if csv is None else _args.path(csv, "csv")
+    out_svg = "" if svg is None else _args.path(svg, "svg")
+    return _amctl._stepper_sweep(m, _args.boolean(load, "load"), out_csv, out_svg)
+
+
 def compensate(path, machine=None, set=None, *, method="invert", natural_frequency_hz=None,
                damping_ratio=0.1, plant_natural_frequency_hz=None, plant_damping_ratio=None,
                model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,

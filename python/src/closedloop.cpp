@@ -4,9 +4,14 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "amctl/closedloop/simulate.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/process/atomic_file.hpp"
+#include "amctl/report/line_chart.hpp"
+#include "amctl/report/stepper_sweep_chart.hpp"
 #include "common.hpp"
 
 #include <pybind11/stl.h>
@@ -55,9 +60,32 @@ py::object stepper_simulate(const std::string& path, const MachineValue& mv,
   return to_python(j);
 }
 
+py::object stepper_sweep(const MachineValue& mv, bool load, const std::string& csv,
+                         const std::string& svg) {
+  Json j;
+  {
+    py::gil_scoped_release nogil;
+    const std::vector<closedloop::SweepRow> rows = closedloop::stepper_sweep(mv.m, load);
+    // Both outputs are built before either is written (as `amctl stepper sweep`).
+    const std::string table = closedloop::sweep_csv(rows);
+    const std::string chart =
+        svg.empty() ? "" : report::to_svg(report::stepper_sweep_chart(rows, load));
+    for (const auto& [path, text] : {std::pair{csv, table}, std::pair{svg, chart}}) {
+      if (path.empty()) continue;
+      process::AtomicFileWriter w(path);
+      w.write(text);
+      w.commit();
+    }
+    j = closedloop::sweep_json(rows);
+  }
+  return to_python(j);
+}
+
 }  // namespace
 
 void register_closedloop(py::module_& m) {
+  m.def("_stepper_sweep", &stepper_sweep, py::arg("machine"), py::arg("load"), py::arg("csv"),
+        py::arg("svg"), "amctl stepper sweep --json [--csv] [--svg]; see amctl.stepper_sweep.");
   m.def("_stepper_simulate", &stepper_simulate, py::arg("path"), py::arg("machine"),
         py::arg("controller"), py::arg("scenario"), py::arg("speed_mm_s"), py::arg("load"),
         py::arg("csv"), py::arg("overrides"), py::arg("corrupt"),

@@ -53,3 +53,22 @@ def test_stepper_simulate_load_keywords_equal_the_cli_flags(cli):
 def test_stepper_simulate_names_a_negative_load():
     with pytest.raises(amctl.Error, match="--drag-n must be"):
         amctl.stepper_simulate(machine="ender3", scenario="seed003", drag_n=-5.0)
+
+
+def test_stepper_sweep_equals_the_cli_and_draws_its_chart(cli, tmp_path):
+    import xml.etree.ElementTree as ET
+    svg, csv = tmp_path / "sweep.svg", tmp_path / "sweep.csv"
+    rows = amctl.stepper_sweep(machine="ender3", load=False, csv=str(csv), svg=str(svg))
+    assert rows == cli.json("stepper", "sweep", "--machine", "ender3", "--no-load", "--json")
+    assert [(r["controller"], r["speed_mm_s"]) for r in rows] == [
+        (c, v) for c in ("open", "seed003", "pid", "best") for v in (30, 60, 90, 120, 150)]
+    # The CSV has the same numbers; the chart is well-formed SVG with one line per controller
+    # and axis, five points each, named by controller.
+    lines = csv.read_text().splitlines()
+    assert lines[0].startswith("controller,speed_mm_s,x_max_error_mm")
+    first = lines[1].split(",")
+    assert float(first[2]) == pytest.approx(rows[0]["x"]["max_tracking_error_mm"], abs=1e-6)
+    ns = {"s": "http://www.w3.org/2000/svg"}
+    lines_drawn = ET.parse(svg).getroot().findall(".//s:polyline", ns)
+    assert [p.get("data-name") for p in lines_drawn] == ["open", "seed003", "pid", "best"] * 2
+    assert all(len(p.get("points").split()) == 5 for p in lines_drawn)

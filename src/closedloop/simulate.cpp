@@ -544,6 +544,30 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   return simulate_file(a.file, m, o);
 }
 
+namespace {
+
+Json axis_json(const AxisResult& a) {
+  Json x;
+  x["max_tracking_error_mm"] = json_number(a.max_tracking_error_mm);
+  x["max_error_time_s"] = json_number(a.max_error_time_s);
+  x["rms_tracking_error_mm"] = json_number(a.rms_tracking_error_mm);
+  x["final_error_mm"] = json_number(a.final_error_mm);
+  x["lost_steps"] = a.lost_steps;
+  x["lost_full_steps"] = a.lost_full_steps;
+  x["slip_events"] = a.slip_events;
+  x["max_load_angle_deg"] = json_number(a.max_load_angle_deg);
+  x["steps"] = a.steps;
+  x["peak_step_rate_hz"] = json_number(a.peak_step_rate_hz);
+  x["step_rate_limited_periods"] = a.step_rate_limited_periods;
+  x["encoder_rejected_frames"] = a.encoder_rejected_frames;
+  x["pull_out_torque_n_m"] = json_number(a.pull_out_torque_n_m);
+  x["peak_current_a"] = json_number(a.peak_current_a);
+  x["mean_current_a"] = json_number(a.mean_current_a);
+  return x;
+}
+
+}  // namespace
+
 Json to_json(const SimulationResult& r) {
   Json j;
   j["source"] = r.source;
@@ -553,25 +577,7 @@ Json to_json(const SimulationResult& r) {
   j["duration_s"] = json_number(r.duration_s);
   j["substeps"] = r.substeps;
   Json axes = Json::object();
-  for (const AxisResult& a : r.axes) {
-    Json x;
-    x["max_tracking_error_mm"] = json_number(a.max_tracking_error_mm);
-    x["max_error_time_s"] = json_number(a.max_error_time_s);
-    x["rms_tracking_error_mm"] = json_number(a.rms_tracking_error_mm);
-    x["final_error_mm"] = json_number(a.final_error_mm);
-    x["lost_steps"] = a.lost_steps;
-    x["lost_full_steps"] = a.lost_full_steps;
-    x["slip_events"] = a.slip_events;
-    x["max_load_angle_deg"] = json_number(a.max_load_angle_deg);
-    x["steps"] = a.steps;
-    x["peak_step_rate_hz"] = json_number(a.peak_step_rate_hz);
-    x["step_rate_limited_periods"] = a.step_rate_limited_periods;
-    x["encoder_rejected_frames"] = a.encoder_rejected_frames;
-    x["pull_out_torque_n_m"] = json_number(a.pull_out_torque_n_m);
-    x["peak_current_a"] = json_number(a.peak_current_a);
-    x["mean_current_a"] = json_number(a.mean_current_a);
-    axes[a.name] = x;
-  }
+  for (const AxisResult& a : r.axes) axes[a.name] = axis_json(a);
   j["axes"] = axes;
   return j;
 }
@@ -594,6 +600,28 @@ std::vector<SweepRow> sweep_seed003(const machine::Machine& m,
     }
   }
   return rows;
+}
+
+std::vector<SweepRow> stepper_sweep(const machine::Machine& m, bool load) {
+  SimulationOptions o;
+  o.gains.max_accel_mm_s2 = m.max_accel_mm_s2;
+  const ControllerKind kinds[] = {ControllerKind::open, ControllerKind::seed003,
+                                  ControllerKind::pid, ControllerKind::best};
+  const double speeds[] = {30, 60, 90, 120, 150};
+  return sweep_seed003(m, kinds, speeds, load, o);
+}
+
+Json sweep_json(std::span<const SweepRow> rows) {
+  Json out = Json::array();
+  for (const SweepRow& r : rows) {
+    Json j;
+    j["controller"] = r.controller;
+    j["speed_mm_s"] = json_number(r.speed_mm_s);
+    j["x"] = axis_json(r.x);
+    j["y"] = axis_json(r.y);
+    out.push_back(j);
+  }
+  return out;
 }
 
 std::string sweep_csv(std::span<const SweepRow> rows) {

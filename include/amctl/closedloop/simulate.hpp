@@ -192,6 +192,11 @@ struct SweepRow {
                                                   std::span<const ControllerKind> controllers,
                                                   std::span<const double> speeds_mm_s,
                                                   bool load, const SimulationOptions& options);
+/// `amctl stepper sweep`: every controller (open, seed003, pid, best) at 30, 60, 90, 120 and
+/// 150 mm/s, with or without the load, on the machine (its max_accel for the strokes and for D*).
+[[nodiscard]] std::vector<SweepRow> stepper_sweep(const machine::Machine& m, bool load);
+/// JSON: a list of {controller, speed_mm_s, x: {...}, y: {...}} (the axes as in to_json).
+[[nodiscard]] Json sweep_json(std::span<const SweepRow> rows);
 /// CSV: controller,speed_mm_s,x_max_error_mm,x_rms_error_mm,x_lost_steps,y_...
 [[nodiscard]] std::string sweep_csv(std::span<const SweepRow> rows);
 
