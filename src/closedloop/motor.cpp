@@ -129,8 +129,17 @@ double StepperAxisModel::max_current_a() const {
 }
 
 void StepperAxisModel::set_current(MotorState& s, double amplitude_a) const {
-  s.current_a = std::clamp(amplitude_a, 1e-6, std::max(max_current_a(), drive_.current_amplitude_a));
-  set_microstep(s, s.microstep);
+  const double c = std::clamp(amplitude_a, 1e-6, std::max(max_current_a(), drive_.current_amplitude_a));
+  if (s.current_a > 0.0) {
+    // Same electrical angle, new amplitude: scale the reference (no sine to recompute).
+    const double k = c / s.current_a;
+    s.ref_a *= k;
+    s.ref_b *= k;
+    s.current_a = c;
+  } else {
+    s.current_a = c;
+    set_microstep(s, s.microstep);
+  }
 }
 
 void StepperAxisModel::step(MotorState& s, double h) const {
