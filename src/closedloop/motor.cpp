@@ -59,6 +59,7 @@ void AxisMechanics::validate(const char* prefix) const {
   non_negative(prefix, "coulomb_friction_n", coulomb_friction_n);
   non_negative(prefix, "viscous_friction_n_s_per_m", viscous_friction_n_s_per_m);
   non_negative(prefix, "drag_force_n", drag_force_n);
+  non_negative(prefix, "drag_n_s_per_m", drag_n_s_per_m);
   require_finite(std::string(prefix) + ".external_force_n", external_force_n);
   positive(prefix, "friction_smoothing_m_s", friction_smoothing_m_s);
   non_negative(prefix, "end_load_n_per_mm", end_load_n_per_mm);
@@ -182,7 +183,8 @@ void StepperAxisModel::step(MotorState& s, double h) const {
   const double t_rotor = tm - motor_.rotor_damping_n_m_s_per_rad * s.omega_rad_s - r_ * f_belt;
   const double sgn = std::tanh(s.v_m_s / axis_.friction_smoothing_m_s);
   const double f_cart = f_belt - (axis_.coulomb_friction_n + axis_.drag_force_n) * sgn -
-                        axis_.viscous_friction_n_s_per_m * s.v_m_s + axis_.external_force_n +
+                        (axis_.viscous_friction_n_s_per_m + axis_.drag_n_s_per_m) * s.v_m_s +
+                        axis_.external_force_n +
                         end_k_ * std::max(0.0, end_x_ - s.x_m) -
                         ((s.x_m >= bump_lo_ && s.x_m <= bump_hi_) ? axis_.bump_force_n * sgn : 0.0);
   // Semi-implicit Euler: velocities first, positions with the new velocities.

@@ -318,7 +318,7 @@ SimulationResult simulate_seed003(const machine::Machine& m, const Seed003Scenar
       a.mechanics.bump_force_n = sc.bump_force_n;
       a.mechanics.bump_position_mm = sc.bump_position_mm;
       a.mechanics.bump_half_width_mm = sc.bump_half_width_mm;
-      a.mechanics.viscous_friction_n_s_per_m += sc.drag_n_s_per_m;
+      a.mechanics.drag_n_s_per_m = sc.drag_n_s_per_m;
     }
     require_step_rate(a, sc.speed_mm_s, "scenario seed003");
   }

@@ -16,7 +16,7 @@
 //   J th'' = T_m - b th' - r F,       F = k (r th - x) + c (r th' - x')     (belt force)
 //   (with backlash B: F = k dz(r th - x) + c (r th' - x') while engaged, 0 inside the deadband
 //   |r th - x| <= B/2, dz(s) = s -+ B/2; a pushing contact never pulls)
-//   m x''  = F - F_c tanh(x'/v_s) - c_v x' - F_drag tanh(x'/v_s) + F_ext + k_e max(0, x_e - x)
+//   m x''  = F - F_c tanh(x'/v_s) - c_v x' - (F_drag tanh(x'/v_s) + c_d x') + F_ext + k_e max(0, x_e - x)
 //            - F_bump tanh(x'/v_s) [x within the bump]
 // r = rotation_distance / (2 pi), J = rotor + pulley inertia. A step is lost when d leaves
 // (-pi, pi): the rotor settles one electrical cycle (4 full steps) further on; slip cycles are
@@ -79,6 +79,9 @@ struct AxisMechanics {
   double coulomb_friction_n = 2.0;        ///< rail friction [N]
   double viscous_friction_n_s_per_m = 2.0;  ///< [N s/m]
   double drag_force_n = 0.0;              ///< extra load opposing motion (cable, nozzle) [N]
+  /// Extra load growing with speed (a nozzle ploughing through material) [N s/m]. Unlike the
+  /// rail's viscous friction, a load: controllers do not know it.
+  double drag_n_s_per_m = 0.0;
   double external_force_n = 0.0;          ///< constant force along +x (gravity on a Z) [N]
   /// A load near one end of the travel (a cable chain or bowden tube pulled taut): below
   /// end_load_start_mm it pushes back towards +x with end_load_n_per_mm per mm of the way in.
