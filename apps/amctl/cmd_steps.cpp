@@ -1,4 +1,5 @@
-// `amctl steps FILE --machine M --csv OUT.csv [--json]`: the exact step times of every stepper
+// `amctl steps FILE --machine M --csv OUT.csv [--step-filter none|klipper] [--json]`: the exact
+// step times of every stepper
 // (docs/steppers.md): PlanSource -> steppers::StepSink -> steps CSV.
 #include <iostream>
 #include <memory>
@@ -17,12 +18,14 @@ struct StepsArgs {
   std::string file;
   MachineOptions machine;
   std::string csv;
+  std::string filter = "none";
   bool json = false;
 };
 
 void run_steps(const StepsArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
-  const steppers::StepsReport r = steppers::generate_steps_file(a.file, m, a.csv);
+  const steppers::StepFilter filter = steppers::step_filter_from_string(a.filter, "--step-filter");
+  const steppers::StepsReport r = steppers::generate_steps_file(a.file, m, a.csv, filter);
   if (a.json) {
     std::cout << steppers::to_json(r).dump(2) << "\n";
     return;
@@ -33,6 +36,9 @@ void run_steps(const StepsArgs& a) {
     const steppers::StepperStats& s = r.stats[i];
     std::cout << fmt::format("  {:<12} {:>12} steps  step {:.6g} mm", r.channels[i].name, s.steps,
                              r.channels[i].step_distance_mm);
+    if (r.step_filter == steppers::StepFilter::klipper) {
+      std::cout << fmt::format("  ({} pairs filtered)", r.filtered_pairs[i]);
+    }
     if (s.steps >= 2) {
       std::cout << fmt::format("  peak {:.0f} steps/s at {:.6f} s", s.peak_step_rate_steps_s(),
                                s.peak_time_s);
@@ -54,6 +60,9 @@ void register_steps(CLI::App& app) {
   add_machine_options(*sub, a->machine);
   sub->add_option("--csv", a->csv,
                   "CSV file stepper,time_s,direction, one row per step (written whole or not at all)");
+  sub->add_option("--step-filter", a->filter,
+                  "none (amctl's exact steps, default) or klipper (drop a step and the step back "
+                  "within 750 us, as Klipper's stepcompress does before the MCU)");
   sub->add_flag("--json", a->json, "Print steps per stepper and the peak step rates as JSON");
   sub->callback([a] { run_steps(*a); });
 }

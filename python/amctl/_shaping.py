@@ -100,7 +100,7 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
     return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th)
 
 
-def steps(path, machine=None, set=None, *, csv=None):
+def steps(path, machine=None, set=None, *, csv=None, step_filter="none"):
     """Exact step times of every stepper (``amctl steps``, docs/steppers.md): Klipper's
     convention (a step when the commanded motor position crosses a half-step point), cartesian
     and corexy, Z and the extruder, from the machine's [stepper_*] / [extruder] sections.
@@ -108,11 +108,13 @@ def steps(path, machine=None, set=None, *, csv=None):
     Returns the dict of ``amctl steps --json``: per stepper the step count, the peak step rate
     [steps/s] and its time [s], ... With ``csv`` the steps are written there
     (``stepper,time_s,direction``, whole or not at all); without it they are only counted.
+    ``step_filter="klipper"`` drops a step and the step back within 750 us, as Klipper does
+    before its MCU (``--step-filter klipper``; ``filtered_pairs`` per stepper).
     """
     p = _args.path(path, "path")
     m = _args.machine(machine, set)
     out = "" if csv is None else _args.path(csv, "csv")
-    return _amctl._steps(p, m, out)
+    return _amctl._steps(p, m, out, _args.text(step_filter, "step_filter"))
 
 
 def stepper_simulate(path=None, machine=None, set=None, *, controller="open", scenario=None,

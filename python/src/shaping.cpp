@@ -75,11 +75,13 @@ py::object write_report(const std::string& path, const MachineValue& mv, const s
   return to_python(j);
 }
 
-py::object steps(const std::string& path, const MachineValue& mv, const std::string& csv) {
+py::object steps(const std::string& path, const MachineValue& mv, const std::string& csv,
+                 const std::string& step_filter) {
+  const steppers::StepFilter filter = steppers::step_filter_from_string(step_filter, "step_filter");
   Json j;
   {
     py::gil_scoped_release nogil;
-    j = steppers::to_json(steppers::generate_steps_file(path, mv.m, csv));
+    j = steppers::to_json(steppers::generate_steps_file(path, mv.m, csv, filter));
   }
   return to_python(j);
 }
@@ -169,7 +171,7 @@ void register_shaping(py::module_& m) {
         py::arg("effort_weight_s2"), py::arg("max_iterations"), py::arg("csv"), py::arg("gcode"),
         "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
         "arrays; see amctl.compensate.");
-  m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"),
+  m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"), py::arg("step_filter"),
         "amctl steps --json (steppers::generate_steps_file + to_json); see amctl.steps.");
   m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
         py::arg("natural_frequency_hz"), py::arg("damping_ratio"), py::arg("sample_rate_hz"),

@@ -93,6 +93,24 @@ def test_steps_equal_the_cli(cli, source_dir, tmp_path):
         amctl.steps(g)  # the default preset has no [stepper_*] sections
 
 
+def test_steps_with_klippers_filter_equal_the_cli(cli, source_dir, tmp_path):
+    # A one-step reversal at 100 000 mm/s^2 (the gtest StepDirFilter case): Klipper's filter
+    # drops the step back and the step forward 0.56 ms later.
+    g = tmp_path / "rev.gcode"
+    g.write_text("G90\nG1 X10 F6000\nG1 X9.99\nG1 X10\n")
+    cfg = str(source_dir / "tests/reference/klipper/steps_cartesian.cfg")
+    raw = amctl.steps(str(g), machine=cfg, set=["printer.max_accel=100000"])
+    kl = amctl.steps(str(g), machine=cfg, set=["printer.max_accel=100000"], step_filter="klipper")
+    assert kl == cli.json("steps", str(g), "--machine", cfg, "--set", "printer.max_accel=100000",
+                          "--step-filter", "klipper", "--json")
+    x = lambda r: next(s for s in r["steppers"] if s["name"] == "stepper_x")
+    assert (raw["step_filter"], kl["step_filter"]) == ("none", "klipper")
+    assert (x(raw)["steps"], x(raw)["filtered_pairs"]) == (802, 0)
+    assert (x(kl)["steps"], x(kl)["steps_negative"], x(kl)["filtered_pairs"]) == (800, 0, 1)
+    with pytest.raises(amctl.Error, match="step_filter"):
+        amctl.steps(str(g), machine=cfg, step_filter="marlin")
+
+
 def test_compensate_equals_the_cli_and_tracks_the_path(cli, source_dir, tmp_path):
     # The seed's base case (w = 100 rad/s, zeta 0.5): FBF brings the tracking error under
     # 10 % of the uncompensated one (issue 10), and Python gives the CLI's numbers.

@@ -1,5 +1,7 @@
 #include "amctl/steppers/steps.hpp"
 
+#include "amctl/steppers/step_filter.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <iterator>
@@ -572,8 +574,16 @@ std::uint64_t StepsReport::total_steps() const {
   return n;
 }
 
+StepFilter step_filter_from_string(std::string_view name, std::string_view flag) {
+  if (name == "none") return StepFilter::none;
+  if (name == "klipper") return StepFilter::klipper;
+  throw Error(fmt::format("{} '{}': expected none or klipper", flag, name));
+}
+
+const char* to_string(StepFilter f) { return f == StepFilter::klipper ? "klipper" : "none"; }
+
 StepsReport generate_steps_file(const std::string& gcode_path, const machine::Machine& m,
-                                const std::string& csv_path) {
+                                const std::string& csv_path, StepFilter filter) {
   std::vector<StepperChannel> channels = stepper_channels(m);
   std::vector<std::string> names;
   for (const StepperChannel& c : channels) names.push_back(c.name);
@@ -581,12 +591,24 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   std::unique_ptr<StepsCsvFile> csv;
   if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names);
   std::uint64_t moves = 0;
+  StepDirFilter sds(channels.size());
+  std::vector<Step> passed;
   StepSink sink(channels, [&](std::span<const Step> steps) {
+    if (filter == StepFilter::klipper) {
+      passed.clear();
+      sds.push(steps, passed);
+      steps = passed;
+    }
     if (csv) csv->write(steps);
   });
   plan::CallbackSink counter([&](const PlannedMove&) { ++moves; });
   plan::Sink* sinks[] = {&sink, &counter};
   const plan::StreamSummary& summary = plan::run_pipeline(source, sinks);
+  if (filter == StepFilter::klipper) {
+    passed.clear();
+    sds.finish(passed);
+    if (csv) csv->write(passed);
+  }
   if (csv) csv->commit();
   StepsReport r;
   r.file = gcode_path;
@@ -596,7 +618,14 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   r.print_time_s = summary.end_time_s;
   r.moves = moves;
   r.channels = sink.generator().channels();
-  r.stats = sink.generator().stats();
+  r.step_filter = filter;
+  if (filter == StepFilter::klipper) {
+    r.stats = sds.stats();
+    r.filtered_pairs = sds.pairs_removed();
+  } else {
+    r.stats = sink.generator().stats();
+    r.filtered_pairs.assign(channels.size(), 0);
+  }
   return r;
 }
 
@@ -616,10 +645,12 @@ Json to_json(const StepsReport& r) {
         {"peak_step_rate_steps_s",
          has_pair ? json_number(s.peak_step_rate_steps_s()) : Json(nullptr)},
         {"peak_time_s", has_pair ? json_number(s.peak_time_s) : Json(nullptr)},
+        {"filtered_pairs", i < r.filtered_pairs.size() ? r.filtered_pairs[i] : 0},
     });
   }
   return Json{{"file", r.file},
               {"machine", r.machine_name},
+              {"step_filter", to_string(r.step_filter)},
               {"kinematics", r.kinematics},
               {"csv", r.csv_path.empty() ? Json(nullptr) : Json(r.csv_path)},
               {"print_time_s", json_number(r.print_time_s)},

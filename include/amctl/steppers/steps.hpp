@@ -14,6 +14,7 @@
 #include <limits>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "amctl/core/json.hpp"
@@ -167,6 +168,13 @@ class StepsCsvFile {
   bool committed_ = false;
 };
 
+/// Which steps `amctl steps` writes: amctl's exact ones, or what Klipper sends its MCU after
+/// its step+direction+step filter (step_filter.hpp).
+enum class StepFilter { none, klipper };
+/// "none" or "klipper"; throws amctl::Error naming `flag` otherwise.
+[[nodiscard]] StepFilter step_filter_from_string(std::string_view name, std::string_view flag);
+[[nodiscard]] const char* to_string(StepFilter f);
+
 /// What `amctl steps` reports.
 struct StepsReport {
   std::string file;
@@ -176,7 +184,9 @@ struct StepsReport {
   double print_time_s = 0.0;
   std::uint64_t moves = 0;
   std::vector<StepperChannel> channels;
-  std::vector<StepperStats> stats;
+  std::vector<StepperStats> stats;    ///< of the steps written (after the filter)
+  StepFilter step_filter = StepFilter::none;
+  std::vector<std::uint64_t> filtered_pairs;  ///< per channel: step pairs the filter removed
   [[nodiscard]] std::uint64_t total_steps() const;
 };
 
@@ -184,10 +194,12 @@ struct StepsReport {
 /// when it is not empty (whole or not at all).
 [[nodiscard]] StepsReport generate_steps_file(const std::string& gcode_path,
                                               const machine::Machine& m,
-                                              const std::string& csv_path);
+                                              const std::string& csv_path,
+                                              StepFilter filter = StepFilter::none);
 
-/// JSON form: steppers[] with name, step_distance_mm, steps, steps_positive, steps_negative,
-/// peak_step_rate_steps_s, peak_time_s, min_interval_s (null when fewer than two steps).
+/// JSON form: step_filter, steppers[] with name, step_distance_mm, steps, steps_positive,
+/// steps_negative, peak_step_rate_steps_s, peak_time_s, min_interval_s (null when fewer than
+/// two steps), filtered_pairs.
 [[nodiscard]] Json to_json(const StepsReport& r);
 
 }  // namespace amctl::steppers
