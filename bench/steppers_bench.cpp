@@ -8,6 +8,7 @@
 
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/stream.hpp"
+#include "amctl/steppers/step_filter.hpp"
 #include "amctl/steppers/steps.hpp"
 
 namespace {
@@ -50,6 +51,36 @@ void BM_StepsBoxbossCoreXY(benchmark::State& state) {
   run_steps(state, p);
 }
 BENCHMARK(BM_StepsBoxbossCoreXY)->Unit(benchmark::kMillisecond);
+
+// The same with Klipper's step+dir+step filter behind the generator (--step-filter klipper):
+// items are the steps generated, so the rate compares with BM_StepsBoxbossCoreXY directly.
+void BM_StepsBoxbossCoreXYKlipperFilter(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  const auto channels = amctl::steppers::stepper_channels(p.machine);
+  std::uint64_t steps = 0, kept = 0;
+  for (auto _ : state) {
+    std::uint64_t n = 0;
+    amctl::steppers::StepDirFilter filter(channels.size());
+    std::vector<amctl::steppers::Step> out;
+    amctl::steppers::StepSink sink(channels, [&](std::span<const amctl::steppers::Step> s) {
+      n += s.size();
+      out.clear();
+      filter.push(s, out);
+    });
+    for (const auto& b : p.batches) sink.consume(b);
+    out.clear();
+    filter.finish(out);
+    benchmark::DoNotOptimize(out.data());
+    steps = n;
+    kept = 0;
+    for (const auto& st : filter.stats()) kept += st.steps;
+  }
+  state.counters["steps"] = static_cast<double>(steps);
+  state.counters["kept"] = static_cast<double>(kept);
+  state.SetItemsProcessed(static_cast<std::int64_t>(steps) * state.iterations());
+}
+BENCHMARK(BM_StepsBoxbossCoreXYKlipperFilter)->Unit(benchmark::kMillisecond);
 
 void BM_StepsBoxbossScurve7(benchmark::State& state) {
   static const Planned p = [] {
