@@ -108,9 +108,9 @@ TEST(Seed003Scenario, TheLoadMakesOpenLoopLoseStepsInWholeCycles) {
 }
 
 TEST(Seed003Scenario, BestCutsTheLoadedErrorByNinetyNinePercentAtBothSpeeds) {
-  // The figure: under the scenario's load open loop slips near the reversals (whole
-  // cycles, metres of error in the worst case); best, which boosts the current while loaded,
-  // loses no step and keeps within 1 % of open loop's maximum error on each axis.
+  // The figure: under the scenario's load open loop slips whole cycles near the
+  // reversals (10-14 mm of error); best, which boosts the current while loaded, loses no step
+  // and keeps within 1 % of open loop's maximum and rms error on each axis.
   for (double v : {90.0, 120.0}) {
     Seed003Scenario sc;
     sc.speed_mm_s = v;
