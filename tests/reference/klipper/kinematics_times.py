@@ -38,11 +38,11 @@ CASES = [
     # generic_cartesian: the benchy centred on the bed (150, 100).
     ("generic_cartesian/syn_generic_cartesian", "generic_cartesian.cfg", "", "syn_generic_cartesian.gcode"),
     ("generic_cartesian/benchy", "generic_cartesian.cfg",
-     "SET_KINEMATIC_POSITION X=150 Y=100 Z=0\nG92 X60 Y60 Z0\n", BENCHY),
-    # polar: the benchy centred next to the bed's centre, at (0.5, 0.3) (no move passes exactly
-    # through the singular centre), and at (100, 0) where max_angular_velocity hardly binds.
+     "SET_KINEMATIC_POSITION X=150 Y=100 Z=0\nG92 X60 Y60 Z0\n", BENCHY,
+     0.05),  # amctl 0.020 s shorter; Klipper's cartesian twin of the cfg gives the same time (README.md)
+    # polar: the benchy centred at (100, 0), where max_angular_velocity binds on the moves
+    # nearest the centre. (Centred at (0.5, 0.3), Klipper 84104bbb aborts: docs/machine.md.)
     ("polar/syn_polar", "polar.cfg", "", "syn_polar.gcode"),
-    ("polar/benchy_centre", "polar.cfg", "SET_KINEMATIC_POSITION X=100 Y=0 Z=0\nG92 X159.5 Y59.7 Z0\n", BENCHY),
     ("polar/benchy_off_centre", "polar.cfg", "SET_KINEMATIC_POSITION X=100 Y=0 Z=0\nG92 X60 Y60 Z0\n", BENCHY),
     ("rotary_delta/syn_rotary_delta", "rotary_delta.cfg", "", "syn_rotary_delta.gcode"),
     ("rotary_delta/benchy", "rotary_delta.cfg", "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG92 X60 Y60 Z0\n", BENCHY),
