@@ -97,7 +97,7 @@ TEST(PolarCfg, BedTurnsInRadiansAndTheArmSetsTheReach) {
       "[stepper_arm]\nmicrosteps: 16\nrotation_distance: 40\nposition_endstop: 300\nposition_max: 300\n"
       "[stepper_z]\nmicrosteps: 16\nrotation_distance: 8\nposition_max: 200\n";
   EXPECT_EQ(cfg_error(base + "[stepper_bed]\nmicrosteps: 16\nrotation_distance: 40\n"),
-            "printer.cfg:11:20: [stepper_bed] rotation_distance: not an option of a stepper that "
+            "printer.cfg:16:20: [stepper_bed] rotation_distance: not an option of a stepper that "
             "turns (its unit is the radian), expected gear_ratio instead");
   EXPECT_NE(cfg_error(base + "[stepper_bed]\nmicrosteps: 16\n")
                 .find("option 'gear_ratio' in section [stepper_bed] must be specified"),
