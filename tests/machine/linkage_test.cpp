@@ -136,5 +136,43 @@ TEST(RotaryDeltaCfg, BuildVolumeAndHomeByForwardKinematics) {
             std::string::npos);
 }
 
+TEST(GenericCartesianToml, CarriageTablesAndTheirErrors) {
+  const std::string base =
+      "[printer]\nkinematics = \"generic_cartesian\"\n"
+      "[carriage.cx]\naxis = \"x\"\nposition_max = 300\nposition_endstop = 0\n"
+      "[carriage.cy]\naxis = \"y\"\nposition_max = 200\nposition_endstop = 0\n"
+      "[carriage.cz]\naxis = \"z\"\nposition_max = 100\nposition_endstop = 0\n"
+      "[stepper_front]\ncarriages = \"cx+cy\"\n[stepper_b]\ncarriages = \"cx-cy\"\n"
+      "[stepper_z]\ncarriages = \"cz\"\n";
+  const Machine m = parse_machine_toml(base, "g.toml");
+  EXPECT_EQ(generic_cartesian_geometry(m).steppers.size(), 3u);
+  auto toml_error = [](const std::string& text) {
+    return error_of([&] { (void)parse_machine_toml(text, "g.toml"); });
+  };
+  EXPECT_EQ(toml_error(base + "[carriage.cu]\ntyp = \"dual_carriage\"\n"),
+            "g.toml:22:1: unknown key 'typ' in [carriage.cu], expected one of type, axis, "
+            "primary_carriage, position_min, position_max, position_endstop; did you mean 'type'?");
+  EXPECT_EQ(toml_error(base + "[carriage.cu]\ntype = \"idex\"\n"),
+            "g.toml:22:8: carriage.cu.type: found 'idex', expected one of carriage, "
+            "extra_carriage, dual_carriage");
+  // A free stepper name needs its carriages key; without one it is an unknown section.
+  EXPECT_NE(toml_error(base + "[stepper_left_rear]\nmicrosteps = 32\n")
+                .find("unknown section [stepper_left_rear]"),
+            std::string::npos);
+  // --set reaches a generic stepper by its name.
+  Machine o = m;
+  apply_override(o, "stepper_front.microsteps=32");
+  EXPECT_EQ(o.steppers.at("front").microsteps, 32);
+  // Carriages and free stepper names on another kinematics are refused.
+  std::string cart = base;
+  cart.replace(cart.find("generic_cartesian"), 17, "cartesian");
+  EXPECT_NE(toml_error(cart).find("stepper 'front': expected a name like x, y, z, e, z1"),
+            std::string::npos);
+  cart.replace(cart.find("[stepper_front]"), 15, "[stepper_x]");
+  EXPECT_NE(toml_error(cart).find("[carriage.cx] is a generic_cartesian section, expected none "
+                                  "for kinematics cartesian"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace amctl::machine
