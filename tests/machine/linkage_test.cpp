@@ -113,6 +113,9 @@ TEST(RotaryDeltaCfg, BuildVolumeAndHomeByForwardKinematics) {
   // min(shoulder_radius + upper arm, lower arm - shoulder_radius) = min(203.9, 286.1).
   EXPECT_NEAR(std::sqrt(g.max_xy2_mm2), 203.9, 1e-12);
   EXPECT_EQ(g.max_z_mm, 252.0);
+  // Klipper's start-up log for this file: "Delta max build height 252.00mm (radius tapered
+  // above 211.65mm)".
+  EXPECT_NEAR(g.limit_z_mm, 211.65, 0.005);
   // Equal endstops: the effector homes to the centre at the endstop height.
   EXPECT_NEAR(g.home_position_mm[0], 0.0, 1e-9);
   EXPECT_NEAR(g.home_position_mm[1], 0.0, 1e-9);
