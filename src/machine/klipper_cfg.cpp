@@ -442,13 +442,17 @@ void read_generic_cartesian(CfgDoc& doc, Machine& m, const SourceLocation& file_
       c.axis = named_axis ? sec.get_choice("axis", name, {"x", "y", "z"})
                           : sec.get_choice("axis", "", {"x", "y", "z"});
       if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
-    } else {
+    } else if (c.type == Carriage::Type::extra) {
       c.primary_carriage = sec.require_text("primary_carriage");
-      if (c.type == Carriage::Type::dual && sec.has("axis")) {
-        throw Error(sec.raw("axis")->where,
-                    fmt::format("[{}] axis: amctl takes a dual carriage's axis from its "
-                                "primary_carriage, expected no axis",
-                                s.name));
+    } else {
+      // A dual carriage names its primary_carriage (axis optional, must match it) or, without
+      // one, its own axis (generic_cartesian.py DualCarriage).
+      if (sec.has("primary_carriage")) {
+        c.primary_carriage = sec.require_text("primary_carriage");
+        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
+      } else {
+        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
+        if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
       }
     }
     if (c.type != Carriage::Type::extra) {

@@ -23,6 +23,16 @@ std::string_view trim(std::string_view s) {
 
 using Term = std::pair<std::string, double>;
 
+/// The axis a carriage moves: its own (a primary, a dual carriage that names one) or its
+/// primary's (extra carriages, dual carriages without an axis of their own).
+const std::string& axis_of(const Machine& m, const std::string& name) {
+  const Carriage* c = &m.carriages.at(name);
+  for (int depth = 0; c->axis.empty() && !c->primary_carriage.empty() && depth < 4; ++depth) {
+    c = &m.carriages.at(c->primary_carriage);
+  }
+  return c->axis;
+}
+
 /// The terms of a `carriages` expression (kinematic_stepper.py parse_carriages_string: the
 /// text is cut before every + or - after the first character; a term is NAME, +NAME, -NAME or
 /// COEFF*NAME with COEFF a number that carries its sign).
@@ -62,9 +72,7 @@ std::vector<Term> carriage_terms(std::string_view expr, const Machine& m, std::s
       throw Error(fmt::format("{}: unknown carriage '{}' in '{}', expected one of {}", label, name,
                               expr, fmt::join(known, ", ")));
     }
-    const std::string& axis_name = it->second.type == Carriage::Type::primary
-                                       ? it->second.axis
-                                       : m.carriages.at(it->second.primary_carriage).axis;
+    const std::string& axis_name = axis_of(m, it->first);
     const auto axis = static_cast<std::size_t>(axis_name[0] - 'x');
     if (seen[axis]) {
       throw Error(fmt::format("{}: axis '{}' is referenced by more than one carriage in '{}', "
@@ -83,7 +91,8 @@ std::vector<Term> carriage_terms(std::string_view expr, const Machine& m, std::s
 bool carriage_active(const Machine& m, const std::string& name, bool dual_active) {
   const Carriage& c = m.carriages.at(name);
   switch (c.type) {
-    case Carriage::Type::dual: return dual_active;
+    // A dual carriage without a primary (a second IDEX pair on one axis) stays parked.
+    case Carriage::Type::dual: return dual_active && !c.primary_carriage.empty();
     case Carriage::Type::extra: return carriage_active(m, c.primary_carriage, dual_active);
     case Carriage::Type::primary:
       if (!dual_active) return true;
@@ -99,11 +108,7 @@ std::array<double, 3> row_of(const std::vector<Term>& terms, const Machine& m, b
   std::array<double, 3> row{};
   for (const auto& [name, coeff] : terms) {
     if (!carriage_active(m, name, dual_active)) continue;
-    const Carriage& c = m.carriages.at(name);
-    const std::string& axis = c.type == Carriage::Type::primary
-                                  ? c.axis
-                                  : m.carriages.at(c.primary_carriage).axis;
-    row[static_cast<std::size_t>(axis[0] - 'x')] += coeff;
+    row[static_cast<std::size_t>(axis_of(m, name)[0] - 'x')] += coeff;
   }
   return row;
 }
@@ -131,10 +136,19 @@ GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
                                 c.axis, primary[a], name));
       }
       primary[a] = name;
+    } else if (c.type == Carriage::Type::dual && c.primary_carriage.empty()) {
+      // generic_cartesian.py: a dual carriage without primary_carriage has its own axis (the
+      // second pair of an IDEX axis; parked here).
+      if (c.axis != "x" && c.axis != "y") {
+        throw Error(fmt::format("carriage {}: a dual carriage without primary_carriage needs axis "
+                                "x or y, got '{}'",
+                                name, c.axis));
+      }
     } else {
       const auto it = m.carriages.find(c.primary_carriage);
-      const bool ok = it != m.carriages.end() &&
+      const bool ok = it != m.carriages.end() && it->first != name &&
                       (it->second.type == Carriage::Type::primary ||
+                       (it->second.type == Carriage::Type::dual && it->second.primary_carriage.empty()) ||
                        (c.type == Carriage::Type::extra && it->second.type == Carriage::Type::dual));
       if (!ok) {
         throw Error(fmt::format("carriage {}: primary_carriage '{}' must name a [carriage] "
@@ -142,8 +156,28 @@ GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
                                 name, c.primary_carriage,
                                 c.type == Carriage::Type::extra ? " or a [dual_carriage]" : ""));
       }
-      if (c.type == Carriage::Type::dual && m.carriages.at(c.primary_carriage).axis == "z") {
-        throw Error(fmt::format("carriage {}: a dual carriage must be on axis x or y, got z", name));
+      const std::string& primary_axis = axis_of(m, c.primary_carriage);
+      if (c.type == Carriage::Type::dual) {
+        if (primary_axis == "z") {
+          throw Error(fmt::format("carriage {}: a dual carriage must be on axis x or y, got z", name));
+        }
+        if (!c.axis.empty() && c.axis != primary_axis) {
+          throw Error(fmt::format("carriage {}: axis {} does not match its primary carriage {} "
+                                  "(axis {})",
+                                  name, c.axis, c.primary_carriage, primary_axis));
+        }
+        for (const auto& [other_name, other] : m.carriages) {
+          if (other_name < name && other.type == Carriage::Type::dual &&
+              other.primary_carriage == c.primary_carriage) {
+            throw Error(fmt::format("carriage {}: {} is already the dual carriage of {}, "
+                                    "expected one dual carriage per carriage",
+                                    name, other_name, c.primary_carriage));
+          }
+        }
+      } else if (!c.axis.empty()) {
+        throw Error(fmt::format("carriage {}: an extra carriage takes its primary's axis, "
+                                "expected no axis",
+                                name));
       }
     }
     if (c.type != Carriage::Type::extra) {

@@ -3,6 +3,7 @@
 // of Klipper's config/example-generic-caretesian.cfg, the polar bed's radians, the rotary
 // delta's build volume and home position checked by forward kinematics).
 #include <cmath>
+#include <map>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -174,6 +175,39 @@ TEST(GenericCartesianToml, CarriageTablesAndTheirErrors) {
   cart.replace(cart.find("[stepper_front]"), 15, "[stepper_x]");
   EXPECT_NE(toml_error(cart).find("[carriage.cx] is a generic_cartesian section, expected none "
                                   "for kinematics cartesian"),
+            std::string::npos);
+}
+
+TEST(GenericCartesianCfg, IdexPairsWithAndWithoutAPrimaryAreParked) {
+  // Klipper's test/klippy/generic_cartesian_iqex.cfg pattern: two IDEX pairs on X, t0/t1 and
+  // t2/t3, where t2 is a dual carriage of its own axis; only t0 moves X at start.
+  const std::string text =
+      "[printer]\nkinematics: generic_cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[carriage carriage_t0]\naxis: x\nposition_endstop: 0\nposition_max: 300\n"
+      "[dual_carriage carriage_t1]\nprimary_carriage: carriage_t0\nposition_endstop: 300\nposition_max: 300\n"
+      "[dual_carriage carriage_t2]\naxis: x\nposition_endstop: 0\nposition_max: 300\n"
+      "[dual_carriage carriage_t3]\nprimary_carriage: carriage_t2\naxis: x\nposition_endstop: 300\nposition_max: 300\n"
+      "[carriage y]\nposition_endstop: 0\nposition_max: 200\n"
+      "[carriage z]\nposition_endstop: 0\nposition_max: 100\n"
+      "[stepper t0]\ncarriages: carriage_t0\nmicrosteps: 16\nrotation_distance: 40\n"
+      "[stepper t1]\ncarriages: carriage_t1\nmicrosteps: 16\nrotation_distance: 40\n"
+      "[stepper t2]\ncarriages: carriage_t2\nmicrosteps: 16\nrotation_distance: 40\n"
+      "[stepper t3]\ncarriages: carriage_t3\nmicrosteps: 16\nrotation_distance: 40\n"
+      "[stepper y]\ncarriages: y\nmicrosteps: 16\nrotation_distance: 40\n"
+      "[stepper z]\ncarriages: z\nmicrosteps: 16\nrotation_distance: 8\n";
+  const Machine m = parse_klipper_cfg(text, "printer.cfg");
+  std::map<std::string, std::array<double, 3>> rows;
+  for (const GenericStepper& s : generic_cartesian_geometry(m).steppers) rows[s.name] = s.coeffs;
+  EXPECT_EQ(rows.at("t0"), (std::array<double, 3>{1, 0, 0}));
+  EXPECT_EQ(rows.at("t1"), (std::array<double, 3>{0, 0, 0}));
+  EXPECT_EQ(rows.at("t2"), (std::array<double, 3>{0, 0, 0}));
+  EXPECT_EQ(rows.at("t3"), (std::array<double, 3>{0, 0, 0}));
+  EXPECT_EQ(parse_machine_toml(to_toml(m), "g.toml"), without_cfg_sections(m));
+  // A dual carriage's axis must match its primary's (Klipper: "Mismatching axes").
+  std::string bad = text;
+  bad.replace(bad.find("primary_carriage: carriage_t2\naxis: x"), 37, "primary_carriage: carriage_t2\naxis: y");
+  EXPECT_NE(cfg_error(bad).find("carriage carriage_t3: axis y does not match its primary carriage "
+                                "carriage_t2 (axis x)"),
             std::string::npos);
 }
 
