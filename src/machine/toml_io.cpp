@@ -285,7 +285,9 @@ constexpr std::string_view kCarriageKeys[] = {"type", "axis", "primary_carriage"
 
 Carriage read_carriage(const toml::table& t, const std::string& name, const std::string& file) {
   Carriage c;
-  for (const auto& [k, v] : in_file_order(t)) {
+  for (const auto& entry : in_file_order(t)) {
+    const toml::key* k = entry.first;
+    const toml::node* v = entry.second;
     const std::string key(k->str());
     const SourceLocation where = location_of(v->source(), file);
     const std::string label = fmt::format("carriage.{}.{}", name, key);
