@@ -26,11 +26,14 @@ using Term = std::pair<std::string, double>;
 /// The axis a carriage moves: its own (a primary, a dual carriage that names one) or its
 /// primary's (extra carriages, dual carriages without an axis of their own).
 const std::string& axis_of(const Machine& m, const std::string& name) {
-  const Carriage* c = &m.carriages.at(name);
-  for (int depth = 0; c->axis.empty() && !c->primary_carriage.empty() && depth < 4; ++depth) {
-    c = &m.carriages.at(c->primary_carriage);
+  static const std::string kNone;
+  auto it = m.carriages.find(name);
+  for (int depth = 0; it != m.carriages.end() && it->second.axis.empty() &&
+                      !it->second.primary_carriage.empty() && depth < 4;
+       ++depth) {
+    it = m.carriages.find(it->second.primary_carriage);
   }
-  return c->axis;
+  return it == m.carriages.end() ? kNone : it->second.axis;
 }
 
 /// The terms of a `carriages` expression (kinematic_stepper.py parse_carriages_string: the
@@ -73,6 +76,11 @@ std::vector<Term> carriage_terms(std::string_view expr, const Machine& m, std::s
                               expr, fmt::join(known, ", ")));
     }
     const std::string& axis_name = axis_of(m, it->first);
+    if (axis_name != "x" && axis_name != "y" && axis_name != "z") {
+      throw Error(fmt::format("{}: carriage '{}' has no axis x, y or z (through its "
+                              "primary_carriage), expected one",
+                              label, name));
+    }
     const auto axis = static_cast<std::size_t>(axis_name[0] - 'x');
     if (seen[axis]) {
       throw Error(fmt::format("{}: axis '{}' is referenced by more than one carriage in '{}', "
@@ -88,12 +96,15 @@ std::vector<Term> carriage_terms(std::string_view expr, const Machine& m, std::s
 /// Carriage `name` moves with the toolhead: a primary carriage unless its axis has a dual
 /// carriage and that one is active; a dual carriage when duals are active; an extra carriage
 /// as its primary.
-bool carriage_active(const Machine& m, const std::string& name, bool dual_active) {
-  const Carriage& c = m.carriages.at(name);
+bool carriage_active(const Machine& m, const std::string& name, bool dual_active, int depth = 0) {
+  const auto it = m.carriages.find(name);
+  if (it == m.carriages.end() || depth > 4) return false;  // refused by the checks already
+  const Carriage& c = it->second;
   switch (c.type) {
     // A dual carriage without a primary (a second IDEX pair on one axis) stays parked.
     case Carriage::Type::dual: return dual_active && !c.primary_carriage.empty();
-    case Carriage::Type::extra: return carriage_active(m, c.primary_carriage, dual_active);
+    case Carriage::Type::extra:
+      return carriage_active(m, c.primary_carriage, dual_active, depth + 1);
     case Carriage::Type::primary:
       if (!dual_active) return true;
       for (const auto& [k, other] : m.carriages) {
@@ -108,7 +119,9 @@ std::array<double, 3> row_of(const std::vector<Term>& terms, const Machine& m, b
   std::array<double, 3> row{};
   for (const auto& [name, coeff] : terms) {
     if (!carriage_active(m, name, dual_active)) continue;
-    row[static_cast<std::size_t>(axis_of(m, name)[0] - 'x')] += coeff;
+    const std::string& axis = axis_of(m, name);
+    if (axis.empty()) continue;  // refused by carriage_terms already
+    row[static_cast<std::size_t>(axis[0] - 'x')] += coeff;
   }
   return row;
 }
