@@ -100,6 +100,10 @@ TEST(PolarCfg, BedTurnsInRadiansAndTheArmSetsTheReach) {
   EXPECT_EQ(cfg_error(base + "[stepper_bed]\nmicrosteps: 16\nrotation_distance: 40\n"),
             "printer.cfg:16:20: [stepper_bed] rotation_distance: not an option of a stepper that "
             "turns (its unit is the radian), expected gear_ratio instead");
+  EXPECT_EQ(cfg_error(base + "[stepper_bed]\nmicrosteps: 16\ngear_ratio: 80:16\n[printer]\n"
+                            "max_angular_velocty: 5\n"),
+            "printer.cfg:18:22: option 'max_angular_velocty' is not valid in section [printer]; "
+            "did you mean 'max_angular_velocity'?");
   EXPECT_NE(cfg_error(base + "[stepper_bed]\nmicrosteps: 16\n")
                 .find("option 'gear_ratio' in section [stepper_bed] must be specified"),
             std::string::npos);
