@@ -60,7 +60,7 @@ def cfg_step_pins(cfg_path):
                 section = m.group(1).strip()
                 continue
             m = re.match(r'^step_pin\s*[:=]\s*(\S+)', line)
-            if m and section and (section.startswith('stepper_') or section.startswith('extruder')):
+            if m and section and (section.startswith('stepper') or section.startswith('extruder')):
                 pins[section] = m.group(1).lstrip('!^~')
     return pins
 

@@ -38,3 +38,22 @@ def test_delta_machine_shows_its_geometry(cli, source_dir):
     assert d["delta"]["build_radius"] == pytest.approx(157.11, abs=0.005)
     assert d["delta"]["slow_radius"] == pytest.approx(141.17, abs=0.005)
     assert d == cli.json("machine", "show", cfg, "--json")
+
+
+@pytest.mark.parametrize("kin", ["generic_cartesian", "polar", "rotary_delta"])
+def test_linkage_kinematics_estimate_is_klippers_time(cli, source_dir, kin):
+    ref_dir = source_dir / "tests/reference/klipper"
+    g, cfg = str(ref_dir / f"syn_{kin}.gcode"), str(ref_dir / f"{kin}.cfg")
+    klipper = json.loads((ref_dir / "klipper_times_kinematics.json").read_text())
+    r = amctl.estimate(g, machine=cfg)
+    assert r["total_time_s"] == pytest.approx(klipper[f"{kin}/syn_{kin}"]["motion_stock_s"], abs=1e-6)
+    assert amctl.Machine.load(cfg).to_dict() == cli.json("machine", "show", cfg, "--json")
+
+
+def test_polar_and_generic_steppers_are_named_as_klipper_names_them(source_dir):
+    ref_dir = source_dir / "tests/reference/klipper"
+    polar = amctl.steps(str(ref_dir / "syn_polar.gcode"), machine=str(ref_dir / "polar.cfg"))
+    assert [s["name"] for s in polar["steppers"]] == ["stepper_bed", "stepper_arm", "stepper_z", "extruder"]
+    generic = amctl.steps(str(ref_dir / "syn_generic_cartesian.gcode"),
+                          machine=str(ref_dir / "generic_cartesian.cfg"))
+    assert [s["name"] for s in generic["steppers"]][:2] == ["stepper my_stepper_u", "stepper my_stepper_x"]

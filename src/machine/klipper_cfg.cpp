@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <string>
@@ -339,10 +340,20 @@ class Section {
 };
 
 /// stepper.py parse_step_distance: rotation_distance (per final gear turn), microsteps,
-/// full_steps_per_rotation (multiple of 4), gear_ratio.
-Stepper read_stepper(const Section& s) {
+/// full_steps_per_rotation (multiple of 4), gear_ratio. A stepper in radians (the polar bed,
+/// the rotary delta's arms: units_in_radians) turns 2 pi per turn of its final gear, and its
+/// gear_ratio is required.
+Stepper read_stepper(const Section& s, bool radians = false) {
   Stepper st;
-  const double rotation = s.require_float("rotation_distance", {.above = 0.0});
+  if (radians && s.has("rotation_distance")) {
+    throw Error(s.raw("rotation_distance")->where,
+                fmt::format("[{}] rotation_distance: not an option of a stepper that turns (its "
+                            "unit is the radian), expected gear_ratio instead",
+                            s.name()));
+  }
+  if (radians && !s.has("gear_ratio")) (void)s.require_text("gear_ratio");  // throws: missing
+  const double rotation =
+      radians ? 2.0 * std::numbers::pi : s.require_float("rotation_distance", {.above = 0.0});
   st.microsteps = s.require_int("microsteps", {.minval = 1});
   st.full_steps_per_rotation = s.get_int("full_steps_per_rotation", {.minval = 1}).value_or(200);
   if (st.full_steps_per_rotation % 4 != 0) {
@@ -371,6 +382,10 @@ constexpr std::string_view kDeltaPrinterOptions[] = {"delta_radius", "print_radi
                                                      "minimum_z_position"};
 constexpr std::string_view kDeltesianPrinterOptions[] = {"min_angle", "print_width", "slow_ratio",
                                                          "minimum_z_position"};
+// polar.py, rotary_delta.py.
+constexpr std::string_view kPolarPrinterOptions[] = {"max_angular_velocity"};
+constexpr std::string_view kRotaryDeltaPrinterOptions[] = {"shoulder_radius", "shoulder_height",
+                                                           "minimum_z_position"};
 
 Kinematics read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
@@ -379,16 +394,83 @@ Kinematics read_kinematics(const Section& printer) {
   for (std::size_t i = 0; i < supported.size(); ++i) {
     if (supported[i] == kin) return static_cast<Kinematics>(i);
   }
-  static constexpr std::string_view kOthers[] = {"generic_cartesian", "rotary_delta", "polar"};
-  if (std::find(std::begin(kOthers), std::end(kOthers), kin) != std::end(kOthers)) {
-    throw Error(where, fmt::format("[printer] kinematics: '{}' is a Klipper kinematics amctl "
-                                   "does not support yet (supported: {})",
-                                   kin, fmt::join(supported, ", ")));
-  }
   std::vector<std::string> all(supported.begin(), supported.end());
-  all.insert(all.end(), std::begin(kOthers), std::end(kOthers));
   throw Error(where, fmt::format("[printer] kinematics: found '{}', expected a Klipper kinematics{}", kin,
                                  detail::did_you_mean(kin, all)));
+}
+
+/// generic_cartesian.py and kinematic_stepper.py: [carriage NAME] (axis: x, y or z, by default
+/// the name when it is one of them; position_endstop, position_min (0), position_max),
+/// [extra_carriage NAME] (primary_carriage), [dual_carriage NAME] (primary_carriage, the
+/// range), and [stepper NAME] (carriages, the stepping). The checks that need all of them
+/// together are machine::generic_cartesian_geometry's.
+void read_generic_cartesian(CfgDoc& doc, Machine& m, const SourceLocation& file_loc,
+                            const SourceLocation& printer_where) {
+  auto name_after = [](const std::string& section, std::string_view prefix) -> std::string {
+    if (section.rfind(prefix, 0) != 0) return {};
+    std::string rest(trim(std::string_view(section).substr(prefix.size())));
+    const std::size_t space = rest.find_last_of(" \t");
+    return space == std::string::npos ? rest : rest.substr(space + 1);
+  };
+  for (CfgSection& s : doc.sections) {
+    Carriage c;
+    std::string name;
+    if (!(name = name_after(s.name, "carriage ")).empty()) {
+      c.type = Carriage::Type::primary;
+    } else if (!(name = name_after(s.name, "extra_carriage ")).empty()) {
+      c.type = Carriage::Type::extra;
+    } else if (!(name = name_after(s.name, "dual_carriage ")).empty()) {
+      c.type = Carriage::Type::dual;
+    } else if (!(name = name_after(s.name, "stepper ")).empty()) {
+      const Section sec(&s, s.name, file_loc);
+      if (!detail::generic_stepper_name(name)) {
+        throw Error(s.where, fmt::format("[{}]: amctl names a generic_cartesian stepper by the "
+                                         "word after 'stepper', expected letters, digits and _ "
+                                         "other than e, e1, ... (the extruders'), got '{}'",
+                                         s.name, name));
+      }
+      Stepper st = read_stepper(sec);
+      st.carriages = sec.require_text("carriages");
+      m.steppers[name] = st;
+      continue;
+    } else {
+      continue;
+    }
+    const Section sec(&s, s.name, file_loc);
+    if (c.type == Carriage::Type::primary) {
+      const bool named_axis = name == "x" || name == "y" || name == "z";
+      c.axis = named_axis ? sec.get_choice("axis", name, {"x", "y", "z"})
+                          : sec.get_choice("axis", "", {"x", "y", "z"});
+      if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
+    } else if (c.type == Carriage::Type::extra) {
+      c.primary_carriage = sec.require_text("primary_carriage");
+    } else {
+      // A dual carriage names its primary_carriage (axis optional, must match it) or, without
+      // one, its own axis (generic_cartesian.py DualCarriage).
+      if (sec.has("primary_carriage")) {
+        c.primary_carriage = sec.require_text("primary_carriage");
+        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
+      } else {
+        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
+        if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
+      }
+    }
+    if (c.type != Carriage::Type::extra) {
+      c.position_endstop_mm = sec.require_float("position_endstop");
+      c.position_min_mm = sec.get_float("position_min", 0.0);
+      c.position_max_mm = sec.require_float("position_max", {.above = *c.position_min_mm});
+    }
+    if (m.carriages.count(name) != 0) {
+      throw Error(s.where, fmt::format("[{}]: carriage '{}' is defined twice, expected one section "
+                                       "per carriage name",
+                                       s.name, name));
+    }
+    m.carriages[name] = c;
+  }
+  if (m.carriages.empty()) {
+    throw Error(printer_where, "a generic_cartesian printer needs [carriage NAME] sections (one "
+                               "per axis x, y, z) and [stepper NAME] sections with carriages");
+  }
 }
 
 Machine to_machine(CfgDoc& doc, const std::string& source_name) {
@@ -417,6 +499,13 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     if (m.kinematics == Kinematics::deltesian) {
       known.insert(known.end(), std::begin(kDeltesianPrinterOptions),
                    std::end(kDeltesianPrinterOptions));
+    }
+    if (m.kinematics == Kinematics::polar) {
+      known.insert(known.end(), std::begin(kPolarPrinterOptions), std::end(kPolarPrinterOptions));
+    }
+    if (m.kinematics == Kinematics::rotary_delta) {
+      known.insert(known.end(), std::begin(kRotaryDeltaPrinterOptions),
+                   std::end(kRotaryDeltaPrinterOptions));
     }
     for (const auto& [key, value] : printer_section->options) {
       if (std::find(known.begin(), known.end(), key) != known.end()) continue;
@@ -527,6 +616,41 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       }
     }
   }
+  const bool polar = m.kinematics == Kinematics::polar;
+  if (polar) {
+    // polar.py: max_angular_velocity (> 0, default 0 = off); stepper_bed (radians),
+    // stepper_arm (position_max: the reach), stepper_z (+ z1, ...).
+    if (printer.has("max_angular_velocity")) {
+      m.max_angular_velocity_rad_s = printer.get_float("max_angular_velocity", {.above = 0.0});
+    }
+    for (const char* s : {"stepper_bed", "stepper_arm", "stepper_z"}) {
+      if (doc.find(s) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a polar printer needs [{}] (stepper_bed, stepper_arm, stepper_z)", s));
+      }
+    }
+  }
+  const bool rotary = m.kinematics == Kinematics::rotary_delta;
+  if (rotary) {
+    // rotary_delta.py: shoulder_radius, shoulder_height (required, > 0), minimum_z_position
+    // (0, at most the lowest endstop: rotary_delta_geometry); max_z_accel is not an option.
+    m.delta.shoulder_radius_mm = printer.require_float("shoulder_radius", {.above = 0.0});
+    m.delta.shoulder_height_mm = printer.require_float("shoulder_height", {.above = 0.0});
+    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
+    if (printer.has("max_z_accel")) {
+      throw Error(printer.raw("max_z_accel")->where,
+                  "[printer] max_z_accel: not an option of a rotary delta (rotary_delta.py caps "
+                  "only the speed of moves with Z), expected no max_z_accel");
+    }
+    for (const char* arm : {"stepper_a", "stepper_b", "stepper_c"}) {
+      if (doc.find(arm) == nullptr) {
+        throw Error(printer_section->where,
+                    fmt::format("a rotary delta needs [{}] (arms stepper_a, stepper_b, stepper_c)", arm));
+      }
+    }
+  }
+  const bool generic = m.kinematics == Kinematics::generic_cartesian;
+  if (generic) read_generic_cartesian(doc, m, file_loc, printer_section->where);
   const bool winch = m.kinematics == Kinematics::winch;
   if (winch) {
     // winch.py: stepper_a, _b, _c required, more (d, e, ...) while present; each with
@@ -544,11 +668,41 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     }
   }
   for (CfgSection& s : doc.sections) {
+    if (generic) break;  // its steppers are [stepper NAME] (read_generic_cartesian)
     if (s.name.rfind("stepper_", 0) != 0) continue;
     const std::string name = s.name.substr(8);
     if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_left of a deltesian
     const bool lettered = name == "a" || name == "b" || name == "c" || name == "d";
-    if (lettered != (delta || winch) || (delta && name == "d")) continue;  // a.. of a delta/winch
+    if (lettered != (delta || winch || rotary) || ((delta || rotary) && name == "d")) continue;
+    if ((name == "bed" || name == "arm") != polar && (name == "bed" || name == "arm")) continue;
+    if (polar && (name[0] == 'x' || name[0] == 'y')) continue;  // polar has no X/Y rails
+    if (rotary) {
+      // rotary_delta.py: arms in radians (gear_ratio); upper_arm_length, lower_arm_length and
+      // position_endstop required on a, b and c default to a's; angle 30/150/270.
+      const Section sec(&s, s.name, file_loc);
+      Stepper st = read_stepper(sec, true);
+      const bool is_a = name == "a";
+      st.upper_arm_length_mm = is_a ? std::optional(sec.require_float("upper_arm_length", {.above = 0.0}))
+                                    : sec.get_float("upper_arm_length", {.above = 0.0});
+      st.lower_arm_length_mm = is_a ? std::optional(sec.require_float("lower_arm_length", {.above = 0.0}))
+                                    : sec.get_float("lower_arm_length", {.above = 0.0});
+      st.angle_deg = sec.get_float("angle");
+      st.position_endstop_mm = is_a ? std::optional(sec.require_float("position_endstop"))
+                                    : sec.get_float("position_endstop");
+      m.steppers[name] = st;
+      continue;
+    }
+    if (polar && (name == "bed" || name == "arm")) {
+      const Section sec(&s, s.name, file_loc);
+      Stepper st = read_stepper(sec, name == "bed");
+      if (name == "arm") {
+        st.position_endstop_mm = sec.require_float("position_endstop");
+        st.position_min_mm = sec.get_float("position_min", 0.0);
+        st.position_max_mm = sec.require_float("position_max", {.above = *st.position_min_mm});
+      }
+      m.steppers[name] = st;
+      continue;
+    }
     if (winch) {
       Stepper st = read_stepper(Section(&s, s.name, file_loc));
       const Section sec(&s, s.name, file_loc);

@@ -18,7 +18,8 @@ namespace {
 constexpr std::string_view kFirmwareNames[] = {"klipper", "marlin", "reprap"};
 constexpr std::string_view kKinematicsNames[] = {"cartesian",     "corexy",        "corexz",
                                                   "hybrid_corexy", "hybrid_corexz", "delta",
-                                                  "none",          "winch",         "deltesian"};
+                                                  "none",          "winch",         "deltesian",
+                                                  "generic_cartesian", "polar",     "rotary_delta"};
 constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "junction_deviation",
                                                "classic_jerk"};
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
@@ -36,7 +37,8 @@ const std::vector<KeyDef>& key_table() {
     add({"printer", "firmware", Kind::firmware, Bound::finite, "",
          "Whose G-code semantics apply: klipper, marlin or reprap."});
     add({"printer", "kinematics", Kind::kinematics, Bound::finite, "",
-         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch or deltesian (Klipper's "
+         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian, "
+         "generic_cartesian, polar or rotary_delta (Klipper's "
          "kinematics of those names; per-axis limits apply to X, Y, Z, E of the tool)."});
     add({"printer", "junction", Kind::junction, Bound::finite, "",
          "Corner speed policy: square_corner_velocity (Klipper), junction_deviation (Marlin JD) "
@@ -64,6 +66,10 @@ const std::vector<KeyDef>& key_table() {
          "Klipper Z velocity limit; 0 = same as max_velocity.", AMCTL_NUM(max_z_velocity_mm_s)});
     add({"printer", "max_z_accel", Kind::number, Bound::non_negative, "mm/s^2",
          "Klipper Z acceleration limit; 0 = same as max_accel.", AMCTL_NUM(max_z_accel_mm_s2)});
+    add({"printer", "max_angular_velocity", Kind::optional_number, Bound::non_negative, "rad/s",
+         "Polar: moves passing within d of the bed's centre at speed v are slowed when v / d "
+         "exceeds it (Klipper max_angular_velocity; unset or 0 = no limit).",
+         nullptr, AMCTL_OPT(max_angular_velocity_rad_s)});
     add({"printer", "max_jerk", Kind::number, Bound::positive, "mm/s^3",
          "Jerk limit of the jerk-limited profile (scurve7).", AMCTL_NUM(max_jerk_mm_s3)});
     // ---- [marlin] ----
@@ -233,6 +239,14 @@ const std::vector<KeyDef>& key_table() {
          "Deltesian: carriage-to-effector speed ratio beyond which moves run at half (twice it: "
          "a quarter) of the limits (Klipper slow_ratio; unset = 3, 0 = off).",
          nullptr, AMCTL_OPT(delta.slow_ratio)});
+    add({"delta", "shoulder_radius", Kind::optional_number, Bound::positive, "mm",
+         "Rotary delta: horizontal distance from the centre to each shoulder joint (Klipper "
+         "[printer] shoulder_radius; required for a rotary delta).",
+         nullptr, AMCTL_OPT(delta.shoulder_radius_mm)});
+    add({"delta", "shoulder_height", Kind::optional_number, Bound::positive, "mm",
+         "Rotary delta: height of the shoulder joints above z = 0 (Klipper [printer] "
+         "shoulder_height; required for a rotary delta).",
+         nullptr, AMCTL_OPT(delta.shoulder_height_mm)});
     return k;
   }();
   return keys;
@@ -314,6 +328,21 @@ const std::vector<StepperKeyDef>& stepper_table() {
        "Lost motion between motor and carriage at a reversal of the belt force (pulley teeth, "
        "a loose set screw; Marlin's BACKLASH_DISTANCE_MM). Step-level physics only.",
        nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.backlash_mm; }},
+      {"upper_arm_length", Kind::optional_number, Bound::positive, "mm",
+       "Rotary delta arms (stepper_a, _b, _c): shoulder-to-elbow length (Klipper "
+       "upper_arm_length; required on a, b and c default to a's).",
+       nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.upper_arm_length_mm; }},
+      {"lower_arm_length", Kind::optional_number, Bound::positive, "mm",
+       "Rotary delta arms: elbow-to-effector length (Klipper lower_arm_length; required on a, "
+       "b and c default to a's).",
+       nullptr, nullptr,
+       [](Stepper& s) -> std::optional<double>& { return s.lower_arm_length_mm; }},
+      {"carriages", Kind::text, Bound::finite, "",
+       "generic_cartesian steppers: the carriages the stepper moves, as a linear combination "
+       "(Klipper carriages: \"carriage_x+carriage_y\", \"carriage_u-carriage_y1\", "
+       "\"1*carriage_y+0.5*carriage_z\").",
+       nullptr, nullptr, nullptr, [](Stepper& s) -> std::string& { return s.carriages; }},
   };
   return keys;
 }
@@ -349,9 +378,23 @@ bool valid_stepper_name(std::string_view name) {
   if (name.empty()) return false;
   if (name == "a" || name == "b" || name == "c" || name == "d") return true;  // delta, winch
   if (name == "left" || name == "right") return true;                         // deltesian
+  if (name == "bed" || name == "arm") return true;                            // polar
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });
+}
+
+bool generic_stepper_name(std::string_view name) {
+  if (name.empty()) return false;
+  if (!std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+      })) {
+    return false;
+  }
+  const bool extruder = name[0] == 'e' && std::all_of(name.begin() + 1, name.end(), [](char c) {
+                          return c >= '0' && c <= '9';
+                        });
+  return !extruder;
 }
 
 std::span<const std::string_view> enum_names(Kind kind) {

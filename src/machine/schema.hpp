@@ -62,6 +62,7 @@ struct StepperKeyDef {
   double& (*number)(Stepper&) = nullptr;
   int& (*integer)(Stepper&) = nullptr;
   std::optional<double>& (*optional_number)(Stepper&) = nullptr;
+  std::string& (*text)(Stepper&) = nullptr;
 };
 
 /// Every [printer]/[marlin]/[extruder]/[arcs]/[firmware_retraction] key, in file order.
@@ -73,8 +74,11 @@ std::span<const std::string_view> machine_sections();
 
 const KeyDef* find_key(std::string_view section, std::string_view key);
 const StepperKeyDef* find_stepper_key(std::string_view key);
-/// "x", "y", "z", "e", "z1", "e2", ...: the stepper names amctl accepts.
+/// "x", "y", "z", "e", "z1", "e2", ... (and a, b, c, d, left, right, bed, arm): the stepper
+/// names amctl accepts. A generic_cartesian's steppers are named freely (generic_stepper_name).
 bool valid_stepper_name(std::string_view name);
+/// A generic_cartesian stepper's name: letters, digits and '_', not an extruder's (e, e1, ...).
+bool generic_stepper_name(std::string_view name);
 
 // Enumerations as text.
 std::span<const std::string_view> enum_names(Kind kind);

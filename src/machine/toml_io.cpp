@@ -89,17 +89,6 @@ int enum_of(const toml::node& v, Kind kind, const SourceLocation& where, std::st
   for (std::size_t i = 0; i < names.size(); ++i) {
     if (names[i] == text) return static_cast<int>(i);
   }
-  if (kind == Kind::kinematics) {
-    static constexpr std::string_view kKlipperOthers[] = {
-        "generic_cartesian", "rotary_delta", "polar"};
-    for (std::string_view other : kKlipperOthers) {
-      if (other == text) {
-        throw Error(where, fmt::format("{}: '{}' kinematics is not supported by amctl "
-                                       "(supported: {})",
-                                       label, text, listed));
-      }
-    }
-  }
   throw Error(where, fmt::format("{}: found '{}', expected one of {}{}", label, text, listed,
                                  detail::did_you_mean(text, options)));
 }
@@ -184,6 +173,12 @@ void assign_stepper(Stepper& s, double& gearing, const StepperKeyDef& d, const t
     case Kind::integer: d.integer(s) = integer_of(v, d.bound, where, label); return;
     case Kind::optional_number:
       d.optional_number(s) = bounded_number(v, d.bound, where, label, d.unit);
+      return;
+    case Kind::text:
+      if (!v.is_string()) {
+        throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
+      }
+      d.text(s) = *v.value<std::string>();
       return;
     case Kind::gear_ratio:
       if (v.is_string()) {
@@ -284,6 +279,56 @@ void append_toml_string(std::string& out, std::string_view s) {
   out += '"';
 }
 
+constexpr std::string_view kCarriageTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
+constexpr std::string_view kCarriageKeys[] = {"type", "axis", "primary_carriage", "position_min",
+                                              "position_max", "position_endstop"};
+
+Carriage read_carriage(const toml::table& t, const std::string& name, const std::string& file) {
+  Carriage c;
+  for (const auto& entry : in_file_order(t)) {
+    const toml::key* k = entry.first;
+    const toml::node* v = entry.second;
+    const std::string key(k->str());
+    const SourceLocation where = location_of(v->source(), file);
+    const std::string label = fmt::format("carriage.{}.{}", name, key);
+    auto text = [&]() {
+      if (!v->is_string()) {
+        throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(*v)));
+      }
+      return *v->value<std::string>();
+    };
+    if (key == "type") {
+      const std::string t_ = text();
+      const auto it = std::find(std::begin(kCarriageTypes), std::end(kCarriageTypes), t_);
+      if (it == std::end(kCarriageTypes)) {
+        throw Error(where, fmt::format("{}: found '{}', expected one of carriage, extra_carriage, "
+                                       "dual_carriage",
+                                       label, t_));
+      }
+      c.type = static_cast<Carriage::Type>(it - std::begin(kCarriageTypes));
+    } else if (key == "axis") {
+      c.axis = text();
+      if (c.axis != "x" && c.axis != "y" && c.axis != "z") {
+        throw Error(where, fmt::format("{}: found '{}', expected x, y or z", label, c.axis));
+      }
+    } else if (key == "primary_carriage") {
+      c.primary_carriage = text();
+    } else if (key == "position_min") {
+      c.position_min_mm = bounded_number(*v, Bound::finite, where, label, "mm");
+    } else if (key == "position_max") {
+      c.position_max_mm = bounded_number(*v, Bound::finite, where, label, "mm");
+    } else if (key == "position_endstop") {
+      c.position_endstop_mm = bounded_number(*v, Bound::finite, where, label, "mm");
+    } else {
+      std::vector<std::string> keys(std::begin(kCarriageKeys), std::end(kCarriageKeys));
+      throw Error(location_of(k->source(), file),
+                  fmt::format("unknown key '{}' in [carriage.{}], expected one of {}{}", key, name,
+                              fmt::join(keys, ", "), detail::did_you_mean(key, keys)));
+    }
+  }
+  return c;
+}
+
 }  // namespace
 
 std::string_view to_string(Firmware f) {
@@ -333,8 +378,21 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
         }
         assign(m, *d, *v, location_of(v->source(), source_name), source_name, pending);
       }
+    } else if (section == "carriage") {
+      // [carriage.NAME] tables: generic_cartesian carriages.
+      for (const auto& [k, v] : in_file_order(*table)) {
+        const std::string name(k->str());
+        const SourceLocation cw = location_of(k->source(), source_name);
+        const toml::table* ct = v->as_table();
+        if (ct == nullptr || name.empty()) {
+          throw Error(cw, fmt::format("carriage.{}: expected a table [carriage.NAME], got {}", name,
+                                      type_name(*v)));
+        }
+        m.carriages[name] = read_carriage(*ct, name, source_name);
+      }
     } else if (section.rfind("stepper_", 0) == 0 &&
-               detail::valid_stepper_name(section.substr(8))) {
+               (detail::valid_stepper_name(section.substr(8)) ||
+                (detail::generic_stepper_name(section.substr(8)) && table->contains("carriages")))) {
       const std::string name = section.substr(8);
       Stepper s;
       double gearing = 1.0;
@@ -355,7 +413,8 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
       std::string hint = detail::did_you_mean(section, section_candidates());
       if (hint.empty() && section.rfind("stepper_", 0) == 0) {
         hint = " (stepper sections are stepper_x, stepper_y, stepper_z, stepper_e, optionally "
-               "numbered: stepper_z1)";
+               "numbered: stepper_z1; a generic_cartesian stepper of any name has a carriages "
+               "key)";
       }
       if (hint.empty()) {
         hint = fmt::format(" (sections: {}, stepper_<x|y|z|e>)",
@@ -395,7 +454,8 @@ std::string to_toml(const Machine& machine) {
     if (section == "input_shaper" && m.input_shaper == InputShaper{}) continue;
     // [delta] only for a delta (or a machine that carries delta keys).
     if (section == "delta" && m.kinematics != Kinematics::delta &&
-        m.kinematics != Kinematics::deltesian && m.delta == Delta{}) {
+        m.kinematics != Kinematics::deltesian && m.kinematics != Kinematics::rotary_delta &&
+        m.delta == Delta{}) {
       continue;
     }
     out += fmt::format("\n[{}]\n", section);
@@ -410,7 +470,8 @@ std::string to_toml(const Machine& machine) {
           if (d.optional_number(m)) {
             out += fmt::format("{} = {}{}\n", d.key,
                                detail::format_number(*d.optional_number(m)), unit);
-          } else if (d.section != "marlin" && d.section != "delta") {  // unset soft endstops: nothing written
+          } else if (d.section != "marlin" && d.section != "delta" &&
+                     d.key != "max_angular_velocity") {  // unset soft endstops, polar-only: nothing written
             out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
           }
           break;
@@ -456,7 +517,26 @@ std::string to_toml(const Machine& machine) {
         out += fmt::format("{} = {}{}\n", d.key, d.integer(s), unit);
       } else if (d.kind == Kind::optional_number && d.optional_number(s)) {
         out += fmt::format("{} = {}{}\n", d.key, detail::format_number(*d.optional_number(s)), unit);
+      } else if (d.kind == Kind::text && !d.text(s).empty()) {
+        out += fmt::format("{} = ", d.key);
+        append_toml_string(out, d.text(s));
+        out += '\n';
       }
+    }
+  }
+  for (const auto& [name, c] : m.carriages) {
+    out += fmt::format("\n[carriage.{}]\ntype = \"{}\"\n", name,
+                       kCarriageTypes[static_cast<std::size_t>(c.type)]);
+    if (!c.axis.empty()) out += fmt::format("axis = \"{}\"\n", c.axis);
+    if (!c.primary_carriage.empty()) {
+      out += "primary_carriage = ";
+      append_toml_string(out, c.primary_carriage);
+      out += '\n';
+    }
+    if (c.position_min_mm) out += fmt::format("position_min = {}  # mm\n", detail::format_number(*c.position_min_mm));
+    if (c.position_max_mm) out += fmt::format("position_max = {}  # mm\n", detail::format_number(*c.position_max_mm));
+    if (c.position_endstop_mm) {
+      out += fmt::format("position_endstop = {}  # mm\n", detail::format_number(*c.position_endstop_mm));
     }
   }
   return out;
@@ -508,7 +588,8 @@ void apply_override(Machine& m, std::string_view assignment) {
 
   if (parts[0].rfind("stepper_", 0) == 0) {
     const std::string name = parts[0].substr(8);
-    if (!detail::valid_stepper_name(name) || parts.size() != 2) {
+    const bool known_stepper = m.steppers.find(name) != m.steppers.end();
+    if ((!detail::valid_stepper_name(name) && !known_stepper) || parts.size() != 2) {
       throw Error(where, fmt::format("unknown key '{}', expected a stepper section stepper_x, "
                                      "stepper_y, stepper_z, stepper_e, stepper_z1, ...",
                                      path));

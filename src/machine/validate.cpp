@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "amctl/machine/delta.hpp"
+#include "amctl/machine/linkage.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -55,8 +56,13 @@ void check_bounds_for_validate(Machine& m) {
     }
   }
   for (auto& [name, s] : m.steppers) {
-    if (!detail::valid_stepper_name(name)) {
-      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1", name));
+    const bool generic_name = m.kinematics == Kinematics::generic_cartesian &&
+                              detail::generic_stepper_name(name) && !s.carriages.empty();
+    if (!detail::valid_stepper_name(name) && !generic_name) {
+      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1{}", name,
+                              m.kinematics == Kinematics::generic_cartesian
+                                  ? " (or any name with carriages, on a generic_cartesian)"
+                                  : ""));
     }
     for (const StepperKeyDef& d : detail::stepper_keys()) {
       const std::string label = fmt::format("stepper_{}.{}", name, d.key);
@@ -99,6 +105,14 @@ void validate(const Machine& machine) {
   // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
   if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
   if (m.kinematics == Kinematics::deltesian) (void)deltesian_geometry(m);
+  if (m.kinematics == Kinematics::generic_cartesian) (void)generic_cartesian_geometry(m);
+  if (m.kinematics == Kinematics::polar) (void)polar_geometry(m);
+  if (m.kinematics == Kinematics::rotary_delta) (void)rotary_delta_geometry(m);
+  if (m.kinematics != Kinematics::generic_cartesian && !m.carriages.empty()) {
+    throw Error(fmt::format("[carriage.{}] is a generic_cartesian section, expected none for "
+                            "kinematics {}",
+                            m.carriages.begin()->first, to_string(m.kinematics)));
+  }
   if (m.kinematics == Kinematics::winch) {
     for (const char* cable : {"a", "b", "c", "d"}) {
       const auto it = m.steppers.find(cable);

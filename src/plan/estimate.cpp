@@ -9,6 +9,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/delta.hpp"
+#include "amctl/machine/linkage.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -107,6 +108,16 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
     const auto g = machine::deltesian_geometry(m);
     o.home_all_axes = true;
     o.home_position_mm = {0.0, g.home_y_mm, g.home_z_mm};
+  }
+  if (m.kinematics == machine::Kinematics::rotary_delta) {
+    // rotary_delta.py home(): all arms home together; the effector ends at the home position.
+    o.home_all_axes = true;
+    o.home_position_mm = machine::rotary_delta_geometry(m).home_position_mm;
+  }
+  if (m.kinematics == machine::Kinematics::polar) {
+    // polar.py homes X and Y together to (arm position_endstop, 0); Z homes to 0 as on every
+    // cartesian-like machine in amctl.
+    o.home_position_mm = {machine::polar_geometry(m).arm_endstop_mm, 0.0, 0.0};
   }
   if (m.firmware == machine::Firmware::marlin) {
     o.soft_min_mm = m.soft_min_position_mm;

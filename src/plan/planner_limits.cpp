@@ -60,7 +60,14 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   // Per-move constants of the machine, computed once with the same expressions on_move()
   // used to evaluate for every move (so the doubles are the same).
   klipper_ = klipper;
-  if (klipper) {
+  if (klipper && m.kinematics == machine::Kinematics::generic_cartesian) {
+    // generic_cartesian.py: the ranges of the primary carriages, checked as cartesian.py does.
+    const auto g = machine::generic_cartesian_geometry(m);
+    for (std::size_t i = 0; i < 3; ++i) {
+      range_min_mm_[i] = g.limits_mm[i][0];
+      range_max_mm_[i] = g.limits_mm[i][1];
+    }
+  } else if (klipper) {
     for (std::size_t i = 0; i < 3; ++i) {
       const auto it = m.steppers.find(std::string(1, "xyz"[i]));
       if (it != m.steppers.end() && it->second.position_min_mm && it->second.position_max_mm) {
@@ -104,6 +111,27 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
     delta_accel_mm_s2_ = m.max_accel_mm_s2;
     range_active_ = true;
   }
+  if (klipper && m.kinematics == machine::Kinematics::polar) {
+    // polar.py: max_velocity / max_accel read once at start-up; Z as cartesian; the radius
+    // always checked.
+    special_kin_ = polar_ = true;
+    polar_v_rad_max_ = m.max_angular_velocity_rad_s.value_or(0.0);
+    delta_velocity_mm_s_ = m.max_velocity_mm_s;
+    delta_accel_mm_s2_ = m.max_accel_mm_s2;
+    const double r = machine::polar_geometry(m).max_radius_mm;
+    polar_max_r2_mm2_ = r * r;
+    range_active_ = true;
+  }
+  if (klipper && m.kinematics == machine::Kinematics::rotary_delta) {
+    // rotary_delta.py: any move with Z motion at most max_z_velocity (no accel limit, not
+    // scaled to the move); the build volume always checked.
+    special_kin_ = rotary_ = true;
+    rotary_z_velocity_mm_s_ = z_velocity_mm_s_;
+    z_velocity_mm_s_ = z_accel_mm_s2_ = std::numeric_limits<double>::infinity();
+    rotary_geometry_ = machine::rotary_delta_geometry(m);
+    range_active_ = true;
+  }
+  special_kin_ = special_kin_ || delta_;
   const auto& ex = m.extruder;
   filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
   const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;

@@ -44,7 +44,9 @@ double step_distance_mm(const machine::Stepper& s, const std::string& label) {
 namespace {
 
 std::string klipper_name(const std::string& key) {
-  if (key[0] == 'e') return "extruder" + key.substr(1);
+  if (key[0] == 'e' && std::all_of(key.begin() + 1, key.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    return "extruder" + key.substr(1);
+  }
   return "stepper_" + key;
 }
 
@@ -52,6 +54,34 @@ std::string klipper_name(const std::string& key) {
 bool key_less(const std::string& a, const std::string& b) {
   if (a.size() != b.size()) return a.size() < b.size();
   return a < b;
+}
+
+/// generic_cartesian: "stepper NAME" rows from the carriages (generic_cartesian_geometry), in
+/// the order of Machine::steppers, then the extruder.
+std::vector<StepperChannel> generic_channels(const machine::Machine& m) {
+  if (m.steppers.find("e") == m.steppers.end()) {
+    throw Error(fmt::format("machine '{}' has no stepper section for extruder: step generation "
+                            "needs rotation_distance and microsteps of every motor (a Klipper "
+                            "printer.cfg has [extruder]; a machine TOML [stepper_e])",
+                            m.name));
+  }
+  const machine::GenericCartesianGeometry g = machine::generic_cartesian_geometry(m);
+  std::vector<StepperChannel> out;
+  for (const machine::GenericStepper& gs : g.steppers) {
+    StepperChannel c;
+    c.key = gs.name;
+    c.name = "stepper " + gs.name;  // Klipper's name of a [stepper NAME]
+    c.step_distance_mm = step_distance_mm(m.steppers.at(gs.name), c.name);
+    c.row = {gs.coeffs[0], gs.coeffs[1], gs.coeffs[2], 0.0};
+    out.push_back(std::move(c));
+  }
+  StepperChannel e;
+  e.key = "e";
+  e.name = "extruder";
+  e.step_distance_mm = step_distance_mm(m.steppers.at("e"), e.name);
+  e.row = {0, 0, 0, 1};
+  out.push_back(std::move(e));
+  return out;
 }
 
 }  // namespace
@@ -63,8 +93,12 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   const bool lettered_motors = delta || winch;
   const bool none = m.kinematics == K::none;
   const bool deltesian = m.kinematics == K::deltesian;
+  if (m.kinematics == K::generic_cartesian) return generic_channels(m);
+  const bool polar = m.kinematics == K::polar;
+  const bool rotary = m.kinematics == K::rotary_delta;
   std::vector<const char*> required;
-  if (lettered_motors) required = {"a", "b", "c", "e"};
+  if (lettered_motors || rotary) required = {"a", "b", "c", "e"};
+  else if (polar) required = {"bed", "arm", "z", "e"};
   else if (deltesian) required = {"left", "right", "y", "e"};
   else if (none) required = {"e"};
   else required = {"x", "y", "z", "e"};
@@ -88,15 +122,19 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   std::vector<std::string> keys;
   for (const auto& [k, s] : m.steppers) {
     if (k[0] == 'e' && k != "e") continue;  // extra extruders: amctl plans one E axis
-    if (k[0] != 'e' && (none || is_tower(k) != lettered_motors)) continue;  // not a motor here
+    if (polar) {
+      if (k == "bed" || k == "arm" || k[0] == 'z' || k == "e") keys.push_back(k);
+      continue;
+    }
+    if (k[0] != 'e' && (none || is_tower(k) != (lettered_motors || rotary))) continue;  // not a motor here
     const bool side = k == "left" || k == "right";
     if (side != deltesian && side) continue;
     if (deltesian && !side && k != "y" && k[0] != 'e') continue;
     keys.push_back(k);
   }
   const auto rank = [](const std::string& k) {
-    if (k == "left") return -2;
-    if (k == "right") return -1;
+    if (k == "left" || k == "bed") return -2;
+    if (k == "right" || k == "arm") return -1;
     switch (k[0]) {
       case 'x': case 'a': return 0;
       case 'y': case 'b': return 1;
@@ -122,12 +160,26 @@ std::vector<StepperChannel> stepper_channels(const machine::Machine& m) {
   if (delta) g = machine::delta_geometry(m);
   std::optional<machine::DeltesianGeometry> dg;
   if (deltesian) dg = machine::deltesian_geometry(m);
+  std::shared_ptr<const machine::RotaryDeltaGeometry> rg;
+  if (rotary) rg = std::make_shared<machine::RotaryDeltaGeometry>(machine::rotary_delta_geometry(m));
   std::vector<StepperChannel> out;
   for (const std::string& k : keys) {
     StepperChannel c;
     c.key = k;
     c.name = klipper_name(k);
     c.step_distance_mm = step_distance_mm(m.steppers.at(k), c.name);
+    if (polar && (k == "bed" || k == "arm")) {
+      c.curve = k == "bed" ? StepperChannel::Curve::polar_angle : StepperChannel::Curve::polar_radius;
+      out.push_back(std::move(c));
+      continue;
+    }
+    if (rotary && k != "e") {
+      c.curve = StepperChannel::Curve::rotary_arm;
+      c.rotary_arm = k[0] - 'a';
+      c.rotary = rg;
+      out.push_back(std::move(c));
+      continue;
+    }
     if (deltesian && (k == "left" || k == "right")) {
       const std::size_t i = k == "left" ? 0 : 1;
       c.arm2_mm2 = dg->arm2_mm2[i];
@@ -325,7 +377,8 @@ void StepGenerator::record_step(std::uint32_t c, double t, int dir, std::vector<
 void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
   const StepperChannel& ch = channels_[c];
   if (!ch.linear()) {
-    tower_move(c, move, out);
+    if (ch.curve != StepperChannel::Curve::none) curve_move(c, move, out);
+    else tower_move(c, move, out);
     return;
   }
   State& st = state_[c];
@@ -504,6 +557,139 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
       }
       lo = s;
       const double t = std::max(cursor.time_at(s), st.last_step_s);
+      record_step(c, t, dir, out);
+    }
+  }
+}
+
+void StepGenerator::curve_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
+  using Curve = StepperChannel::Curve;
+  const StepperChannel& ch = channels_[c];
+  State& st = state_[c];
+  const double x0 = move.start_mm[0], y0 = move.start_mm[1], z0 = move.start_mm[2];
+  const double ax = move.axes_r[0], ay = move.axes_r[1], az = move.axes_r[2];
+  // The polar bed: the angle swept from the start direction, atan2(p0 x p, p0 . p), plus the
+  // start's angle. A straight line sweeps less than pi unless it passes through the centre,
+  // where the angle jumps by pi (the bed would have to turn at once: every step of the half
+  // turn at that instant); a move from the centre keeps the bed still (the angle is constant
+  // along the ray), the turn to it is taken as a jump between moves, like G92.
+  const double theta0 = std::atan2(y0, x0);
+  auto q = [&](double s) -> double {
+    const double x = x0 + ax * s, y = y0 + ay * s;
+    switch (ch.curve) {
+      case Curve::polar_radius: return std::sqrt(x * x + y * y);
+      case Curve::polar_angle: return theta0 + std::atan2(x0 * y - y0 * x, x0 * x + y0 * y);
+      case Curve::rotary_arm: {
+        const double a = ch.rotary->arm_angle_rad(ch.rotary_arm, x, y, z0 + az * s);
+        if (!std::isfinite(a)) {
+          throw Error(fmt::format("line {}: the effector at X={:.3f} Y={:.3f} Z={:.3f} is out of "
+                                  "reach of {}'s arms (the move leaves the rotary delta's build "
+                                  "volume)",
+                                  move.line, x, y, z0 + az * s, ch.name));
+        }
+        return a;
+      }
+      case Curve::none: break;
+    }
+    return 0.0;
+  };
+  double dummy = 0.0;
+  const double s_end = piece_count_ == 0 ? 0.0
+                                         : horner(pieces_[piece_count_ - 1],
+                                                  pieces_[piece_count_ - 1].duration_s, dummy);
+  auto slope = [&](double s) -> double {
+    const double x = x0 + ax * s, y = y0 + ay * s;
+    switch (ch.curve) {
+      case Curve::polar_radius: {
+        const double r = std::sqrt(x * x + y * y);
+        return r > 0.0 ? (x * ax + y * ay) / r : 0.0;
+      }
+      case Curve::polar_angle: {
+        const double r2 = x * x + y * y;
+        return r2 > 0.0 ? (x * ay - y * ax) / r2 : 0.0;
+      }
+      default: {
+        // Central difference of the arm angle, kept inside the move.
+        const double h = 1e-6;
+        const double a = std::max(0.0, s - h), b = std::min(s_end, s + h);
+        return b > a ? (q(b) - q(a)) / (b - a) : 0.0;
+      }
+    }
+  };
+  const double start = q(0.0);
+  if (!st.started) {
+    st.started = true;
+    st.origin_mm = start;
+    st.last_end_mm = start;
+  }
+  double offset = st.offset_mm;
+  if (std::abs(start + offset - st.last_end_mm) > 1e-9 * (1.0 + std::abs(st.last_end_mm))) {
+    st.offset_mm += st.last_end_mm - (start + offset);
+    offset = st.offset_mm;
+  }
+  if (piece_count_ == 0 || (ax == 0.0 && ay == 0.0 && az == 0.0)) return;
+  if (ch.curve != Curve::rotary_arm && ax == 0.0 && ay == 0.0) return;  // Z only: bed, arm still
+  st.last_end_mm = q(s_end) + offset;
+  // Monotone pieces: the slope's sign changes found on a grid of the move (the bed angle is
+  // monotone along a line; the arm radius is convex: one change; a rotary arm's angle is
+  // smooth, 16 intervals per move), each located by bisection.
+  std::vector<double> bounds{0.0};
+  if (ch.curve != Curve::polar_angle) {
+    const int n = ch.curve == Curve::polar_radius ? 1 : 16;
+    double prev_s = 0.0, prev_d = slope(0.0);
+    for (int i = 1; i <= n; ++i) {
+      const double si = s_end * i / n;
+      const double di = slope(si);
+      if ((prev_d > 0.0 && di < 0.0) || (prev_d < 0.0 && di > 0.0)) {
+        double a = prev_s, b = si;
+        while (b - a > 1e-13 * (1.0 + s_end)) {
+          const double mid = 0.5 * (a + b);
+          if (mid <= a || mid >= b) break;
+          ((slope(mid) > 0.0) == (prev_d > 0.0) ? a : b) = mid;
+        }
+        bounds.push_back(0.5 * (a + b));
+      }
+      if (di != 0.0) {
+        prev_s = si;
+        prev_d = di;
+      }
+    }
+  }
+  bounds.push_back(s_end);
+  const double step = ch.step_distance_mm;
+  PieceCursor cursor(pieces_, piece_count_, move.start_time_s);
+  for (std::size_t seg = 0; seg + 1 < bounds.size(); ++seg) {
+    const double sa = bounds[seg], sb = bounds[seg + 1];
+    const double u_end = (q(sb) + offset - st.origin_mm) / step;
+    std::int64_t n_end = st.n;
+    const double up = std::floor(u_end + 0.5), down = std::ceil(u_end - 0.5);
+    if (static_cast<double>(st.n) < up) n_end = static_cast<std::int64_t>(up);
+    else if (static_cast<double>(st.n) > down) n_end = static_cast<std::int64_t>(down);
+    if (n_end == st.n) continue;
+    const int dir = n_end > st.n ? 1 : -1;
+    double lo = sa;
+    while (st.n != n_end) {
+      const double level = st.origin_mm + (static_cast<double>(st.n) + 0.5 * dir) * step - offset;
+      // g(s) = dir (q(s) - level) rises through 0 on [lo, sb]: safeguarded Newton.
+      double a = lo, b = sb, sv = lo;
+      if (dir * (q(a) - level) < 0.0) {
+        for (int it = 0; it < 200; ++it) {
+          const double g = dir * (q(sv) - level);
+          if (g == 0.0) break;
+          (g < 0.0 ? a : b) = sv;
+          const double d = dir * slope(sv);
+          double next = d > 0.0 ? sv - g / d : 0.5 * (a + b);
+          if (!(next > a && next < b)) next = 0.5 * (a + b);
+          if (std::abs(next - sv) <= 1e-14 * (1.0 + s_end) || b - a <= 1e-13 * (1.0 + s_end)) {
+            sv = next;
+            break;
+          }
+          sv = next;
+        }
+        sv = std::clamp(sv, lo, sb);
+      }
+      lo = sv;
+      const double t = std::max(cursor.time_at(sv), st.last_step_s);
       record_step(c, t, dir, out);
     }
   }

@@ -92,9 +92,10 @@ TEST(MachineToml, TopLevelKeysAreRejected) {
 }
 
 TEST(MachineToml, UnsupportedKinematicsSaysSo) {
-  EXPECT_EQ(parse_error("[printer]\nkinematics = \"polar\"\n"),
-            "m.toml:2:14: printer.kinematics: 'polar' kinematics is not supported by amctl "
-            "(supported: cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian)");
+  EXPECT_EQ(parse_error("[printer]\nkinematics = \"polr\"\n"),
+            "m.toml:2:14: printer.kinematics: found 'polr', expected one of cartesian, corexy, "
+            "corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian, "
+            "generic_cartesian, polar, rotary_delta; did you mean 'polar'?");
   EXPECT_EQ(parse_error("[printer]\nfirmware = \"marlinn\"\n"),
             "m.toml:2:12: printer.firmware: found 'marlinn', expected one of klipper, marlin, "
             "reprap; did you mean 'marlin'?");

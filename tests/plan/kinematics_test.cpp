@@ -130,5 +130,63 @@ TEST(GantryLimits, NoneHasNoZLimit) {
   EXPECT_NEAR(r.total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
 }
 
+EstimateReport reference_estimate(const std::string& cfg, const std::string& text) {
+  return estimate_text(text, "k.gcode", machine::load_machine(kDir + cfg));
+}
+
+TEST(GenericCartesianLimits, ZLikeCartesianAndTheCarriageRanges) {
+  // generic_cartesian.cfg: 500 mm/s, 3000 mm/s^2, max_z_velocity 20, max_z_accel 100,
+  // carriages x [0, 300], y [0, 200], z [0, 100].
+  const std::string at = "SET_KINEMATIC_POSITION X=150 Y=100 Z=10\n";
+  EXPECT_NEAR(reference_estimate("generic_cartesian.cfg", at + "G1 Z60 F6000\n").total_time_s,
+              trapezoid_s(50, 20, 100), 1e-9);
+  EXPECT_NEAR(reference_estimate("generic_cartesian.cfg",
+                                 "SET_KINEMATIC_POSITION X=10 Y=100 Z=10\nG1 X290 F30000\n")
+                  .total_time_s,
+              trapezoid_s(280, 500, 3000), 1e-9);
+  const auto r = reference_estimate("generic_cartesian.cfg", at + "G1 X301 F30000\n");
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->axis, 'x');
+  EXPECT_DOUBLE_EQ(r.range_error->limit_mm, 300.0);
+}
+
+TEST(PolarLimits, MovesNearTheCentreSlowToTheAngularVelocity) {
+  // polar.cfg: 300 mm/s, 3000 mm/s^2, max_angular_velocity 5 rad/s. A line passing 1 mm from
+  // the centre at 300 mm/s would turn the bed at 300 rad/s: both limits scale by 5 / 300.
+  const std::string at = "SET_KINEMATIC_POSITION X=100 Y=-1 Z=10\n";
+  EXPECT_NEAR(reference_estimate("polar.cfg", at + "G1 X-100 Y-1 F18000\n").total_time_s,
+              trapezoid_s(200, 5, 50), 1e-9);
+  // Far from the centre (closest at (100, 0), 100 mm out: 3 rad/s): not slowed.
+  EXPECT_NEAR(reference_estimate("polar.cfg", at + "G1 X100 Y99 F18000\n").total_time_s,
+              trapezoid_s(100, 300, 3000), 1e-9);
+  // Z: max_z_velocity 25, max_z_accel 30 as cartesian.
+  EXPECT_NEAR(reference_estimate("polar.cfg", at + "G1 Z40 F3000\n").total_time_s,
+              trapezoid_s(30, 25, 30), 1e-9);
+  const auto r = reference_estimate("polar.cfg", at + "G1 X250 Y200 F18000\n");
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->axis, 'r');
+  EXPECT_DOUBLE_EQ(r.range_error->limit_mm, 300.0);
+}
+
+TEST(RotaryDeltaLimits, AnyMoveWithZIsCappedUnscaled) {
+  // rotary_delta.cfg: 300 mm/s, 3000 mm/s^2, max_z_velocity 50: a move with Z motion runs at
+  // most 50 mm/s along its whole path (not scaled by its Z share), its accel untouched.
+  const std::string at = "SET_KINEMATIC_POSITION X=0 Y=0 Z=10\n";
+  EXPECT_NEAR(reference_estimate("rotary_delta.cfg", at + "G1 Z60 F18000\n").total_time_s,
+              trapezoid_s(50, 50, 3000), 1e-9);
+  EXPECT_NEAR(reference_estimate("rotary_delta.cfg", at + "G1 X100 Z20 F18000\n").total_time_s,
+              trapezoid_s(std::hypot(100.0, 10.0), 50, 3000), 1e-9);
+  EXPECT_NEAR(reference_estimate("rotary_delta.cfg", at + "G1 X100 F18000\n").total_time_s,
+              trapezoid_s(100, 300, 3000), 1e-9);
+  // Build radius min(33.9 + 170, 320 - 33.9) = 203.9; top at the endstop, 252.
+  const auto r = reference_estimate("rotary_delta.cfg", at + "G1 X210 F18000\n");
+  ASSERT_TRUE(r.range_error.has_value());
+  EXPECT_EQ(r.range_error->axis, 'r');
+  EXPECT_NEAR(r.range_error->limit_mm, 203.9, 1e-9);
+  const auto z = reference_estimate("rotary_delta.cfg", at + "G1 Z253 F18000\n");
+  ASSERT_TRUE(z.range_error.has_value());
+  EXPECT_EQ(z.range_error->axis, 'z');
+}
+
 }  // namespace
 }  // namespace amctl::plan

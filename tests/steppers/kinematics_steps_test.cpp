@@ -5,11 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <string>
 #include <vector>
 
 #include "amctl/core/error.hpp"
+#include "amctl/machine/linkage.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/trajectory.hpp"
@@ -299,6 +301,92 @@ TEST(LinearGantrySteps, NoneHasOnlyTheExtruder) {
   const auto ch = stepper_channels(m);
   ASSERT_EQ(ch.size(), 1u);
   EXPECT_EQ(ch[0].name, "extruder");
+}
+
+TEST(GenericCartesianSteps, EachStepperFollowsItsCarriageRow) {
+  // generic_cartesian.cfg: my_stepper_x = X + Y, my_stepper_u = -Y (its dual carriage parked),
+  // y0 = y1 = Y, z0 = z1 = Z; 40 mm / 3200 steps (z: 8 mm).
+  const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) +
+                                          "/tests/reference/klipper/generic_cartesian.cfg");
+  const KinRun r = run("SET_KINEMATIC_POSITION X=150 Y=100 Z=10\nG1 X170 Y90 Z11 F6000\n", m);
+  ASSERT_EQ(r.channels.size(), 7u);
+  EXPECT_EQ(r.channels[0].name, "stepper my_stepper_u");
+  EXPECT_EQ(r.channels[6].name, "extruder");
+  const std::map<std::string, long> net = {
+      {"stepper my_stepper_x", std::lround(10 / 0.0125)},  {"stepper my_stepper_u", std::lround(10 / 0.0125)},
+      {"stepper my_stepper_y0", std::lround(-10 / 0.0125)}, {"stepper my_stepper_y1", std::lround(-10 / 0.0125)},
+      {"stepper my_stepper_z0", std::lround(1 / 0.0025)},   {"stepper my_stepper_z1", std::lround(1 / 0.0025)}};
+  for (std::size_t i = 0; i + 1 < r.channels.size(); ++i) {
+    EXPECT_EQ(r.stats[i].position_steps, net.at(r.channels[i].name)) << r.channels[i].name;
+  }
+}
+
+TEST(PolarSteps, BedAngleAndArmRadiusStayOnTheGrid) {
+  // The polar.cfg drive: bed 2 pi / (200 16 5) rad per step, arm 0.0125 mm. Moves around the
+  // centre, one across the +-pi seam of atan2 and one close to the centre.
+  const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/polar.cfg");
+  const KinRun r = run("SET_KINEMATIC_POSITION X=100 Y=0 Z=10\nG1 X0 Y100 F6000\nG1 X-100 Y-5\n"
+                       "G1 X-100 Y5\nG1 X3 Y2\nG1 X80 Y-40 Z12\n", m);
+  ASSERT_EQ(r.channels.size(), 4u);
+  EXPECT_EQ(r.channels[0].name, "stepper_bed");
+  EXPECT_EQ(r.channels[1].name, "stepper_arm");
+  const trajectory::Trajectory traj(r.moves);
+  const double bed_step = 2.0 * std::numbers::pi / 16000.0;
+  for (int i = 0; i < 2; ++i) {
+    const double step = i == 0 ? bed_step : 0.0125;
+    double unwrapped = 0.0;  // the bed angle followed continuously from the start
+    auto position = [&](const trajectory::AxisState& p) {
+      if (i == 1) return std::hypot(p.pos_mm[0], p.pos_mm[1]);
+      const double a = std::atan2(p.pos_mm[1], p.pos_mm[0]);
+      unwrapped += std::remainder(a - unwrapped, 2.0 * std::numbers::pi);
+      return unwrapped;
+    };
+    const double origin = position(traj.evaluate(r.moves.front().start_time_s));
+    long n = 0;
+    for (const Step& s : r.steps) {
+      if (s.stepper != static_cast<std::uint32_t>(i)) continue;
+      const double level = origin + (static_cast<double>(n) + 0.5 * s.direction) * step;
+      n += s.direction;
+      ASSERT_NEAR(position(traj.evaluate(s.time_s)), level, 1e-9) << i;
+    }
+    const double end = position(traj.evaluate(r.moves.back().end_time_s()));
+    EXPECT_EQ(n, std::lround((end - origin) / step)) << i;
+  }
+  // Anticlockwise past the seam at pi, then back clockwise: the path does not wind around the
+  // centre, so the bed's net turn is the end's angle, atan2(-40, 80).
+  EXPECT_EQ(r.stats[0].position_steps, std::lround(std::atan2(-40.0, 80.0) / bed_step));
+}
+
+TEST(RotaryDeltaSteps, ArmAnglesPutTheElbowsAtTheLowerArmLength) {
+  // rotary_delta.cfg: at each step time the arm sits at its half-step level; the elbow there
+  // (forward kinematics from the shoulder) must be one lower arm (320 mm) from the effector.
+  const Machine m =
+      machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/rotary_delta.cfg");
+  const machine::RotaryDeltaGeometry g = machine::rotary_delta_geometry(m);
+  const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=0 Z=10\nG1 X100 Y40 F6000\nG1 X-120 Y-20 Z40\nG1 X0 Y150 Z5\n", m);
+  ASSERT_EQ(r.channels.size(), 4u);
+  const trajectory::Trajectory traj(r.moves);
+  const double step = r.channels[0].step_distance_mm;
+  EXPECT_NEAR(step, 2.0 * std::numbers::pi / (3200.0 * 107.0 / 16.0 * 60.0 / 16.0), 1e-18);
+  const auto p0 = traj.evaluate(r.moves.front().start_time_s);
+  for (int i = 0; i < 3; ++i) {
+    const double origin = g.arm_angle_rad(i, p0.pos_mm[0], p0.pos_mm[1], p0.pos_mm[2]);
+    long n = 0, count = 0;
+    for (const Step& s : r.steps) {
+      if (s.stepper != static_cast<std::uint32_t>(i)) continue;
+      const double level = origin + (static_cast<double>(n) + 0.5 * s.direction) * step;
+      n += s.direction;
+      ++count;
+      const auto p = traj.evaluate(s.time_s);
+      const auto e = g.elbow_mm(i, level);
+      ASSERT_NEAR(std::hypot(p.pos_mm[0] - e[0], p.pos_mm[1] - e[1], p.pos_mm[2] - e[2]), 320.0, 1e-6)
+          << i;
+    }
+    EXPECT_GT(count, 100) << i;
+    const auto pe = traj.evaluate(r.moves.back().end_time_s());
+    const double end = g.arm_angle_rad(i, pe.pos_mm[0], pe.pos_mm[1], pe.pos_mm[2]);
+    EXPECT_EQ(n, std::lround((end - origin) / step)) << i;
+  }
 }
 
 }  // namespace

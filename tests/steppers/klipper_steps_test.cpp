@@ -82,5 +82,45 @@ TEST(KlipperSteps, SyntheticFilesHaveKlippersStepCountsAndTimes) {
   EXPECT_EQ(files, 14);  // 7 synthetic inputs x 2 printers
 }
 
+// generic_cartesian, polar and rotary_delta (klipper_steps_kinematics.json, the same script on
+// their reference configs and synthetic files). Klipper drops a step followed within 750 us by
+// one back (SDS_FILTER_TIME); amctl emits both, so its count is Klipper's plus the pairs the
+// script's copy of that filter removed.
+TEST(KlipperSteps, LinkageKinematicsHaveKlippersStepCountsAndTimes) {
+  std::ifstream in(kDir + "klipper_steps_kinematics.json");
+  ASSERT_TRUE(in) << "missing " << kDir << "klipper_steps_kinematics.json";
+  const auto ref = nlohmann::json::parse(in);
+  const std::string csv = std::string(AMCTL_BINARY_DIR) + "/klipper_steps_kinematics_test.csv";
+  int files = 0;
+  for (const auto& r : ref.at("results")) {
+    const std::string file = r.at("file").get<std::string>();
+    const std::string cfg = r.at("cfg").get<std::string>();
+    const auto m = machine::load_machine(kDir + cfg);
+    const StepsReport rep = generate_steps_file(kDir + file, m, csv);
+    const auto fl = first_last_from_csv(csv);
+    std::remove(csv.c_str());
+    // Measured: every step within 25 us + 1 tick but one rotary delta arm step (25.048 us).
+    const double bound_s = r.at("bound_us").get<double>() * 1e-6 + 0.1e-6;
+    for (const auto& s : r.at("steppers")) {
+      const std::string name = s.at("stepper").get<std::string>();
+      std::size_t c = 0;
+      while (c < rep.channels.size() && rep.channels[c].name != name) ++c;
+      ASSERT_LT(c, rep.channels.size()) << cfg << " " << name;
+      const auto pairs = s.at("amctl_sds_pairs_removed").get<std::uint64_t>();
+      EXPECT_EQ(rep.stats[c].steps - 2 * pairs, s.at("klipper_steps").get<std::uint64_t>())
+          << cfg << " " << name;
+      EXPECT_EQ(rep.stats[c].steps_positive - pairs, s.at("klipper_steps_positive").get<std::uint64_t>())
+          << cfg << " " << name;
+      if (rep.stats[c].steps == 0) continue;
+      const double d_first = s.at("klipper_first_step_s").get<double>() - fl.at(name).first_s;
+      const double d_last = s.at("klipper_last_step_s").get<double>() - fl.at(name).last_s;
+      EXPECT_LE(std::abs(d_first), bound_s) << cfg << " " << name;
+      EXPECT_LE(std::abs(d_last), bound_s) << cfg << " " << name;
+    }
+    ++files;
+  }
+  EXPECT_EQ(files, 3);
+}
+
 }  // namespace
 }  // namespace amctl::steppers

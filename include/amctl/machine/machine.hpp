@@ -19,8 +19,14 @@ namespace amctl::machine {
 /// robot) has 3 or 4 cables, each motor's position the cable length |tool - anchor|; Klipper
 /// checks no limit on it either.
 /// A deltesian has two towers (stepper_left, stepper_right) in the XZ plane and a cartesian Y.
+/// generic_cartesian maps carriages (one per axis, plus extra and dual carriages) to steppers
+/// by a linear combination per stepper (`carriages: carriage_x+carriage_y`). A polar printer
+/// turns its bed (stepper_bed, an angle) under a radial arm (stepper_arm) with a cartesian Z.
+/// A rotary delta swings three arms (stepper_a, _b, _c, angles) about shoulders on a
+/// platform above the bed.
 enum class Kinematics {
-  cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian
+  cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian,
+  generic_cartesian, polar, rotary_delta
 };
 
 /// Whose G-code semantics apply. Klipper ignores M201/M203/M205 and takes accel from
@@ -85,6 +91,14 @@ struct Stepper {
   std::optional<double> run_current_a, supply_voltage_v, holding_torque_n_m, rated_current_a,
       phase_resistance_ohm, phase_inductance_h, rotor_inertia_kg_m2, detent_torque_n_m,
       backlash_mm;
+  /// Rotary delta arms (stepper_a, _b, _c): upper arm (shoulder to elbow) and lower arm
+  /// (elbow to effector) lengths (Klipper upper_arm_length, lower_arm_length; required on a,
+  /// b and c default to a's).
+  std::optional<double> upper_arm_length_mm, lower_arm_length_mm;
+  /// generic_cartesian steppers: Klipper's `carriages` expression, the stepper's position as a
+  /// linear combination of carriages, e.g. "carriage_x+carriage_y", "carriage_u-carriage_y1",
+  /// "1*carriage_y+0.5*carriage_z". Empty for every other kinematics.
+  std::string carriages;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
@@ -152,7 +166,29 @@ struct Delta {
   /// the arms reach), and the tower-to-effector speed ratio beyond which moves slow down
   /// (default 3; 0 = never).
   std::optional<double> min_angle_deg, print_width_mm, slow_ratio;
+  /// Rotary delta only (Klipper [printer] shoulder_radius, shoulder_height; both required):
+  /// horizontal distance from the centre to each shoulder joint, and its height above z = 0.
+  std::optional<double> shoulder_radius_mm, shoulder_height_mm;
   bool operator==(const Delta&) const = default;
+};
+
+/// A generic_cartesian carriage (Klipper [carriage NAME], [extra_carriage NAME],
+/// [dual_carriage NAME]; klippy/kinematics/generic_cartesian.py). A primary carriage moves
+/// one axis and holds its range; an extra carriage moves with its primary (a second belt or
+/// motor of the same axis); a dual carriage is the second carriage of an IDEX axis, parked
+/// while the primary prints (amctl does not model SET_DUAL_CARRIAGE).
+struct Carriage {
+  enum class Type { primary, extra, dual };
+  Type type = Type::primary;
+  /// "x", "y" or "z" for a primary carriage; empty for extra and dual carriages (their
+  /// primary's axis).
+  std::string axis;
+  /// Extra and dual carriages: the name of the primary carriage they belong to.
+  std::string primary_carriage;
+  /// Primary and dual carriages: position_min (default 0), position_max (required),
+  /// position_endstop (required) [mm].
+  std::optional<double> position_min_mm, position_max_mm, position_endstop_mm;
+  bool operator==(const Carriage&) const = default;
 };
 
 struct Machine {
@@ -171,6 +207,9 @@ struct Machine {
   double minimum_cruise_ratio = 0.5;
   double max_z_velocity_mm_s = 0.0;   ///< 0 = same as max_velocity
   double max_z_accel_mm_s2 = 0.0;     ///< 0 = same as max_accel
+  /// Polar only (Klipper max_angular_velocity; unset or 0 = no limit): moves passing within d
+  /// of the bed's centre at speed v are slowed when v / d exceeds it [rad/s].
+  std::optional<double> max_angular_velocity_rad_s;
 
   // --- Marlin-style per-axis limits (X, Y, Z, E); used when firmware = marlin/reprap ---
   std::array<double, 4> max_feedrate_mm_s{500, 500, 12, 120};     ///< M203
@@ -198,9 +237,14 @@ struct Machine {
   InputShaper input_shaper;
   Delta delta;
   /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis); a delta's
-  /// towers are "a", "b", "c".
+  /// towers are "a", "b", "c"; a polar printer's "bed", "arm", "z"; a generic_cartesian's by
+  /// their names. The polar bed and the rotary delta's arms turn: their rotation_distance is
+  /// in radians (2 pi / gear ratio, Klipper's units_in_radians).
   /// rotation_distance_mm is per motor revolution (any gear_ratio is folded in).
   std::map<std::string, Stepper> steppers;
+  /// generic_cartesian only: the carriages by name (Klipper's section name without the
+  /// [carriage ] prefix). The steppers are then keyed by their own names ([stepper NAME]).
+  std::map<std::string, Carriage> carriages;
   /// A Klipper printer.cfg's sections as written (includes resolved, SAVE_CONFIG merged), in
   /// order of first appearance: Klipper's printer.configfile and the [gcode_macro] sections
   /// (docs/macros.md). Empty for TOML machines and presets; not written by to_toml.

@@ -12,12 +12,14 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "amctl/core/json.hpp"
+#include "amctl/machine/linkage.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
 #include "amctl/plan/velocity_profile.hpp"
@@ -49,7 +51,15 @@ struct StepperChannel {
   /// of an affine function of the path distance, hence convex: at most one turning point.
   bool cable = false;
   std::array<double, 3> anchor_mm{};
-  [[nodiscard]] bool linear() const { return arm2_mm2 == 0.0 && !cable; }
+  /// Motors whose position is a curve of the tool position, solved on monotone pieces found
+  /// by sampling each move (curve_move): the polar bed (angle atan2(y, x), unwrapped along the
+  /// move; radians), the polar arm (radius sqrt(x^2 + y^2)), a rotary delta arm (its angle,
+  /// machine::RotaryDeltaGeometry::arm_angle_rad; radians).
+  enum class Curve { none, polar_angle, polar_radius, rotary_arm };
+  Curve curve = Curve::none;
+  int rotary_arm = 0;  ///< arm index 0..2 (curve = rotary_arm)
+  std::shared_ptr<const machine::RotaryDeltaGeometry> rotary;
+  [[nodiscard]] bool linear() const { return arm2_mm2 == 0.0 && !cable && curve == Curve::none; }
 };
 
 /// Klipper stepper.py: rotation_distance / (full_steps_per_rotation * microsteps), the gear
@@ -65,7 +75,9 @@ struct StepperChannel {
 /// stepper_z* = X - Z; hybrid_corexy stepper_x = X - Y; hybrid_corexz stepper_x = X - Z;
 /// delta towers z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2); winch cables (stepper_a .. _d)
 /// |tool - anchor|; deltesian stepper_left/_right z + sqrt(L^2 - (x -+ ax)^2), stepper_y = Y;
-/// `none` only the extruder; extruder =
+/// generic_cartesian "stepper NAME" = its carriages' row over X, Y, Z (dual carriages parked);
+/// polar stepper_bed = atan2(Y, X), stepper_arm = sqrt(X^2 + Y^2), stepper_z* = Z; rotary delta
+/// stepper_a/_b/_c the arm angles; `none` only the extruder; extruder =
 /// E. Throws amctl::Error naming every missing section (x, y, z and e, or a, b, c and e) or a
 /// bad parameter. Extra extruders (e1, ...) are not generated (amctl plans one E axis).
 [[nodiscard]] std::vector<StepperChannel> stepper_channels(const machine::Machine& m);
@@ -112,6 +124,8 @@ class StepGenerator {
   void stepper_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
   /// The same for a non-linear motor (a delta tower, a winch cable).
   void tower_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
+  /// The same for a curve motor (polar, rotary delta).
+  void curve_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
   /// Records one step of channel c at time t.
   void record_step(std::uint32_t c, double t, int dir, std::vector<Step>& out);
 
