@@ -339,6 +339,33 @@ class Section {
   SourceLocation fallback_;
 };
 
+/// A shaper type as Klipper's shaper_defs.get_shaper_cfg reads it: a name of INPUT_SHAPERS,
+/// compared as written (84104bbb no longer lower-cases it), optionally with parameters in
+/// parentheses, `ei(v_tol=0.02)`, `mzv(5, 0.6)` (Klipper's `(\w+)\s*\((.*)\)$`); the text is
+/// kept as written for amctl's shaper parser. Anything else is "Unsupported shaper type".
+std::string shaper_type(const Section& sh, std::string_view key, const std::string& def) {
+  const CfgValue* v = sh.raw(key);
+  if (v == nullptr) return def;
+  const std::string text(trim(v->text));
+  std::string_view name = text;
+  if (const std::size_t paren = text.find('('); paren != std::string::npos && text.back() == ')') {
+    name = trim(std::string_view(text).substr(0, paren));
+  }
+  static constexpr std::string_view kShapers[] = {"zv", "mzv", "zvd", "ei", "2hump_ei", "3hump_ei"};
+  for (std::string_view c : kShapers) {
+    if (c == name) return text;
+  }
+  std::string hint;
+  std::string low(name);
+  for (char& c : low) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (std::string_view c : kShapers) {
+    if (c == low) hint = fmt::format(" (Klipper compares the name as written: '{}')", c);
+  }
+  throw Error(v->where, fmt::format("[input_shaper] {}: found '{}', expected one of {}, "
+                                    "optionally with parameters as ei(v_tol=0.02){}",
+                                    key, text, fmt::join(kShapers, ", "), hint));
+}
+
 /// stepper.py parse_step_distance: rotation_distance (per final gear turn), microsteps,
 /// full_steps_per_rotation (multiple of 4), gear_ratio. A stepper in radians (the polar bed,
 /// the rotary delta's arms: units_in_radians) turns 2 pi per turn of its final gear, and its
@@ -570,17 +597,14 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     fr.unretract_speed_mm_s = r.get_float("unretract_speed", 10.0, {.minval = 1.0});
   }
   if (CfgSection* is = doc.find("input_shaper")) {
-    // input_shaper.py: shaper_type (mzv) is the default of shaper_type_x/_y (lower-cased);
-    // damping_ratio_x/_y 0.1 in [0, 1]; shaper_freq_x/_y 0 (off), >= 0. amctl also needs
-    // damping < 1 (a shaper is not defined at 1).
+    // input_shaper.py (84104bbb): shaper_type (mzv) is the default of shaper_type_x/_y, taken
+    // as written; damping_ratio_x/_y 0.1 in [0, 1]; shaper_freq_x/_y 0 (off), >= 0. amctl
+    // also needs damping < 1 (a shaper is not defined at 1).
     const Section sh(is, "input_shaper", file_loc);
     InputShaper& in = m.input_shaper;
-    // Klipper refuses any other type ("Unsupported shaper type", shaper_defs.INPUT_SHAPERS).
-    const std::initializer_list<std::string_view> kShapers = {
-        "zv", "mzv", "zvd", "ei", "2hump_ei", "3hump_ei"};
-    const std::string both = sh.get_choice("shaper_type", "mzv", kShapers);
-    in.shaper_type_x = sh.get_choice("shaper_type_x", both, kShapers);
-    in.shaper_type_y = sh.get_choice("shaper_type_y", both, kShapers);
+    const std::string both = shaper_type(sh, "shaper_type", "mzv");
+    in.shaper_type_x = shaper_type(sh, "shaper_type_x", both);
+    in.shaper_type_y = shaper_type(sh, "shaper_type_y", both);
     in.shaper_freq_x_hz = sh.get_float("shaper_freq_x", 0.0, {.minval = 0.0});
     in.shaper_freq_y_hz = sh.get_float("shaper_freq_y", 0.0, {.minval = 0.0});
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});

@@ -160,11 +160,11 @@ TEST(KlipperCfg, ExtruderAndArcAndRetractionSectionsAreRead) {
 }
 
 TEST(KlipperCfg, InputShaperSectionIsReadWithKlippersDefaults) {
-  // input_shaper.py: shaper_type (mzv) is the default of shaper_type_x/_y, lower-cased;
-  // damping_ratio_x/_y 0.1; shaper_freq_x/_y 0 = off.
+  // input_shaper.py (84104bbb): shaper_type (mzv) is the default of shaper_type_x/_y, as
+  // written (no longer lower-cased); damping_ratio_x/_y 0.1; shaper_freq_x/_y 0 = off.
   EXPECT_EQ(cfg(kMinimal).input_shaper, InputShaper{});
   EXPECT_FALSE(cfg(kMinimal).input_shaper.active());
-  const Machine m = cfg(kMinimal + "[input_shaper]\nshaper_type: EI\nshaper_type_y: 2HUMP_EI\n"
+  const Machine m = cfg(kMinimal + "[input_shaper]\nshaper_type: ei\nshaper_type_y: 2hump_ei\n"
                                    "shaper_freq_x: 52.4\nshaper_freq_y: 41\ndamping_ratio_y: 0.07\n");
   EXPECT_EQ(m.input_shaper.shaper_type_x, "ei");
   EXPECT_EQ(m.input_shaper.shaper_type_y, "2hump_ei");
@@ -201,6 +201,20 @@ TEST(KlipperCfg, UnknownShaperTypesAreRefusedAsKlipperDoes) {
   EXPECT_NE(cfg_error(base + "shaper_type: zvdd\n").find("shaper_type: found 'zvdd'"),
             std::string::npos);
   EXPECT_NE(cfg_error(base + "shaper_type_y: smooth\n").find("shaper_type_y"), std::string::npos);
+}
+
+TEST(KlipperCfg, ShaperTypesWithParametersAndCaseAsKlipperReadsThem) {
+  // shaper_defs.get_shaper_cfg: `name(args)` with a known name is accepted (Klipper's own
+  // test/klippy/input_shaper.cfg has `ei(v_tol=0.02)`); the name is compared as written.
+  const std::string base = kMinimal + "[input_shaper]\n";
+  const Machine m = cfg(base + "shaper_type_x: mzv(5, 0.6)\nshaper_type_y: ei(v_tol=0.02)\n");
+  EXPECT_EQ(m.input_shaper.shaper_type_x, "mzv(5, 0.6)");
+  EXPECT_EQ(m.input_shaper.shaper_type_y, "ei(v_tol=0.02)");
+  const std::string msg = cfg_error(base + "shaper_type: EI\n");
+  EXPECT_NE(msg.find("found 'EI'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("as written: 'ei'"), std::string::npos) << msg;
+  EXPECT_NE(cfg_error(base + "shaper_type: smooth(1)\n").find("found 'smooth(1)'"),
+            std::string::npos);
 }
 
 TEST(KlipperCfg, ExtruderOmissionsGetKlippersDerivedDefaults) {
