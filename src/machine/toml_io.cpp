@@ -398,6 +398,8 @@ std::string to_toml(const Machine& machine) {
         m.kinematics != Kinematics::deltesian && m.delta == Delta{}) {
       continue;
     }
+    // [dual_carriage] only for an IDEX.
+    if (section == "dual_carriage" && m.dual_carriage == DualCarriage{}) continue;
     out += fmt::format("\n[{}]\n", section);
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;
@@ -410,7 +412,7 @@ std::string to_toml(const Machine& machine) {
           if (d.optional_number(m)) {
             out += fmt::format("{} = {}{}\n", d.key,
                                detail::format_number(*d.optional_number(m)), unit);
-          } else if (d.section != "marlin" && d.section != "delta") {  // unset soft endstops: nothing written
+          } else if (d.section != "marlin" && d.section != "delta" && d.section != "dual_carriage") {  // unset soft endstops: nothing written
             out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
           }
           break;
