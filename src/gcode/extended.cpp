@@ -78,6 +78,7 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
       }
     }
     homed_axes_ = 0x7u;  // Klipper marks the axes homed
+    sink.on_step_flush(line_no);  // toolhead.set_position flushes the step generation
     after_position_set(0x7u);
     sink.on_set_position(exclude_.transform ? exclude_.toolhead_mm : pos_, line_no);
     if (opt_.dual_carriage) {

@@ -286,9 +286,14 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         return;
       case 18:
       case 84:
-        // Motors off: the firmware finishes every move first (and Klipper dwells).
-        if (opt_.motor_off_dwell_s > 0.0) sink.on_dwell(opt_.motor_off_dwell_s, line_no);
-        else sink.on_wait_moves(line_no);
+        // Motors off: the firmware finishes every move first. Klipper (stepper_enable.py
+        // set_motors_enable) flushes the step generation, then dwells.
+        if (opt_.motor_off_dwell_s > 0.0) {
+          sink.on_step_flush(line_no);
+          sink.on_dwell(opt_.motor_off_dwell_s, line_no);
+        } else {
+          sink.on_wait_moves(line_no);
+        }
         note_ignored(cmd.name);
         return;
       case 211: {

@@ -1,7 +1,7 @@
 // SAVE_/RESTORE_GCODE_STATE, [exclude_object] and an IDEX against Klipper's own batch mode
 // (tests/reference/klipper/klipper_times_gstate.json, made by gstate_times.py with Klipper
-// 84104bbb; README.md "G-code state, exclude_object and IDEX"), and the estimate's
-// exclusion keys.
+// 84104bbb; README.md "G-code state, exclude_object and IDEX"), a print with start/end
+// macros against the same, and the estimate's exclusion keys.
 #include <algorithm>
 #include <fstream>
 #include <sstream>
@@ -35,13 +35,15 @@ TEST(KlipperGcodeState, MatchesKlippersBatchMode) {
     const std::string text = c.at("setup").get<std::string>() + slurp(kDir + c.at("input").get<std::string>());
     const auto r = estimate_text(text, key, m);
     // Measured: within 2.3e-7 s on every case (the IDEX file with Klipper's 2 ms restart after
-    // each SET_DUAL_CARRIAGE / ACTIVATE_EXTRUDER / RESTORE_DUAL_CARRIAGE_STATE flush).
-    EXPECT_NEAR(r.total_time_s, c.at("motion_stock_s").get<double>(), 1e-6) << key;
+    // each SET_DUAL_CARRIAGE / ACTIVATE_EXTRUDER / RESTORE_DUAL_CARRIAGE_STATE flush) but the
+    // macro print: +2.306 ms, amctl's stop for M109 that batch mode skips (tolerance_s 0.005).
+    EXPECT_NEAR(r.total_time_s, c.at("motion_stock_s").get<double>(), c.at("tolerance_s").get<double>()) << key;
+    for (const auto& mr : r.macros) EXPECT_EQ(mr.skipped, 0u) << key << " " << mr.name << ": " << mr.skip_reason;
     EXPECT_FALSE(r.range_error.has_value()) << key;
     EXPECT_TRUE(r.unknown_commands.empty()) << key;
     ++compared;
   }
-  EXPECT_EQ(compared, 4);
+  EXPECT_EQ(compared, 5);
 }
 
 TEST(KlipperGcodeState, MirrorModeRangeStopsWhereKlipperStops) {
