@@ -10,12 +10,12 @@
 namespace amctl::gcode::detail {
 namespace {
 
-// SAVE_/RESTORE_GCODE_STATE, ACTIVATE_EXTRUDER, EXCLUDE_OBJECT* and the dual-carriage commands
+// SAVE_/RESTORE_GCODE_STATE, SET_GCODE_OFFSET, ACTIVATE_EXTRUDER, EXCLUDE_OBJECT* and the dual-carriage commands
 // are modelled in klipper_state.cpp (ACTIVATE_EXTRUDER and, without [exclude_object] in a
 // printer.cfg, EXCLUDE_OBJECT* are still counted here as before).
 constexpr std::string_view kIgnoredExtended[] = {
     "SET_PRESSURE_ADVANCE", "SET_INPUT_SHAPER", "SET_PRINT_STATS_INFO", "RESPOND",
-    "SET_GCODE_OFFSET", "SET_FAN_SPEED",
+    "SET_FAN_SPEED",
     "SET_LED", "SET_PIN", "SET_IDLE_TIMEOUT", "SET_STEPPER_ENABLE", "SET_TMC_CURRENT",
     "SET_SKEW", "SKEW_PROFILE", "BED_MESH_PROFILE", "BED_MESH_CLEAR", "SET_GCODE_VARIABLE",
     "UPDATE_DELAYED_GCODE", "SET_EXTRUDER_ROTATION_DISTANCE", "SYNC_EXTRUDER_MOTION",

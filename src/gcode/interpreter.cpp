@@ -103,6 +103,7 @@ InterpreterState Interpreter::state() const {
   s.bed_target_c = heater_target_c_[1];
   s.chamber_target_c = heater_target_c_[2];
   s.active_extruder = active_extruder_;
+  s.homing_origin_mm = homing_offset_mm_;
   if (opt_.exclude_object == InterpreterOptions::ExcludeObjectMode::active) {
     s.exclude_object = true;
     s.objects = exclude_.objects;
@@ -400,7 +401,8 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
       for (int a = 0; a < 3; ++a) {
         if (!any || p.has("XYZ"[a])) {
           pos_[a] = opt_.home_position_mm[static_cast<std::size_t>(a)];
-          gcode_pos_[a] = pos_[a];
+          // gcode_move.py: homing sets the base to the SET_GCODE_OFFSET offset.
+          gcode_pos_[a] = pos_[a] - homing_offset_mm_[static_cast<std::size_t>(a)];
           homed_axes_ |= 1u << a;
         }
       }

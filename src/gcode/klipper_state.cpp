@@ -54,6 +54,10 @@ bool Interpreter::handle_klipper_state(const Command& cmd, std::uint64_t line_no
     restore_gcode_state(cmd, line_no, sink);
     return true;
   }
+  if (iequals(name, "SET_GCODE_OFFSET")) {
+    set_gcode_offset(cmd, line_no, sink);
+    return true;
+  }
   if (iequals(name, "ACTIVATE_EXTRUDER")) {
     // extruder.py: a different extruder flushes the look-ahead (a full stop), and gcode_move
     // then starts the new extruder's E at 0 with the extrusion factor back at 1.
@@ -95,6 +99,7 @@ void Interpreter::save_gcode_state(const Command& cmd, std::uint64_t /*line_no*/
   s.feed_mm_s = feed_mm_s_;
   s.speed_factor = speed_factor_;
   s.extrude_factor = extrude_factor_;
+  s.homing_offset_mm = homing_offset_mm_;
   saved_states_[text_arg(cmd, "NAME").value_or("default")] = s;
 }
 
@@ -130,6 +135,7 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   feed_mm_s_ = s.feed_mm_s;
   speed_factor_ = s.speed_factor;
   extrude_factor_ = s.extrude_factor;
+  homing_offset_mm_ = s.homing_offset_mm;
   if (move) {
     std::array<double, 4> target = pos_;
     for (std::size_t a = 0; a < 3; ++a) target[a] = s.position_mm[a];
@@ -140,6 +146,51 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   // file's saved E (Klipper adds the E travelled since to the base).
   for (std::size_t a = 0; a < 3; ++a) gcode_pos_[a] = pos_[a] - (s.position_mm[a] - s.gcode_position_mm[a]);
   gcode_pos_[3] = s.gcode_position_mm[3];
+}
+
+void Interpreter::set_gcode_offset(const Command& cmd, std::uint64_t line_no, EventSink& sink) {
+  // gcode_move.py: X/Y/Z/E set the offset, X_ADJUST... add to it; the base position moves by
+  // the change, so the file's coordinates shift; MOVE=1 moves the toolhead by it instead.
+  auto number = [&](std::string_view key, double& v) {
+    std::uint32_t col = 0;
+    const auto t = text_arg(cmd, key, &col);
+    if (!t) return false;
+    if (parse_float_value(*t, v) != t->size() || !std::isfinite(v) || std::fabs(v) > detail::kMaxCoordinate_mm) {
+      fail(line_no, col, fmt::format("SET_GCODE_OFFSET {}= expects a number, found '{}'", key, *t));
+    }
+    return true;
+  };
+  std::array<double, 4> delta{};
+  for (std::size_t a = 0; a < 4; ++a) {
+    const std::string axis(1, "XYZE"[a]);
+    double v = 0.0;
+    double offset = 0.0;
+    if (number(axis, v)) {
+      offset = v;
+    } else if (number(axis + "_ADJUST", v)) {
+      offset = homing_offset_mm_[a] + v;
+    } else {
+      continue;
+    }
+    delta[a] = offset - homing_offset_mm_[a];
+    homing_offset_mm_[a] = offset;
+  }
+  double move = 0.0;
+  if (number("MOVE", move) && move != 0.0) {
+    double speed_mm_s = feed_mm_s_ * speed_factor_;
+    double v = 0.0;
+    if (number("MOVE_SPEED", v)) {
+      if (!(v > 0.0)) fail(line_no, cmd.args_column, "SET_GCODE_OFFSET MOVE_SPEED= must be > 0 mm/s");
+      speed_mm_s = v;
+    }
+    std::array<double, 4> target = pos_;
+    for (std::size_t a = 0; a < 4; ++a) target[a] += delta[a];
+    params_ = Params{};
+    emit_move(target, speed_mm_s, line_no, sink, false);
+    return;  // the toolhead moved with the base: the file's coordinates stay
+  }
+  for (std::size_t a = 0; a < 3; ++a) gcode_pos_[a] -= delta[a];
+  gcode_pos_[3] -= delta[3] / extrude_factor_;
 }
 
 // ---- EXCLUDE_OBJECT ---------------------------------------------------------------------------

@@ -108,6 +108,12 @@ void validate(const Machine& machine) {
     if (!dc.position_max_mm || !dc.position_endstop_mm) {
       throw Error("dual_carriage: position_max and position_endstop are required with an axis");
     }
+    const auto first = m.steppers.find(dc.axis);
+    if (first == m.steppers.end() || !first->second.position_endstop_mm || !first->second.position_max_mm) {
+      throw Error(fmt::format("dual_carriage: stepper_{} (the first carriage's rail) needs "
+                              "position_endstop and position_max",
+                              dc.axis));
+    }
     const double lo = dc.position_min_mm.value_or(0.0);
     if (lo >= *dc.position_max_mm) {
       throw Error(fmt::format("dual_carriage.position_min ({} mm) must be < position_max ({} mm)", lo,

@@ -287,7 +287,7 @@ Value MacroExpander::printer_object(const gcode::InterpreterState& st) const {
   gm.set("extrude_factor", Value::number(st.extrude_factor));
   gm.set("absolute_coordinates", Value::boolean(st.absolute_coordinates));
   gm.set("absolute_extrude", Value::boolean(st.absolute_extrude));
-  gm.set("homing_origin", coord({0.0, 0.0, 0.0, 0.0}));
+  gm.set("homing_origin", coord(st.homing_origin_mm));
   gm.set("position", coord(st.position_mm));
   gm.set("gcode_position", coord(st.gcode_position_mm));
   p.set("gcode_move", Value::dict(std::move(gm)));

@@ -102,6 +102,21 @@ TEST(GcodeState, UnknownStateIsKlippersError) {
   }
 }
 
+TEST(GcodeState, SetGcodeOffsetShiftsTheFileOrMovesTheToolhead) {
+  // Z=0.2: the file's Z1 is machine Z 1.2. X_ADJUST=5 MOVE=1 moves X by 5 at the F in force
+  // (10 mm/s) and the file's X stays; G28 then keeps the offset as its base: Z1 is Z 1.2 again.
+  const auto out = run("G90\nSET_GCODE_OFFSET Z=0.2\nG1 X10 Z1 F600\nSET_GCODE_OFFSET X_ADJUST=5 MOVE=1\n"
+                       "G1 X20\nSAVE_GCODE_STATE\nSET_GCODE_OFFSET Z=0\nRESTORE_GCODE_STATE\nG28\nG1 X1 Z1\n");
+  const auto& m = out.r.moves;
+  ASSERT_EQ(m.size(), 4u);
+  EXPECT_DOUBLE_EQ(m[0].end_mm[2], 1.2);
+  EXPECT_DOUBLE_EQ(m[1].end_mm[0], 15.0);
+  EXPECT_DOUBLE_EQ(m[1].speed_mm_s, 10.0);
+  EXPECT_DOUBLE_EQ(m[2].end_mm[0], 25.0);  // the file's X20 + the offset 5
+  EXPECT_DOUBLE_EQ(m[3].end_mm[0], 6.0);   // after G28: X1 + 5 (the restored offset)
+  EXPECT_DOUBLE_EQ(m[3].end_mm[2], 1.2);
+}
+
 // ---- EXCLUDE_OBJECT -------------------------------------------------------------------------------
 
 InterpreterOptions exclusion() {

@@ -29,6 +29,7 @@ struct InterpreterState {
   double hotend_target_c = 0.0;               ///< last M104/M109 (or SET_HEATER_TEMPERATURE)
   double bed_target_c = 0.0;                  ///< last M140/M190
   double chamber_target_c = 0.0;              ///< last M141/M191
+  std::array<double, 4> homing_origin_mm{};   ///< SET_GCODE_OFFSET (gcode_move.homing_origin)
   std::string active_extruder = "extruder";   ///< ACTIVATE_EXTRUDER (printer.toolhead.extruder)
   /// Klipper printer.exclude_object, present only with [exclude_object] (names upper case).
   bool exclude_object = false;

@@ -177,6 +177,7 @@ class Interpreter {
   bool handle_klipper_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void save_gcode_state(const Command& cmd, std::uint64_t line_no);
   void restore_gcode_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void set_gcode_offset(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void exclude_object_command(const Command& cmd, std::uint64_t line_no);
   /// Klipper's exclude_object move transform: the move to `target` (pre-transform machine
   /// coordinates) made, shifted or skipped.
@@ -218,7 +219,9 @@ class Interpreter {
     bool absolute_xyz = true, absolute_e = true;
     std::array<double, 4> position_mm{}, gcode_position_mm{};
     double feed_mm_s = 25.0, speed_factor = 1.0, extrude_factor = 1.0;
+    std::array<double, 4> homing_offset_mm{};
   };
+  std::array<double, 4> homing_offset_mm_{};  // SET_GCODE_OFFSET (Klipper's homing_position)
   std::map<std::string, SavedGcodeState, std::less<>> saved_states_;
   std::string active_extruder_ = "extruder";  // ACTIVATE_EXTRUDER (printer.toolhead.extruder)
   // Klipper exclude_object.py: the objects, and its move transform once registered.

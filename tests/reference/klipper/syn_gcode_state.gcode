@@ -1,4 +1,4 @@
-; SAVE_GCODE_STATE / RESTORE_GCODE_STATE (Klipper gcode_move.py): modes, G92 base, speed,
+; SAVE_GCODE_STATE / RESTORE_GCODE_STATE, SET_GCODE_OFFSET (Klipper gcode_move.py): modes, G92 base, speed,
 ; M220/M221 factors come back; MOVE=1 returns to the saved point at the saved speed or MOVE_SPEED.
 G90
 M83
@@ -27,3 +27,15 @@ M220 S100
 G1 X60 Y60 F1200
 RESTORE_GCODE_STATE NAME=fast MOVE=1
 G1 X0 Y0
+; SET_GCODE_OFFSET: shifts the file's coordinates (no move), or moves with MOVE=1; the offset
+; is part of the saved state.
+G90
+SET_GCODE_OFFSET Z=0.2 X=5
+G1 X20 Y20 Z1 F6000
+SAVE_GCODE_STATE NAME=off
+SET_GCODE_OFFSET X_ADJUST=10 MOVE=1 MOVE_SPEED=50
+G1 X40 Y20
+SET_GCODE_OFFSET Y=-4 MOVE=1
+RESTORE_GCODE_STATE NAME=off
+SET_GCODE_OFFSET X_ADJUST=-5
+G1 X10 Y10
