@@ -23,12 +23,14 @@ using detail::to_upper;
 namespace {
 
 /// KEY=VALUE of an extended command, quotes removed; nullopt when absent.
-std::optional<std::string> text_arg(const Command& cmd, std::string_view key, std::uint32_t* col = nullptr) {
+std::optional<std::string> text_arg(const Command& cmd, std::string_view key,
+                                    std::uint32_t* col = nullptr) {
   std::string_view text;
   std::uint32_t c = 0;
   if (!find_extended_arg(cmd, key, text, c)) return std::nullopt;
   if (col) *col = c;
-  if (text.size() >= 2 && (text.front() == '"' || text.front() == '\'') && text.back() == text.front()) {
+  if (text.size() >= 2 && (text.front() == '"' || text.front() == '\'') &&
+      text.back() == text.front()) {
     text = text.substr(1, text.size() - 2);
   }
   return std::string(text);
@@ -75,7 +77,9 @@ bool Interpreter::handle_klipper_state(const Command& cmd, std::uint64_t line_no
     switch (opt_.exclude_object) {
       case InterpreterOptions::ExcludeObjectMode::ignored: note_ignored(name); break;
       case InterpreterOptions::ExcludeObjectMode::unknown: note_unknown(name, line_no); break;
-      case InterpreterOptions::ExcludeObjectMode::active: exclude_object_command(cmd, line_no); break;
+      case InterpreterOptions::ExcludeObjectMode::active:
+        exclude_object_command(cmd, line_no);
+        break;
     }
     return true;
   }
@@ -108,9 +112,10 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   const auto it = saved_states_.find(name);
   if (it == saved_states_.end()) {
     // gcode_move.py raises this error; on a printer it ends the print.
-    fail(line_no, cmd.args_column, fmt::format("Unknown g-code state: {} (no SAVE_GCODE_STATE NAME={} "
-                                               "before it; Klipper stops with this error)",
-                                               name, name));
+    fail(line_no, cmd.args_column,
+         fmt::format("Unknown g-code state: {} (no SAVE_GCODE_STATE NAME={} "
+                     "before it; Klipper stops with this error)",
+                     name, name));
   }
   const SavedGcodeState s = it->second;
   std::uint32_t col = 0;
@@ -118,7 +123,8 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   if (auto m = text_arg(cmd, "MOVE", &col)) {
     double v = 0.0;
     if (parse_float_value(*m, v) != m->size() || v != std::floor(v)) {
-      fail(line_no, col, fmt::format("RESTORE_GCODE_STATE MOVE= expects an integer, found '{}'", *m));
+      fail(line_no, col,
+           fmt::format("RESTORE_GCODE_STATE MOVE= expects an integer, found '{}'", *m));
     }
     move = v != 0.0;
   }
@@ -126,7 +132,9 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   if (auto m = text_arg(cmd, "MOVE_SPEED", &col)) {
     double v = 0.0;
     if (parse_float_value(*m, v) != m->size() || !(v > 0.0) || v > kMaxLimit) {
-      fail(line_no, col, fmt::format("RESTORE_GCODE_STATE MOVE_SPEED= must be a number > 0 mm/s, found '{}'", *m));
+      fail(
+          line_no, col,
+          fmt::format("RESTORE_GCODE_STATE MOVE_SPEED= must be a number > 0 mm/s, found '{}'", *m));
     }
     if (move) speed_mm_s = v;
   }
@@ -144,7 +152,8 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   }
   // The saved base position (machine - file coordinates) comes back; E continues from the
   // file's saved E (Klipper adds the E travelled since to the base).
-  for (std::size_t a = 0; a < 3; ++a) gcode_pos_[a] = pos_[a] - (s.position_mm[a] - s.gcode_position_mm[a]);
+  for (std::size_t a = 0; a < 3; ++a)
+    gcode_pos_[a] = pos_[a] - (s.position_mm[a] - s.gcode_position_mm[a]);
   gcode_pos_[3] = s.gcode_position_mm[3];
 }
 
@@ -155,7 +164,8 @@ void Interpreter::set_gcode_offset(const Command& cmd, std::uint64_t line_no, Ev
     std::uint32_t col = 0;
     const auto t = text_arg(cmd, key, &col);
     if (!t) return false;
-    if (parse_float_value(*t, v) != t->size() || !std::isfinite(v) || std::fabs(v) > detail::kMaxCoordinate_mm) {
+    if (parse_float_value(*t, v) != t->size() || !std::isfinite(v) ||
+        std::fabs(v) > detail::kMaxCoordinate_mm) {
       fail(line_no, col, fmt::format("SET_GCODE_OFFSET {}= expects a number, found '{}'", key, *t));
     }
     return true;
@@ -180,7 +190,8 @@ void Interpreter::set_gcode_offset(const Command& cmd, std::uint64_t line_no, Ev
     double speed_mm_s = feed_mm_s_ * speed_factor_;
     double v = 0.0;
     if (number("MOVE_SPEED", v)) {
-      if (!(v > 0.0)) fail(line_no, cmd.args_column, "SET_GCODE_OFFSET MOVE_SPEED= must be > 0 mm/s");
+      if (!(v > 0.0))
+        fail(line_no, cmd.args_column, "SET_GCODE_OFFSET MOVE_SPEED= must be > 0 mm/s");
       speed_mm_s = v;
     }
     std::array<double, 4> target = pos_;
@@ -239,7 +250,8 @@ void Interpreter::exclude_object_command(const Command& cmd, std::uint64_t line_
     return;
   }
   if (iequals(name, "EXCLUDE_OBJECT_START")) {
-    if (!object) fail(line_no, cmd.args_column, "EXCLUDE_OBJECT_START needs NAME= (Klipper: missing NAME)");
+    if (!object)
+      fail(line_no, cmd.args_column, "EXCLUDE_OBJECT_START needs NAME= (Klipper: missing NAME)");
     if (!contains(x.objects, upper)) insert_sorted(x.objects, upper);
     x.current = upper;
     return;
@@ -259,8 +271,9 @@ void Interpreter::exclude_object_command(const Command& cmd, std::uint64_t line_
     exclude(upper);
   } else if (text_arg(cmd, "CURRENT").value_or("") != "") {
     if (!x.current) {
-      fail(line_no, cmd.args_column, "EXCLUDE_OBJECT CURRENT=1: there is no current object to cancel "
-                                     "(Klipper stops with this error)");
+      fail(line_no, cmd.args_column,
+           "EXCLUDE_OBJECT CURRENT=1: there is no current object to cancel "
+           "(Klipper stops with this error)");
     }
     exclude(*x.current);
   }
@@ -286,8 +299,8 @@ void Interpreter::exclude_move(const std::array<double, 4>& target, const MoveRe
     // _move_from_excluded_region: compensates a retraction state that differs between the
     // object printed last and the one skipped.
     x.in_excluded_region = false;
-    x.extruder_adj_mm = x.max_excluded_mm - x.last_excluded_mm[3] -
-                        (x.max_extruded_mm - x.last_extruded_mm[3]);
+    x.extruder_adj_mm =
+        x.max_excluded_mm - x.last_excluded_mm[3] - (x.max_extruded_mm - x.last_extruded_mm[3]);
   }
   // _normal_move
   if (x.initial_extrusion_moves > 0 && pos_[3] != target[3]) --x.initial_extrusion_moves;
@@ -336,7 +349,8 @@ using Options = InterpreterOptions::DualCarriage;
 
 /// idex_modes.py get_dc_order: +1 when carriage `a` is always on the high side of `b`.
 int dc_order(const Options& o, std::size_t a, std::size_t b) {
-  if (o.homing_positive_dir[a] != o.homing_positive_dir[b]) return o.homing_positive_dir[a] ? 1 : -1;
+  if (o.homing_positive_dir[a] != o.homing_positive_dir[b])
+    return o.homing_positive_dir[a] ? 1 : -1;
   return o.position_endstop_mm[a] > o.position_endstop_mm[b] ? 1 : -1;
 }
 
@@ -393,21 +407,28 @@ void Interpreter::send_carriage_range(std::uint64_t line_no, EventSink& sink) {
     double room = order > 0 ? (ap1 - ap0) + safe : (ap1 - ap0) - safe;
     if (other.mode != CarriageMode::inactive) room *= 0.5;
     if (me.mode == CarriageMode::primary || me.mode == CarriageMode::copy) {
-      if (order > 0) lo = std::max(lo, p + room);
-      else hi = std::min(hi, p + room);
+      if (order > 0)
+        lo = std::max(lo, p + room);
+      else
+        hi = std::min(hi, p + room);
     } else {
-      if (order > 0) hi = std::min(hi, p - room);
-      else lo = std::max(lo, p - room);
+      if (order > 0)
+        hi = std::min(hi, p - room);
+      else
+        lo = std::max(lo, p - room);
     }
   }
   if (lo > hi) hi = lo;  // Klipper: an empty range blocks the axis
   sink.on_axis_range(o.axis, lo, hi, line_no);
 }
 
-void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_no, EventSink& sink) {
+void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_no,
+                                        EventSink& sink) {
   const Options& o = *opt_.dual_carriage;
   const std::size_t axis = static_cast<std::size_t>(o.axis);
-  auto position_of = [&](std::size_t c) { return pos_[axis] * carriages_[c].scale + carriages_[c].offset_mm; };
+  auto position_of = [&](std::size_t c) {
+    return pos_[axis] * carriages_[c].scale + carriages_[c].offset_mm;
+  };
   // The toolhead's position on the axis is redefined with the motion stopped
   // (toolhead.set_position); the file's coordinates keep their base (G92) offset.
   auto set_axis_position = [&](double v) {
@@ -440,20 +461,33 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
     const auto which = text_arg(cmd, "CARRIAGE", &col);
     if (!which) fail(line_no, cmd.args_column, "SET_DUAL_CARRIAGE: CARRIAGE must be specified");
     std::size_t c = 0;
-    if (*which == "0") c = 0;
-    else if (*which == "1") c = 1;
-    else if (iequals(*which, "stepper_x") || iequals(*which, "stepper_y") || iequals(*which, "x") || iequals(*which, "y")) c = 0;
-    else if (iequals(*which, "dual_carriage")) c = 1;
-    else fail(line_no, col, fmt::format("SET_DUAL_CARRIAGE: invalid CARRIAGE={} (expected 0, 1 or a carriage name)", *which));
+    if (*which == "0")
+      c = 0;
+    else if (*which == "1")
+      c = 1;
+    else if (iequals(*which, "stepper_x") || iequals(*which, "stepper_y") || iequals(*which, "x") ||
+             iequals(*which, "y"))
+      c = 0;
+    else if (iequals(*which, "dual_carriage"))
+      c = 1;
+    else
+      fail(line_no, col,
+           fmt::format("SET_DUAL_CARRIAGE: invalid CARRIAGE={} (expected 0, 1 or a carriage name)",
+                       *which));
     const std::string mode = to_upper(text_arg(cmd, "MODE").value_or("PRIMARY"));
     if (mode == "PRIMARY") {
       make_primary(c);
     } else if (mode == "COPY" || mode == "MIRROR") {
       if (carriages_[1 - c].mode != CarriageMode::primary) {
-        fail(line_no, cmd.args_column, fmt::format("SET_DUAL_CARRIAGE MODE={}: must activate another carriage as PRIMARY first", mode));
+        fail(line_no, cmd.args_column,
+             fmt::format(
+                 "SET_DUAL_CARRIAGE MODE={}: must activate another carriage as PRIMARY first",
+                 mode));
       }
       if (!((homed_axes_ >> axis) & 1u)) {
-        fail(line_no, cmd.args_column, fmt::format("SET_DUAL_CARRIAGE MODE={}: axis {} must be homed first", mode, "XY"[axis]));
+        fail(line_no, cmd.args_column,
+             fmt::format("SET_DUAL_CARRIAGE MODE={}: axis {} must be homed first", mode,
+                         "XY"[axis]));
       }
       const double old = position_of(c);
       const double scale = mode == "MIRROR" ? -1.0 : 1.0;
@@ -461,11 +495,17 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
                                old - pos_[axis] * scale};
     } else if (mode == "INACTIVE") {
       if (carriages_[1 - c].mode == CarriageMode::inactive) {
-        fail(line_no, cmd.args_column, fmt::format("SET_DUAL_CARRIAGE: cannot deactivate the only active carriage for axis {}", "XY"[axis]));
+        fail(
+            line_no, cmd.args_column,
+            fmt::format("SET_DUAL_CARRIAGE: cannot deactivate the only active carriage for axis {}",
+                        "XY"[axis]));
       }
       if (carriages_[c].mode != CarriageMode::inactive) inactivate(c);
     } else {
-      fail(line_no, cmd.args_column, fmt::format("SET_DUAL_CARRIAGE: invalid MODE={} (expected PRIMARY, COPY, MIRROR or INACTIVE)", mode));
+      fail(line_no, cmd.args_column,
+           fmt::format(
+               "SET_DUAL_CARRIAGE: invalid MODE={} (expected PRIMARY, COPY, MIRROR or INACTIVE)",
+               mode));
     }
     send_carriage_range(line_no, sink);
     return;
@@ -480,7 +520,8 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
   sink.on_step_flush(line_no);
   const auto it = saved_carriages_.find(state);
   if (it == saved_carriages_.end()) {
-    fail(line_no, cmd.args_column, fmt::format("Unknown DUAL_CARRIAGE state: {} (Klipper stops with this error)", state));
+    fail(line_no, cmd.args_column,
+         fmt::format("Unknown DUAL_CARRIAGE state: {} (Klipper stops with this error)", state));
   }
   const std::array<Carriage, 2> saved = it->second;
   const std::array<double, 4> saved_pos = saved_carriage_pos_.at(state);
@@ -495,14 +536,18 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
   if (auto m = text_arg(cmd, "MOVE", &col)) {
     double v = 0.0;
     if (parse_float_value(*m, v) != m->size() || v != std::floor(v)) {
-      fail(line_no, col, fmt::format("RESTORE_DUAL_CARRIAGE_STATE MOVE= expects an integer, found '{}'", *m));
+      fail(line_no, col,
+           fmt::format("RESTORE_DUAL_CARRIAGE_STATE MOVE= expects an integer, found '{}'", *m));
     }
     move = v != 0.0;
   }
   if (auto m = text_arg(cmd, "MOVE_SPEED", &col)) {
     double v = 0.0;
     if (parse_float_value(*m, v) != m->size() || !(v > 0.0) || v > kMaxLimit) {
-      fail(line_no, col, fmt::format("RESTORE_DUAL_CARRIAGE_STATE MOVE_SPEED= must be a number > 0 mm/s, found '{}'", *m));
+      fail(
+          line_no, col,
+          fmt::format(
+              "RESTORE_DUAL_CARRIAGE_STATE MOVE_SPEED= must be a number > 0 mm/s, found '{}'", *m));
     }
     speed_mm_s = v;
   }

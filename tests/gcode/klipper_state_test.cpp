@@ -28,8 +28,12 @@ struct Record : EventSink {
   void on_move(const MoveRequest& m) override { moves.push_back(m); }
   void on_wait_moves(std::uint64_t) override { ++waits; }
   void on_step_flush(std::uint64_t) override { ++step_flushes; }
-  void on_set_position(const std::array<double, 4>& p, std::uint64_t) override { set_positions.push_back(p); }
-  void on_axis_range(int axis, double lo, double hi, std::uint64_t) override { ranges.push_back({axis, lo, hi}); }
+  void on_set_position(const std::array<double, 4>& p, std::uint64_t) override {
+    set_positions.push_back(p);
+  }
+  void on_axis_range(int axis, double lo, double hi, std::uint64_t) override {
+    ranges.push_back({axis, lo, hi});
+  }
 };
 
 struct Run {
@@ -52,22 +56,25 @@ Run run(std::string_view text, InterpreterOptions o = {}) {
   return out;
 }
 
-// ---- SAVE_GCODE_STATE / RESTORE_GCODE_STATE ------------------------------------------------------
+// ---- SAVE_GCODE_STATE / RESTORE_GCODE_STATE
+// ------------------------------------------------------
 
 TEST(GcodeState, KlippersCommandsTestSequenceMakesNoMove) {
   // Klipper's test/klippy/commands.test: every G1 after a restore lands where the toolhead is
   // (G92 Z-5 puts the base at Z 5; the restores bring back G90 and that base, then the base
   // 0 of the first save). Before issue 14 amctl stayed in G91 and moved Z to -5.
-  const auto out = run("G28\nSAVE_GCODE_STATE\nG92 Z-5\nG92 E5\nSAVE_GCODE_STATE NAME=test\n"
-                       "G1 Z-5\nG91\nG1 Z0\nRESTORE_GCODE_STATE NAME=test\nG1 Z-5\n"
-                       "RESTORE_GCODE_STATE\nG1 Z0 E0\nRESTORE_GCODE_STATE MOVE=1\n");
+  const auto out =
+      run("G28\nSAVE_GCODE_STATE\nG92 Z-5\nG92 E5\nSAVE_GCODE_STATE NAME=test\n"
+          "G1 Z-5\nG91\nG1 Z0\nRESTORE_GCODE_STATE NAME=test\nG1 Z-5\n"
+          "RESTORE_GCODE_STATE\nG1 Z0 E0\nRESTORE_GCODE_STATE MOVE=1\n");
   EXPECT_TRUE(out.r.moves.empty());
 }
 
 TEST(GcodeState, RestoreMoveGoesBackAtTheSavedSpeedOrMoveSpeed) {
-  const auto out = run("G90\nG1 X10 Y20 Z1 F600\nSAVE_GCODE_STATE NAME=a\nM220 S50\nG1 X50 F3000\n"
-                       "RESTORE_GCODE_STATE NAME=a MOVE=1\nG1 X60\n"
-                       "RESTORE_GCODE_STATE NAME=a MOVE=1 MOVE_SPEED=40\n");
+  const auto out =
+      run("G90\nG1 X10 Y20 Z1 F600\nSAVE_GCODE_STATE NAME=a\nM220 S50\nG1 X50 F3000\n"
+          "RESTORE_GCODE_STATE NAME=a MOVE=1\nG1 X60\n"
+          "RESTORE_GCODE_STATE NAME=a MOVE=1 MOVE_SPEED=40\n");
   const auto& m = out.r.moves;
   ASSERT_EQ(m.size(), 5u);
   EXPECT_DOUBLE_EQ(m[1].speed_mm_s, 25.0);  // 3000 mm/min at M220 50 %
@@ -83,8 +90,9 @@ TEST(GcodeState, RestoreMoveGoesBackAtTheSavedSpeedOrMoveSpeed) {
 TEST(GcodeState, RestoreBringsBackTheBaseAndTheFilesE) {
   // G92 X0 after the save shifts the file's X by 5; the restore takes the shift back. E
   // continues from the saved file E (5): E6 feeds 1 mm.
-  const auto out = run("M82\nG1 X5 E5 F600\nSAVE_GCODE_STATE\nG92 X0 E0\nG1 X2 E1\n"
-                       "RESTORE_GCODE_STATE\nG1 X3 E6\n");
+  const auto out =
+      run("M82\nG1 X5 E5 F600\nSAVE_GCODE_STATE\nG92 X0 E0\nG1 X2 E1\n"
+          "RESTORE_GCODE_STATE\nG1 X3 E6\n");
   const auto& m = out.r.moves;
   ASSERT_EQ(m.size(), 3u);
   EXPECT_DOUBLE_EQ(m[1].end_mm[0], 7.0);
@@ -98,15 +106,17 @@ TEST(GcodeState, UnknownStateIsKlippersError) {
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("t.gcode:2:"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("Unknown g-code state: nope"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("Unknown g-code state: nope"), std::string::npos)
+        << e.what();
   }
 }
 
 TEST(GcodeState, SetGcodeOffsetShiftsTheFileOrMovesTheToolhead) {
   // Z=0.2: the file's Z1 is machine Z 1.2. X_ADJUST=5 MOVE=1 moves X by 5 at the F in force
   // (10 mm/s) and the file's X stays; G28 then keeps the offset as its base: Z1 is Z 1.2 again.
-  const auto out = run("G90\nSET_GCODE_OFFSET Z=0.2\nG1 X10 Z1 F600\nSET_GCODE_OFFSET X_ADJUST=5 MOVE=1\n"
-                       "G1 X20\nSAVE_GCODE_STATE\nSET_GCODE_OFFSET Z=0\nRESTORE_GCODE_STATE\nG28\nG1 X1 Z1\n");
+  const auto out =
+      run("G90\nSET_GCODE_OFFSET Z=0.2\nG1 X10 Z1 F600\nSET_GCODE_OFFSET X_ADJUST=5 MOVE=1\n"
+          "G1 X20\nSAVE_GCODE_STATE\nSET_GCODE_OFFSET Z=0\nRESTORE_GCODE_STATE\nG28\nG1 X1 Z1\n");
   const auto& m = out.r.moves;
   ASSERT_EQ(m.size(), 4u);
   EXPECT_DOUBLE_EQ(m[0].end_mm[2], 1.2);
@@ -117,7 +127,8 @@ TEST(GcodeState, SetGcodeOffsetShiftsTheFileOrMovesTheToolhead) {
   EXPECT_DOUBLE_EQ(m[3].end_mm[2], 1.2);
 }
 
-// ---- EXCLUDE_OBJECT -------------------------------------------------------------------------------
+// ---- EXCLUDE_OBJECT
+// -------------------------------------------------------------------------------
 
 InterpreterOptions exclusion() {
   InterpreterOptions o;
@@ -143,11 +154,12 @@ TEST(ExcludeObject, MovesOfAnExcludedObjectAreNotMadeAndTheToolheadGoesStraightO
   // learn the extruder's state): the 5th is B's first. B's next two are skipped; A's move then
   // starts where the toolhead is (X 50) and feeds its own 1 mm (the skipped 2 mm stay in the
   // offset; no retraction differs, so no adjustment).
-  const auto out = run("M83\nEXCLUDE_OBJECT NAME=B\nEXCLUDE_OBJECT_START NAME=A\n"
-                       "G1 X10 E1 F600\nG1 X20 E1\nG1 X30 E1\nG1 X40 E1\nEXCLUDE_OBJECT_END\n"
-                       "EXCLUDE_OBJECT_START NAME=B\nG1 X50 E1\nG1 X60 E1\nG1 X70 E1\n"
-                       "EXCLUDE_OBJECT_END\nEXCLUDE_OBJECT_START NAME=A\nG1 X80 E1\n",
-                       exclusion());
+  const auto out =
+      run("M83\nEXCLUDE_OBJECT NAME=B\nEXCLUDE_OBJECT_START NAME=A\n"
+          "G1 X10 E1 F600\nG1 X20 E1\nG1 X30 E1\nG1 X40 E1\nEXCLUDE_OBJECT_END\n"
+          "EXCLUDE_OBJECT_START NAME=B\nG1 X50 E1\nG1 X60 E1\nG1 X70 E1\n"
+          "EXCLUDE_OBJECT_END\nEXCLUDE_OBJECT_START NAME=A\nG1 X80 E1\n",
+          exclusion());
   const auto& m = out.r.moves;
   ASSERT_EQ(m.size(), 6u);
   EXPECT_DOUBLE_EQ(m[4].end_mm[0], 50.0);
@@ -191,10 +203,11 @@ TEST(ExcludeObject, CurrentWithoutAnObjectIsKlippersError) {
 }
 
 TEST(ExcludeObject, ResetBringsTheObjectBack) {
-  const auto out = run("M83\nEXCLUDE_OBJECT_START NAME=A\nEXCLUDE_OBJECT CURRENT=1\n"
-                       "G1 X1 E1 F600\nG1 X2 E1\nG1 X3 E1\nG1 X4 E1\nG1 X5 E1\nG1 X6 E1\n"
-                       "EXCLUDE_OBJECT RESET=1 NAME=A\nG1 X7 E1\n",
-                       exclusion());
+  const auto out =
+      run("M83\nEXCLUDE_OBJECT_START NAME=A\nEXCLUDE_OBJECT CURRENT=1\n"
+          "G1 X1 E1 F600\nG1 X2 E1\nG1 X3 E1\nG1 X4 E1\nG1 X5 E1\nG1 X6 E1\n"
+          "EXCLUDE_OBJECT RESET=1 NAME=A\nG1 X7 E1\n",
+          exclusion());
   // 5 learning moves, X6 skipped, X7 made from X5.
   ASSERT_EQ(out.r.moves.size(), 6u);
   EXPECT_DOUBLE_EQ(out.r.moves.back().start_mm[0], 5.0);
@@ -202,7 +215,8 @@ TEST(ExcludeObject, ResetBringsTheObjectBack) {
   EXPECT_EQ(out.excluded_moves, 1u);
 }
 
-// ---- IDEX -----------------------------------------------------------------------------------------
+// ---- IDEX
+// -----------------------------------------------------------------------------------------
 
 InterpreterOptions idex() {
   // Rails 0..250 mm; carriage 0 homes to 0, carriage 1 to 250; 50 mm apart at least.
@@ -238,24 +252,27 @@ TEST(DualCarriage, SecondCarriageStartsFromItsParkingAndRangesKeepTheSafeDistanc
 TEST(DualCarriage, CopyAndMirrorLimitTheRange) {
   // Carriage 1 parked at 190, carriage 0 at 10. COPY: carriage 1 follows at +180, so X <= 70.
   // MIRROR: carriage 1 at 200 - X; they meet 50 mm apart at X = 75.
-  const std::string head = "G28\nG1 X10 F6000\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X190\nSET_DUAL_CARRIAGE CARRIAGE=0\n";
+  const std::string head =
+      "G28\nG1 X10 F6000\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X190\nSET_DUAL_CARRIAGE CARRIAGE=0\n";
   const auto copy = run(head + "SET_DUAL_CARRIAGE CARRIAGE=1 MODE=COPY\n", idex());
   EXPECT_DOUBLE_EQ(copy.r.ranges.back().min_mm, 0.0);
   EXPECT_DOUBLE_EQ(copy.r.ranges.back().max_mm, 70.0);
   const auto mirror = run(head + "SET_DUAL_CARRIAGE CARRIAGE=1 MODE=MIRROR\n", idex());
   EXPECT_DOUBLE_EQ(mirror.r.ranges.back().min_mm, 0.0);
   EXPECT_DOUBLE_EQ(mirror.r.ranges.back().max_mm, 75.0);
-  EXPECT_THROW(run("G28\nSET_DUAL_CARRIAGE CARRIAGE=0 MODE=COPY\n", idex()), Error);  // needs another PRIMARY
+  EXPECT_THROW(run("G28\nSET_DUAL_CARRIAGE CARRIAGE=0 MODE=COPY\n", idex()),
+               Error);  // needs another PRIMARY
 }
 
 TEST(DualCarriage, RestoreMovesTheCarriageWithTheLongerWayAtTheLowerHomingSpeed) {
   // Saved: carriage 1 at 190 (primary), carriage 0 at 10. Now carriage 0 at 60, 1 at 150:
   // carriage 0 has 50 mm to go, 1 has 40, so the move is carriage 0's, 60 -> 10 at
   // min(50, 40) mm/s; then carriage 1 is primary again at 190.
-  const auto out = run("G28\nG1 X10 F6000\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X190\nSAVE_DUAL_CARRIAGE_STATE\n"
-                       "SET_DUAL_CARRIAGE CARRIAGE=0\nG1 X60\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X150\n"
-                       "RESTORE_DUAL_CARRIAGE_STATE\nG1 X200\n",
-                       idex());
+  const auto out =
+      run("G28\nG1 X10 F6000\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X190\nSAVE_DUAL_CARRIAGE_STATE\n"
+          "SET_DUAL_CARRIAGE CARRIAGE=0\nG1 X60\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X150\n"
+          "RESTORE_DUAL_CARRIAGE_STATE\nG1 X200\n",
+          idex());
   const auto& m = out.r.moves;
   ASSERT_EQ(m.size(), 6u);
   EXPECT_DOUBLE_EQ(m[4].start_mm[0], 60.0);

@@ -32,13 +32,17 @@ TEST(KlipperGcodeState, MatchesKlippersBatchMode) {
   for (const auto& [key, c] : times.items()) {
     if (!c.is_object()) continue;  // klipper_commit
     const auto m = machine::load_machine(kDir + c.at("cfg").get<std::string>());
-    const std::string text = c.at("setup").get<std::string>() + slurp(kDir + c.at("input").get<std::string>());
+    const std::string text =
+        c.at("setup").get<std::string>() + slurp(kDir + c.at("input").get<std::string>());
     const auto r = estimate_text(text, key, m);
     // Measured: within 2.3e-7 s on every case (the IDEX file with Klipper's 2 ms restart after
     // each SET_DUAL_CARRIAGE / ACTIVATE_EXTRUDER / RESTORE_DUAL_CARRIAGE_STATE flush) but the
     // macro print: +2.306 ms, amctl's stop for M109 that batch mode skips (tolerance_s 0.005).
-    EXPECT_NEAR(r.total_time_s, c.at("motion_stock_s").get<double>(), c.at("tolerance_s").get<double>()) << key;
-    for (const auto& mr : r.macros) EXPECT_EQ(mr.skipped, 0u) << key << " " << mr.name << ": " << mr.skip_reason;
+    EXPECT_NEAR(r.total_time_s, c.at("motion_stock_s").get<double>(),
+                c.at("tolerance_s").get<double>())
+        << key;
+    for (const auto& mr : r.macros)
+      EXPECT_EQ(mr.skipped, 0u) << key << " " << mr.name << ": " << mr.skip_reason;
     EXPECT_FALSE(r.range_error.has_value()) << key;
     EXPECT_TRUE(r.unknown_commands.empty()) << key;
     ++compared;
@@ -55,7 +59,8 @@ TEST(KlipperGcodeState, MirrorModeRangeStopsWhereKlipperStops) {
   ASSERT_NE(at, std::string::npos);
   text.replace(at, from.size(), "G1 X30 Y30 F6000");
   const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<long>(at), '\n');
-  const auto r = estimate_text("G28\n" + text, "idex", machine::load_machine(kDir + "idex_cartesian.cfg"));
+  const auto r =
+      estimate_text("G28\n" + text, "idex", machine::load_machine(kDir + "idex_cartesian.cfg"));
   ASSERT_TRUE(r.range_error.has_value());
   EXPECT_EQ(r.range_error->line, static_cast<std::uint64_t>(line) + 1);  // + the G28 line
   EXPECT_EQ(r.range_error->axis, 'x');
