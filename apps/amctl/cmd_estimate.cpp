@@ -70,6 +70,14 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
     }
   }
   if (r.range_error) o << "  warning: " << plan::describe_range_error(*r.range_error) << "\n";
+  if (!r.excluded_objects.empty()) {
+    std::string names;
+    for (const auto& x : r.excluded_objects) names += (names.empty() ? "" : ", ") + x.name;
+    o << fmt::format("  excluded objects: {} ({} moves not made{})\n", names, r.excluded_moves,
+                     r.exclusion_time_saved_s
+                         ? fmt::format(", {:.1f} s saved", *r.exclusion_time_saved_s)
+                         : std::string());
+  }
   if (r.diagnostics.clamped_moves > 0) {
     o << fmt::format("  clamped moves    {} (Marlin soft endstops)\n", r.diagnostics.clamped_moves);
   }

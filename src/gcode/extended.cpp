@@ -33,6 +33,7 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     }
     return v;
   };
+  if (handle_klipper_state(cmd, line_no, sink)) return;  // klipper_state.cpp
   if (iequals(name, "SET_VELOCITY_LIMIT")) {
     LimitsCommand lc;
     lc.source = LimitsCommand::Source::set_velocity_limit;
@@ -77,7 +78,15 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
       }
     }
     homed_axes_ = 0x7u;  // Klipper marks the axes homed
-    sink.on_set_position(pos_, line_no);
+    sink.on_step_flush(line_no);  // toolhead.set_position flushes the step generation
+    after_position_set(0x7u);
+    sink.on_set_position(exclude_.transform ? exclude_.toolhead_mm : pos_, line_no);
+    if (opt_.dual_carriage) {
+      // cartesian.py set_position: a homed axis gets the rail range of its primary carriage.
+      const auto& o = *opt_.dual_carriage;
+      const std::size_t c = carriages_[1].mode == CarriageMode::primary ? 1 : 0;
+      sink.on_axis_range(o.axis, o.position_min_mm[c], o.position_max_mm[c], line_no);
+    }
     return;
   }
   if (iequals(name, "SET_RETRACTION")) {

@@ -86,7 +86,7 @@ void Interpreter::run(LineReader& reader, EventSink& sink) {
 
 void Interpreter::set_expander(CommandExpander* expander) {
   expander_ = expander;
-  general_path_only_ = expander != nullptr && expander->expands_moves();
+  update_path_choice();
 }
 
 InterpreterState Interpreter::state() const {
@@ -102,6 +102,14 @@ InterpreterState Interpreter::state() const {
   s.hotend_target_c = heater_target_c_[0];
   s.bed_target_c = heater_target_c_[1];
   s.chamber_target_c = heater_target_c_[2];
+  s.active_extruder = active_extruder_;
+  s.homing_origin_mm = homing_offset_mm_;
+  if (opt_.exclude_object == InterpreterOptions::ExcludeObjectMode::active) {
+    s.exclude_object = true;
+    s.objects = exclude_.objects;
+    s.excluded_objects = exclude_.excluded;
+    s.current_object = exclude_.current;
+  }
   return s;
 }
 
@@ -279,9 +287,14 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         return;
       case 18:
       case 84:
-        // Motors off: the firmware finishes every move first (and Klipper dwells).
-        if (opt_.motor_off_dwell_s > 0.0) sink.on_dwell(opt_.motor_off_dwell_s, line_no);
-        else sink.on_wait_moves(line_no);
+        // Motors off: the firmware finishes every move first. Klipper (stepper_enable.py
+        // set_motors_enable) flushes the step generation, then dwells.
+        if (opt_.motor_off_dwell_s > 0.0) {
+          sink.on_step_flush(line_no);
+          sink.on_dwell(opt_.motor_off_dwell_s, line_no);
+        } else {
+          sink.on_wait_moves(line_no);
+        }
         note_ignored(cmd.name);
         return;
       case 211: {
@@ -388,12 +401,17 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
       for (int a = 0; a < 3; ++a) {
         if (!any || p.has("XYZ"[a])) {
           pos_[a] = opt_.home_position_mm[static_cast<std::size_t>(a)];
-          gcode_pos_[a] = pos_[a];
+          // gcode_move.py: homing sets the base to the SET_GCODE_OFFSET offset.
+          gcode_pos_[a] = pos_[a] - homing_offset_mm_[static_cast<std::size_t>(a)];
           homed_axes_ |= 1u << a;
         }
       }
       sink.on_untimed("G28", line_no);
-      sink.on_set_position(pos_, line_no);
+      const bool dc = opt_.dual_carriage && (!any || p.has("XY"[opt_.dual_carriage->axis]));
+      if (dc) home_dual_carriage();
+      after_position_set(any ? (p.has('X') ? 1u : 0u) | (p.has('Y') ? 2u : 0u) | (p.has('Z') ? 4u : 0u) : 7u);
+      sink.on_set_position(exclude_.transform ? exclude_.toolhead_mm : pos_, line_no);
+      if (dc) send_carriage_range(line_no, sink);
       return;
     }
     sink.on_untimed(cmd.name, line_no);
@@ -459,7 +477,12 @@ void Interpreter::do_move(const Params& p, std::uint64_t line_no, EventSink& sin
   apply_feed(p, line_no);
   constexpr std::uint32_t kAxes = (1u << ('X' - 'A')) | (1u << ('Y' - 'A')) |
                                   (1u << ('Z' - 'A')) | (1u << ('E' - 'A'));
-  if ((p.present & kAxes) == 0) return;  // F only: sets the speed of later moves
+  if ((p.present & kAxes) == 0) {
+    // F only: sets the speed of later moves. Klipper still passes the (unchanged) position
+    // through the move transform, which exclude_object's state machine sees.
+    if (exclude_.transform) emit_move(pos_, feed_mm_s_ * speed_factor_, line_no, sink, false);
+    return;
+  }
   std::array<double, 4> new_gcode;
   std::array<double, 4> target = target_of(p, new_gcode);
   const bool clamped = soft_endstops_ && soft_clamp(target, &new_gcode);
@@ -498,7 +521,8 @@ void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm
                             std::uint64_t line_no, EventSink& sink, bool from_arc,
                             bool from_retract, bool clamped) {
   // A move clamped to no motion still reaches the planner (which drops it) to be counted.
-  if (target == pos_ && !clamped) return;
+  // Under exclude_object's transform every move goes through it, as in Klipper.
+  if (target == pos_ && !clamped && !exclude_.transform) return;
   // Every coordinate must stay finite and within a sane range: larger values come from
   // overflowing arithmetic (G20 with 1e308, G91 accumulation, M221 S1e308, huge arc offsets)
   // and would poison the planner with inf/NaN.
@@ -522,6 +546,10 @@ void Interpreter::emit_move(const std::array<double, 4>& target, double speed_mm
   m.from_arc = from_arc;
   m.from_firmware_retract = from_retract;
   m.clamped = clamped;
+  if (exclude_.transform) {
+    exclude_move(target, m, sink);  // klipper_state.cpp
+    return;
+  }
   pos_ = target;
   sink.on_move(m);
 }

@@ -797,6 +797,30 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     if (it == m.steppers.end()) continue;
     it->second.run_current_a = Section(&s, s.name, file_loc).get_float("run_current", {.above = 0.0});
   }
+  // exclude_object.py is loaded by its section only; without it EXCLUDE_OBJECT* are unknown.
+  m.exclude_object = doc.find("exclude_object") != nullptr;
+  // cartesian.py / hybrid_corexy.py / hybrid_corexz.py: [dual_carriage] adds a second rail on
+  // X or Y (idex_modes.py); stepper.py's rail rules (position_min 0, endstop and max required).
+  if (CfgSection* ds = doc.find("dual_carriage")) {
+    const Section d(ds, "dual_carriage", file_loc);
+    if (m.kinematics != Kinematics::cartesian && m.kinematics != Kinematics::hybrid_corexy &&
+        m.kinematics != Kinematics::hybrid_corexz) {
+      throw Error(ds->where, "[dual_carriage]: amctl models a dual carriage on cartesian, "
+                             "hybrid_corexy and hybrid_corexz kinematics only (as Klipper)");
+    }
+    DualCarriage& dc = m.dual_carriage;
+    dc.axis = d.get_choice("axis", "", {"x", "y"});
+    if (dc.axis.empty()) throw Error(ds->where, "[dual_carriage] axis: must be specified (x or y)");
+    dc.position_endstop_mm = d.require_float("position_endstop");
+    dc.position_min_mm = d.get_float("position_min", 0.0);
+    dc.position_max_mm = d.get_float("position_max", {.above = *dc.position_min_mm});
+    if (!dc.position_max_mm) throw Error(ds->where, "[dual_carriage] position_max: must be specified");
+    dc.safe_distance_mm = d.get_float("safe_distance", {.minval = 0.0});
+    dc.homing_speed_mm_s = d.get_float("homing_speed", 5.0, {.above = 0.0});
+    if (CfgSection* ps = doc.find(std::string("stepper_") + dc.axis)) {
+      dc.primary_homing_speed_mm_s = Section(ps, ps->name, file_loc).get_float("homing_speed", 5.0, {.above = 0.0});
+    }
+  }
   // Every section as written: Klipper's printer.configfile and the [gcode_macro] sections,
   // expanded by the macro module (docs/macros.md).
   m.klipper_config = doc.sections;

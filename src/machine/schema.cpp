@@ -25,7 +25,8 @@ constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "juncti
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
 
 constexpr std::string_view kSections[] = {"printer", "marlin", "extruder", "arcs",
-                                          "firmware_retraction", "input_shaper", "delta"};
+                                          "firmware_retraction", "input_shaper", "delta",
+                                          "dual_carriage"};
 
 const std::vector<KeyDef>& key_table() {
   static const std::vector<KeyDef> keys = [] {
@@ -156,6 +157,12 @@ const std::vector<KeyDef>& key_table() {
          "Klipper: largest extrusion cross-section (width x height). Unset = 4 "
          "nozzle_diameter^2.",
          nullptr, AMCTL_OPT(extruder.max_extrude_cross_section_mm2)});
+    add({"printer", "exclude_object", Kind::boolean, Bound::finite, "",
+         "Klipper [exclude_object]: EXCLUDE_OBJECT_DEFINE/_START/_END and EXCLUDE_OBJECT are "
+         "modelled (the moves of excluded objects are not made). false: they are counted as "
+         "ignored commands (a printer.cfg without the section: unknown, as in Klipper).",
+         nullptr, nullptr, nullptr, nullptr, nullptr,
+         [](Machine& m) -> bool& { return m.exclude_object; }});
     // ---- [arcs] ----
     add({"arcs", "enabled", Kind::boolean, Bound::finite, "",
          "G2/G3 (and G17-G19) are commands: false = unknown commands, reported and skipped "
@@ -216,6 +223,32 @@ const std::vector<KeyDef>& key_table() {
     add({"input_shaper", "damping_ratio_y", Kind::number, Bound::ratio, "",
          "Damping ratio the Y shaper is designed for (Klipper damping_ratio_y).",
          AMCTL_NUM(input_shaper.damping_ratio_y)});
+    // ---- [dual_carriage] (IDEX) ----
+    add({"dual_carriage", "axis", Kind::text, Bound::finite, "",
+         "Klipper [dual_carriage] axis: \"x\" or \"y\" for an IDEX (a second carriage on that "
+         "axis, SET_DUAL_CARRIAGE); \"\" = none.",
+         nullptr, nullptr, nullptr, nullptr,
+         [](Machine& m) -> std::string& { return m.dual_carriage.axis; }});
+    add({"dual_carriage", "position_min", Kind::optional_number, Bound::finite, "mm",
+         "Second carriage: lowest position (Klipper position_min; unset = 0).",
+         nullptr, AMCTL_OPT(dual_carriage.position_min_mm)});
+    add({"dual_carriage", "position_max", Kind::optional_number, Bound::finite, "mm",
+         "Second carriage: highest position (Klipper position_max; required with an axis).",
+         nullptr, AMCTL_OPT(dual_carriage.position_max_mm)});
+    add({"dual_carriage", "position_endstop", Kind::optional_number, Bound::finite, "mm",
+         "Second carriage: where G28 parks it (Klipper position_endstop; required with an axis).",
+         nullptr, AMCTL_OPT(dual_carriage.position_endstop_mm)});
+    add({"dual_carriage", "safe_distance", Kind::optional_number, Bound::non_negative, "mm",
+         "Closest approach of the two carriages (Klipper safe_distance; unset = the smaller "
+         "difference of the rails' minima or maxima).",
+         nullptr, AMCTL_OPT(dual_carriage.safe_distance_mm)});
+    add({"dual_carriage", "homing_speed", Kind::number, Bound::positive, "mm/s",
+         "Second carriage's homing speed (Klipper homing_speed).",
+         AMCTL_NUM(dual_carriage.homing_speed_mm_s)});
+    add({"dual_carriage", "primary_homing_speed", Kind::number, Bound::positive, "mm/s",
+         "First carriage's homing speed ([stepper_x] or [stepper_y] homing_speed); "
+         "RESTORE_DUAL_CARRIAGE_STATE moves at the lower of the two.",
+         AMCTL_NUM(dual_carriage.primary_homing_speed_mm_s)});
     // ---- [delta] (kinematics = "delta") ----
     add({"delta", "radius", Kind::optional_number, Bound::positive, "mm",
          "Delta: horizontal distance from the centre to each tower's arm joint (Klipper "

@@ -458,6 +458,8 @@ std::string to_toml(const Machine& machine) {
         m.delta == Delta{}) {
       continue;
     }
+    // [dual_carriage] only for an IDEX.
+    if (section == "dual_carriage" && m.dual_carriage == DualCarriage{}) continue;
     out += fmt::format("\n[{}]\n", section);
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;
@@ -471,7 +473,8 @@ std::string to_toml(const Machine& machine) {
             out += fmt::format("{} = {}{}\n", d.key,
                                detail::format_number(*d.optional_number(m)), unit);
           } else if (d.section != "marlin" && d.section != "delta" &&
-                     d.key != "max_angular_velocity") {  // unset soft endstops, polar-only: nothing written
+                     d.section != "dual_carriage" &&
+                     d.key != "max_angular_velocity") {  // unset soft endstops, delta, IDEX, polar-only: nothing written
             out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
           }
           break;

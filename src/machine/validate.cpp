@@ -102,6 +102,35 @@ void validate(const Machine& machine) {
     throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
                             m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
   }
+  if (const DualCarriage& dc = m.dual_carriage; dc.present()) {
+    if (dc.axis != "x" && dc.axis != "y") {
+      throw Error(fmt::format("dual_carriage.axis must be \"x\", \"y\" or \"\" (none), got \"{}\"", dc.axis));
+    }
+    if (m.kinematics != Kinematics::cartesian && m.kinematics != Kinematics::hybrid_corexy &&
+        m.kinematics != Kinematics::hybrid_corexz) {
+      throw Error("dual_carriage: Klipper supports a dual carriage on cartesian, hybrid_corexy "
+                  "and hybrid_corexz kinematics only");
+    }
+    if (!dc.position_max_mm || !dc.position_endstop_mm) {
+      throw Error("dual_carriage: position_max and position_endstop are required with an axis");
+    }
+    const auto first = m.steppers.find(dc.axis);
+    if (first == m.steppers.end() || !first->second.position_endstop_mm || !first->second.position_max_mm) {
+      throw Error(fmt::format("dual_carriage: stepper_{} (the first carriage's rail) needs "
+                              "position_endstop and position_max",
+                              dc.axis));
+    }
+    const double lo = dc.position_min_mm.value_or(0.0);
+    if (lo >= *dc.position_max_mm) {
+      throw Error(fmt::format("dual_carriage.position_min ({} mm) must be < position_max ({} mm)", lo,
+                              *dc.position_max_mm));
+    }
+    if (*dc.position_endstop_mm < lo || *dc.position_endstop_mm > *dc.position_max_mm) {
+      throw Error(fmt::format("dual_carriage.position_endstop ({} mm) must lie in [position_min, "
+                              "position_max] = [{}, {}] mm",
+                              *dc.position_endstop_mm, lo, *dc.position_max_mm));
+    }
+  }
   // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
   if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
   if (m.kinematics == Kinematics::deltesian) (void)deltesian_geometry(m);

@@ -278,7 +278,7 @@ Value MacroExpander::printer_object(const gcode::InterpreterState& st) const {
   th.set("max_accel", Value::number(toolhead_.max_accel_mm_s2));
   th.set("square_corner_velocity", Value::number(toolhead_.square_corner_velocity_mm_s));
   th.set("minimum_cruise_ratio", Value::number(toolhead_.minimum_cruise_ratio));
-  th.set("extruder", Value::string("extruder"));
+  th.set("extruder", Value::string(st.active_extruder));
   p.set("toolhead", Value::dict(std::move(th)));
 
   Dict gm;
@@ -287,7 +287,7 @@ Value MacroExpander::printer_object(const gcode::InterpreterState& st) const {
   gm.set("extrude_factor", Value::number(st.extrude_factor));
   gm.set("absolute_coordinates", Value::boolean(st.absolute_coordinates));
   gm.set("absolute_extrude", Value::boolean(st.absolute_extrude));
-  gm.set("homing_origin", coord({0.0, 0.0, 0.0, 0.0}));
+  gm.set("homing_origin", coord(st.homing_origin_mm));
   gm.set("position", coord(st.position_mm));
   gm.set("gcode_position", coord(st.gcode_position_mm));
   p.set("gcode_move", Value::dict(std::move(gm)));
@@ -301,6 +301,22 @@ Value MacroExpander::printer_object(const gcode::InterpreterState& st) const {
     d.set("power", Value::number(0.0));
     if (h == "extruder") d.set("can_extrude", Value::boolean(true));
     p.set(h, Value::dict(std::move(d)));
+  }
+  if (st.exclude_object) {
+    // exclude_object.py get_status: objects (each a dict with its name), excluded_objects,
+    // current_object (None outside an object).
+    List objects, excluded;
+    for (const std::string& n : st.objects) {
+      Dict o;
+      o.set("name", Value::string(n));
+      objects.push_back(Value::dict(std::move(o)));
+    }
+    for (const std::string& n : st.excluded_objects) excluded.push_back(Value::string(n));
+    Dict eo;
+    eo.set("objects", Value::list(std::move(objects)));
+    eo.set("excluded_objects", Value::list(std::move(excluded)));
+    eo.set("current_object", st.current_object ? Value::string(*st.current_object) : Value::none());
+    p.set("exclude_object", Value::dict(std::move(eo)));
   }
   p.set("configfile", configfile_);
   for (const Macro& m : macros_) p.set(m.section, Value::dict(m.variables));

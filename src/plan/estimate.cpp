@@ -123,6 +123,35 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
     o.soft_min_mm = m.soft_min_position_mm;
     o.soft_max_mm = m.soft_max_position_mm;
   }
+  // Klipper's [exclude_object]; a printer.cfg without it: EXCLUDE_OBJECT* are unknown there.
+  using ExcludeMode = gcode::InterpreterOptions::ExcludeObjectMode;
+  o.exclude_object = m.exclude_object              ? ExcludeMode::active
+                     : !m.klipper_config.empty()   ? ExcludeMode::unknown
+                                                   : ExcludeMode::ignored;
+  if (const auto& dc = m.dual_carriage; dc.present() && m.firmware == machine::Firmware::klipper) {
+    gcode::InterpreterOptions::DualCarriage d;
+    d.axis = dc.axis == "y" ? 1 : 0;
+    const auto it = m.steppers.find(dc.axis);
+    if (it == m.steppers.end() || !it->second.position_max_mm || !it->second.position_endstop_mm) {
+      throw Error(fmt::format("dual_carriage: stepper_{} needs position_endstop and position_max "
+                              "(the first carriage's rail)",
+                              dc.axis));
+    }
+    const machine::Stepper& first = it->second;
+    d.position_min_mm = {first.position_min_mm.value_or(0.0), dc.position_min_mm.value_or(0.0)};
+    d.position_max_mm = {*first.position_max_mm, *dc.position_max_mm};
+    d.position_endstop_mm = {*first.position_endstop_mm, *dc.position_endstop_mm};
+    // stepper.py: a rail homes towards max when its endstop lies in the top quarter of it.
+    for (std::size_t c = 0; c < 2; ++c) {
+      const double len = d.position_max_mm[c] - d.position_min_mm[c];
+      d.homing_positive_dir[c] = d.position_endstop_mm[c] >= d.position_max_mm[c] - len / 4.0;
+    }
+    d.safe_distance_mm = dc.safe_distance_mm;
+    d.homing_speed_mm_s = {dc.primary_homing_speed_mm_s, dc.homing_speed_mm_s};
+    o.dual_carriage = d;
+    // G28 puts the first carriage at its endstop (other axes keep amctl's G28 at 0).
+    o.home_position_mm[static_cast<std::size_t>(d.axis)] = d.position_endstop_mm[0];
+  }
   return o;
 }
 
@@ -237,6 +266,8 @@ void EstimateSink::finish(const StreamSummary& s) {
   r_.unknown_commands = s.unknown_commands;
   r_.ignored_commands = s.ignored_commands;
   r_.macros = s.macros;
+  r_.excluded_objects = s.excluded_objects;
+  r_.excluded_moves = s.excluded_moves;
   r_.slicer_estimate_s = s.slicer_estimate_s;
   r_.slicer_name = s.slicer_name;
   r_.diagnostics = s.diagnostics;
@@ -261,16 +292,39 @@ EstimateReport run_estimate(PlanSource& source, const machine::Machine& machine,
 
 }  // namespace
 
+/// The time [exclude_object] saved: the file planned again with every move made (only when an
+/// object was excluded, so other files pay nothing).
+double time_without_exclusion(PlanSource& source, const machine::Machine& machine) {
+  EstimateSink sink(machine);
+  Sink* sinks[] = {&sink};
+  run_pipeline(source, sinks);
+  return sink.report().total_time_s;
+}
+
 EstimateReport estimate_file(const std::string& path, const machine::Machine& machine,
                              const EstimateOptions& options) {
   PlanSource source(path, machine, options.source());
-  return run_estimate(source, machine, options);
+  EstimateReport r = run_estimate(source, machine, options);
+  if (!r.excluded_objects.empty() && path != "-") {
+    SourceOptions all = options.source();
+    all.bypass_exclusion = true;
+    PlanSource again(path, machine, all);
+    r.exclusion_time_saved_s = time_without_exclusion(again, machine) - r.total_time_s;
+  }
+  return r;
 }
 
 EstimateReport estimate_text(std::string_view gcode, const std::string& name,
                              const machine::Machine& machine, const EstimateOptions& options) {
   PlanSource source(gcode, name, machine, options.source());
-  return run_estimate(source, machine, options);
+  EstimateReport r = run_estimate(source, machine, options);
+  if (!r.excluded_objects.empty()) {
+    SourceOptions all = options.source();
+    all.bypass_exclusion = true;
+    PlanSource again(gcode, name, machine, all);
+    r.exclusion_time_saved_s = time_without_exclusion(again, machine) - r.total_time_s;
+  }
+  return r;
 }
 
 }  // namespace amctl::plan

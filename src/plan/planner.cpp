@@ -426,7 +426,33 @@ void PlannerCore::post(PendingEvent&& e) {
 
 void PlannerCore::on_dwell(double duration_s, std::uint64_t line) {
   full_stop();
+  if (diag_.moves != rest_moves_) {  // the first dwell since a move: where the rest began
+    rest_moves_ = diag_.moves;
+    rest_from_s_ = timeline_.print_time_s();
+  }
   timeline_.dwell(duration_s, line);
+}
+
+void PlannerCore::step_flush(std::uint64_t line) {
+  full_stop();
+  // motion_queuing.py: after flush_all_steps the step generator has run to the last move's
+  // end + kin_flush_delay, and toolhead._calc_print_time restarts no earlier than that +
+  // kin_flush_delay again; kin_flush_delay is SDS_CHECK_TIME (1 ms) without pressure advance
+  // or input shaping (their scan windows would lengthen it; not modelled). The wait is at
+  // rest, counted with the dwells.
+  // The end of the last move is the print time unless dwells came after it (tracked by
+  // on_dwell, so plain moves pay nothing for this).
+  if (!klipper_ || diag_.moves == 0) return;
+  const double last_move_end_s = diag_.moves == rest_moves_ ? rest_from_s_ : timeline_.print_time_s();
+  const double wait_s = last_move_end_s + 2.0 * kKlipperSdsCheckTime_s - timeline_.print_time_s();
+  if (wait_s > 0.0) on_dwell(wait_s, line);
+}
+
+void PlannerCore::on_axis_range(int axis, double min_mm, double max_mm) {
+  if (!klipper_ || axis < 0 || axis > 2) return;
+  range_min_mm_[static_cast<std::size_t>(axis)] = min_mm;
+  range_max_mm_[static_cast<std::size_t>(axis)] = max_mm;
+  range_active_ = true;
 }
 
 void PlannerCore::on_heater(const gcode::HeaterCommand& cmd) {
@@ -444,10 +470,14 @@ Planner::~Planner() = default;
 void Planner::on_move(const gcode::MoveRequest& move) { core_->on_move(move); }
 void Planner::on_dwell(double duration_s, std::uint64_t line) { core_->on_dwell(duration_s, line); }
 void Planner::on_wait_moves(std::uint64_t /*line*/) { core_->full_stop(); }
+void Planner::on_step_flush(std::uint64_t line) { core_->step_flush(line); }
 void Planner::on_set_position(const std::array<double, 4>& /*pos_mm*/, std::uint64_t /*line*/) {
   core_->full_stop();
 }
 void Planner::on_limits(const gcode::LimitsCommand& cmd) { core_->on_limits(cmd); }
+void Planner::on_axis_range(int axis, double min_mm, double max_mm, std::uint64_t /*line*/) {
+  core_->on_axis_range(axis, min_mm, max_mm);
+}
 void Planner::on_heater(const gcode::HeaterCommand& cmd) { core_->on_heater(cmd); }
 void Planner::on_fan(double fraction, std::uint64_t line) {
   core_->post(detail::PendingEvent::make_fan(fraction, line));

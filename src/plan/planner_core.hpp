@@ -28,6 +28,13 @@ class PlannerCore {
   void on_move(const gcode::MoveRequest& move);
   void on_dwell(double duration_s, std::uint64_t line);
   void on_limits(const gcode::LimitsCommand& cmd);
+  /// An IDEX carriage change: moves on `axis` must end in [min_mm, max_mm] from now on
+  /// (Klipper's kinematics update_limits; ignored on other firmwares).
+  void on_axis_range(int axis, double min_mm, double max_mm);
+  /// Klipper's flush_step_generation: a full stop and the step generator's restart gap.
+  void step_flush(std::uint64_t line);
+  /// Klipper motion_queuing.py SDS_CHECK_TIME [s], the smallest kin_flush_delay.
+  static constexpr double kKlipperSdsCheckTime_s = 0.001;
   void on_heater(const gcode::HeaterCommand& cmd);
   /// Queues a non-motion event behind the moves queued so far.
   void post(PendingEvent&& e);
@@ -100,7 +107,11 @@ class PlannerCore {
   // Marlin soft endstops (clamped). Unset: none.
   std::array<std::optional<double>, 3> range_min_mm_{}, range_max_mm_{};
   bool range_reported_ = false;
-  bool range_active_ = false;          // any limit set (and the firmware uses it)
+  bool range_active_ = false;
+  // Where the toolhead came to rest for the first dwell after the move numbered rest_moves_
+  // (diag_.moves then): step_flush's "end of the last move".
+  std::uint64_t rest_moves_ = 0;
+  double rest_from_s_ = 0.0;          // any limit set (and the firmware uses it)
   gcode::MoveRequest range_scratch_;   // a clamped copy of the current move (Marlin)
   /// Klipper: posts the first out-of-range move. Marlin: clamps into `scratch` and returns it.
   const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);

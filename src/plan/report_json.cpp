@@ -74,6 +74,12 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
     j["range_error"] = nullptr;
   }
   j["clamped_moves"] = r.diagnostics.clamped_moves;
+  Json excluded = Json::array();
+  for (const auto& o : r.excluded_objects) excluded.push_back({{"name", o.name}, {"first_line", o.first_line}});
+  j["excluded_objects"] = std::move(excluded);
+  j["excluded_moves"] = r.excluded_moves;
+  j["exclusion_time_saved_s"] =
+      r.exclusion_time_saved_s ? json_number(*r.exclusion_time_saved_s) : Json(nullptr);
   Json unk = Json::array();
   for (const auto& u : r.unknown_commands) {
     unk.push_back({{"name", u.name}, {"first_line", u.first_line}, {"count", u.count},

@@ -87,6 +87,7 @@ struct PlanSource::Impl {
         planner(machine, writer, o.planner) {
     summary.file = reader->name();
     summary.machine_name = machine.name;
+    interp.set_exclusion_bypassed(o.bypass_exclusion);
     if (!machine.klipper_config.empty()) {
       macros.emplace(machine.klipper_config, toolhead_info(machine));
       if (macros->empty()) {
@@ -137,6 +138,8 @@ void PlanSource::Impl::close() {
   summary.unknown_commands = interp.unknown_commands();
   summary.ignored_commands = interp.ignored_commands();
   if (macros) summary.macros = macros->reports();
+  summary.excluded_objects = interp.excluded_objects();
+  summary.excluded_moves = interp.excluded_moves();
   summary.slicer_estimate_s = interp.annotations().slicer_estimate_s;
   summary.slicer_name = interp.annotations().slicer_name;
   summary.diagnostics = planner.diagnostics();

@@ -69,11 +69,20 @@ class EventSink {
   virtual void on_dwell(double duration_s, std::uint64_t line) { (void)duration_s; (void)line; }
   /// M400 and anything else that waits for moves to finish (full stop).
   virtual void on_wait_moves(std::uint64_t line) { (void)line; }
+  /// Klipper's flush_step_generation (SET_DUAL_CARRIAGE, ACTIVATE_EXTRUDER of another
+  /// extruder): a full stop after which the next move cannot start before the step
+  /// generator has restarted (toolhead.py / motion_queuing.py). Default: a full stop.
+  virtual void on_step_flush(std::uint64_t line) { on_wait_moves(line); }
   /// The machine position was redefined with motion stopped (G28, SET_KINEMATIC_POSITION).
   virtual void on_set_position(const std::array<double, 4>& pos_mm, std::uint64_t line) {
     (void)pos_mm; (void)line;
   }
   virtual void on_limits(const LimitsCommand& cmd) { (void)cmd; }
+  /// The range [min_mm, max_mm] a move on `axis` (0 X, 1 Y) must end in from now on: an IDEX
+  /// whose active carriage or mode changed (Klipper's get_kin_range, idex_modes.py).
+  virtual void on_axis_range(int axis, double min_mm, double max_mm, std::uint64_t line) {
+    (void)axis; (void)min_mm; (void)max_mm; (void)line;
+  }
   virtual void on_heater(const HeaterCommand& cmd) { (void)cmd; }
   /// M106/M107: fan speed 0..1.
   virtual void on_fan(double fraction, std::uint64_t line) { (void)fraction; (void)line; }

@@ -6,8 +6,10 @@
 // (amctl/macro/expander.hpp); the gcode module knows only this interface.
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "amctl/gcode/command.hpp"
 
@@ -27,6 +29,12 @@ struct InterpreterState {
   double hotend_target_c = 0.0;               ///< last M104/M109 (or SET_HEATER_TEMPERATURE)
   double bed_target_c = 0.0;                  ///< last M140/M190
   double chamber_target_c = 0.0;              ///< last M141/M191
+  std::array<double, 4> homing_origin_mm{};   ///< SET_GCODE_OFFSET (gcode_move.homing_origin)
+  std::string active_extruder = "extruder";   ///< ACTIVATE_EXTRUDER (printer.toolhead.extruder)
+  /// Klipper printer.exclude_object, present only with [exclude_object] (names upper case).
+  bool exclude_object = false;
+  std::vector<std::string> objects, excluded_objects;
+  std::optional<std::string> current_object;
 };
 
 /// What an expander made of one command.

@@ -63,6 +63,25 @@ struct InterpreterOptions {
   /// is not clamped; M211 S0 / S1 switch the clamping off / on. Firmware-retraction moves
   /// are not clamped.
   std::array<std::optional<double>, 3> soft_min_mm{}, soft_max_mm{};
+  /// Klipper's EXCLUDE_OBJECT_* commands (klippy/extras/exclude_object.py): `ignored` counts
+  /// them as commands with no time effect (TOML machines, presets: as before issue 14);
+  /// `unknown` reports them as unknown (a printer.cfg without [exclude_object], where Klipper
+  /// answers "Unknown command"); `active` models them: the moves of an excluded object are
+  /// not made (docs/gcode.md, "Excluded objects").
+  enum class ExcludeObjectMode : std::uint8_t { ignored, unknown, active };
+  ExcludeObjectMode exclude_object = ExcludeObjectMode::ignored;
+  /// A Klipper [dual_carriage] (IDEX, klippy/kinematics/idex_modes.py): two carriages on
+  /// `axis`, index 0 the [stepper_x] (or _y) rail, 1 the [dual_carriage] rail. Unset: none.
+  struct DualCarriage {
+    int axis = 0;  ///< 0 = X, 1 = Y
+    std::array<double, 2> position_min_mm{}, position_max_mm{}, position_endstop_mm{};
+    std::array<bool, 2> homing_positive_dir{};
+    /// Klipper homing_speed of each rail: RESTORE_DUAL_CARRIAGE_STATE moves at the lower one.
+    std::array<double, 2> homing_speed_mm_s{5.0, 5.0};
+    /// Klipper safe_distance; unset: min(|min0 - min1|, |max0 - max1|) (idex_modes.py).
+    std::optional<double> safe_distance_mm;
+  };
+  std::optional<DualCarriage> dual_carriage;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -72,6 +91,12 @@ struct Annotations {
   std::uint16_t feature = 0;
   std::optional<double> slicer_estimate_s;
   std::string slicer_name;  ///< "PrusaSlicer", "Cura", ... when recognised
+};
+
+/// An object excluded with EXCLUDE_OBJECT (or M486 through a macro) at some point of the file.
+struct ExcludedObject {
+  std::string name;             ///< upper case, as Klipper stores it
+  std::uint64_t first_line = 0;  ///< line of its first exclusion
 };
 
 /// One entry per distinct unknown command name: first place seen and how often.
@@ -104,6 +129,13 @@ class Interpreter {
   [[nodiscard]] const std::map<std::string, std::uint64_t>& ignored_commands() const { return ignored_; }
   [[nodiscard]] std::uint64_t skipped_lines() const { return skipped_lines_; }
   [[nodiscard]] const std::array<double, 4>& machine_position_mm() const { return pos_; }
+  /// Objects excluded (in order of first exclusion; a later EXCLUDE_OBJECT RESET=1 does not
+  /// remove them here) and the moves not made because they lay in an excluded object.
+  [[nodiscard]] const std::vector<ExcludedObject>& excluded_objects() const { return exclude_.ever_excluded; }
+  [[nodiscard]] std::uint64_t excluded_moves() const { return exclude_.skipped_moves; }
+  /// Counts EXCLUDE_OBJECT commands but makes every move, as if no object were excluded
+  /// (for the time saved by exclusion: the same file planned both ways).
+  void set_exclusion_bypassed(bool bypass) { exclude_.bypass = bypass; }
 
  private:
   /// The fast path for plain "G0/G1 X Y Z E F [; comment]" lines: true when it handled the
@@ -139,6 +171,25 @@ class Interpreter {
   /// The same from the X Y Z E values (`value[0..3]`) given in the bit mask `axes`.
   [[nodiscard]] std::array<double, 4> modal_target(unsigned axes, const double* value,
                                                    std::array<double, 4>& new_gcode) const;
+  // Klipper state commands (klipper_state.cpp): SAVE/RESTORE_GCODE_STATE, ACTIVATE_EXTRUDER,
+  // EXCLUDE_OBJECT_* (the move transform) and SET_DUAL_CARRIAGE / *_DUAL_CARRIAGE_STATE.
+  /// True when `name` is one of those commands and it was handled.
+  bool handle_klipper_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void save_gcode_state(const Command& cmd, std::uint64_t line_no);
+  void restore_gcode_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void set_gcode_offset(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void exclude_object_command(const Command& cmd, std::uint64_t line_no);
+  /// Klipper's exclude_object move transform: the move to `target` (pre-transform machine
+  /// coordinates) made, shifted or skipped.
+  void exclude_move(const std::array<double, 4>& target, const MoveRequest& proto, EventSink& sink);
+  /// After G28 / SET_KINEMATIC_POSITION changed pos_ on the axes in `axes` (bit mask).
+  void after_position_set(unsigned axes);
+  void dual_carriage_command(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  /// G28 of the dual-carriage axis: both carriages home, carriage 0 ends active.
+  void home_dual_carriage();
+  /// Klipper's get_kin_range for the dual-carriage axis, sent to the sink as its range.
+  void send_carriage_range(std::uint64_t line_no, EventSink& sink);
+  void update_path_choice();
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;
@@ -162,6 +213,41 @@ class Interpreter {
   double hop_from_z_mm_ = 0.0;  // machine Z before that hop
   unsigned homed_axes_ = 0;       // bit 0 X, 1 Y, 2 Z: homed by G28 (printer.toolhead.homed_axes; Marlin's soft endstops apply)
   std::array<double, 3> heater_target_c_{};  // hotend, bed, chamber
+  // SAVE_GCODE_STATE (Klipper gcode_move.py): what RESTORE_GCODE_STATE gives back. Base
+  // position = machine - gcode position (XYZ); E as the file's own coordinate.
+  struct SavedGcodeState {
+    bool absolute_xyz = true, absolute_e = true;
+    std::array<double, 4> position_mm{}, gcode_position_mm{};
+    double feed_mm_s = 25.0, speed_factor = 1.0, extrude_factor = 1.0;
+    std::array<double, 4> homing_offset_mm{};
+  };
+  std::array<double, 4> homing_offset_mm_{};  // SET_GCODE_OFFSET (Klipper's homing_position)
+  std::map<std::string, SavedGcodeState, std::less<>> saved_states_;
+  std::string active_extruder_ = "extruder";  // ACTIVATE_EXTRUDER (printer.toolhead.extruder)
+  // Klipper exclude_object.py: the objects, and its move transform once registered.
+  struct ExcludeObjects {
+    std::vector<std::string> objects, excluded;  // sorted, upper case
+    std::optional<std::string> current;
+    bool transform = false;     // registered by the first exclusion
+    bool bypass = false;        // set_exclusion_bypassed
+    bool in_excluded_region = false;
+    int initial_extrusion_moves = 5;
+    std::array<double, 4> toolhead_mm{};  // where the toolhead is (pos_ is gcode_move's)
+    std::array<double, 4> offset_mm{}, last_extruded_mm{}, last_excluded_mm{};
+    double max_extruded_mm = 0.0, max_excluded_mm = 0.0, extruder_adj_mm = 0.0;
+    std::uint64_t skipped_moves = 0;
+    std::vector<ExcludedObject> ever_excluded;
+  } exclude_;
+  // Klipper idex_modes.py: per carriage its mode and axis transform (carriage position =
+  // toolhead position * scale + offset; an inactive carriage has scale 0).
+  enum class CarriageMode : std::uint8_t { inactive, primary, copy, mirror };
+  struct Carriage {
+    CarriageMode mode = CarriageMode::inactive;
+    double scale = 0.0, offset_mm = 0.0;
+  };
+  std::array<Carriage, 2> carriages_{};
+  std::map<std::string, std::array<Carriage, 2>, std::less<>> saved_carriages_;
+  std::map<std::string, std::array<double, 4>, std::less<>> saved_carriage_pos_;
   CommandExpander* expander_ = nullptr;
   bool general_path_only_ = false;  // the expander may take G0/G1
   Annotations notes_;

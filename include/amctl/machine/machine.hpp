@@ -191,6 +191,24 @@ struct Carriage {
   bool operator==(const Carriage&) const = default;
 };
 
+/// Klipper [dual_carriage] (IDEX, klippy/kinematics/idex_modes.py): a second carriage on X or
+/// Y with its own rail. The first carriage's rail is [stepper_x] (or _y) of `steppers`.
+struct DualCarriage {
+  std::string axis;  ///< "" = no dual carriage; "x" or "y"
+  /// The second carriage's rail (machine coordinates); position_min defaults to 0 and
+  /// position_endstop and position_max are required, as in Klipper.
+  std::optional<double> position_min_mm, position_max_mm, position_endstop_mm;
+  /// Klipper safe_distance (the closest the carriages may come); unset: the smaller
+  /// difference of the rails' minima or maxima (0 = no collision check), as Klipper.
+  std::optional<double> safe_distance_mm;
+  /// homing_speed of the second rail and of the first one: RESTORE_DUAL_CARRIAGE_STATE moves
+  /// at the lower of the two (Klipper's default is 5 mm/s).
+  double homing_speed_mm_s = 5.0;
+  double primary_homing_speed_mm_s = 5.0;
+  [[nodiscard]] bool present() const { return !axis.empty(); }
+  bool operator==(const DualCarriage&) const = default;
+};
+
 struct Machine {
   std::string name = "default";
   Firmware firmware = Firmware::klipper;
@@ -236,6 +254,10 @@ struct Machine {
   FirmwareRetraction firmware_retraction;
   InputShaper input_shaper;
   Delta delta;
+  DualCarriage dual_carriage;
+  /// Klipper [exclude_object]: EXCLUDE_OBJECT_* commands skip the moves of excluded objects
+  /// (a printer.cfg without the section: they are unknown commands, as in Klipper).
+  bool exclude_object = false;
   /// Keyed "x", "y", "z", "e" (plus "z1", "z2", ... for extra motors on one axis); a delta's
   /// towers are "a", "b", "c"; a polar printer's "bed", "arm", "z"; a generic_cartesian's by
   /// their names. The polar bed and the rotary delta's arms turn: their rotation_distance is

@@ -98,6 +98,14 @@ struct EstimateReport {
   std::map<std::string, std::uint64_t> ignored_commands;
   /// Klipper macros called: expanded (their moves are in the times) or skipped, and why.
   std::vector<macro::MacroReport> macros;
+  /// Klipper [exclude_object]: the objects EXCLUDE_OBJECT excluded (each once, in order of
+  /// first exclusion), the moves that were therefore not made, and the print time that saved:
+  /// total_time_s of the same file with every move made, less total_time_s (estimate_file /
+  /// estimate_text plan the file a second time for it, only when an object was excluded;
+  /// unset from standard input or a bare EstimateSink).
+  std::vector<gcode::ExcludedObject> excluded_objects;
+  std::uint64_t excluded_moves = 0;
+  std::optional<double> exclusion_time_saved_s;
   std::optional<double> slicer_estimate_s;
   std::string slicer_name;
   std::vector<Checkpoint> checkpoints;

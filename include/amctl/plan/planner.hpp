@@ -111,8 +111,10 @@ class Planner final : public gcode::EventSink {
   void on_move(const gcode::MoveRequest& move) override;
   void on_dwell(double duration_s, std::uint64_t line) override;
   void on_wait_moves(std::uint64_t line) override;
+  void on_step_flush(std::uint64_t line) override;
   void on_set_position(const std::array<double, 4>& pos_mm, std::uint64_t line) override;
   void on_limits(const gcode::LimitsCommand& cmd) override;
+  void on_axis_range(int axis, double min_mm, double max_mm, std::uint64_t line) override;
   void on_heater(const gcode::HeaterCommand& cmd) override;
   void on_fan(double fraction, std::uint64_t line) override;
   void on_input_shaping(const gcode::InputShapingCommand& cmd) override;

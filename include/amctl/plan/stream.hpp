@@ -89,6 +89,9 @@ struct StreamSummary {
   std::map<std::string, std::uint64_t> ignored_commands;
   /// Klipper macros called, expanded or skipped (printer.cfg [gcode_macro]; docs/macros.md).
   std::vector<macro::MacroReport> macros;
+  /// Klipper [exclude_object]: objects excluded at some point, and the moves not made.
+  std::vector<gcode::ExcludedObject> excluded_objects;
+  std::uint64_t excluded_moves = 0;
   std::optional<double> slicer_estimate_s;
   std::string slicer_name;
   PlannerDiagnostics diagnostics;
@@ -121,6 +124,9 @@ struct SourceOptions {
   /// Moves per batch: filling stops once the batch holds this many (one G-code line may add a
   /// whole look-ahead flush beyond it; the last batch may hold fewer). Events do not count.
   std::size_t batch_moves = 4096;
+  /// Klipper [exclude_object]: make the moves of excluded objects anyway (EXCLUDE_OBJECT is
+  /// still read and reported). The estimate plans a file both ways for the time exclusion saves.
+  bool bypass_exclusion = false;
 };
 
 /// Interpreter options implied by a machine (arcs, firmware retraction).

@@ -1,0 +1,79 @@
+#!/usr/bin/env python3
+"""Measures Klipper's own print time (batch mode) for SAVE_/RESTORE_GCODE_STATE,
+[exclude_object], an IDEX ([dual_carriage]) and a print with start/end macros (README.md,
+"G-code state, exclude_object and IDEX").
+
+Usage (Debian's python3; Klipper needs python3-greenlet, -cffi, -serial, -jinja2):
+    /usr/bin/python3 gstate_times.py KLIPPER_DIR KLIPPER_DICT > klipper_times_gstate.json
+
+Each case is a printer.cfg of this directory, a set-up that is not timed (G28: Klipper's
+homing moves take time amctl does not count) and an input. Klipper reads the set-up, `M400`, a
+REPORT_PRINT_TIME mark (a [gcode_macro] of the cfg printing printer.toolhead.print_time), the
+input, `M400` and a second mark; the difference is Klipper's motion time (`motion_stock_s`,
+unmodified batch mode). A `!!` error or "out of range" in Klipper's log fails the run. amctl
+reads the set-up and the input (tests/plan/klipper_gstate_test.cpp).
+"""
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+# (key, cfg, set-up, input[, tolerance_s]): paths relative to this directory.
+CASES = [
+    ("cartesian/syn_gcode_state", "gstate_cartesian.cfg", "G28\n", "syn_gcode_state.gcode"),
+    ("cartesian/syn_exclude_object", "gstate_cartesian.cfg", "G28\n", "syn_exclude_object.gcode"),
+    ("idex_cartesian/syn_idex", "idex_cartesian.cfg", "G28\n", "syn_idex.gcode"),
+    ("idex_hybrid_corexy/syn_idex", "idex_hybrid_corexy.cfg", "G28\n", "syn_idex.gcode"),
+    # A print whose start and end G-code are macros (tests/reference/macro: PRINT_START with a
+    # heat soak and a purge line, a renamed M109, PRINT_END). Batch mode skips heater waits
+    # without stopping the toolhead (heaters.py returns at once with debug output); a printer
+    # stops for M109, and so does amctl: 2.3 ms here (docs/macros.md).
+    ("macro/print", "../macro/klipper_batch.cfg", "SET_KINEMATIC_POSITION X=120 Y=120 Z=120\n",
+     "../macro/print.gcode", 0.005),
+]
+
+MARK = re.compile(r"REPORT_PRINT_TIME tag=(\w+) print_time=([0-9.]+)")
+
+
+def run(klipper, dictionary, cfg, setup, source):
+    with open(os.path.join(HERE, source), encoding="utf-8") as f:
+        body = f.read()
+    with tempfile.TemporaryDirectory() as tmp:
+        gcode = os.path.join(tmp, "in.gcode")
+        log = os.path.join(tmp, "klippy.log")
+        with open(gcode, "w") as f:
+            f.write(setup + "M400\nREPORT_PRINT_TIME TAG=start\n" + body +
+                    "\nM400\nREPORT_PRINT_TIME TAG=end\n")
+        subprocess.run(["/usr/bin/python3", os.path.join(klipper, "klippy", "klippy.py"),
+                        os.path.join(HERE, cfg), "-i", gcode, "-o", "/dev/null", "-d", dictionary,
+                        "-l", log], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(log, errors="replace") as f:
+            text = f.read()
+    errors = [l for l in text.splitlines() if l.startswith("!! ") or "out of range" in l]
+    if errors:
+        raise SystemExit(f"{cfg} {source}: Klipper reported {errors[:3]}")
+    marks = dict(MARK.findall(text))
+    if "start" not in marks or "end" not in marks:
+        raise SystemExit(f"{cfg} {source}: no time marks in Klipper's log")
+    return float(marks["end"]) - float(marks["start"])
+
+
+def main():
+    klipper, dictionary = sys.argv[1:3]
+    commit = subprocess.run(["git", "-C", klipper, "rev-parse", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    out = {"klipper_commit": commit}
+    for key, cfg, setup, source, *tolerance in CASES:
+        out[key] = {"motion_stock_s": run(klipper, dictionary, cfg, setup, source),
+                    "cfg": cfg, "setup": setup, "input": source,
+                    "tolerance_s": tolerance[0] if tolerance else 1e-6}
+    json.dump(out, sys.stdout, indent=1, sort_keys=True)
+    print()
+
+
+if __name__ == "__main__":
+    main()
