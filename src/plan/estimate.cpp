@@ -119,6 +119,19 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
     // cartesian-like machine in amctl.
     o.home_position_mm = {machine::polar_geometry(m).arm_endstop_mm, 0.0, 0.0};
   }
+  using K = machine::Kinematics;
+  if (m.firmware == machine::Firmware::klipper &&
+      (m.kinematics == K::cartesian || m.kinematics == K::corexy || m.kinematics == K::corexz ||
+       m.kinematics == K::hybrid_corexy || m.kinematics == K::hybrid_corexz)) {
+    // Klipper's homing (homing.py home_rails via cartesian.py, corexy.py, ...): a homed axis
+    // ends at its rail's position_endstop, in toolhead coordinates on every one of these.
+    for (std::size_t a = 0; a < 3; ++a) {
+      const auto it = m.steppers.find(std::string(1, "xyz"[a]));
+      if (it != m.steppers.end() && it->second.position_endstop_mm) {
+        o.home_position_mm[a] = *it->second.position_endstop_mm;
+      }
+    }
+  }
   if (m.firmware == machine::Firmware::marlin) {
     o.soft_min_mm = m.soft_min_position_mm;
     o.soft_max_mm = m.soft_max_position_mm;

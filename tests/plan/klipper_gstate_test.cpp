@@ -26,6 +26,22 @@ std::string slurp(const std::string& path) {
   return s.str();
 }
 
+TEST(KlipperHoming, G28EndsAtEachRailsPositionEndstop) {
+  // homing.py: a homed axis ends at its rail's position_endstop (cartesian.py, corexy.py).
+  // X homes to its maximum, 120: `G1 X100` is then a 20 mm move, not 100 mm. At 100 mm/s and
+  // 3000 mm/s^2 it cruises (v^2 / a = 3.33 mm < 20 mm): T = d / v + v / a
+  // = 0.2 + 0.0333 = 0.23333 s; from 0 it would be 1.0333 s.
+  const std::string cfg =
+      "[printer]\nkinematics: corexy\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\nposition_endstop: 120\n"
+      "position_max: 120\n"
+      "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\nposition_endstop: 0\n"
+      "position_max: 120\n";
+  const auto m = machine::parse_klipper_cfg(cfg, "p.cfg");
+  const auto r = estimate_text("G28\nG1 X100 F6000\n", "home", m);
+  EXPECT_NEAR(r.total_time_s, 0.2 + 100.0 / 3000.0, 1e-9);
+}
+
 TEST(KlipperGcodeState, MatchesKlippersBatchMode) {
   const auto times = nlohmann::json::parse(slurp(kDir + "klipper_times_gstate.json"));
   int compared = 0;
