@@ -66,6 +66,7 @@ Interpreter::Interpreter(InterpreterOptions options, std::string source_name)
   // idex_modes.py: each pair starts with its first carriage PRIMARY, the second parked at 0.
   carriages_.assign(opt_.dual_carriages.size(),
                     {Carriage{CarriageMode::primary, 1.0, 0.0}, Carriage{}});
+  stepper_carriages_ = opt_.stepper_carriages;
   require_positive("arcs.mm_per_arc_segment", opt_.mm_per_arc_segment);
   require_non_negative("arcs.min_arc_segment_mm", opt_.min_arc_segment_mm);
   require_non_negative("arcs.max_arc_segment_mm", opt_.max_arc_segment_mm);

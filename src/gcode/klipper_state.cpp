@@ -7,6 +7,7 @@
 //  - SET_DUAL_CARRIAGE, SAVE_ / RESTORE_DUAL_CARRIAGE_STATE (klippy/kinematics/idex_modes.py).
 // docs/gcode.md ("Klipper state commands") gives the rules with their sources.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -82,6 +83,10 @@ bool Interpreter::handle_klipper_state(const Command& cmd, std::uint64_t line_no
         exclude_object_command(cmd, line_no);
         break;
     }
+    return true;
+  }
+  if (!stepper_carriages_.empty() && iequals(name, "SET_STEPPER_CARRIAGES")) {
+    set_stepper_carriages(cmd, line_no, sink);
     return true;
   }
   if (!opt_.dual_carriages.empty() &&
@@ -630,6 +635,48 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
     cs[other] = Carriage{saved[pair][other].mode, s, end[pair][other] - pos_[axis] * s};
     send_carriage_range(pair, line_no, sink);
   }
+}
+
+// ---- SET_STEPPER_CARRIAGES (generic_cartesian.py) ------------------------------------------------
+
+void Interpreter::set_stepper_carriages(const Command& cmd, std::uint64_t line_no,
+                                        EventSink& sink) {
+  // Klipper flushes the step generation, then changes the stepper's coefficients; the
+  // toolhead does not move, so only the flush costs time.
+  sink.on_step_flush(line_no);
+  std::uint32_t col = cmd.args_column;
+  const auto stepper = text_arg(cmd, "STEPPER", &col);
+  if (!stepper) fail(line_no, cmd.args_column, "SET_STEPPER_CARRIAGES: STEPPER must be specified");
+  // Klipper matches the full name ("stepper a") or the short one ("a").
+  std::string key = *stepper;
+  if (key.rfind("stepper ", 0) == 0) key = key.substr(8);
+  const auto it = stepper_carriages_.find(key);
+  if (it == stepper_carriages_.end()) {
+    fail(line_no, col, fmt::format("SET_STEPPER_CARRIAGES: invalid STEPPER '{}' specified (Klipper "
+                                   "stops with this error)",
+                                   *stepper));
+  }
+  const auto carriages = text_arg(cmd, "CARRIAGES", &col);
+  if (!carriages) {
+    fail(line_no, cmd.args_column, "SET_STEPPER_CARRIAGES: CARRIAGES must be specified");
+  }
+  std::string expr = *carriages;
+  for (char& ch : expr) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  bool full = true;
+  std::uint32_t dcol = 0;
+  if (auto d = text_arg(cmd, "DISABLE_CHECKS", &dcol)) {
+    double v = 0.0;
+    if (parse_float_value(*d, v) != d->size() || v != std::floor(v)) {
+      fail(line_no, dcol,
+           fmt::format("SET_STEPPER_CARRIAGES DISABLE_CHECKS= expects an integer, found '{}'", *d));
+    }
+    full = v == 0.0;
+  }
+  if (opt_.check_stepper_carriages) {
+    const std::string why = opt_.check_stepper_carriages(stepper_carriages_, key, expr, full);
+    if (!why.empty()) fail(line_no, col, fmt::format("SET_STEPPER_CARRIAGES: {}", why));
+  }
+  it->second = expr;
 }
 
 }  // namespace amctl::gcode

@@ -176,6 +176,15 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
       }
       o.home_position_mm[static_cast<std::size_t>(c.axis[0] - 'x')] = *c.position_endstop_mm;
     }
+    // SET_STEPPER_CARRIAGES: the expressions as configured, checked as Klipper checks them.
+    for (const auto& [name, s] : m.steppers) {
+      if (!s.carriages.empty()) o.stepper_carriages[name] = s.carriages;
+    }
+    o.check_stepper_carriages = [m](const std::map<std::string, std::string, std::less<>>& now,
+                                    const std::string& stepper, const std::string& expr,
+                                    bool full) {
+      return machine::stepper_carriages_error(m, now, stepper, expr, full);
+    };
     // IDEX (idex_modes.py through generic_cartesian.py): one pair per [dual_carriage NAME]
     // with its primary carriage. A dual carriage without primary_carriage (a second pair on
     // one axis) is not modelled: all dual carriages then stay parked, as before.

@@ -6,6 +6,7 @@
 // (PrusaSlicer/SuperSlicer, Cura, OrcaSlicer/Bambu, ideaMaker).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -88,6 +89,17 @@ struct InterpreterOptions {
   };
   /// The pairs, at most one per axis, in Klipper's order (the X pair first); empty: none.
   std::vector<DualCarriage> dual_carriages;
+  /// Klipper generic_cartesian's SET_STEPPER_CARRIAGES (generic_cartesian.py): each
+  /// stepper's `carriages` expression as configured, by the word after "stepper"; empty: the
+  /// command is unknown (any other printer).
+  std::map<std::string, std::string, std::less<>> stepper_carriages;
+  /// Klipper's checks of SET_STEPPER_CARRIAGES STEPPER=`stepper` CARRIAGES=`expr` given the
+  /// expressions in force (`now`): empty when accepted, else the reason. `full` false:
+  /// DISABLE_CHECKS=1 (the expression is still read and must name the same carriages in the
+  /// same order). Unset: every change is accepted.
+  std::function<std::string(const std::map<std::string, std::string, std::less<>>& now,
+                            const std::string& stepper, const std::string& expr, bool full)>
+      check_stepper_carriages;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -191,6 +203,7 @@ class Interpreter {
   /// After G28 / SET_KINEMATIC_POSITION changed pos_ on the axes in `axes` (bit mask).
   void after_position_set(unsigned axes);
   void dual_carriage_command(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void set_stepper_carriages(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   /// G28 of a dual-carriage axis (pair index): both carriages home, carriage 0 ends active.
   void home_dual_carriage(std::size_t pair);
   /// Klipper's get_kin_range for the axis of a pair, sent to the sink as its range.
@@ -254,6 +267,7 @@ class Interpreter {
   std::vector<std::array<Carriage, 2>> carriages_;  // one per opt_.dual_carriages pair
   std::map<std::string, std::vector<std::array<Carriage, 2>>, std::less<>> saved_carriages_;
   std::map<std::string, std::array<double, 4>, std::less<>> saved_carriage_pos_;
+  std::map<std::string, std::string, std::less<>> stepper_carriages_;  // SET_STEPPER_CARRIAGES
   CommandExpander* expander_ = nullptr;
   bool general_path_only_ = false;  // the expander may take G0/G1
   Annotations notes_;

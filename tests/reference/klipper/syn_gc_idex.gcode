@@ -1,7 +1,8 @@
 ; generic_cartesian dual carriages on X and Y (idex_modes.py through generic_cartesian.py):
 ; carriage_x/_y print, T1 parks them and brings carriage_u/_v from their endstops (300, 200),
 ; back to T0; SAVE_/RESTORE_DUAL_CARRIAGE_STATE moves both axes' carriages back in one move;
-; COPY on X, MIRROR on Y, then PRIMARY again.
+; COPY on X, MIRROR on Y, then PRIMARY again; SET_STEPPER_CARRIAGES swaps belts a and c (the
+; first change alone would not move X and Y independently: DISABLE_CHECKS=1).
 G90
 M83
 G1 X50 Y50 Z0.3 F9000
@@ -39,3 +40,6 @@ RESTORE_DUAL_CARRIAGE_STATE MOVE_SPEED=100
 G1 X65 Y50 F6000
 RESTORE_DUAL_CARRIAGE_STATE MOVE=0
 G1 X50 Y50 F6000
+SET_STEPPER_CARRIAGES STEPPER=a CARRIAGES=carriage_x-carriage_y DISABLE_CHECKS=1
+SET_STEPPER_CARRIAGES STEPPER=c CARRIAGES=carriage_x+carriage_y
+G1 X80 Y80 E1 F1800
