@@ -73,8 +73,10 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
       const char key[2] = {"XYZ"[a], 0};
       double v = number_arg(key, has);
       if (has) {
+        // gcode_move.py keeps base_position: the file's coordinate keeps its G92 offset.
+        const double base = pos_[a] - gcode_pos_[a];
         pos_[a] = v;
-        gcode_pos_[a] = v;
+        gcode_pos_[a] = v - base;
       }
     }
     homed_axes_ = 0x7u;  // Klipper marks the axes homed

@@ -103,6 +103,16 @@ Json to_json(const Machine& m) {
     if (s.upper_arm_length_mm) steppers[name]["upper_arm_length"] = *s.upper_arm_length_mm;
     if (s.lower_arm_length_mm) steppers[name]["lower_arm_length"] = *s.lower_arm_length_mm;
     if (!s.carriages.empty()) steppers[name]["carriages"] = s.carriages;
+    // Motor, driver and drive-train keys (step-level physics), only when set.
+    const std::pair<const char*, const std::optional<double>*> motor[] = {
+        {"run_current", &s.run_current_a},       {"supply_voltage", &s.supply_voltage_v},
+        {"holding_torque", &s.holding_torque_n_m}, {"rated_current", &s.rated_current_a},
+        {"phase_resistance", &s.phase_resistance_ohm}, {"phase_inductance", &s.phase_inductance_h},
+        {"rotor_inertia", &s.rotor_inertia_kg_m2}, {"detent_torque", &s.detent_torque_n_m},
+        {"backlash", &s.backlash_mm}};
+    for (const auto& [key, v] : motor) {
+      if (*v) steppers[name][key] = **v;
+    }
   }
   j["steppers"] = steppers;
   if (m.kinematics == Kinematics::generic_cartesian) {

@@ -268,7 +268,15 @@ class Section {
     return x;
   }
   double get_float(std::string_view key, double def, const Limits& lim = {}) const {
-    return get_float(key, lim).value_or(def);
+    if (auto x = get_float(key, lim)) return *x;
+    if (s_ != nullptr) {
+      // Klipper's configfile.settings holds the defaults its modules read: the value as Python
+      // prints a float (repr), for the macros that read it.
+      std::string text = fmt::format("{}", def);
+      if (text.find_first_of(".en") == std::string::npos) text += ".0";
+      s_->defaults.emplace(std::string(key), std::move(text));
+    }
+    return def;
   }
   double require_float(std::string_view key, const Limits& lim = {}) const {
     if (auto x = get_float(key, lim)) return *x;

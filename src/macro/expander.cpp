@@ -166,6 +166,11 @@ MacroExpander::MacroExpander(std::span<const ConfigSection> config, const Toolhe
       typed.set(key, setting(value.text));
       text.set(key, Value::string(value.text));
     }
+    // settings also holds the defaults the reader took (configfile.py access tracking);
+    // config only what the file writes.
+    for (const auto& [key, value] : s.defaults) {
+      if (s.options.count(key) == 0) typed.set(key, setting(value));
+    }
     settings.set(lower(s.name), Value::dict(std::move(typed)));
     raw.set(lower(s.name), Value::dict(std::move(text)));
     if (s.name == "extruder" || s.name == "heater_bed") heaters_.push_back(s.name);

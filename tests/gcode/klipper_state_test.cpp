@@ -59,6 +59,15 @@ Run run(std::string_view text, InterpreterOptions o = {}) {
 // ---- SAVE_GCODE_STATE / RESTORE_GCODE_STATE
 // ------------------------------------------------------
 
+TEST(GcodeState, SetKinematicPositionKeepsTheG92Offset) {
+  // gcode_move.py: SET_KINEMATIC_POSITION moves the toolhead's idea of where it is; the G92
+  // base stays. At X0, G92 X10 makes the base -10; SET_KINEMATIC_POSITION X=0 leaves the head
+  // at 0 with the file at 10; G1 X20 then goes to 20 - 10 = 10 mm.
+  const auto r = run("G90\nG92 X10\nSET_KINEMATIC_POSITION X=0\nG1 X20 F600\n");
+  ASSERT_EQ(r.r.moves.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.r.moves[0].end_mm[0], 10.0);
+}
+
 TEST(GcodeState, KlippersCommandsTestSequenceMakesNoMove) {
   // Klipper's test/klippy/commands.test: every G1 after a restore lands where the toolhead is
   // (G92 Z-5 puts the base at Z 5; the restores bring back G90 and that base, then the base

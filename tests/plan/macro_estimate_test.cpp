@@ -3,6 +3,7 @@
 // timed as the same print with the macros expanded by the real Jinja2
 // (tests/reference/macro/expand_reference.py wrote print_expanded.gcode) on the printer
 // without macros.
+#include <cmath>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -43,6 +44,30 @@ TEST(MacroEstimate, MacrosAreTimedAsTheirJinja2Expansion) {
   const EstimateReport c = estimate_file(kDir + "print.gcode", without);
   ASSERT_EQ(c.unknown_commands.size(), 2u);
   EXPECT_LT(c.total_time_s, a.total_time_s - 60.0);
+}
+
+TEST(MacroEstimate, SettingsHoldTheDefaultsTheReaderTook) {
+  // configfile.py: printer.configfile.settings holds every option a module read, defaults
+  // included; printer.configfile.config only what the file writes. [stepper_x] without
+  // position_min: settings has 0.0 (stepper.py's default), config nothing. Klipper's own
+  // generic_cartesian_iqex.test parks with such a value.
+  const std::string cfg =
+      "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 200\n"
+      "position_endstop: 0\n"
+      "[gcode_macro PARK]\ngcode:\n"
+      "  G1 X{printer.configfile.settings.stepper_x.position_min + 5} F6000\n"
+      "  G1 X{printer.configfile.config.stepper_x.position_min|default(7)}\n";
+  const auto m = machine::parse_klipper_cfg(cfg, "p.cfg");
+  // From X0: to 5.0 (0.0 + 5), then to 7 (config has no position_min, so the default(7)).
+  // Collinear, the two moves join at full speed: one 7 mm trapezoid at 100 mm/s and
+  // 3000 mm/s^2 (v^2/a = 3.33 mm < 7 mm), T = d/v + v/a. Without the default in settings the
+  // first expression is undefined and the macro is skipped (no move); had config held it, the
+  // second move would go back to 0.
+  const EstimateReport r = estimate_text("G28\nPARK\n", "park", m);
+  EXPECT_EQ(r.moves, 2u);
+  EXPECT_TRUE(r.unknown_commands.empty());
+  EXPECT_NEAR(r.total_time_s, 7.0 / 100.0 + 100.0 / 3000.0, 1e-9);
 }
 
 TEST(MacroEstimate, FilesWithoutMacroCallsAreTimedAsBefore) {

@@ -22,6 +22,7 @@ amctl = sys.argv[2]
 files = sys.argv[3:]
 bad = 0
 checked = 0
+run_currents = 0
 incomplete = 0
 unsupported = 0
 SUPPORTED = ('cartesian', 'corexy', 'corexz', 'hybrid_corexy', 'hybrid_corexz', 'delta', 'none',
@@ -106,6 +107,10 @@ for fn in files:
                     gear *= float(a) / float(b)
             steps_per_mm = full * fc.getint(sec, 'microsteps') * gear / rd
             exp[('steppers', name)] = steps_per_mm
+            # A Trinamic driver section of this stepper: its run_current (tmc.py; RMS).
+            for drv in ('tmc2130', 'tmc2208', 'tmc2209', 'tmc2240', 'tmc2660', 'tmc5160'):
+                if fc.has_section(drv + ' ' + sec) and name in 'xyze':
+                    exp[('run_current', name)] = fc.getfloat(drv + ' ' + sec, 'run_current')
     if kin == 'winch':
         for t in 'abcd':
             if fc.has_section('stepper_' + t):
@@ -150,6 +155,12 @@ for fn in files:
             continue
         elif sec == 'winch':
             have = got['steppers'][key[0]]['anchor_' + key[1]]
+        elif sec == 'run_current':
+            run_currents += 1
+            have = got['steppers'][key].get('run_current')
+            if have is None:
+                mism.append(f'{sec}.{key}: amctl unset klipper {want}')
+                continue
         elif (sec, key) == ('delta', 'arm_length_c'):
             have = got['steppers']['c'].get('arm_length', got['steppers']['a']['arm_length'])
         else:
@@ -160,6 +171,7 @@ for fn in files:
     if mism:
         bad += 1
         print(f'MISMATCH {fn}: ' + '; '.join(mism))
-print(f'{checked} configs of supported kinematics compared, {unsupported} other kinematics rejected, '
+print(f'{checked} configs of supported kinematics compared ({run_currents} Trinamic run_current '
+      f'values among them), {unsupported} other kinematics rejected, '
       f'{incomplete} incomplete generic_cartesian samples refused as Klipper refuses them, {bad} mismatches')
 sys.exit(1 if bad else 0)

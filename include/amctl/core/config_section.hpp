@@ -29,6 +29,9 @@ struct ConfigSection {
   std::string name;     ///< header text as written between '[' and ']', e.g. "gcode_macro START"
   SourceLocation where; ///< the header line (first appearance)
   std::map<std::string, ConfigValue> options;  ///< option names lower-cased, like configparser
+  /// Options the file does not write that amctl's reader took a default for, as Python would
+  /// print the value ("0.0"): Klipper's printer.configfile.settings holds such defaults too.
+  std::map<std::string, std::string> defaults;
 
   [[nodiscard]] const ConfigValue* find(const std::string& key) const {
     auto it = options.find(key);
@@ -36,7 +39,7 @@ struct ConfigSection {
   }
   bool operator==(const ConfigSection& o) const {
     return name == o.name && where.file == o.where.file && where.line == o.where.line &&
-           options == o.options;
+           options == o.options && defaults == o.defaults;
   }
 };
 
