@@ -83,10 +83,10 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     sink.on_step_flush(line_no);  // toolhead.set_position flushes the step generation
     after_position_set(0x7u);
     sink.on_set_position(exclude_.transform ? exclude_.toolhead_mm : pos_, line_no);
-    if (opt_.dual_carriage) {
+    for (std::size_t pair = 0; pair < opt_.dual_carriages.size(); ++pair) {
       // cartesian.py set_position: a homed axis gets the rail range of its primary carriage.
-      const auto& o = *opt_.dual_carriage;
-      const std::size_t c = carriages_[1].mode == CarriageMode::primary ? 1 : 0;
+      const auto& o = opt_.dual_carriages[pair];
+      const std::size_t c = carriages_[pair][1].mode == CarriageMode::primary ? 1 : 0;
       sink.on_axis_range(o.axis, o.position_min_mm[c], o.position_max_mm[c], line_no);
     }
     return;

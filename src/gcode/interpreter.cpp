@@ -63,6 +63,10 @@ Interpreter::Interpreter(InterpreterOptions options, std::string source_name)
     if (opt_.soft_max_mm[a]) require_finite("soft endstop maximum", *opt_.soft_max_mm[a]);
     soft_endstops_ = soft_endstops_ || opt_.soft_min_mm[a] || opt_.soft_max_mm[a];
   }
+  // idex_modes.py: each pair starts with its first carriage PRIMARY, the second parked at 0.
+  carriages_.assign(opt_.dual_carriages.size(),
+                    {Carriage{CarriageMode::primary, 1.0, 0.0}, Carriage{}});
+  stepper_carriages_ = opt_.stepper_carriages;
   require_positive("arcs.mm_per_arc_segment", opt_.mm_per_arc_segment);
   require_non_negative("arcs.min_arc_segment_mm", opt_.min_arc_segment_mm);
   require_non_negative("arcs.max_arc_segment_mm", opt_.max_arc_segment_mm);
@@ -407,11 +411,17 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         }
       }
       sink.on_untimed("G28", line_no);
-      const bool dc = opt_.dual_carriage && (!any || p.has("XY"[opt_.dual_carriage->axis]));
-      if (dc) home_dual_carriage();
+      unsigned dc_homed = 0;  // bit per dual-carriage pair homed here
+      for (std::size_t pair = 0; pair < opt_.dual_carriages.size(); ++pair) {
+        if (any && !p.has("XY"[opt_.dual_carriages[pair].axis])) continue;
+        home_dual_carriage(pair);
+        dc_homed |= 1u << pair;
+      }
       after_position_set(any ? (p.has('X') ? 1u : 0u) | (p.has('Y') ? 2u : 0u) | (p.has('Z') ? 4u : 0u) : 7u);
       sink.on_set_position(exclude_.transform ? exclude_.toolhead_mm : pos_, line_no);
-      if (dc) send_carriage_range(line_no, sink);
+      for (std::size_t pair = 0; pair < opt_.dual_carriages.size(); ++pair) {
+        if ((dc_homed >> pair) & 1u) send_carriage_range(pair, line_no, sink);
+      }
       return;
     }
     sink.on_untimed(cmd.name, line_no);

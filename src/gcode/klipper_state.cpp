@@ -7,9 +7,11 @@
 //  - SET_DUAL_CARRIAGE, SAVE_ / RESTORE_DUAL_CARRIAGE_STATE (klippy/kinematics/idex_modes.py).
 // docs/gcode.md ("Klipper state commands") gives the rules with their sources.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "amctl/gcode/interpreter.hpp"
 #include "internal.hpp"
@@ -83,7 +85,11 @@ bool Interpreter::handle_klipper_state(const Command& cmd, std::uint64_t line_no
     }
     return true;
   }
-  if (opt_.dual_carriage &&
+  if (!stepper_carriages_.empty() && iequals(name, "SET_STEPPER_CARRIAGES")) {
+    set_stepper_carriages(cmd, line_no, sink);
+    return true;
+  }
+  if (!opt_.dual_carriages.empty() &&
       (iequals(name, "SET_DUAL_CARRIAGE") || iequals(name, "SAVE_DUAL_CARRIAGE_STATE") ||
        iequals(name, "RESTORE_DUAL_CARRIAGE_STATE"))) {
     dual_carriage_command(cmd, line_no, sink);
@@ -342,6 +348,8 @@ void Interpreter::update_path_choice() {
 }
 
 // ---- IDEX: SET_DUAL_CARRIAGE, SAVE_ / RESTORE_DUAL_CARRIAGE_STATE -------------------------------
+// One pair of carriages per axis (opt_.dual_carriages, carriages_ index by pair): a cartesian or
+// hybrid [dual_carriage], or a generic_cartesian [dual_carriage NAME] with its primary carriage.
 
 namespace {
 
@@ -356,18 +364,19 @@ int dc_order(const Options& o, std::size_t a, std::size_t b) {
 
 }  // namespace
 
-void Interpreter::home_dual_carriage() {
+void Interpreter::home_dual_carriage(std::size_t pair) {
   // idex_modes.py home(): both carriages home; carriage 0 ends PRIMARY at its endstop,
   // carriage 1 parked at its own.
-  const Options& o = *opt_.dual_carriage;
-  carriages_[0] = Carriage{CarriageMode::primary, 1.0, 0.0};
-  carriages_[1] = Carriage{CarriageMode::inactive, 0.0, o.position_endstop_mm[1]};
+  const Options& o = opt_.dual_carriages[pair];
+  carriages_[pair][0] = Carriage{CarriageMode::primary, 1.0, 0.0};
+  carriages_[pair][1] = Carriage{CarriageMode::inactive, 0.0, o.position_endstop_mm[1]};
 }
 
-void Interpreter::send_carriage_range(std::uint64_t line_no, EventSink& sink) {
+void Interpreter::send_carriage_range(std::size_t pair, std::uint64_t line_no, EventSink& sink) {
   // idex_modes.py get_kin_range: each active carriage's rail range (shifted in COPY, mirrored
   // in MIRROR) and, with a safe distance, the room left before it meets the other carriage.
-  const Options& o = *opt_.dual_carriage;
+  const Options& o = opt_.dual_carriages[pair];
+  const auto& carriages = carriages_[pair];
   const std::size_t axis = static_cast<std::size_t>(o.axis);
   const double p = pos_[axis];
   double lo = -1e10, hi = 1e10;
@@ -379,8 +388,8 @@ void Interpreter::send_carriage_range(std::uint64_t line_no, EventSink& sink) {
                     std::fabs(o.position_max_mm[0] - o.position_max_mm[1]));
   }
   for (std::size_t c = 0; c < 2; ++c) {
-    const Carriage& me = carriages_[c];
-    const Carriage& other = carriages_[1 - c];
+    const Carriage& me = carriages[c];
+    const Carriage& other = carriages[1 - c];
     if (me.mode == CarriageMode::inactive) continue;
     const double ap0 = p * me.scale + me.offset_mm, ap1 = p * other.scale + other.offset_mm;
     switch (me.mode) {
@@ -399,10 +408,10 @@ void Interpreter::send_carriage_range(std::uint64_t line_no, EventSink& sink) {
       case CarriageMode::inactive: break;
     }
     if (safe == 0.0) continue;
-    const auto pair = [&](CarriageMode a, CarriageMode b) {
+    const auto both = [&](CarriageMode a, CarriageMode b) {
       return (me.mode == a && other.mode == b) || (me.mode == b && other.mode == a);
     };
-    if (me.mode == other.mode || pair(CarriageMode::primary, CarriageMode::copy)) continue;
+    if (me.mode == other.mode || both(CarriageMode::primary, CarriageMode::copy)) continue;
     const int order = dc_order(o, c, 1 - c);
     double room = order > 0 ? (ap1 - ap0) + safe : (ap1 - ap0) - safe;
     if (other.mode != CarriageMode::inactive) room *= 0.5;
@@ -424,35 +433,37 @@ void Interpreter::send_carriage_range(std::uint64_t line_no, EventSink& sink) {
 
 void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_no,
                                         EventSink& sink) {
-  const Options& o = *opt_.dual_carriage;
-  const std::size_t axis = static_cast<std::size_t>(o.axis);
-  auto position_of = [&](std::size_t c) {
-    return pos_[axis] * carriages_[c].scale + carriages_[c].offset_mm;
+  const auto& pairs = opt_.dual_carriages;
+  auto axis_of = [&](std::size_t pair) { return static_cast<std::size_t>(pairs[pair].axis); };
+  auto position_of = [&](std::size_t pair, std::size_t c) {
+    return pos_[axis_of(pair)] * carriages_[pair][c].scale + carriages_[pair][c].offset_mm;
   };
   // The toolhead's position on the axis is redefined with the motion stopped
   // (toolhead.set_position); the file's coordinates keep their base (G92) offset.
-  auto set_axis_position = [&](double v) {
+  auto set_axis_position = [&](std::size_t axis, double v) {
     gcode_pos_[axis] += v - pos_[axis];
     pos_[axis] = v;
     after_position_set(1u << axis);
     sink.on_set_position(exclude_.transform ? exclude_.toolhead_mm : pos_, line_no);
   };
-  auto inactivate = [&](std::size_t c) {
-    carriages_[c] = Carriage{CarriageMode::inactive, 0.0, position_of(c)};
+  auto inactivate = [&](std::size_t pair, std::size_t c) {
+    carriages_[pair][c] = Carriage{CarriageMode::inactive, 0.0, position_of(pair, c)};
   };
-  auto rail_range = [&](std::size_t c) {
+  auto rail_range = [&](std::size_t pair, std::size_t c) {
+    const Options& o = pairs[pair];
     sink.on_axis_range(o.axis, o.position_min_mm[c], o.position_max_mm[c], line_no);
   };
   // toggle_active_dc_rail: the other carriage parks where it is; the target becomes PRIMARY
   // and the toolhead's position on the axis becomes the target carriage's.
-  auto make_primary = [&](std::size_t c) {
-    if (carriages_[1 - c].mode != CarriageMode::inactive) inactivate(1 - c);
-    if (carriages_[c].mode != CarriageMode::primary) {
-      const double v = position_of(c);
-      carriages_[c] = Carriage{CarriageMode::primary, 1.0, 0.0};
-      set_axis_position(v);
+  auto make_primary = [&](std::size_t pair, std::size_t c) {
+    auto& cs = carriages_[pair];
+    if (cs[1 - c].mode != CarriageMode::inactive) inactivate(pair, 1 - c);
+    if (cs[c].mode != CarriageMode::primary) {
+      const double v = position_of(pair, c);
+      cs[c] = Carriage{CarriageMode::primary, 1.0, 0.0};
+      set_axis_position(axis_of(pair), v);
     }
-    rail_range(c);
+    rail_range(pair, c);
   };
   const std::string_view name = cmd.name;
   if (iequals(name, "SET_DUAL_CARRIAGE")) {
@@ -460,25 +471,47 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
     std::uint32_t col = cmd.args_column;
     const auto which = text_arg(cmd, "CARRIAGE", &col);
     if (!which) fail(line_no, cmd.args_column, "SET_DUAL_CARRIAGE: CARRIAGE must be specified");
-    std::size_t c = 0;
-    if (*which == "0")
-      c = 0;
-    else if (*which == "1")
-      c = 1;
-    else if (iequals(*which, "stepper_x") || iequals(*which, "stepper_y") || iequals(*which, "x") ||
-             iequals(*which, "y"))
-      c = 0;
-    else if (iequals(*which, "dual_carriage"))
-      c = 1;
-    else
+    // idex_modes.py cmd_SET_DUAL_CARRIAGE: a carriage by its name (generic_cartesian: the
+    // section's, as written) or, with a single pair, by index 0 / 1.
+    std::optional<std::pair<std::size_t, std::size_t>> found;
+    std::vector<std::string> known;
+    for (std::size_t pair = 0; pair < pairs.size() && !found; ++pair) {
+      for (std::size_t c = 0; c < 2; ++c) {
+        const std::string& n = pairs[pair].names[c];
+        if (n.empty()) continue;
+        known.push_back(n);
+        if (*which == n) {
+          found = std::make_pair(pair, c);
+          break;
+        }
+      }
+    }
+    if (!found && pairs.size() == 1) {
+      const bool named = !pairs[0].names[0].empty();
+      if (*which == "0" ||
+          (!named && (iequals(*which, "stepper_x") || iequals(*which, "stepper_y") ||
+                      iequals(*which, "x") || iequals(*which, "y"))))
+        found = std::make_pair(std::size_t{0}, std::size_t{0});
+      else if (*which == "1" || (!named && iequals(*which, "dual_carriage")))
+        found = std::make_pair(std::size_t{0}, std::size_t{1});
+    }
+    if (!found) {
       fail(line_no, col,
-           fmt::format("SET_DUAL_CARRIAGE: invalid CARRIAGE={} (expected 0, 1 or a carriage name)",
-                       *which));
+           known.empty()
+               ? fmt::format("SET_DUAL_CARRIAGE: invalid CARRIAGE={} (expected 0, 1 or a carriage "
+                             "name)",
+                             *which)
+               : fmt::format("SET_DUAL_CARRIAGE: invalid CARRIAGE={} (expected one of {}{})",
+                             *which, fmt::join(known, ", "), pairs.size() == 1 ? ", 0, 1" : ""));
+    }
+    const auto [pair, c] = *found;
+    const std::size_t axis = axis_of(pair);
+    auto& cs = carriages_[pair];
     const std::string mode = to_upper(text_arg(cmd, "MODE").value_or("PRIMARY"));
     if (mode == "PRIMARY") {
-      make_primary(c);
+      make_primary(pair, c);
     } else if (mode == "COPY" || mode == "MIRROR") {
-      if (carriages_[1 - c].mode != CarriageMode::primary) {
+      if (cs[1 - c].mode != CarriageMode::primary) {
         fail(line_no, cmd.args_column,
              fmt::format(
                  "SET_DUAL_CARRIAGE MODE={}: must activate another carriage as PRIMARY first",
@@ -489,25 +522,25 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
              fmt::format("SET_DUAL_CARRIAGE MODE={}: axis {} must be homed first", mode,
                          "XY"[axis]));
       }
-      const double old = position_of(c);
+      const double old = position_of(pair, c);
       const double scale = mode == "MIRROR" ? -1.0 : 1.0;
-      carriages_[c] = Carriage{mode == "MIRROR" ? CarriageMode::mirror : CarriageMode::copy, scale,
-                               old - pos_[axis] * scale};
+      cs[c] = Carriage{mode == "MIRROR" ? CarriageMode::mirror : CarriageMode::copy, scale,
+                       old - pos_[axis] * scale};
     } else if (mode == "INACTIVE") {
-      if (carriages_[1 - c].mode == CarriageMode::inactive) {
+      if (cs[1 - c].mode == CarriageMode::inactive) {
         fail(
             line_no, cmd.args_column,
             fmt::format("SET_DUAL_CARRIAGE: cannot deactivate the only active carriage for axis {}",
                         "XY"[axis]));
       }
-      if (carriages_[c].mode != CarriageMode::inactive) inactivate(c);
+      if (cs[c].mode != CarriageMode::inactive) inactivate(pair, c);
     } else {
       fail(line_no, cmd.args_column,
            fmt::format(
                "SET_DUAL_CARRIAGE: invalid MODE={} (expected PRIMARY, COPY, MIRROR or INACTIVE)",
                mode));
     }
-    send_carriage_range(line_no, sink);
+    send_carriage_range(pair, line_no, sink);
     return;
   }
   const std::string state = text_arg(cmd, "NAME").value_or("default");
@@ -523,15 +556,13 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
     fail(line_no, cmd.args_column,
          fmt::format("Unknown DUAL_CARRIAGE state: {} (Klipper stops with this error)", state));
   }
-  const std::array<Carriage, 2> saved = it->second;
+  const std::vector<std::array<Carriage, 2>> saved = it->second;
   const std::array<double, 4> saved_pos = saved_carriage_pos_.at(state);
-  std::array<double, 2> target{}, now{};
-  for (std::size_t c = 0; c < 2; ++c) {
-    target[c] = saved_pos[axis] * saved[c].scale + saved[c].offset_mm;
-    now[c] = position_of(c);
-  }
   bool move = true;
-  double speed_mm_s = std::min(o.homing_speed_mm_s[0], o.homing_speed_mm_s[1]);
+  double speed_mm_s = 1e300;
+  for (const Options& o : pairs) {
+    speed_mm_s = std::min({speed_mm_s, o.homing_speed_mm_s[0], o.homing_speed_mm_s[1]});
+  }
   std::uint32_t col = 0;
   if (auto m = text_arg(cmd, "MOVE", &col)) {
     double v = 0.0;
@@ -551,41 +582,101 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
     }
     speed_mm_s = v;
   }
-  std::array<double, 2> end = now;
+  std::vector<std::array<double, 2>> target(pairs.size()), end(pairs.size());
+  for (std::size_t pair = 0; pair < pairs.size(); ++pair) {
+    for (std::size_t c = 0; c < 2; ++c) {
+      target[pair][c] = saved_pos[axis_of(pair)] * saved[pair][c].scale + saved[pair][c].offset_mm;
+      end[pair][c] = position_of(pair, c);
+    }
+  }
   if (move) {
-    // Both carriages travel together (the one with the longer way leads, the other scaled to
-    // arrive with it): one move of the leading carriage at MOVE_SPEED or the lower homing
-    // speed, from rest to rest.
-    const double d0 = target[0] - now[0], d1 = target[1] - now[1];
-    const std::size_t lead = std::fabs(d0) >= std::fabs(d1) ? 0 : 1;
-    make_primary(lead);
-    if (target[lead] != pos_[axis]) {
-      MoveRequest m;
-      m.start_mm = exclude_.transform ? exclude_.toolhead_mm : pos_;
-      m.end_mm = m.start_mm;
-      m.end_mm[axis] = target[lead];
+    // On each axis both carriages travel together (the one with the longer way leads, the
+    // other scaled to arrive with it): one move of the leading carriages, every axis at once,
+    // at MOVE_SPEED or the lowest homing speed, from rest to rest.
+    MoveRequest m;
+    for (std::size_t pair = 0; pair < pairs.size(); ++pair) {
+      const double d0 = target[pair][0] - end[pair][0], d1 = target[pair][1] - end[pair][1];
+      make_primary(pair, std::fabs(d0) >= std::fabs(d1) ? 0 : 1);
+    }
+    m.start_mm = exclude_.transform ? exclude_.toolhead_mm : pos_;
+    m.end_mm = m.start_mm;
+    bool moves = false;
+    for (std::size_t pair = 0; pair < pairs.size(); ++pair) {
+      const std::size_t axis = axis_of(pair);
+      const std::size_t lead = carriages_[pair][0].mode == CarriageMode::primary ? 0 : 1;
+      const double d = target[pair][lead] - pos_[axis];
+      if (d == 0.0) continue;
+      moves = true;
+      m.end_mm[axis] += d;
+      gcode_pos_[axis] += d;
+      pos_[axis] += d;
+      if (exclude_.transform) exclude_.toolhead_mm[axis] += d;
+    }
+    if (moves) {
       m.speed_mm_s = speed_mm_s;
       m.line = line_no;
       m.layer = notes_.layer;
       m.feature = notes_.feature;
-      const double d = target[lead] - pos_[axis];
-      gcode_pos_[axis] += d;
-      pos_[axis] += d;
-      if (exclude_.transform) exclude_.toolhead_mm[axis] += d;
       sink.on_move(m);
       sink.on_step_flush(line_no);  // manual_move, then flush_step_generation
     }
     end = target;
   }
   // The saved modes come back with each carriage where it now is; the toolhead's position
-  // is the primary carriage's.
-  std::size_t primary = saved[0].mode == CarriageMode::primary ? 0 : 1;
-  const std::size_t other = 1 - primary;
-  carriages_[primary] = Carriage{CarriageMode::primary, 1.0, 0.0};
-  if (pos_[axis] != end[primary]) set_axis_position(end[primary]);
-  const double s = saved[other].mode == CarriageMode::inactive ? 0.0 : saved[other].scale;
-  carriages_[other] = Carriage{saved[other].mode, s, end[other] - pos_[axis] * s};
-  send_carriage_range(line_no, sink);
+  // on each axis is its primary carriage's.
+  for (std::size_t pair = 0; pair < pairs.size(); ++pair) {
+    const std::size_t axis = axis_of(pair);
+    const std::size_t primary = saved[pair][0].mode == CarriageMode::primary ? 0 : 1;
+    const std::size_t other = 1 - primary;
+    auto& cs = carriages_[pair];
+    cs[primary] = Carriage{CarriageMode::primary, 1.0, 0.0};
+    if (pos_[axis] != end[pair][primary]) set_axis_position(axis, end[pair][primary]);
+    const double s = saved[pair][other].mode == CarriageMode::inactive ? 0.0 : saved[pair][other].scale;
+    cs[other] = Carriage{saved[pair][other].mode, s, end[pair][other] - pos_[axis] * s};
+    send_carriage_range(pair, line_no, sink);
+  }
+}
+
+// ---- SET_STEPPER_CARRIAGES (generic_cartesian.py) ------------------------------------------------
+
+void Interpreter::set_stepper_carriages(const Command& cmd, std::uint64_t line_no,
+                                        EventSink& sink) {
+  // Klipper flushes the step generation, then changes the stepper's coefficients; the
+  // toolhead does not move, so only the flush costs time.
+  sink.on_step_flush(line_no);
+  std::uint32_t col = cmd.args_column;
+  const auto stepper = text_arg(cmd, "STEPPER", &col);
+  if (!stepper) fail(line_no, cmd.args_column, "SET_STEPPER_CARRIAGES: STEPPER must be specified");
+  // Klipper matches the full name ("stepper a") or the short one ("a").
+  std::string key = *stepper;
+  if (key.rfind("stepper ", 0) == 0) key = key.substr(8);
+  const auto it = stepper_carriages_.find(key);
+  if (it == stepper_carriages_.end()) {
+    fail(line_no, col, fmt::format("SET_STEPPER_CARRIAGES: invalid STEPPER '{}' specified (Klipper "
+                                   "stops with this error)",
+                                   *stepper));
+  }
+  const auto carriages = text_arg(cmd, "CARRIAGES", &col);
+  if (!carriages) {
+    fail(line_no, cmd.args_column, "SET_STEPPER_CARRIAGES: CARRIAGES must be specified");
+  }
+  std::string expr = *carriages;
+  for (char& ch : expr) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  bool full = true;
+  std::uint32_t dcol = 0;
+  if (auto d = text_arg(cmd, "DISABLE_CHECKS", &dcol)) {
+    double v = 0.0;
+    if (parse_float_value(*d, v) != d->size() || v != std::floor(v)) {
+      fail(line_no, dcol,
+           fmt::format("SET_STEPPER_CARRIAGES DISABLE_CHECKS= expects an integer, found '{}'", *d));
+    }
+    full = v == 0.0;
+  }
+  if (opt_.check_stepper_carriages) {
+    const std::string why = opt_.check_stepper_carriages(stepper_carriages_, key, expr, full);
+    if (!why.empty()) fail(line_no, col, fmt::format("SET_STEPPER_CARRIAGES: {}", why));
+  }
+  it->second = expr;
 }
 
 }  // namespace amctl::gcode

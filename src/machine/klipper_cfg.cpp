@@ -494,6 +494,10 @@ void read_generic_cartesian(CfgDoc& doc, Machine& m, const SourceLocation& file_
       c.position_endstop_mm = sec.require_float("position_endstop");
       c.position_min_mm = sec.get_float("position_min", 0.0);
       c.position_max_mm = sec.require_float("position_max", {.above = *c.position_min_mm});
+      c.homing_speed_mm_s = sec.get_float("homing_speed", 5.0, {.above = 0.0});
+    }
+    if (c.type == Carriage::Type::dual && !c.primary_carriage.empty()) {
+      c.safe_distance_mm = sec.get_float("safe_distance", {.minval = 0.0});
     }
     if (m.carriages.count(name) != 0) {
       throw Error(s.where, fmt::format("[{}]: carriage '{}' is defined twice, expected one section "

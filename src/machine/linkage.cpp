@@ -273,6 +273,41 @@ GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
   return g;
 }
 
+std::string stepper_carriages_error(const Machine& m,
+                                    const std::map<std::string, std::string, std::less<>>& now,
+                                    const std::string& stepper, const std::string& expr,
+                                    bool full) {
+  const auto it = now.find(stepper);
+  if (it == now.end()) return fmt::format("invalid STEPPER '{}' specified", stepper);
+  const std::string label = fmt::format("stepper {} CARRIAGES", stepper);
+  try {
+    const auto old_terms = carriage_terms(it->second, m, label);
+    const auto new_terms = carriage_terms(expr, m, label);
+    bool same = old_terms.size() == new_terms.size();
+    double sum = 0.0;
+    for (std::size_t i = 0; i < new_terms.size(); ++i) {
+      same = same && old_terms[i].first == new_terms[i].first;
+      sum += std::abs(new_terms[i].second);
+    }
+    if (!(sum > 0.0)) return fmt::format("'{}' must provide a valid 'carriages' expression", expr);
+    if (!same) {
+      return fmt::format("'{}' cannot add or remove carriages that stepper {} controls ('{}')",
+                         expr, stepper, it->second);
+    }
+    if (full) {
+      Machine changed = m;
+      for (const auto& [name, e] : now) {
+        const auto s = changed.steppers.find(name);
+        if (s != changed.steppers.end()) s->second.carriages = name == stepper ? expr : e;
+      }
+      (void)generic_cartesian_geometry(changed);
+    }
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return {};
+}
+
 PolarGeometry polar_geometry(const Machine& m) {
   PolarGeometry g;
   for (const char* name : {"bed", "arm", "z"}) {

@@ -280,8 +280,9 @@ void append_toml_string(std::string& out, std::string_view s) {
 }
 
 constexpr std::string_view kCarriageTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
-constexpr std::string_view kCarriageKeys[] = {"type", "axis", "primary_carriage", "position_min",
-                                              "position_max", "position_endstop"};
+constexpr std::string_view kCarriageKeys[] = {"type",         "axis",         "primary_carriage",
+                                              "position_min", "position_max", "position_endstop",
+                                              "homing_speed", "safe_distance"};
 
 Carriage read_carriage(const toml::table& t, const std::string& name, const std::string& file) {
   Carriage c;
@@ -319,6 +320,10 @@ Carriage read_carriage(const toml::table& t, const std::string& name, const std:
       c.position_max_mm = bounded_number(*v, Bound::finite, where, label, "mm");
     } else if (key == "position_endstop") {
       c.position_endstop_mm = bounded_number(*v, Bound::finite, where, label, "mm");
+    } else if (key == "homing_speed") {
+      c.homing_speed_mm_s = bounded_number(*v, Bound::positive, where, label, "mm/s");
+    } else if (key == "safe_distance") {
+      c.safe_distance_mm = bounded_number(*v, Bound::non_negative, where, label, "mm");
     } else {
       std::vector<std::string> keys(std::begin(kCarriageKeys), std::end(kCarriageKeys));
       throw Error(location_of(k->source(), file),
@@ -540,6 +545,12 @@ std::string to_toml(const Machine& machine) {
     if (c.position_max_mm) out += fmt::format("position_max = {}  # mm\n", detail::format_number(*c.position_max_mm));
     if (c.position_endstop_mm) {
       out += fmt::format("position_endstop = {}  # mm\n", detail::format_number(*c.position_endstop_mm));
+    }
+    if (c.homing_speed_mm_s != Carriage{}.homing_speed_mm_s) {
+      out += fmt::format("homing_speed = {}  # mm/s\n", detail::format_number(c.homing_speed_mm_s));
+    }
+    if (c.safe_distance_mm) {
+      out += fmt::format("safe_distance = {}  # mm\n", detail::format_number(*c.safe_distance_mm));
     }
   }
   return out;

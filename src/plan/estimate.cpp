@@ -161,9 +161,58 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
     }
     d.safe_distance_mm = dc.safe_distance_mm;
     d.homing_speed_mm_s = {dc.primary_homing_speed_mm_s, dc.homing_speed_mm_s};
-    o.dual_carriage = d;
+    o.dual_carriages.push_back(d);
     // G28 puts the first carriage at its endstop (other axes keep amctl's G28 at 0).
     o.home_position_mm[static_cast<std::size_t>(d.axis)] = d.position_endstop_mm[0];
+  }
+  if (m.kinematics == K::generic_cartesian && m.firmware == machine::Firmware::klipper) {
+    // generic_cartesian.py home_axis: a homed axis ends at its primary carriage's
+    // position_endstop (the dual carriage's pair too: idex_modes.py home() ends with the
+    // primary carriage active).
+    const auto& cs = m.carriages;
+    for (const auto& [name, c] : cs) {
+      if (c.type != machine::Carriage::Type::primary || c.axis.size() != 1 || !c.position_endstop_mm) {
+        continue;
+      }
+      o.home_position_mm[static_cast<std::size_t>(c.axis[0] - 'x')] = *c.position_endstop_mm;
+    }
+    // SET_STEPPER_CARRIAGES: the expressions as configured, checked as Klipper checks them.
+    for (const auto& [name, s] : m.steppers) {
+      if (!s.carriages.empty()) o.stepper_carriages[name] = s.carriages;
+    }
+    o.check_stepper_carriages = [m](const std::map<std::string, std::string, std::less<>>& now,
+                                    const std::string& stepper, const std::string& expr,
+                                    bool full) {
+      return machine::stepper_carriages_error(m, now, stepper, expr, full);
+    };
+    // IDEX (idex_modes.py through generic_cartesian.py): one pair per [dual_carriage NAME]
+    // with its primary carriage. A dual carriage without primary_carriage (a second pair on
+    // one axis) is not modelled: all dual carriages then stay parked, as before.
+    const bool pairs_only = std::all_of(cs.begin(), cs.end(), [](const auto& kv) {
+      return kv.second.type != machine::Carriage::Type::dual || !kv.second.primary_carriage.empty();
+    });
+    for (const char axis : {'x', 'y'}) {
+      for (const auto& [name, dual] : cs) {
+        if (!pairs_only || dual.type != machine::Carriage::Type::dual) continue;
+        const auto pit = cs.find(dual.primary_carriage);
+        if (pit == cs.end() || pit->second.axis != std::string(1, axis)) continue;
+        const machine::Carriage& first = pit->second;
+        gcode::InterpreterOptions::DualCarriage d;
+        d.axis = axis - 'x';
+        d.names = {pit->first, name};
+        d.position_min_mm = {first.position_min_mm.value_or(0.0), dual.position_min_mm.value_or(0.0)};
+        d.position_max_mm = {first.position_max_mm.value_or(0.0), dual.position_max_mm.value_or(0.0)};
+        d.position_endstop_mm = {first.position_endstop_mm.value_or(0.0),
+                                 dual.position_endstop_mm.value_or(0.0)};
+        for (std::size_t c = 0; c < 2; ++c) {
+          const double len = d.position_max_mm[c] - d.position_min_mm[c];
+          d.homing_positive_dir[c] = d.position_endstop_mm[c] >= d.position_max_mm[c] - len / 4.0;
+        }
+        d.safe_distance_mm = dual.safe_distance_mm;
+        d.homing_speed_mm_s = {first.homing_speed_mm_s, dual.homing_speed_mm_s};
+        o.dual_carriages.push_back(d);
+      }
+    }
   }
   return o;
 }

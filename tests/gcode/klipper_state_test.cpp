@@ -238,7 +238,7 @@ InterpreterOptions idex() {
   d.homing_positive_dir = {false, true};
   d.safe_distance_mm = 50.0;
   d.homing_speed_mm_s = {50.0, 40.0};
-  o.dual_carriage = d;
+  o.dual_carriages.push_back(d);
   return o;
 }
 
@@ -291,6 +291,114 @@ TEST(DualCarriage, RestoreMovesTheCarriageWithTheLongerWayAtTheLowerHomingSpeed)
   EXPECT_DOUBLE_EQ(m[5].end_mm[0], 200.0);
   EXPECT_DOUBLE_EQ(out.r.ranges.back().min_mm, 60.0);
   EXPECT_THROW(run("G28\nRESTORE_DUAL_CARRIAGE_STATE NAME=x\n", idex()), Error);
+}
+
+// generic_cartesian with a dual carriage on X and one on Y (Klipper's test/klippy/corexyuv.cfg):
+// carriage_x [0, 300] homing to 0 with carriage_u [0, 300] homing to 300, safe_distance 70;
+// carriage_y [0, 200] homing to 0 with carriage_v [0, 200] homing to 200, safe_distance 50;
+// every homing_speed 50 mm/s.
+InterpreterOptions two_pairs() {
+  InterpreterOptions o;
+  InterpreterOptions::DualCarriage x;
+  x.axis = 0;
+  x.names = {"carriage_x", "carriage_u"};
+  x.position_max_mm = {300, 300};
+  x.position_endstop_mm = {0, 300};
+  x.homing_positive_dir = {false, true};
+  x.safe_distance_mm = 70.0;
+  x.homing_speed_mm_s = {50.0, 50.0};
+  InterpreterOptions::DualCarriage y = x;
+  y.axis = 1;
+  y.names = {"carriage_y", "carriage_v"};
+  y.position_max_mm = {200, 200};
+  y.position_endstop_mm = {0, 200};
+  y.safe_distance_mm = 50.0;
+  o.dual_carriages = {x, y};
+  return o;
+}
+
+TEST(DualCarriage, TwoPairsByNameMoveAndRestoreTogether) {
+  // corexyuv.test's sequence worked by hand with idex_modes.py's rules:
+  //  G28: X = 0, Y = 0, carriage_u parked at 300, carriage_v at 200.
+  //  G1 X10 Y20; carriage_u: X = 300, range [10 + 70, 300]; carriage_v: Y = 200, range
+  //  [20 + 50, 200]. G1 X170 Y190 inside them.
+  //  carriage_x: X = 10 (where it was parked), carriage_u parked at 170: X in [0, 170 - 70].
+  //  SAVE: x primary at 20, u at 170; v primary at 190, y at 20. G1 Y150 (v to 150).
+  //  carriage_y: Y = 20, v parked at 150: Y in [0, 100]. G1 X10 Y50.
+  //  RESTORE: X pair: x 10 -> 20, u stays at 170: x leads. Y pair: y 50 -> 20 (30 mm),
+  //  v 150 -> 190 (40 mm): v leads, Y = 150 first. One move (10, 150) -> (20, 190) at the
+  //  lowest homing speed, 50 mm/s. Then X in [0, 100], Y in [190 + (20 - 190) + 50, 200] =
+  //  [70, 200].
+  const auto out = run(
+      "G28\nG1 X10 Y20 F6000\nSET_DUAL_CARRIAGE CARRIAGE=carriage_u\n"
+      "SET_DUAL_CARRIAGE CARRIAGE=carriage_v\nG1 X170 Y190 F6000\n"
+      "SET_DUAL_CARRIAGE CARRIAGE=carriage_x\nG1 X20 F6000\nSAVE_DUAL_CARRIAGE_STATE\n"
+      "G1 Y150 F6000\nSET_DUAL_CARRIAGE CARRIAGE=carriage_y\nG1 X10 Y50 F6000\n"
+      "RESTORE_DUAL_CARRIAGE_STATE\nG1 X5\n",
+      two_pairs());
+  const auto& m = out.r.moves;
+  ASSERT_EQ(m.size(), 7u);
+  const double expect[7][4] = {{0, 0, 10, 20},    {300, 200, 170, 190}, {10, 190, 20, 190},
+                               {20, 190, 20, 150}, {20, 20, 10, 50},     {10, 150, 20, 190},
+                               {20, 190, 5, 190}};
+  for (std::size_t i = 0; i < 7; ++i) {
+    EXPECT_DOUBLE_EQ(m[i].start_mm[0], expect[i][0]) << i;
+    EXPECT_DOUBLE_EQ(m[i].start_mm[1], expect[i][1]) << i;
+    EXPECT_DOUBLE_EQ(m[i].end_mm[0], expect[i][2]) << i;
+    EXPECT_DOUBLE_EQ(m[i].end_mm[1], expect[i][3]) << i;
+  }
+  EXPECT_DOUBLE_EQ(m[5].speed_mm_s, 50.0);
+  // Ranges: after carriage_u and carriage_v, after carriage_x, carriage_y, and the restore.
+  const auto& r = out.r.ranges;
+  auto find_after = [&](std::size_t from, int axis, double lo, double hi) {
+    for (std::size_t i = from; i < r.size(); ++i) {
+      if (r[i].axis == axis && r[i].min_mm == lo && r[i].max_mm == hi) return i;
+    }
+    return r.size();
+  };
+  std::size_t at = find_after(0, 0, 80.0, 300.0);
+  ASSERT_LT(at, r.size());
+  at = find_after(at, 1, 70.0, 200.0);
+  ASSERT_LT(at, r.size());
+  at = find_after(at, 0, 0.0, 100.0);
+  ASSERT_LT(at, r.size());
+  at = find_after(at, 1, 0.0, 100.0);
+  ASSERT_LT(at, r.size());
+  ASSERT_GE(r.size(), 2u);
+  EXPECT_EQ(r[r.size() - 2].axis, 0);
+  EXPECT_DOUBLE_EQ(r[r.size() - 2].min_mm, 0.0);
+  EXPECT_DOUBLE_EQ(r[r.size() - 2].max_mm, 100.0);
+  EXPECT_EQ(r.back().axis, 1);
+  EXPECT_DOUBLE_EQ(r.back().min_mm, 70.0);
+  EXPECT_DOUBLE_EQ(r.back().max_mm, 200.0);
+}
+
+TEST(DualCarriage, CarriageNamesAsKlipperTakesThem) {
+  // Two pairs: only the names (as written); one named pair: the names or 0 / 1.
+  EXPECT_THROW(run("G28\nSET_DUAL_CARRIAGE CARRIAGE=1\n", two_pairs()), Error);
+  EXPECT_THROW(run("G28\nSET_DUAL_CARRIAGE CARRIAGE=Carriage_U\n", two_pairs()), Error);
+  EXPECT_THROW(run("G28\nSET_DUAL_CARRIAGE CARRIAGE=dual_carriage\n", two_pairs()), Error);
+  InterpreterOptions one = two_pairs();
+  one.dual_carriages.pop_back();
+  const auto by_index = run("G28\nSET_DUAL_CARRIAGE CARRIAGE=1\nG1 X200 F6000\n", one);
+  const auto by_name = run("G28\nSET_DUAL_CARRIAGE CARRIAGE=carriage_u\nG1 X200 F6000\n", one);
+  ASSERT_EQ(by_index.r.moves.size(), 1u);
+  ASSERT_EQ(by_name.r.moves.size(), 1u);
+  EXPECT_DOUBLE_EQ(by_index.r.moves[0].start_mm[0], 300.0);  // carriage_u parked at 300
+  EXPECT_DOUBLE_EQ(by_name.r.moves[0].start_mm[0], 300.0);
+  // Y has no pair here: carriage_v is not a carriage of this printer.
+  EXPECT_THROW(run("G28\nSET_DUAL_CARRIAGE CARRIAGE=carriage_v\n", one), Error);
+}
+
+TEST(DualCarriage, BeforeHomingTheFirstCarriageIsActive) {
+  // idex_modes.py starts each pair with the first carriage PRIMARY (scale 1) and the second
+  // parked at 0: switching before G28 and back leaves X where it was.
+  const auto out = run(
+      "SET_KINEMATIC_POSITION X=40 Y=0 Z=0\nSET_DUAL_CARRIAGE CARRIAGE=carriage_u\n"
+      "SET_DUAL_CARRIAGE CARRIAGE=carriage_x\nG1 X50 F6000\n",
+      two_pairs());
+  ASSERT_EQ(out.r.moves.size(), 1u);
+  EXPECT_DOUBLE_EQ(out.r.moves[0].start_mm[0], 40.0);
 }
 
 TEST(DualCarriage, WithoutTheSectionTheCommandsAreUnknown) {

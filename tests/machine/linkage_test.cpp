@@ -159,7 +159,8 @@ TEST(GenericCartesianToml, CarriageTablesAndTheirErrors) {
   };
   EXPECT_EQ(toml_error(base + "[carriage.cu]\ntyp = \"dual_carriage\"\n"),
             "g.toml:22:1: unknown key 'typ' in [carriage.cu], expected one of type, axis, "
-            "primary_carriage, position_min, position_max, position_endstop; did you mean 'type'?");
+            "primary_carriage, position_min, position_max, position_endstop, homing_speed, "
+            "safe_distance; did you mean 'type'?");
   EXPECT_EQ(toml_error(base + "[carriage.cu]\ntype = \"idex\"\n"),
             "g.toml:22:8: carriage.cu.type: found 'idex', expected one of carriage, "
             "extra_carriage, dual_carriage");

@@ -6,6 +6,7 @@
 // (PrusaSlicer/SuperSlicer, Cura, OrcaSlicer/Bambu, ideaMaker).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -70,10 +71,15 @@ struct InterpreterOptions {
   /// not made (docs/gcode.md, "Excluded objects").
   enum class ExcludeObjectMode : std::uint8_t { ignored, unknown, active };
   ExcludeObjectMode exclude_object = ExcludeObjectMode::ignored;
-  /// A Klipper [dual_carriage] (IDEX, klippy/kinematics/idex_modes.py): two carriages on
-  /// `axis`, index 0 the [stepper_x] (or _y) rail, 1 the [dual_carriage] rail. Unset: none.
+  /// A Klipper dual carriage pair (IDEX, klippy/kinematics/idex_modes.py): two carriages on
+  /// `axis`, index 0 the primary rail ([stepper_x] / _y, or a generic_cartesian [carriage]),
+  /// 1 the [dual_carriage] rail.
   struct DualCarriage {
     int axis = 0;  ///< 0 = X, 1 = Y
+    /// The names SET_DUAL_CARRIAGE CARRIAGE= takes for each carriage (generic_cartesian: the
+    /// section names, e.g. carriage_x and carriage_u); empty on cartesian/hybrid printers,
+    /// where x / stepper_x and dual_carriage are accepted.
+    std::array<std::string, 2> names{};
     std::array<double, 2> position_min_mm{}, position_max_mm{}, position_endstop_mm{};
     std::array<bool, 2> homing_positive_dir{};
     /// Klipper homing_speed of each rail: RESTORE_DUAL_CARRIAGE_STATE moves at the lower one.
@@ -81,7 +87,19 @@ struct InterpreterOptions {
     /// Klipper safe_distance; unset: min(|min0 - min1|, |max0 - max1|) (idex_modes.py).
     std::optional<double> safe_distance_mm;
   };
-  std::optional<DualCarriage> dual_carriage;
+  /// The pairs, at most one per axis, in Klipper's order (the X pair first); empty: none.
+  std::vector<DualCarriage> dual_carriages;
+  /// Klipper generic_cartesian's SET_STEPPER_CARRIAGES (generic_cartesian.py): each
+  /// stepper's `carriages` expression as configured, by the word after "stepper"; empty: the
+  /// command is unknown (any other printer).
+  std::map<std::string, std::string, std::less<>> stepper_carriages;
+  /// Klipper's checks of SET_STEPPER_CARRIAGES STEPPER=`stepper` CARRIAGES=`expr` given the
+  /// expressions in force (`now`): empty when accepted, else the reason. `full` false:
+  /// DISABLE_CHECKS=1 (the expression is still read and must name the same carriages in the
+  /// same order). Unset: every change is accepted.
+  std::function<std::string(const std::map<std::string, std::string, std::less<>>& now,
+                            const std::string& stepper, const std::string& expr, bool full)>
+      check_stepper_carriages;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -185,10 +203,11 @@ class Interpreter {
   /// After G28 / SET_KINEMATIC_POSITION changed pos_ on the axes in `axes` (bit mask).
   void after_position_set(unsigned axes);
   void dual_carriage_command(const Command& cmd, std::uint64_t line_no, EventSink& sink);
-  /// G28 of the dual-carriage axis: both carriages home, carriage 0 ends active.
-  void home_dual_carriage();
-  /// Klipper's get_kin_range for the dual-carriage axis, sent to the sink as its range.
-  void send_carriage_range(std::uint64_t line_no, EventSink& sink);
+  void set_stepper_carriages(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  /// G28 of a dual-carriage axis (pair index): both carriages home, carriage 0 ends active.
+  void home_dual_carriage(std::size_t pair);
+  /// Klipper's get_kin_range for the axis of a pair, sent to the sink as its range.
+  void send_carriage_range(std::size_t pair, std::uint64_t line_no, EventSink& sink);
   void update_path_choice();
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
@@ -245,9 +264,10 @@ class Interpreter {
     CarriageMode mode = CarriageMode::inactive;
     double scale = 0.0, offset_mm = 0.0;
   };
-  std::array<Carriage, 2> carriages_{};
-  std::map<std::string, std::array<Carriage, 2>, std::less<>> saved_carriages_;
+  std::vector<std::array<Carriage, 2>> carriages_;  // one per opt_.dual_carriages pair
+  std::map<std::string, std::vector<std::array<Carriage, 2>>, std::less<>> saved_carriages_;
   std::map<std::string, std::array<double, 4>, std::less<>> saved_carriage_pos_;
+  std::map<std::string, std::string, std::less<>> stepper_carriages_;  // SET_STEPPER_CARRIAGES
   CommandExpander* expander_ = nullptr;
   bool general_path_only_ = false;  // the expander may take G0/G1
   Annotations notes_;

@@ -4,6 +4,7 @@
 // klippy/kinematics/generic_cartesian.py with kinematic_stepper.py, polar.py, rotary_delta.py
 // and chelper/kin_generic.c, kin_polar.c, kin_rotary_delta.c. docs/machine.md, "Kinematics".
 #include <array>
+#include <map>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -39,6 +40,16 @@ struct GenericCartesianGeometry {
 /// primary one, each carriage referenced by a stepper, every stepper referencing one, and the
 /// steppers moving all three axes independently with either carriage of a dual axis active.
 [[nodiscard]] GenericCartesianGeometry generic_cartesian_geometry(const Machine& m);
+
+/// Klipper's checks of SET_STEPPER_CARRIAGES STEPPER=`stepper` CARRIAGES=`expr` on a
+/// generic_cartesian printer (generic_cartesian.py cmd_SET_STEPPER_CARRIAGES), the steppers'
+/// expressions in force being `now` (by the word after "stepper"): the expression is read as
+/// at start-up, must name the same carriages in the same order and not be all zero; with
+/// `full` (no DISABLE_CHECKS) the steppers must still move X, Y and Z independently, with the
+/// primary and with the dual carriages active. Empty when accepted, else the reason.
+[[nodiscard]] std::string stepper_carriages_error(
+    const Machine& m, const std::map<std::string, std::string, std::less<>>& now,
+    const std::string& stepper, const std::string& expr, bool full);
 
 /// Polar: the bed turns (stepper_bed: the angle atan2(y, x)), the arm sets the radius
 /// (stepper_arm: sqrt(x^2 + y^2)), Z is cartesian (kin_polar.c).

@@ -188,6 +188,11 @@ struct Carriage {
   /// Primary and dual carriages: position_min (default 0), position_max (required),
   /// position_endstop (required) [mm].
   std::optional<double> position_min_mm, position_max_mm, position_endstop_mm;
+  /// Primary and dual carriages: homing_speed (Klipper's default 5 mm/s); the lowest one of
+  /// the dual-carriage rails is RESTORE_DUAL_CARRIAGE_STATE's speed.
+  double homing_speed_mm_s = 5.0;
+  /// Dual carriages with a primary_carriage: safe_distance (unset: from the rails, as Klipper).
+  std::optional<double> safe_distance_mm;
   bool operator==(const Carriage&) const = default;
 };
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Measures Klipper's own print time (batch mode) for SAVE_/RESTORE_GCODE_STATE,
-[exclude_object], an IDEX ([dual_carriage]) and a print with start/end macros (README.md,
+[exclude_object], an IDEX ([dual_carriage] on cartesian and hybrid_corexy, [dual_carriage NAME]
+on generic_cartesian) and a print with start/end macros (README.md,
 "G-code state, exclude_object and IDEX").
 
 Usage (Debian's python3; Klipper needs python3-greenlet, -cffi, -serial, -jinja2):
@@ -28,6 +29,10 @@ CASES = [
     ("cartesian/syn_exclude_object", "gstate_cartesian.cfg", "G28\n", "syn_exclude_object.gcode"),
     ("idex_cartesian/syn_idex", "idex_cartesian.cfg", "G28\n", "syn_idex.gcode"),
     ("idex_hybrid_corexy/syn_idex", "idex_hybrid_corexy.cfg", "G28\n", "syn_idex.gcode"),
+    # generic_cartesian dual carriages on X and Y, chosen by name (SET_DUAL_CARRIAGE
+    # CARRIAGE=carriage_u), both axes restored in one move.
+    ("idex_generic_cartesian/syn_gc_idex", "idex_generic_cartesian.cfg", "G28\n",
+     "syn_gc_idex.gcode"),
     # A print whose start and end G-code are macros (tests/reference/macro: PRINT_START with a
     # heat soak and a purge line, a renamed M109, PRINT_END). Batch mode skips heater waits
     # without stopping the toolhead (heaters.py returns at once with debug output); a printer
