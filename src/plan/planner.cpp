@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -161,21 +162,23 @@ const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
   return r;
 }
 
-void PlannerCore::delta_range(const gcode::MoveRequest& r) {
-  // delta.py check_move: a kinematic move must end inside the build volume: z in [min_z,
-  // max_z] and the radius within max_xy2, tapered above limit_z. A move to the home position
-  // (homing) is allowed.
+namespace {
+
+// delta.py and rotary_delta.py check_move: a kinematic move must end inside the build volume:
+// z in [min_z, max_z] and the radius within max_xy2, tapered above limit_z (G: DeltaGeometry
+// or RotaryDeltaGeometry). A move to the home position (homing) is allowed.
+template <class G>
+std::optional<RangeError> tower_volume_error(const G& g, const gcode::MoveRequest& r) {
   const double dx = r.end_mm[0] - r.start_mm[0], dy = r.end_mm[1] - r.start_mm[1],
                dz = r.end_mm[2] - r.start_mm[2];
-  if (std::sqrt(dx * dx + dy * dy + dz * dz) < 1e-9) return;
-  const machine::DeltaGeometry& g = delta_geometry_;
+  if (std::sqrt(dx * dx + dy * dy + dz * dz) < 1e-9) return std::nullopt;
   const double x = r.end_mm[0], y = r.end_mm[1], z = r.end_mm[2];
   const double xy2 = x * x + y * y;
   const double limit_xy2 = g.limit_xy2_at(z);
-  if (xy2 <= limit_xy2 && z <= g.max_z_mm && z >= g.min_z_mm) return;
+  if (xy2 <= limit_xy2 && z <= g.max_z_mm && z >= g.min_z_mm) return std::nullopt;
   if (x == g.home_position_mm[0] && y == g.home_position_mm[1] && z >= g.min_z_mm &&
       z <= g.home_position_mm[2]) {
-    return;
+    return std::nullopt;
   }
   RangeError e;
   e.line = r.line;
@@ -188,8 +191,16 @@ void PlannerCore::delta_range(const gcode::MoveRequest& r) {
     e.position_mm = std::sqrt(xy2);
     e.limit_mm = std::sqrt(std::max(0.0, limit_xy2));
   }
-  range_reported_ = true;
-  post(PendingEvent::make_range_error(e));
+  return e;
+}
+
+}  // namespace
+
+void PlannerCore::delta_range(const gcode::MoveRequest& r) {
+  if (const auto e = tower_volume_error(delta_geometry_, r)) {
+    range_reported_ = true;
+    post(PendingEvent::make_range_error(*e));
+  }
 }
 
 bool PlannerCore::polar_range(const gcode::MoveRequest& r) {
@@ -211,33 +222,11 @@ bool PlannerCore::polar_range(const gcode::MoveRequest& r) {
 }
 
 void PlannerCore::rotary_range(const gcode::MoveRequest& r) {
-  // rotary_delta.py check_move: z in [min_z, max_z] and the radius within max_xy2, tapered to
-  // max_z - z above limit_z; a move to the home position (homing) is allowed.
-  const double dx = r.end_mm[0] - r.start_mm[0], dy = r.end_mm[1] - r.start_mm[1],
-               dz = r.end_mm[2] - r.start_mm[2];
-  if (std::sqrt(dx * dx + dy * dy + dz * dz) < 1e-9) return;
-  const machine::RotaryDeltaGeometry& g = rotary_geometry_;
-  const double x = r.end_mm[0], y = r.end_mm[1], z = r.end_mm[2];
-  const double xy2 = x * x + y * y;
-  const double limit_xy2 = g.limit_xy2_at(z);
-  if (xy2 <= limit_xy2 && z <= g.max_z_mm && z >= g.min_z_mm) return;
-  if (x == g.home_position_mm[0] && y == g.home_position_mm[1] && z >= g.min_z_mm &&
-      z <= g.home_position_mm[2]) {
-    return;
+  // rotary_delta.py check_move: as delta.py's, the radius tapered to max_z - z above limit_z.
+  if (const auto e = tower_volume_error(rotary_geometry_, r)) {
+    range_reported_ = true;
+    post(PendingEvent::make_range_error(*e));
   }
-  RangeError e;
-  e.line = r.line;
-  if (z > g.max_z_mm || z < g.min_z_mm) {
-    e.axis = 'z';
-    e.position_mm = z;
-    e.limit_mm = z > g.max_z_mm ? g.max_z_mm : g.min_z_mm;
-  } else {
-    e.axis = 'r';
-    e.position_mm = std::sqrt(xy2);
-    e.limit_mm = std::sqrt(std::max(0.0, limit_xy2));
-  }
-  range_reported_ = true;
-  post(PendingEvent::make_range_error(e));
 }
 
 void PlannerCore::deltesian_range(const gcode::MoveRequest& r) {

@@ -457,6 +457,54 @@ void StepGenerator::stepper_move(std::uint32_t c, const PlannedMove& move, std::
   stats.position_steps = st.n;
 }
 
+namespace {
+
+// The steps of a motor whose position q(s) (s: path distance) is monotone on each interval
+// of `bounds`: the levels n +- 1/2 crossed on each, as for a linear motor, each crossing
+// found by safeguarded Newton on g(s) = dir (q(s) - level) with `slope` = q'. Used by the
+// delta towers and winch cables (one turning point at most) and by the curve motors (polar,
+// rotary arms). St is StepGenerator::State; emit(t, dir) records the step (and moves st.n).
+template <class St, class Q, class Slope, class Emit>
+void step_monotone_intervals(St& st, std::span<const double> bounds, const Q& q,
+                             const Slope& slope, double offset, double step, double s_end,
+                             int max_iterations, PieceCursor& cursor, const Emit& emit) {
+  for (std::size_t seg = 0; seg + 1 < bounds.size(); ++seg) {
+    const double sa = bounds[seg], sb = bounds[seg + 1];
+    const double u_end = (q(sb) + offset - st.origin_mm) / step;
+    std::int64_t n_end = st.n;
+    const double up = std::floor(u_end + 0.5), down = std::ceil(u_end - 0.5);
+    if (static_cast<double>(st.n) < up) n_end = static_cast<std::int64_t>(up);
+    else if (static_cast<double>(st.n) > down) n_end = static_cast<std::int64_t>(down);
+    if (n_end == st.n) continue;
+    const int dir = n_end > st.n ? 1 : -1;
+    double lo = sa;
+    while (st.n != n_end) {
+      const double level = st.origin_mm + (static_cast<double>(st.n) + 0.5 * dir) * step - offset;
+      double a = lo, b = sb, sv = lo;
+      if (dir * (q(a) - level) < 0.0) {
+        for (int it = 0; it < max_iterations; ++it) {
+          const double g = dir * (q(sv) - level);
+          if (g == 0.0) break;
+          (g < 0.0 ? a : b) = sv;
+          const double d = dir * slope(sv);
+          double next = d > 0.0 ? sv - g / d : 0.5 * (a + b);
+          if (!(next > a && next < b)) next = 0.5 * (a + b);
+          if (std::abs(next - sv) <= 1e-14 * (1.0 + s_end) || b - a <= 1e-13 * (1.0 + s_end)) {
+            sv = next;
+            break;
+          }
+          sv = next;
+        }
+        sv = std::clamp(sv, lo, sb);
+      }
+      lo = sv;
+      emit(std::max(cursor.time_at(sv), st.last_step_s), dir);
+    }
+  }
+}
+
+}  // namespace
+
 void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
   const StepperChannel& ch = channels_[c];
   State& st = state_[c];
@@ -523,43 +571,9 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
   }
   const double step = ch.step_distance_mm;
   PieceCursor cursor(pieces_, piece_count_, move.start_time_s);
-  for (std::size_t seg = 0; seg < segments; ++seg) {
-    const double sa = bounds[seg], sb = bounds[seg + 1];
-    const double qb = q(sb);
-    const double u_end = (qb + offset - st.origin_mm) / step;
-    // This monotone piece's steps, as for a linear motor: levels n +- 1/2.
-    std::int64_t n_end = st.n;
-    const double up = std::floor(u_end + 0.5), down = std::ceil(u_end - 0.5);
-    if (static_cast<double>(st.n) < up) n_end = static_cast<std::int64_t>(up);
-    else if (static_cast<double>(st.n) > down) n_end = static_cast<std::int64_t>(down);
-    if (n_end == st.n) continue;
-    const int dir = n_end > st.n ? 1 : -1;
-    double lo = sa;
-    while (st.n != n_end) {
-      const double level = st.origin_mm + (static_cast<double>(st.n) + 0.5 * dir) * step - offset;
-      // g(s) = dir (q(s) - level) rises through 0 on [lo, sb]: safeguarded Newton.
-      double a = lo, b = sb, s = lo;
-      if (dir * (q(a) - level) < 0.0) {
-        for (int it = 0; it < 100; ++it) {
-          const double g = dir * (q(s) - level);
-          if (g == 0.0) break;
-          (g < 0.0 ? a : b) = s;
-          const double d = dir * slope(s);
-          double next = d > 0.0 ? s - g / d : 0.5 * (a + b);
-          if (!(next > a && next < b)) next = 0.5 * (a + b);
-          if (std::abs(next - s) <= 1e-14 * (1.0 + s_end) || b - a <= 1e-13 * (1.0 + s_end)) {
-            s = next;
-            break;
-          }
-          s = next;
-        }
-        s = std::clamp(s, lo, sb);
-      }
-      lo = s;
-      const double t = std::max(cursor.time_at(s), st.last_step_s);
-      record_step(c, t, dir, out);
-    }
-  }
+  step_monotone_intervals(st, std::span<const double>(bounds.data(), segments + 1), q, slope,
+                          offset, step, s_end, 100, cursor,
+                          [&](double t, int dir) { record_step(c, t, dir, out); });
 }
 
 void StepGenerator::curve_move(std::uint32_t c, const PlannedMove& move, std::vector<Step>& out) {
@@ -658,41 +672,8 @@ void StepGenerator::curve_move(std::uint32_t c, const PlannedMove& move, std::ve
   bounds.push_back(s_end);
   const double step = ch.step_distance_mm;
   PieceCursor cursor(pieces_, piece_count_, move.start_time_s);
-  for (std::size_t seg = 0; seg + 1 < bounds.size(); ++seg) {
-    const double sa = bounds[seg], sb = bounds[seg + 1];
-    const double u_end = (q(sb) + offset - st.origin_mm) / step;
-    std::int64_t n_end = st.n;
-    const double up = std::floor(u_end + 0.5), down = std::ceil(u_end - 0.5);
-    if (static_cast<double>(st.n) < up) n_end = static_cast<std::int64_t>(up);
-    else if (static_cast<double>(st.n) > down) n_end = static_cast<std::int64_t>(down);
-    if (n_end == st.n) continue;
-    const int dir = n_end > st.n ? 1 : -1;
-    double lo = sa;
-    while (st.n != n_end) {
-      const double level = st.origin_mm + (static_cast<double>(st.n) + 0.5 * dir) * step - offset;
-      // g(s) = dir (q(s) - level) rises through 0 on [lo, sb]: safeguarded Newton.
-      double a = lo, b = sb, sv = lo;
-      if (dir * (q(a) - level) < 0.0) {
-        for (int it = 0; it < 200; ++it) {
-          const double g = dir * (q(sv) - level);
-          if (g == 0.0) break;
-          (g < 0.0 ? a : b) = sv;
-          const double d = dir * slope(sv);
-          double next = d > 0.0 ? sv - g / d : 0.5 * (a + b);
-          if (!(next > a && next < b)) next = 0.5 * (a + b);
-          if (std::abs(next - sv) <= 1e-14 * (1.0 + s_end) || b - a <= 1e-13 * (1.0 + s_end)) {
-            sv = next;
-            break;
-          }
-          sv = next;
-        }
-        sv = std::clamp(sv, lo, sb);
-      }
-      lo = sv;
-      const double t = std::max(cursor.time_at(sv), st.last_step_s);
-      record_step(c, t, dir, out);
-    }
-  }
+  step_monotone_intervals(st, std::span<const double>(bounds), q, slope, offset, step, s_end, 200,
+                          cursor, [&](double t, int dir) { record_step(c, t, dir, out); });
 }
 
 // ---------------------------------------------------------------------------------------
