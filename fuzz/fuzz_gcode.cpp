@@ -108,9 +108,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   check_fast_path(text);
   for (bool strict : {true, false}) {
-    for (auto fw : {amctl::machine::Firmware::klipper, amctl::machine::Firmware::marlin}) {
+    // Klipper, Marlin, and a Klipper IDEX with [exclude_object] (the state commands' paths).
+    for (int variant = 0; variant < 3; ++variant) {
+      const auto fw = variant == 1 ? amctl::machine::Firmware::marlin : amctl::machine::Firmware::klipper;
       amctl::machine::Machine m;
       m.firmware = fw;
+      if (variant == 2) {
+        m.exclude_object = true;
+        amctl::machine::Stepper x;
+        x.position_min_mm = 0.0;
+        x.position_max_mm = 250.0;
+        x.position_endstop_mm = 0.0;
+        m.steppers["x"] = x;
+        m.dual_carriage.axis = "x";
+        m.dual_carriage.position_min_mm = 0.0;
+        m.dual_carriage.position_max_mm = 250.0;
+        m.dual_carriage.position_endstop_mm = 250.0;
+        m.dual_carriage.safe_distance_mm = 50.0;
+      }
       m.junction = fw == amctl::machine::Firmware::klipper
                        ? amctl::machine::JunctionPolicy::square_corner_velocity
                        : amctl::machine::JunctionPolicy::classic_jerk;
