@@ -538,17 +538,7 @@ void StepGenerator::tower_move(std::uint32_t c, const PlannedMove& move, std::ve
     }
     return az - (u * ax + w * ay) / root(s);
   };
-  const double start = q(0.0);
-  if (!st.started) {
-    st.started = true;
-    st.origin_mm = start;
-    st.last_end_mm = start;
-  }
-  double offset = st.offset_mm;
-  if (std::abs(start + offset - st.last_end_mm) > 1e-9 * (1.0 + std::abs(st.last_end_mm))) {
-    st.offset_mm += st.last_end_mm - (start + offset);
-    offset = st.offset_mm;
-  }
+  const double offset = st.continue_at(q(0.0));
   if (piece_count_ == 0 || (ax == 0.0 && ay == 0.0 && az == 0.0)) return;
   double dummy = 0.0;
   const PathPiece& last = pieces_[piece_count_ - 1];
@@ -630,17 +620,7 @@ void StepGenerator::curve_move(std::uint32_t c, const PlannedMove& move, std::ve
       }
     }
   };
-  const double start = q(0.0);
-  if (!st.started) {
-    st.started = true;
-    st.origin_mm = start;
-    st.last_end_mm = start;
-  }
-  double offset = st.offset_mm;
-  if (std::abs(start + offset - st.last_end_mm) > 1e-9 * (1.0 + std::abs(st.last_end_mm))) {
-    st.offset_mm += st.last_end_mm - (start + offset);
-    offset = st.offset_mm;
-  }
+  const double offset = st.continue_at(q(0.0));
   if (piece_count_ == 0 || (ax == 0.0 && ay == 0.0 && az == 0.0)) return;
   if (ch.curve != Curve::rotary_arm && ax == 0.0 && ay == 0.0) return;  // Z only: bed, arm still
   st.last_end_mm = q(s_end) + offset;

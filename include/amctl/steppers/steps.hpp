@@ -8,6 +8,7 @@
 // one root, solved exactly (closed form for degree <= 2, safeguarded Newton/bisection to
 // 1e-13 s above).
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <functional>
@@ -120,6 +121,20 @@ class StepGenerator {
     double last_end_mm = 0.0;  ///< motor position at the end of the previous move
     std::int64_t n = 0;        ///< current step position
     double last_step_s = -std::numeric_limits<double>::infinity();
+    /// A non-linear motor's move starting at motor position `start_mm`: anchors the grid on
+    /// the first move; a jump between moves (G92, homing) goes into the offset, so the motor
+    /// position stays continuous. Returns the offset to add.
+    double continue_at(double start_mm) {
+      if (!started) {
+        started = true;
+        origin_mm = start_mm;
+        last_end_mm = start_mm;
+      }
+      if (std::abs(start_mm + offset_mm - last_end_mm) > 1e-9 * (1.0 + std::abs(last_end_mm))) {
+        offset_mm += last_end_mm - (start_mm + offset_mm);
+      }
+      return offset_mm;
+    }
   };
   void stepper_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
   /// The same for a non-linear motor (a delta tower, a winch cable).
