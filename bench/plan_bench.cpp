@@ -19,9 +19,10 @@ namespace {
 
 using amctl::bench::synthetic_gcode;
 
-void BM_EstimateKlipper(benchmark::State& state) {
-  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
-  amctl::machine::Machine m;  // Klipper, square_corner_velocity junctions
+// The timed loop of the estimate benchmarks: the whole job on text g, moves per second (and
+// bytes per second when `bytes`).
+void run_estimate(benchmark::State& state, const std::string& g, const amctl::machine::Machine& m,
+                  bool bytes) {
   std::uint64_t moves = 0;
   for (auto _ : state) {
     auto r = amctl::plan::estimate_text(g, "bench", m);
@@ -29,7 +30,13 @@ void BM_EstimateKlipper(benchmark::State& state) {
     benchmark::DoNotOptimize(r.total_time_s);
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
-  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+  if (bytes) state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+}
+
+void BM_EstimateKlipper(benchmark::State& state) {
+  const std::string g = synthetic_gcode(static_cast<std::size_t>(state.range(0)));
+  amctl::machine::Machine m;  // Klipper, square_corner_velocity junctions
+  run_estimate(state, g, m, true);
 }
 BENCHMARK(BM_EstimateKlipper)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
 
@@ -45,14 +52,7 @@ void BM_EstimateKlipperWithMacros(benchmark::State& state) {
     s.options["gcode"] = amctl::ConfigValue{"G4 P{params.P|default(0)}", {}, {1}};
     m.klipper_config.push_back(s);
   }
-  std::uint64_t moves = 0;
-  for (auto _ : state) {
-    auto r = amctl::plan::estimate_text(g, "bench", m);
-    moves = r.moves;
-    benchmark::DoNotOptimize(r.total_time_s);
-  }
-  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
-  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+  run_estimate(state, g, m, true);
 }
 BENCHMARK(BM_EstimateKlipperWithMacros)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
 
@@ -61,13 +61,7 @@ void BM_EstimateMarlinJunctionDeviation(benchmark::State& state) {
   amctl::machine::Machine m;
   m.firmware = amctl::machine::Firmware::marlin;
   m.junction = amctl::machine::JunctionPolicy::junction_deviation;
-  std::uint64_t moves = 0;
-  for (auto _ : state) {
-    auto r = amctl::plan::estimate_text(g, "bench", m);
-    moves = r.moves;
-    benchmark::DoNotOptimize(r.total_time_s);
-  }
-  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
+  run_estimate(state, g, m, false);
 }
 BENCHMARK(BM_EstimateMarlinJunctionDeviation)->Arg(1 << 18)->Unit(benchmark::kMillisecond);
 
@@ -78,14 +72,7 @@ void BM_EstimateKlipperSCurve(benchmark::State& state) {
   amctl::machine::Machine m;
   m.profile = amctl::machine::VelocityProfile::scurve7;
   m.max_jerk_mm_s3 = 1.0e6;
-  std::uint64_t moves = 0;
-  for (auto _ : state) {
-    auto r = amctl::plan::estimate_text(g, "bench", m);
-    moves = r.moves;
-    benchmark::DoNotOptimize(r.total_time_s);
-  }
-  state.SetItemsProcessed(static_cast<std::int64_t>(moves) * state.iterations());
-  state.SetBytesProcessed(static_cast<std::int64_t>(g.size()) * state.iterations());
+  run_estimate(state, g, m, true);
 }
 BENCHMARK(BM_EstimateKlipperSCurve)->Arg(1 << 20)->Unit(benchmark::kMillisecond);
 
