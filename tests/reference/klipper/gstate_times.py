@@ -16,10 +16,10 @@ reads the set-up and the input (tests/plan/klipper_gstate_test.cpp).
 """
 import json
 import os
-import re
 import subprocess
 import sys
-import tempfile
+
+import batch_time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -41,30 +41,11 @@ CASES = [
      "../macro/print.gcode", 0.005),
 ]
 
-MARK = re.compile(r"REPORT_PRINT_TIME tag=(\w+) print_time=([0-9.]+)")
-
-
 def run(klipper, dictionary, cfg, setup, source):
     with open(os.path.join(HERE, source), encoding="utf-8") as f:
         body = f.read()
-    with tempfile.TemporaryDirectory() as tmp:
-        gcode = os.path.join(tmp, "in.gcode")
-        log = os.path.join(tmp, "klippy.log")
-        with open(gcode, "w") as f:
-            f.write(setup + "M400\nREPORT_PRINT_TIME TAG=start\n" + body +
-                    "\nM400\nREPORT_PRINT_TIME TAG=end\n")
-        subprocess.run(["/usr/bin/python3", os.path.join(klipper, "klippy", "klippy.py"),
-                        os.path.join(HERE, cfg), "-i", gcode, "-o", "/dev/null", "-d", dictionary,
-                        "-l", log], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        with open(log, errors="replace") as f:
-            text = f.read()
-    errors = [l for l in text.splitlines() if l.startswith("!! ") or "out of range" in l]
-    if errors:
-        raise SystemExit(f"{cfg} {source}: Klipper reported {errors[:3]}")
-    marks = dict(MARK.findall(text))
-    if "start" not in marks or "end" not in marks:
-        raise SystemExit(f"{cfg} {source}: no time marks in Klipper's log")
-    return float(marks["end"]) - float(marks["start"])
+    return batch_time.motion_time(klipper, dictionary, os.path.join(HERE, cfg), body,
+                                  before=setup, label=f"{cfg} {source}")
 
 
 def main():

@@ -13,10 +13,10 @@ reads too (tests/plan/klipper_kinematics_test.cpp builds the same text).
 """
 import json
 import os
-import re
 import subprocess
 import sys
-import tempfile
+
+import batch_time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -48,29 +48,12 @@ CASES = [
     ("rotary_delta/benchy", "rotary_delta.cfg", "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG92 X60 Y60 Z0\n", BENCHY),
 ]
 
-MARK = re.compile(r"REPORT_PRINT_TIME tag=(\w+) print_time=([0-9.]+)")
-
-
 def run(klipper, dictionary, corpus, cfg, preamble, source):
     path = os.path.join(corpus, source[7:]) if source.startswith("corpus:") else os.path.join(HERE, source)
     with open(path, encoding="utf-8", errors="replace") as f:
         body = f.read()
-    with tempfile.TemporaryDirectory() as tmp:
-        gcode = os.path.join(tmp, "in.gcode")
-        log = os.path.join(tmp, "klippy.log")
-        with open(gcode, "w") as f:
-            f.write("M400\nREPORT_PRINT_TIME TAG=start\n" + preamble + body +
-                    "\nM400\nREPORT_PRINT_TIME TAG=end\n")
-        subprocess.run(["/usr/bin/python3", os.path.join(klipper, "klippy", "klippy.py"),
-                        os.path.join(HERE, cfg), "-i", gcode, "-o", "/dev/null", "-d", dictionary,
-                        "-l", log], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        with open(log, errors="replace") as f:
-            text = f.read()
-    errors = [l for l in text.splitlines() if l.startswith("!! ") or "out of range" in l]
-    if errors:
-        raise SystemExit(f"{cfg} {source}: Klipper reported {errors[:3]}")
-    marks = dict(MARK.findall(text))
-    return float(marks["end"]) - float(marks["start"])
+    return batch_time.motion_time(klipper, dictionary, os.path.join(HERE, cfg), body,
+                                  inside=preamble, label=f"{cfg} {source}")
 
 
 def main():
