@@ -1,6 +1,7 @@
 #include "amctl/plan/estimate.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <numbers>
@@ -21,6 +22,19 @@ const char* heater_name(gcode::HeaterCommand::Kind k) {
     case gcode::HeaterCommand::Kind::chamber: return "chamber";
   }
   return "heater";
+}
+
+// An IDEX pair's two rails (idex_modes.py): ranges and endstops of carriage 0 and 1; stepper.py:
+// a rail homes towards max when its endstop lies in the top quarter of it.
+void set_idex_rails(gcode::InterpreterOptions::DualCarriage& d, std::array<double, 2> min_mm,
+                    std::array<double, 2> max_mm, std::array<double, 2> endstop_mm) {
+  d.position_min_mm = min_mm;
+  d.position_max_mm = max_mm;
+  d.position_endstop_mm = endstop_mm;
+  for (std::size_t c = 0; c < 2; ++c) {
+    const double len = max_mm[c] - min_mm[c];
+    d.homing_positive_dir[c] = endstop_mm[c] >= max_mm[c] - len / 4.0;
+  }
 }
 
 }  // namespace
@@ -151,14 +165,9 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
                               dc.axis));
     }
     const machine::Stepper& first = it->second;
-    d.position_min_mm = {first.position_min_mm.value_or(0.0), dc.position_min_mm.value_or(0.0)};
-    d.position_max_mm = {*first.position_max_mm, *dc.position_max_mm};
-    d.position_endstop_mm = {*first.position_endstop_mm, *dc.position_endstop_mm};
-    // stepper.py: a rail homes towards max when its endstop lies in the top quarter of it.
-    for (std::size_t c = 0; c < 2; ++c) {
-      const double len = d.position_max_mm[c] - d.position_min_mm[c];
-      d.homing_positive_dir[c] = d.position_endstop_mm[c] >= d.position_max_mm[c] - len / 4.0;
-    }
+    set_idex_rails(d, {first.position_min_mm.value_or(0.0), dc.position_min_mm.value_or(0.0)},
+                   {*first.position_max_mm, *dc.position_max_mm},
+                   {*first.position_endstop_mm, *dc.position_endstop_mm});
     d.safe_distance_mm = dc.safe_distance_mm;
     d.homing_speed_mm_s = {dc.primary_homing_speed_mm_s, dc.homing_speed_mm_s};
     o.dual_carriages.push_back(d);
@@ -200,14 +209,10 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
         gcode::InterpreterOptions::DualCarriage d;
         d.axis = axis - 'x';
         d.names = {pit->first, name};
-        d.position_min_mm = {first.position_min_mm.value_or(0.0), dual.position_min_mm.value_or(0.0)};
-        d.position_max_mm = {first.position_max_mm.value_or(0.0), dual.position_max_mm.value_or(0.0)};
-        d.position_endstop_mm = {first.position_endstop_mm.value_or(0.0),
-                                 dual.position_endstop_mm.value_or(0.0)};
-        for (std::size_t c = 0; c < 2; ++c) {
-          const double len = d.position_max_mm[c] - d.position_min_mm[c];
-          d.homing_positive_dir[c] = d.position_endstop_mm[c] >= d.position_max_mm[c] - len / 4.0;
-        }
+        set_idex_rails(d, {first.position_min_mm.value_or(0.0), dual.position_min_mm.value_or(0.0)},
+                       {first.position_max_mm.value_or(0.0), dual.position_max_mm.value_or(0.0)},
+                       {first.position_endstop_mm.value_or(0.0),
+                        dual.position_endstop_mm.value_or(0.0)});
         d.safe_distance_mm = dual.safe_distance_mm;
         d.homing_speed_mm_s = {first.homing_speed_mm_s, dual.homing_speed_mm_s};
         o.dual_carriages.push_back(d);
