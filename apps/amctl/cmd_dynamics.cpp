@@ -17,6 +17,7 @@
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/dynamics/seed000_sweep.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/simulation/shaped_simulation.hpp"
 #include "commands.hpp"
@@ -145,8 +146,8 @@ void do_simulate(const SimulateArgs& a) {
   const dy::AxisModel mx = build_model(a.model, false), my = build_model(a.model, true);
   dy::PrintSimulationOptions o;
   o.simulation.sample_rate_hz = a.rate_hz;
-  o.simulation.kinematics = mach.kinematics;
   o.simulation.motor_space = a.motor_space;
+  if (a.motor_space) o.simulation.motor_rows = machine::motor_space(mach).rows;
   o.simulation.vibration_per_sample = !a.csv.empty();
   o.metrics.worst_count = a.worst;
   o.metrics.corner_window_s = a.corner_window_s;

@@ -32,10 +32,11 @@ void run_steps(const StepsArgs& a) {
   }
   std::cout << fmt::format("amctl steps: {} ({} moves, {:.3f} s, machine {}, {})\n", r.file,
                            r.moves, r.print_time_s, r.machine_name, r.kinematics);
-  for (std::size_t i = 0; i < r.channels.size(); ++i) {
+  for (std::size_t i = 0; i < r.motors.size(); ++i) {
     const steppers::StepperStats& s = r.stats[i];
-    std::cout << fmt::format("  {:<12} {:>12} steps  step {:.6g} mm", r.channels[i].name, s.steps,
-                             r.channels[i].step_distance_mm);
+    std::cout << fmt::format("  {:<12} {:>12} steps  step {:.6g} {}", r.motors[i].name, s.steps,
+                             r.motors[i].step_distance.value,
+                             kinematics::to_string(r.motors[i].step_distance.unit));
     if (r.step_filter == steppers::StepFilter::klipper) {
       std::cout << fmt::format("  ({} pairs filtered)", r.filtered_pairs[i]);
     }

@@ -11,6 +11,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/plan/stream.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/build.hpp"
 #include "amctl/trajectory/trajectory.hpp"
@@ -250,7 +251,7 @@ SimulationResult ClosedLoopSimulator::finish() {
 std::vector<AxisSetup> machine_axes(const machine::Machine& m) {
   // Validates every stepper section (missing ones, rotation_distance, microsteps) with the
   // messages `amctl steps` gives.
-  (void)steppers::stepper_channels(m);
+  (void)machine::motors(m);
   std::vector<AxisSetup> out;
   for (const char* key : {"x", "y"}) {
     const machine::Stepper& st = m.steppers.at(key);
@@ -363,7 +364,7 @@ namespace {
 // batch's moves, evaluated on a Cursor; ticks run while their next sample lies inside it.
 class ClosedLoopSink final : public plan::Sink {
  public:
-  ClosedLoopSink(ClosedLoopSimulator& sim, std::vector<steppers::StepperChannel> ch,
+  ClosedLoopSink(ClosedLoopSimulator& sim, std::vector<kinematics::Motor> ch,
                  std::vector<AxisSetup> axes, double settle_s)
       : sim_(sim), ch_(std::move(ch)), axes_(std::move(axes)), settle_s_(settle_s) {}
 
@@ -420,7 +421,7 @@ class ClosedLoopSink final : public plan::Sink {
   }
 
   ClosedLoopSimulator& sim_;
-  std::vector<steppers::StepperChannel> ch_;
+  std::vector<kinematics::Motor> ch_;
   std::vector<AxisSetup> axes_;
   double settle_s_;
   std::vector<plan::PlannedMove> window_;
@@ -437,7 +438,7 @@ namespace {
 class LazyClosedLoop final : public plan::Sink {
  public:
   LazyClosedLoop(const machine::Machine& m, const SimulationOptions& o)
-      : ch_(steppers::stepper_channels(m)), axes_(machine_axes(m)), options_(o) {
+      : ch_(machine::motors(m)), axes_(machine_axes(m)), options_(o) {
     ch_.resize(2);  // stepper_x, stepper_y
   }
   void consume(const plan::PlanBatch& b) override {
@@ -459,7 +460,7 @@ class LazyClosedLoop final : public plan::Sink {
   SimulationResult result() { return sim_->finish(); }
 
  private:
-  std::vector<steppers::StepperChannel> ch_;
+  std::vector<kinematics::Motor> ch_;
   std::vector<AxisSetup> axes_;
   SimulationOptions options_;
   std::unique_ptr<ClosedLoopSimulator> sim_;

@@ -4,8 +4,7 @@
 
 #include <fmt/format.h>
 
-#include "amctl/machine/delta.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
 
@@ -115,50 +114,7 @@ Json to_json(const Machine& m) {
     }
   }
   j["steppers"] = steppers;
-  if (m.kinematics == Kinematics::generic_cartesian) {
-    // The carriages as given, and each stepper's row over X, Y, Z (dual carriages parked).
-    Json carriages = Json::object();
-    static constexpr const char* kTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
-    for (const auto& [name, c] : m.carriages) {
-      Json cj = {{"type", kTypes[static_cast<std::size_t>(c.type)]}};
-      if (!c.axis.empty()) cj["axis"] = c.axis;
-      if (!c.primary_carriage.empty()) cj["primary_carriage"] = c.primary_carriage;
-      if (c.position_min_mm) cj["position_min"] = *c.position_min_mm;
-      if (c.position_max_mm) cj["position_max"] = *c.position_max_mm;
-      if (c.position_endstop_mm) cj["position_endstop"] = *c.position_endstop_mm;
-      carriages[name] = cj;
-    }
-    j["carriages"] = carriages;
-    Json rows = Json::object();
-    for (const GenericStepper& gs : generic_cartesian_geometry(m).steppers) {
-      rows[gs.name] = {gs.coeffs[0], gs.coeffs[1], gs.coeffs[2]};
-    }
-    j["stepper_rows_xyz"] = rows;
-  }
-  if (m.kinematics == Kinematics::rotary_delta) {
-    const RotaryDeltaGeometry g = rotary_delta_geometry(m);
-    j["rotary_delta"] = {{"shoulder_radius", g.shoulder_radius_mm},
-                         {"shoulder_height", g.shoulder_height_mm},
-                         {"build_radius", std::sqrt(g.max_xy2_mm2)},
-                         {"max_z", g.max_z_mm},
-                         {"min_z", g.min_z_mm},
-                         {"taper_start_z", g.limit_z_mm},
-                         {"home_position", {g.home_position_mm[0], g.home_position_mm[1],
-                                            g.home_position_mm[2]}}};
-  }
-  if (m.max_angular_velocity_rad_s) j["printer"]["max_angular_velocity"] = *m.max_angular_velocity_rad_s;
-  if (m.kinematics == Kinematics::delta) {
-    // The keys as given, and what Klipper derives from them (machine/delta.hpp).
-    const DeltaGeometry g = delta_geometry(m);
-    j["delta"] = {{"radius", g.radius_mm},
-                  {"print_radius", optional_number(m.delta.print_radius_mm)},
-                  {"minimum_z_position", optional_number(m.delta.minimum_z_position_mm)},
-                  {"build_radius", std::sqrt(g.max_xy2_mm2)},
-                  {"slow_radius", std::sqrt(g.slow_xy2_mm2)},
-                  {"very_slow_radius", std::sqrt(g.very_slow_xy2_mm2)},
-                  {"max_z", g.max_z_mm},
-                  {"cone_start_z", g.limit_z_mm}};
-  }
+  make_kinematics(m)->describe(j);
   j["effective"] = {
       {"max_z_velocity", effective_max_z_velocity_mm_s(m)},
       {"max_z_accel", effective_max_z_accel_mm_s2(m)},

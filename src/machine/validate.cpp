@@ -7,8 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "amctl/machine/delta.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -131,32 +130,18 @@ void validate(const Machine& machine) {
                               *dc.position_endstop_mm, lo, *dc.position_max_mm));
     }
   }
-  // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
-  if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
-  if (m.kinematics == Kinematics::deltesian) (void)deltesian_geometry(m);
-  if (m.kinematics == Kinematics::generic_cartesian) (void)generic_cartesian_geometry(m);
-  if (m.kinematics == Kinematics::polar) (void)polar_geometry(m);
-  if (m.kinematics == Kinematics::rotary_delta) (void)rotary_delta_geometry(m);
+  // The kinematics must be complete and consistent (a delta's rods longer than its radius, a
+  // generic_cartesian's steppers moving X, Y and Z, ...): built, and its motors allocated.
+  {
+    const auto kin = make_kinematics(m);
+    std::vector<std::string> keys, missing;
+    for (const auto& [k, s] : m.steppers) keys.push_back(k);
+    (void)kin->motors(keys, missing);
+  }
   if (m.kinematics != Kinematics::generic_cartesian && !m.carriages.empty()) {
     throw Error(fmt::format("[carriage.{}] is a generic_cartesian section, expected none for "
                             "kinematics {}",
                             m.carriages.begin()->first, to_string(m.kinematics)));
-  }
-  if (m.kinematics == Kinematics::winch) {
-    for (const char* cable : {"a", "b", "c", "d"}) {
-      const auto it = m.steppers.find(cable);
-      if (it == m.steppers.end()) {
-        if (cable[0] == 'd') break;
-        throw Error(fmt::format("a winch needs stepper_a, stepper_b and stepper_c; stepper_{} is "
-                                "missing",
-                                cable));
-      }
-      const Stepper& s = it->second;
-      if (!s.anchor_x_mm || !s.anchor_y_mm || !s.anchor_z_mm) {
-        throw Error(fmt::format("stepper_{}: a winch cable needs anchor_x, anchor_y and anchor_z",
-                                cable));
-      }
-    }
   }
 }
 

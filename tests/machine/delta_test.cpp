@@ -7,7 +7,6 @@
 
 #include <gtest/gtest.h>
 
-#include "amctl/machine/delta.hpp"
 #include "amctl/machine/loader.hpp"
 #include "test_util.hpp"
 
@@ -15,6 +14,19 @@ namespace amctl::machine {
 namespace {
 
 using test::error_of;
+using test::delta_geometry;
+using test::deltesian_geometry;
+using test::generic_cartesian_geometry;
+using test::parse_carriages;
+using test::polar_geometry;
+using test::rotary_delta_geometry;
+using kinematics::DeltaGeometry;
+using kinematics::DeltesianGeometry;
+using kinematics::GenericCartesianGeometry;
+using kinematics::GenericStepper;
+using kinematics::PolarGeometry;
+using kinematics::RotaryDeltaGeometry;
+using kinematics::trilaterate_below;
 
 const std::string kDir = std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/";
 

@@ -11,8 +11,9 @@
 #include <vector>
 
 #include "amctl/core/error.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 #include "step_run.hpp"
@@ -47,14 +48,19 @@ using test::run;
 using KinRun = test::StepRun;
 
 TEST(DeltaSteps, ChannelsAreTheTowersAndTheExtruder) {
-  const auto ch = stepper_channels(delta_machine());
+  const auto ch = machine::motors(delta_machine());
   ASSERT_EQ(ch.size(), 4u);
   EXPECT_EQ(ch[0].name, "stepper_a");
   EXPECT_EQ(ch[2].name, "stepper_c");
   EXPECT_EQ(ch[3].name, "extruder");
-  EXPECT_NEAR(ch[2].tower_x_mm, 0.0, 1e-12);
-  EXPECT_NEAR(ch[2].tower_y_mm, kRadius, 1e-12);
-  EXPECT_DOUBLE_EQ(ch[1].arm2_mm2, kArm * kArm);  // b's arm defaults to a's
+  // The towers' curves are the carriage heights (b's arm defaults to a's).
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_FALSE(ch[static_cast<std::size_t>(i)].linear());
+    for (const auto& p : {kinematics::Vec3{0, 0, 0}, {30, -40, 12}, {-70, 55, 3}}) {
+      EXPECT_NEAR(ch[static_cast<std::size_t>(i)].curve->position(p), carriage(i, p[0], p[1], p[2]),
+                  1e-9);
+    }
+  }
 }
 
 // Every step puts its carriage on the half-step level (to 1e-9 mm), and the number of steps
@@ -68,7 +74,7 @@ void check_delta(const std::string& gcode) {
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   for (int i = 0; i < 3; ++i) {
     const double origin = carriage(i, p0.pos_mm[0], p0.pos_mm[1], p0.pos_mm[2]);
-    const double h = r.channels[static_cast<std::size_t>(i)].step_distance_mm;
+    const double h = r.motors[static_cast<std::size_t>(i)].step_distance.value;
     long n = 0, count = 0;
     double last_t = -1.0;
     for (const Step& s : r.steps) {
@@ -184,8 +190,8 @@ TEST(WinchSteps, CablesStayOnTheGridAndCountAsSampled) {
       "SET_KINEMATIC_POSITION X=-150 Y=-100 Z=10\nG1 X150 Y-100 F6000\nG1 X0 Y100 Z40\n"
       "G1 E-1 F2400\nG1 X-50 Y0 Z10 F9000\n";
   const KinRun r = run(g, winch_machine());
-  ASSERT_EQ(r.channels.size(), 5u);
-  EXPECT_EQ(r.channels[3].name, "stepper_d");
+  ASSERT_EQ(r.motors.size(), 5u);
+  EXPECT_EQ(r.motors[3].name, "stepper_d");
   const trajectory::Trajectory traj(r.moves);
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   for (std::size_t i = 0; i < 4; ++i) {
@@ -236,10 +242,10 @@ TEST(DeltesianSteps, TowersInTheXZPlaneStayOnTheGrid) {
   m.steppers["y"].position_max_mm = 200.0;
   m.steppers["e"] = {33.5, 16, 200};
   const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=100 Z=10\nG1 X40 Y120 F6000\nG1 X-40 Z20\nG1 Y20\n", m);
-  ASSERT_EQ(r.channels.size(), 4u);
-  EXPECT_EQ(r.channels[0].name, "stepper_left");
-  EXPECT_EQ(r.channels[1].name, "stepper_right");
-  EXPECT_EQ(r.channels[2].name, "stepper_y");
+  ASSERT_EQ(r.motors.size(), 4u);
+  EXPECT_EQ(r.motors[0].name, "stepper_left");
+  EXPECT_EQ(r.motors[1].name, "stepper_right");
+  EXPECT_EQ(r.motors[2].name, "stepper_y");
   const trajectory::Trajectory traj(r.moves);
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   auto carriage_lr = [](int i, double x, double z) {
@@ -278,7 +284,7 @@ TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
   };
   for (const Case& c : cases) {
     m.kinematics = c.k;
-    const auto ch = stepper_channels(m);
+    const auto ch = machine::motors(m);
     EXPECT_EQ(ch[0].row, c.x);
     EXPECT_EQ(ch[1].row, c.y);
     EXPECT_EQ(ch[2].row, c.z);
@@ -298,7 +304,7 @@ TEST(LinearGantrySteps, NoneHasOnlyTheExtruder) {
   Machine m;
   m.kinematics = machine::Kinematics::none;
   m.steppers["e"] = {33.5, 16, 200};
-  const auto ch = stepper_channels(m);
+  const auto ch = machine::motors(m);
   ASSERT_EQ(ch.size(), 1u);
   EXPECT_EQ(ch[0].name, "extruder");
 }
@@ -309,15 +315,15 @@ TEST(GenericCartesianSteps, EachStepperFollowsItsCarriageRow) {
   const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) +
                                           "/tests/reference/klipper/generic_cartesian.cfg");
   const KinRun r = run("SET_KINEMATIC_POSITION X=150 Y=100 Z=10\nG1 X170 Y90 Z11 F6000\n", m);
-  ASSERT_EQ(r.channels.size(), 7u);
-  EXPECT_EQ(r.channels[0].name, "stepper my_stepper_u");
-  EXPECT_EQ(r.channels[6].name, "extruder");
+  ASSERT_EQ(r.motors.size(), 7u);
+  EXPECT_EQ(r.motors[0].name, "stepper my_stepper_u");
+  EXPECT_EQ(r.motors[6].name, "extruder");
   const std::map<std::string, long> net = {
       {"stepper my_stepper_x", std::lround(10 / 0.0125)},  {"stepper my_stepper_u", std::lround(10 / 0.0125)},
       {"stepper my_stepper_y0", std::lround(-10 / 0.0125)}, {"stepper my_stepper_y1", std::lround(-10 / 0.0125)},
       {"stepper my_stepper_z0", std::lround(1 / 0.0025)},   {"stepper my_stepper_z1", std::lround(1 / 0.0025)}};
-  for (std::size_t i = 0; i + 1 < r.channels.size(); ++i) {
-    EXPECT_EQ(r.stats[i].position_steps, net.at(r.channels[i].name)) << r.channels[i].name;
+  for (std::size_t i = 0; i + 1 < r.motors.size(); ++i) {
+    EXPECT_EQ(r.stats[i].position_steps, net.at(r.motors[i].name)) << r.motors[i].name;
   }
 }
 
@@ -327,9 +333,9 @@ TEST(PolarSteps, BedAngleAndArmRadiusStayOnTheGrid) {
   const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/polar.cfg");
   const KinRun r = run("SET_KINEMATIC_POSITION X=100 Y=0 Z=10\nG1 X0 Y100 F6000\nG1 X-100 Y-5\n"
                        "G1 X-100 Y5\nG1 X3 Y2\nG1 X80 Y-40 Z12\n", m);
-  ASSERT_EQ(r.channels.size(), 4u);
-  EXPECT_EQ(r.channels[0].name, "stepper_bed");
-  EXPECT_EQ(r.channels[1].name, "stepper_arm");
+  ASSERT_EQ(r.motors.size(), 4u);
+  EXPECT_EQ(r.motors[0].name, "stepper_bed");
+  EXPECT_EQ(r.motors[1].name, "stepper_arm");
   const trajectory::Trajectory traj(r.moves);
   const double bed_step = 2.0 * std::numbers::pi / 16000.0;
   for (int i = 0; i < 2; ++i) {
@@ -362,11 +368,12 @@ TEST(RotaryDeltaSteps, ArmAnglesPutTheElbowsAtTheLowerArmLength) {
   // (forward kinematics from the shoulder) must be one lower arm (320 mm) from the effector.
   const Machine m =
       machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/rotary_delta.cfg");
-  const machine::RotaryDeltaGeometry g = machine::rotary_delta_geometry(m);
+  const kinematics::RotaryDeltaGeometry g = kinematics::rotary_delta_geometry(
+      std::get<kinematics::RotaryDelta>(machine::kinematics_params(m)));
   const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=0 Z=10\nG1 X100 Y40 F6000\nG1 X-120 Y-20 Z40\nG1 X0 Y150 Z5\n", m);
-  ASSERT_EQ(r.channels.size(), 4u);
+  ASSERT_EQ(r.motors.size(), 4u);
   const trajectory::Trajectory traj(r.moves);
-  const double step = r.channels[0].step_distance_mm;
+  const double step = r.motors[0].step_distance.value;
   EXPECT_NEAR(step, 2.0 * std::numbers::pi / (3200.0 * 107.0 / 16.0 * 60.0 / 16.0), 1e-18);
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   for (int i = 0; i < 3; ++i) {

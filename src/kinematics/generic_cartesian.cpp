@@ -1,18 +1,21 @@
-#include "amctl/machine/linkage.hpp"
+// generic_cartesian: carriages and the steppers' carriage expressions read and checked as
+// generic_cartesian.py and kinematic_stepper.py do, each stepper a linear row (kin_generic.c),
+// the primary carriages' ranges and endstops, the IDEX pairs of idex_modes.py.
+#include "amctl/kinematics/generic_cartesian.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
-#include <limits>
-#include <numbers>
+#include <cstdlib>
 #include <string>
 #include <utility>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
-#include "amctl/machine/delta.hpp"
+#include "amctl/kinematics/rails.hpp"
 
-namespace amctl::machine {
+namespace amctl::kinematics {
 namespace {
 
 std::string_view trim(std::string_view s) {
@@ -25,7 +28,7 @@ using Term = std::pair<std::string, double>;
 
 /// The axis a carriage moves: its own (a primary, a dual carriage that names one) or its
 /// primary's (extra carriages, dual carriages without an axis of their own).
-const std::string& axis_of(const Machine& m, const std::string& name) {
+const std::string& axis_of(const GenericCartesian& m, const std::string& name) {
   static const std::string kNone;
   auto it = m.carriages.find(name);
   for (int depth = 0; it != m.carriages.end() && it->second.axis.empty() &&
@@ -39,7 +42,7 @@ const std::string& axis_of(const Machine& m, const std::string& name) {
 /// The terms of a `carriages` expression (kinematic_stepper.py parse_carriages_string: the
 /// text is cut before every + or - after the first character; a term is NAME, +NAME, -NAME or
 /// COEFF*NAME with COEFF a number that carries its sign).
-std::vector<Term> carriage_terms(std::string_view expr, const Machine& m, std::string_view label) {
+std::vector<Term> carriage_terms(std::string_view expr, const GenericCartesian& m, std::string_view label) {
   std::vector<Term> terms;
   std::array<bool, 3> seen{};
   std::size_t next = 0;
@@ -96,7 +99,7 @@ std::vector<Term> carriage_terms(std::string_view expr, const Machine& m, std::s
 /// Carriage `name` moves with the toolhead: a primary carriage unless its axis has a dual
 /// carriage and that one is active; a dual carriage when duals are active; an extra carriage
 /// as its primary.
-bool carriage_active(const Machine& m, const std::string& name, bool dual_active, int depth = 0) {
+bool carriage_active(const GenericCartesian& m, const std::string& name, bool dual_active, int depth = 0) {
   const auto it = m.carriages.find(name);
   if (it == m.carriages.end() || depth > 4) return false;  // refused by the checks already
   const Carriage& c = it->second;
@@ -115,7 +118,7 @@ bool carriage_active(const Machine& m, const std::string& name, bool dual_active
   return true;
 }
 
-std::array<double, 3> row_of(const std::vector<Term>& terms, const Machine& m, bool dual_active) {
+std::array<double, 3> row_of(const std::vector<Term>& terms, const GenericCartesian& m, bool dual_active) {
   std::array<double, 3> row{};
   for (const auto& [name, coeff] : terms) {
     if (!carriage_active(m, name, dual_active)) continue;
@@ -128,12 +131,12 @@ std::array<double, 3> row_of(const std::vector<Term>& terms, const Machine& m, b
 
 }  // namespace
 
-std::array<double, 3> parse_carriages(std::string_view expr, const Machine& m,
+std::array<double, 3> parse_carriages(std::string_view expr, const GenericCartesian& m,
                                       std::string_view label, bool with_dual) {
   return row_of(carriage_terms(expr, m, label), m, with_dual);
 }
 
-GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
+GenericCartesianGeometry generic_cartesian_geometry(const GenericCartesian& m) {
   GenericCartesianGeometry g;
   // Carriages: one primary per axis; extra and dual carriages name an existing primary.
   std::array<std::string, 3> primary;
@@ -224,18 +227,14 @@ GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
   // Steppers: every one but the extruders carries a carriages expression.
   std::vector<std::string> referenced;
   std::vector<std::vector<Term>> all_terms;
-  for (const auto& [name, s] : m.steppers) {
-    if (name == "e" || (name[0] == 'e' && name.size() > 1 &&
-                        std::all_of(name.begin() + 1, name.end(), ::isdigit))) {
-      continue;
-    }
+  for (const auto& [name, carriages] : m.stepper_carriages) {
     const std::string label = fmt::format("stepper_{}.carriages", name);
-    if (s.carriages.empty()) {
+    if (carriages.empty()) {
       throw Error(fmt::format("{} must be given for a generic_cartesian stepper, e.g. "
                               "\"carriage_x+carriage_y\"",
                               label));
     }
-    auto terms = carriage_terms(s.carriages, m, label);
+    auto terms = carriage_terms(carriages, m, label);
     for (const auto& t : terms) referenced.push_back(t.first);
     g.steppers.push_back({name, row_of(terms, m, false)});
     all_terms.push_back(std::move(terms));
@@ -273,7 +272,7 @@ GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
   return g;
 }
 
-std::string stepper_carriages_error(const Machine& m,
+std::string stepper_carriages_error(const GenericCartesian& m,
                                     const std::map<std::string, std::string, std::less<>>& now,
                                     const std::string& stepper, const std::string& expr,
                                     bool full) {
@@ -295,10 +294,10 @@ std::string stepper_carriages_error(const Machine& m,
                          expr, stepper, it->second);
     }
     if (full) {
-      Machine changed = m;
+      GenericCartesian changed = m;
       for (const auto& [name, e] : now) {
-        const auto s = changed.steppers.find(name);
-        if (s != changed.steppers.end()) s->second.carriages = name == stepper ? expr : e;
+        const auto s = changed.stepper_carriages.find(name);
+        if (s != changed.stepper_carriages.end()) s->second = name == stepper ? expr : e;
       }
       (void)generic_cartesian_geometry(changed);
     }
@@ -308,124 +307,139 @@ std::string stepper_carriages_error(const Machine& m,
   return {};
 }
 
-PolarGeometry polar_geometry(const Machine& m) {
-  PolarGeometry g;
-  for (const char* name : {"bed", "arm", "z"}) {
-    if (m.steppers.find(name) == m.steppers.end()) {
-      throw Error(fmt::format("a polar printer needs stepper_bed, stepper_arm and stepper_z; "
-                              "stepper_{} is missing",
-                              name));
+namespace {
+
+bool extruder_key(const std::string& k) {
+  return k[0] == 'e' && std::all_of(k.begin() + 1, k.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+class GenericCartesianKinematics final : public Kinematics {
+ public:
+  GenericCartesianKinematics(const GenericCartesian& p, const Context& ctx)
+      : p_(p), th_(ctx.toolhead), g_(generic_cartesian_geometry(p)) {}
+  std::string_view name() const override { return GenericCartesian::kName; }
+  std::vector<Motor> motors(const std::vector<std::string>& keys,
+                            std::vector<std::string>&) const override {
+    for (const std::string& k : keys) {
+      if (!extruder_key(k) && p_.stepper_carriages.count(k) == 0) {
+        throw Error(fmt::format("stepper_{}.carriages must be given for a generic_cartesian "
+                                "stepper, e.g. \"carriage_x+carriage_y\"",
+                                k));
+      }
     }
-  }
-  const Stepper& arm = m.steppers.at("arm");
-  const Stepper& z = m.steppers.at("z");
-  if (!arm.position_max_mm) throw Error("stepper_arm.position_max must be given for a polar printer");
-  if (!arm.position_endstop_mm) {
-    throw Error("stepper_arm.position_endstop must be given for a polar printer");
-  }
-  if (!z.position_max_mm) throw Error("stepper_z.position_max must be given for a polar printer");
-  g.max_radius_mm = *arm.position_max_mm;
-  g.arm_endstop_mm = *arm.position_endstop_mm;
-  g.z_limits_mm = {z.position_min_mm.value_or(0.0), *z.position_max_mm};
-  return g;
-}
-
-double RotaryDeltaGeometry::arm_angle_rad(int arm, double x, double y, double z) const {
-  const auto i = static_cast<std::size_t>(arm);
-  const double ca = std::cos(angle_rad[i]), sa = std::sin(angle_rad[i]);
-  const double u = x * ca + y * sa - shoulder_radius_mm;  // outward in the arm's plane
-  const double v = z - shoulder_height_mm;                // up
-  const double w = y * ca - x * sa;                       // off the plane
-  const double l2 = lower_arm_mm[i] * lower_arm_mm[i] - w * w;
-  const double u2 = upper_arm_mm[i] * upper_arm_mm[i];
-  const double p2 = u * u + v * v;
-  const double p = std::sqrt(p2);
-  // e . p = (|p|^2 + U^2 - l^2) / 2 = U |p| cos(alpha - phi).
-  const double c = (p2 + u2 - l2) / (2.0 * upper_arm_mm[i] * p);
-  if (!(c >= -1.0 && c <= 1.0)) return std::numeric_limits<double>::quiet_NaN();
-  const double phi = std::atan2(v, u), delta = std::acos(c);
-  const double a1 = phi + delta, a2 = phi - delta;
-  // The outer elbow (larger horizontal coordinate).
-  return std::cos(a1) >= std::cos(a2) ? std::remainder(a1, 2.0 * std::numbers::pi)
-                                      : std::remainder(a2, 2.0 * std::numbers::pi);
-}
-
-std::array<double, 3> RotaryDeltaGeometry::elbow_mm(int arm, double angle) const {
-  const auto i = static_cast<std::size_t>(arm);
-  const double r = upper_arm_mm[i] * std::cos(angle) + shoulder_radius_mm;
-  return {r * std::cos(angle_rad[i]), r * std::sin(angle_rad[i]),
-          upper_arm_mm[i] * std::sin(angle) + shoulder_height_mm};
-}
-
-double RotaryDeltaGeometry::limit_xy2_at(double z) const {
-  if (z <= limit_z_mm) return max_xy2_mm2;
-  return std::min(max_xy2_mm2, (max_z_mm - z) * (max_z_mm - z));
-}
-
-RotaryDeltaGeometry rotary_delta_geometry(const Machine& m) {
-  RotaryDeltaGeometry g;
-  if (!m.delta.shoulder_radius_mm) throw Error("delta.shoulder_radius must be given for a rotary delta");
-  if (!m.delta.shoulder_height_mm) throw Error("delta.shoulder_height must be given for a rotary delta");
-  g.shoulder_radius_mm = *m.delta.shoulder_radius_mm;
-  g.shoulder_height_mm = *m.delta.shoulder_height_mm;
-  const Stepper* arms[3] = {nullptr, nullptr, nullptr};
-  for (int i = 0; i < 3; ++i) {
-    const std::string name(1, static_cast<char>('a' + i));
-    const auto it = m.steppers.find(name);
-    if (it == m.steppers.end()) {
-      throw Error(fmt::format("a rotary delta needs stepper_a, stepper_b and stepper_c; "
-                              "stepper_{} is missing",
-                              name));
+    std::vector<Motor> out;
+    for (const GenericStepper& gs : g_.steppers) {
+      if (std::find(keys.begin(), keys.end(), gs.name) == keys.end()) continue;
+      Motor m;
+      m.key = gs.name;
+      m.name = "stepper " + gs.name;  // Klipper's name of a [stepper NAME]
+      m.row = {gs.coeffs[0], gs.coeffs[1], gs.coeffs[2], 0.0};
+      out.push_back(std::move(m));
     }
-    arms[i] = &it->second;
+    return out;
   }
-  const Stepper& a = *arms[0];
-  if (!a.upper_arm_length_mm) throw Error("stepper_a.upper_arm_length must be given for a rotary delta");
-  if (!a.lower_arm_length_mm) throw Error("stepper_a.lower_arm_length must be given for a rotary delta");
-  if (!a.position_endstop_mm) throw Error("stepper_a.position_endstop must be given for a rotary delta");
-  constexpr double kDefaultAngles[] = {30.0, 150.0, 270.0};  // rotary_delta.py
-  for (std::size_t i = 0; i < 3; ++i) {
-    const Stepper& s = *arms[i];
-    g.upper_arm_mm[i] = s.upper_arm_length_mm.value_or(*a.upper_arm_length_mm);
-    g.lower_arm_mm[i] = s.lower_arm_length_mm.value_or(*a.lower_arm_length_mm);
-    g.angle_rad[i] = s.angle_deg.value_or(kDefaultAngles[i]) * std::numbers::pi / 180.0;
-    g.endstop_mm[i] = s.position_endstop_mm.value_or(*a.position_endstop_mm);
-    if (!(g.lower_arm_mm[i] > g.shoulder_radius_mm)) {
-      throw Error(fmt::format("stepper_{}.lower_arm_length ({} mm) must be > delta.shoulder_radius "
-                              "({} mm)",
-                              "abc"[i], g.lower_arm_mm[i], g.shoulder_radius_mm));
+  MoveRules move_rules() const override {
+    // generic_cartesian.py: the ranges of the primary carriages, checked as cartesian.py does.
+    MoveRules r;
+    r.z_velocity_mm_s = th_.max_z_velocity_mm_s > 0 ? th_.max_z_velocity_mm_s : th_.max_velocity_mm_s;
+    r.z_accel_mm_s2 = th_.max_z_accel_mm_s2 > 0 ? th_.max_z_accel_mm_s2 : th_.max_accel_mm_s2;
+    for (std::size_t i = 0; i < 3; ++i) {
+      r.range_min_mm[i] = g_.limits_mm[i][0];
+      r.range_max_mm[i] = g_.limits_mm[i][1];
     }
+    return r;
   }
-  std::array<std::array<double, 3>, 3> elbows{};
-  std::array<double, 3> lower2{};
-  for (int i = 0; i < 3; ++i) {
-    const auto k = static_cast<std::size_t>(i);
-    g.endstop_angle_rad[k] = g.arm_angle_rad(i, 0.0, 0.0, g.endstop_mm[k]);
-    if (!std::isfinite(g.endstop_angle_rad[k])) {
-      throw Error(fmt::format("stepper_{}.position_endstop ({} mm): the arms cannot reach the "
-                              "centre at that height",
-                              "abc"[k], g.endstop_mm[k]));
+  Homing homing() const override {
+    // generic_cartesian.py home_axis: a homed axis ends at its primary carriage's
+    // position_endstop (the dual carriage's pair too: idex_modes.py home() ends with the
+    // primary carriage active).
+    Homing h;
+    h.klipper_only = true;
+    for (const auto& [name, c] : p_.carriages) {
+      if (c.type != Carriage::Type::primary || c.axis.size() != 1 || !c.position_endstop_mm) continue;
+      h.position_mm[static_cast<std::size_t>(c.axis[0] - 'x')] = *c.position_endstop_mm;
     }
-    elbows[k] = g.elbow_mm(i, g.endstop_angle_rad[k]);
-    lower2[k] = g.lower_arm_mm[k] * g.lower_arm_mm[k];
+    return h;
   }
-  g.home_position_mm = trilaterate_below(elbows, lower2);
-  g.max_z_mm = std::min({g.endstop_mm[0], g.endstop_mm[1], g.endstop_mm[2]});
-  g.min_z_mm = m.delta.minimum_z_position_mm.value_or(0.0);
-  if (g.min_z_mm > g.max_z_mm) {
-    throw Error(fmt::format("delta.minimum_z_position ({} mm) must be <= the lowest "
-                            "position_endstop ({} mm)",
-                            g.min_z_mm, g.max_z_mm));
+  std::vector<IdexPair> idex_pairs() const override {
+    // IDEX (idex_modes.py through generic_cartesian.py): one pair per [dual_carriage NAME]
+    // with its primary carriage. A dual carriage without primary_carriage (a second pair on
+    // one axis) is not modelled: all dual carriages then stay parked.
+    const auto& cs = p_.carriages;
+    std::vector<IdexPair> out;
+    const bool pairs_only = std::all_of(cs.begin(), cs.end(), [](const auto& kv) {
+      return kv.second.type != Carriage::Type::dual || !kv.second.primary_carriage.empty();
+    });
+    if (!pairs_only) return out;
+    for (const char axis : {'x', 'y'}) {
+      for (const auto& [name, dual] : cs) {
+        if (dual.type != Carriage::Type::dual) continue;
+        const auto pit = cs.find(dual.primary_carriage);
+        if (pit == cs.end() || pit->second.axis != std::string(1, axis)) continue;
+        const Carriage& first = pit->second;
+        IdexPair d;
+        d.axis = axis - 'x';
+        d.names = {pit->first, name};
+        d.position_min_mm = {first.position_min_mm.value_or(0.0), dual.position_min_mm.value_or(0.0)};
+        d.position_max_mm = {first.position_max_mm.value_or(0.0), dual.position_max_mm.value_or(0.0)};
+        d.position_endstop_mm = {first.position_endstop_mm.value_or(0.0),
+                                 dual.position_endstop_mm.value_or(0.0)};
+        d.safe_distance_mm = dual.safe_distance_mm;
+        d.homing_speed_mm_s = {first.homing_speed_mm_s, dual.homing_speed_mm_s};
+        out.push_back(d);
+      }
+    }
+    return out;
   }
-  double reach = std::numeric_limits<double>::infinity();
-  g.limit_z_mm = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < 3; ++i) {
-    reach = std::min({reach, g.shoulder_radius_mm + g.upper_arm_mm[i],
-                      g.lower_arm_mm[i] - g.shoulder_radius_mm});
-    g.limit_z_mm = std::min(g.limit_z_mm, elbows[i][2] - g.lower_arm_mm[i]);
+  std::map<std::string, std::string, std::less<>> stepper_carriages() const override {
+    std::map<std::string, std::string, std::less<>> out;
+    for (const auto& [name, e] : p_.stepper_carriages) {
+      if (!e.empty()) out[name] = e;
+    }
+    return out;
   }
-  g.max_xy2_mm2 = reach * reach;
-  return g;
+  std::string stepper_carriages_error(const std::map<std::string, std::string, std::less<>>& now,
+                                      const std::string& stepper, const std::string& expr,
+                                      bool full) const override {
+    return kinematics::stepper_carriages_error(p_, now, stepper, expr, full);
+  }
+  std::optional<LinearMap> linear_map() const override {
+    LinearMap map;
+    for (const GenericStepper& gs : g_.steppers) {
+      map.motors.push_back("stepper " + gs.name);
+      map.rows.push_back(gs.coeffs);
+    }
+    return map;
+  }
+  void describe(Json& j) const override {
+    // The carriages as given, and each stepper's row over X, Y, Z (dual carriages parked).
+    Json carriages = Json::object();
+    static constexpr const char* kTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
+    for (const auto& [name, c] : p_.carriages) {
+      Json cj = {{"type", kTypes[static_cast<std::size_t>(c.type)]}};
+      if (!c.axis.empty()) cj["axis"] = c.axis;
+      if (!c.primary_carriage.empty()) cj["primary_carriage"] = c.primary_carriage;
+      if (c.position_min_mm) cj["position_min"] = *c.position_min_mm;
+      if (c.position_max_mm) cj["position_max"] = *c.position_max_mm;
+      if (c.position_endstop_mm) cj["position_endstop"] = *c.position_endstop_mm;
+      carriages[name] = cj;
+    }
+    j["carriages"] = carriages;
+    Json rows = Json::object();
+    for (const GenericStepper& gs : g_.steppers) rows[gs.name] = {gs.coeffs[0], gs.coeffs[1], gs.coeffs[2]};
+    j["stepper_rows_xyz"] = rows;
+  }
+
+ private:
+  GenericCartesian p_;
+  Toolhead th_;
+  GenericCartesianGeometry g_;
+};
+
+}  // namespace
+
+std::unique_ptr<Kinematics> make_kinematics(const GenericCartesian& p, const Context& ctx) {
+  return std::make_unique<GenericCartesianKinematics>(p, ctx);
 }
 
-}  // namespace amctl::machine
+}  // namespace amctl::kinematics

@@ -1,0 +1,58 @@
+#pragma once
+// Deltesian (klippy/kinematics/deltesian.py, chelper/kin_deltesian.c; read at 84104bbb,
+// nothing copied): two towers in the XZ plane at x = -arm_x_left and x = +arm_x_right whose
+// carriages hold arms of length L to the effector, and a cartesian Y. Carriage height of the
+// left tower c = z + sqrt(L^2 - (x + ax)^2), the right one c = z + sqrt(L^2 - (x - ax)^2).
+#include <array>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "amctl/kinematics/rails.hpp"
+
+namespace amctl::kinematics {
+
+/// A tower (stepper_left, stepper_right): horizontal distance from the centre to the arm's
+/// joint on the carriage (arm_x_length; required on left, right defaults to it), arm length
+/// (> arm_x_length) and endstop (right defaults to left's).
+struct DeltesianTower {
+  std::optional<double> arm_x_length_mm, arm_length_mm, position_endstop_mm;
+  bool operator==(const DeltesianTower&) const = default;
+};
+
+struct Deltesian {
+  static constexpr std::string_view kName = "deltesian";
+  /// [printer] min_angle (the arms' smallest angle with the horizontal, default 5 degrees),
+  /// print_width (the printable width in X; unset: what the arms reach), slow_ratio (the
+  /// tower-to-effector speed ratio beyond which moves slow down, default 3; 0 = never),
+  /// minimum_z_position (0).
+  std::optional<double> min_angle_deg, print_width_mm, slow_ratio, minimum_z_position_mm;
+  std::map<std::string, DeltesianTower> towers;  ///< left, right
+  Rails rails;                                   ///< y
+  bool operator==(const Deltesian&) const = default;
+};
+
+struct DeltesianGeometry {
+  std::array<double, 2> arm_x_mm{};       ///< arm_x_length of left, right
+  std::array<double, 2> arm2_mm2{};       ///< squared arm lengths
+  std::array<double, 2> tower_x_mm{};     ///< -arm_x_left, +arm_x_right
+  std::array<double, 2> abs_endstop_mm{}; ///< endstop + sqrt(L^2 - ax^2)
+  std::array<std::array<double, 2>, 3> limits_mm{};  ///< [min, max] of x, y, z
+  double home_z_mm = 0.0;
+  double home_y_mm = 0.0;             ///< stepper_y's position_endstop
+  double slow_x2_mm2 = 0.0;           ///< beyond |x|: half speed (0 = no slow zone)
+  double very_slow_x2_mm2 = 0.0;      ///< beyond: a quarter
+  /// Highest z the carriages allow at x (both below their endstops).
+  [[nodiscard]] double pillars_z_max(double x_mm) const;
+};
+
+/// Klipper's defaults applied (arm_x_length and arm_length of right = left's, min_angle 5,
+/// slow_ratio 3, minimum_z_position 0). Throws amctl::Error naming the missing or
+/// inconsistent key.
+[[nodiscard]] DeltesianGeometry deltesian_geometry(const Deltesian& p);
+
+[[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const Deltesian& p, const Context& ctx);
+
+}  // namespace amctl::kinematics

@@ -1,0 +1,29 @@
+#pragma once
+// Winch (cable robot; klippy/kinematics/winch.py, chelper/kin_winch.c; read at 84104bbb,
+// nothing copied): 3 or 4 cables (stepper_a .. stepper_d), each motor's position the cable
+// length |tool - anchor|. Klipper checks no limit on it.
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "amctl/kinematics/kinematics.hpp"
+
+namespace amctl::kinematics {
+
+/// Where a cable is anchored (Klipper anchor_x, anchor_y, anchor_z; required).
+struct WinchAnchor {
+  std::optional<double> x_mm, y_mm, z_mm;
+  bool operator==(const WinchAnchor&) const = default;
+};
+
+struct Winch {
+  static constexpr std::string_view kName = "winch";
+  std::map<std::string, WinchAnchor> anchors;  ///< by drive-train key a, b, c (, d)
+  bool operator==(const Winch&) const = default;
+};
+
+[[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const Winch& p, const Context& ctx);
+
+}  // namespace amctl::kinematics
