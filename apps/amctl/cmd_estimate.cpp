@@ -46,7 +46,7 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
   auto& o = std::cout;
   o << fmt::format("amctl estimate: {}\n", r.file);
   o << fmt::format("  machine          {} ({}, {}, junction: {})\n", m.name,
-                   machine::to_string(m.firmware), machine::to_string(m.kinematics),
+                   machine::to_string(m.firmware), kinematics::name_of(m.kinematics),
                    machine::to_string(m.junction));
   o << fmt::format("  print time       {:>12}  ({:.1f} s: motion {:.1f} s + dwells {:.1f} s)\n",
                    hms(r.total_time_s), r.total_time_s, r.motion_time_s, r.dwell_time_s);

@@ -8,7 +8,9 @@ constexpr std::array<double, 4> kRowX{1, 1, 0, 0}, kRowY{1, -1, 0, 0}, kRowZ{0, 
 
 class CoreXYKinematics final : public Kinematics {
  public:
-  CoreXYKinematics(const CoreXY& p, const Context& ctx) : p_(p), th_(ctx.toolhead) {}
+  CoreXYKinematics(const CoreXY& p, const Context& ctx) : p_(p), th_(ctx.toolhead) {
+    detail::check_rails(p.rails);
+  }
   std::string_view name() const override { return CoreXY::kName; }
   std::vector<Motor> motors(const std::vector<std::string>& keys,
                             std::vector<std::string>& missing) const override {
@@ -27,6 +29,26 @@ class CoreXYKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> CoreXY::klipper_steppers(const KlipperConfig& cfg) {
+  return detail::axis_steppers(cfg, "xyz");
+}
+
+CoreXY CoreXY::from_klipper(const KlipperConfig& cfg) {
+  CoreXY k;
+  for (const KlipperStepper& s : klipper_steppers(cfg)) detail::read_rail(cfg.section(s.section), k.rails, s.key);
+  detail::refuse_dual_carriage(cfg);
+  return k;
+}
+
+std::span<const ParamKey<CoreXY>> CoreXY::keys() {
+  static const std::vector<ParamKey<CoreXY>> keys = [] {
+    std::vector<ParamKey<CoreXY>> k;
+    detail::add_rail_keys(k);
+    return k;
+  }();
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const CoreXY& p, const Context& ctx) {
   return std::make_unique<CoreXYKinematics>(p, ctx);

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/kinematics/rails.hpp"
 #include "detail.hpp"
 
 namespace amctl::kinematics {
@@ -252,6 +253,102 @@ class DeltaKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> Delta::klipper_steppers(const KlipperConfig& cfg) {
+  std::vector<KlipperStepper> out;
+  for (const char* tower : {"stepper_a", "stepper_b", "stepper_c"}) {
+    if (!cfg.has(tower)) {
+      throw Error(cfg.printer_where(),
+                  fmt::format("a delta needs [{}] (towers stepper_a, stepper_b, stepper_c)", tower));
+    }
+  }
+  for (const ConfigSection& s : cfg.sections()) {
+    if (s.name == "stepper_a" || s.name == "stepper_b" || s.name == "stepper_c") {
+      out.push_back({s.name, s.name.substr(8), false});
+    }
+  }
+  return out;
+}
+
+Delta Delta::from_klipper(const KlipperConfig& cfg) {
+  // kinematics/delta.py: delta_radius (required, > 0), print_radius (> 0, default the
+  // radius), minimum_z_position (default 0, at most the lowest endstop: delta_geometry).
+  const KlipperSection printer = cfg.section("printer");
+  Delta d;
+  d.radius_mm = printer.require_float("delta_radius", {.above = 0.0});
+  d.print_radius_mm = printer.get_float("print_radius", {.above = 0.0});
+  d.minimum_z_position_mm = printer.get_float("minimum_z_position");
+  for (const KlipperStepper& s : klipper_steppers(cfg)) {
+    // delta.py: arm_length required on stepper_a, > delta_radius; b and c default to a's
+    // (delta_geometry applies those defaults); angle 210/330/90; position_endstop required
+    // on a, b and c default to a's.
+    const KlipperSection sec = cfg.section(s.section);
+    const Limits arm{.above = *d.radius_mm};
+    DeltaTower& t = d.towers[s.key];
+    const bool a = s.key == "a";
+    t.arm_length_mm = a ? std::optional(sec.require_float("arm_length", arm)) : sec.get_float("arm_length", arm);
+    t.angle_deg = sec.get_float("angle");
+    t.position_endstop_mm = a ? std::optional(sec.require_float("position_endstop"))
+                              : sec.get_float("position_endstop");
+  }
+  // Sections that give none of these keys hold no entry (as a TOML machine reads them).
+  std::erase_if(d.towers, [](const auto& kv) { return kv.second == DeltaTower{}; });
+  detail::refuse_dual_carriage(cfg);
+  return d;
+}
+
+std::span<const std::string_view> Delta::printer_options() {
+  static constexpr std::string_view kOptions[] = {"delta_radius", "print_radius", "minimum_z_position"};
+  return kOptions;
+}
+
+namespace {
+
+DeltaTower* tower_of(Delta& d, std::string_view key, bool create) {
+  if (key != "a" && key != "b" && key != "c") return nullptr;
+  if (create) return &d.towers[std::string(key)];
+  const auto it = d.towers.find(std::string(key));
+  return it == d.towers.end() ? nullptr : &it->second;
+}
+
+}  // namespace
+
+std::span<const ParamKey<Delta>> Delta::keys() {
+  using Opt = std::optional<double>;
+  static const std::vector<ParamKey<Delta>> keys = {
+      {"delta", "radius", KeyBound::positive, "mm",
+       "Delta: horizontal distance from the centre to each tower's arm joint (Klipper "
+       "[printer] delta_radius; required for a delta).",
+       [](Delta& d, std::string_view, bool) -> Opt* { return &d.radius_mm; }},
+      {"delta", "print_radius", KeyBound::positive, "mm",
+       "Delta: radius of the printable disc (Klipper print_radius; unset = radius).",
+       [](Delta& d, std::string_view, bool) -> Opt* { return &d.print_radius_mm; }},
+      {"delta", "minimum_z_position", KeyBound::finite, "mm",
+       "Delta: lowest Z a move may reach (Klipper minimum_z_position; unset = 0).",
+       [](Delta& d, std::string_view, bool) -> Opt* { return &d.minimum_z_position_mm; }},
+      {"stepper", "arm_length", KeyBound::positive, "mm",
+       "Delta towers (stepper_a, _b, _c): length of the diagonal rods (Klipper arm_length; "
+       "unset on b and c = a's).",
+       [](Delta& d, std::string_view i, bool c) -> Opt* {
+         DeltaTower* t = tower_of(d, i, c);
+         return t ? &t->arm_length_mm : nullptr;
+       }},
+      {"stepper", "angle", KeyBound::finite, "degrees",
+       "Delta towers: angle of the tower around the centre (Klipper angle; unset = 210, 330, "
+       "90 for a, b, c).",
+       [](Delta& d, std::string_view i, bool c) -> Opt* {
+         DeltaTower* t = tower_of(d, i, c);
+         return t ? &t->angle_deg : nullptr;
+       }},
+      {"stepper", "position_endstop", KeyBound::finite, "mm",
+       "Klipper position_endstop: the position after homing (informative).",
+       [](Delta& d, std::string_view i, bool c) -> Opt* {
+         DeltaTower* t = tower_of(d, i, c);
+         return t ? &t->position_endstop_mm : nullptr;
+       }},
+  };
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const Delta& p, const Context& ctx) {
   return std::make_unique<DeltaKinematics>(p, ctx);

@@ -108,6 +108,7 @@ class DeltesianKinematics final : public Kinematics {
                                 name));
       }
     }
+    detail::check_rails(p.rails);
     g_ = deltesian_geometry(p);
   }
   std::string_view name() const override { return Deltesian::kName; }
@@ -187,6 +188,116 @@ class DeltesianKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> Deltesian::klipper_steppers(const KlipperConfig& cfg) {
+  for (const char* tower : {"stepper_left", "stepper_right", "stepper_y"}) {
+    if (!cfg.has(tower)) {
+      throw Error(cfg.printer_where(),
+                  fmt::format("a deltesian needs [{}] (stepper_left, stepper_right, stepper_y)", tower));
+    }
+  }
+  std::vector<KlipperStepper> out;
+  for (const ConfigSection& s : cfg.sections()) {
+    if (s.name == "stepper_left" || s.name == "stepper_right") out.push_back({s.name, s.name.substr(8), false});
+  }
+  for (KlipperStepper& s : detail::axis_steppers(cfg, "xyz")) out.push_back(std::move(s));
+  return out;
+}
+
+Deltesian Deltesian::from_klipper(const KlipperConfig& cfg) {
+  // deltesian.py: min_angle (5, [0, 90]), print_width (>= 0, at most the arms' reach:
+  // deltesian_geometry), slow_ratio (3, >= 0), minimum_z_position (0).
+  const KlipperSection printer = cfg.section("printer");
+  Deltesian d;
+  d.min_angle_deg = printer.get_float("min_angle", {.minval = 0.0, .maxval = 90.0});
+  d.print_width_mm = printer.get_float("print_width", {.minval = 0.0});
+  d.slow_ratio = printer.get_float("slow_ratio", {.minval = 0.0});
+  d.minimum_z_position_mm = printer.get_float("minimum_z_position");
+  for (const KlipperStepper& s : klipper_steppers(cfg)) {
+    const KlipperSection sec = cfg.section(s.section);
+    if (s.key != "left" && s.key != "right") {
+      detail::read_rail(sec, d.rails, s.key);
+      continue;
+    }
+    // deltesian.py: arm_x_length (> 0) and arm_length (> arm_x_length) required on left,
+    // right defaults to left's; position_endstop required on left.
+    DeltesianTower& t = d.towers[s.key];
+    const bool left = s.key == "left";
+    t.arm_x_length_mm = left ? std::optional(sec.require_float("arm_x_length", {.above = 0.0}))
+                             : sec.get_float("arm_x_length", {.above = 0.0});
+    t.arm_length_mm = left ? std::optional(sec.require_float("arm_length", {.above = 0.0}))
+                           : sec.get_float("arm_length", {.above = 0.0});
+    t.position_endstop_mm = left ? std::optional(sec.require_float("position_endstop"))
+                                 : sec.get_float("position_endstop");
+  }
+  // Sections that give none of these keys hold no entry (as a TOML machine reads them).
+  std::erase_if(d.towers, [](const auto& kv) { return kv.second == DeltesianTower{}; });
+  detail::refuse_dual_carriage(cfg);
+  return d;
+}
+
+std::span<const std::string_view> Deltesian::printer_options() {
+  static constexpr std::string_view kOptions[] = {"min_angle", "print_width", "slow_ratio",
+                                                  "minimum_z_position"};
+  return kOptions;
+}
+
+namespace {
+
+DeltesianTower* tower_of(Deltesian& d, std::string_view key, bool create) {
+  if (key != "left" && key != "right") return nullptr;
+  if (create) return &d.towers[std::string(key)];
+  const auto it = d.towers.find(std::string(key));
+  return it == d.towers.end() ? nullptr : &it->second;
+}
+
+}  // namespace
+
+std::span<const ParamKey<Deltesian>> Deltesian::keys() {
+  using Opt = std::optional<double>;
+  static const std::vector<ParamKey<Deltesian>> keys = [] {
+    std::vector<ParamKey<Deltesian>> k = {
+        {"delta", "min_angle", KeyBound::non_negative, "degrees",
+         "Deltesian: smallest angle of the arms with the horizontal (Klipper min_angle; unset = "
+         "5).",
+         [](Deltesian& d, std::string_view, bool) -> Opt* { return &d.min_angle_deg; }},
+        {"delta", "print_width", KeyBound::non_negative, "mm",
+         "Deltesian: printable width in X, centred (Klipper print_width; unset = the arms' "
+         "reach).",
+         [](Deltesian& d, std::string_view, bool) -> Opt* { return &d.print_width_mm; }},
+        {"delta", "slow_ratio", KeyBound::non_negative, "",
+         "Deltesian: carriage-to-effector speed ratio beyond which moves run at half (twice it: "
+         "a quarter) of the limits (Klipper slow_ratio; unset = 3, 0 = off).",
+         [](Deltesian& d, std::string_view, bool) -> Opt* { return &d.slow_ratio; }},
+        {"delta", "minimum_z_position", KeyBound::finite, "mm",
+         "Deltesian: lowest Z a move may reach (Klipper minimum_z_position; unset = 0).",
+         [](Deltesian& d, std::string_view, bool) -> Opt* { return &d.minimum_z_position_mm; }},
+        {"stepper", "arm_x_length", KeyBound::positive, "mm",
+         "Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to "
+         "the arm's carriage joint (Klipper arm_x_length; required on left).",
+         [](Deltesian& d, std::string_view i, bool c) -> Opt* {
+           DeltesianTower* t = tower_of(d, i, c);
+           return t ? &t->arm_x_length_mm : nullptr;
+         }},
+        {"stepper", "arm_length", KeyBound::positive, "mm",
+         "Deltesian towers: length of the arm from the carriage to the effector (Klipper "
+         "arm_length; required on left).",
+         [](Deltesian& d, std::string_view i, bool c) -> Opt* {
+           DeltesianTower* t = tower_of(d, i, c);
+           return t ? &t->arm_length_mm : nullptr;
+         }},
+        {"stepper", "position_endstop", KeyBound::finite, "mm",
+         "Klipper position_endstop: the position after homing (informative).",
+         [](Deltesian& d, std::string_view i, bool c) -> Opt* {
+           DeltesianTower* t = tower_of(d, i, c);
+           return t ? &t->position_endstop_mm : nullptr;
+         }},
+    };
+    detail::add_rail_keys(k);
+    return k;
+  }();
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const Deltesian& p, const Context& ctx) {
   return std::make_unique<DeltesianKinematics>(p, ctx);

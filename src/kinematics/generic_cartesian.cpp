@@ -438,6 +438,212 @@ class GenericCartesianKinematics final : public Kinematics {
 
 }  // namespace
 
+bool generic_stepper_name(std::string_view name) {
+  if (name.empty()) return false;
+  if (!std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+      })) {
+    return false;
+  }
+  return !extruder_key(std::string(name));
+}
+
+namespace {
+
+std::string name_after(const std::string& section, std::string_view prefix) {
+  if (section.rfind(prefix, 0) != 0) return {};
+  std::string rest(trim(std::string_view(section).substr(prefix.size())));
+  const std::size_t space = rest.find_last_of(" \t");
+  return space == std::string::npos ? rest : rest.substr(space + 1);
+}
+
+}  // namespace
+
+std::vector<KlipperStepper> GenericCartesian::klipper_steppers(const KlipperConfig& cfg) {
+  std::vector<KlipperStepper> out;
+  for (const ConfigSection& s : cfg.sections()) {
+    const std::string name = name_after(s.name, "stepper ");
+    if (name.empty()) continue;
+    if (!generic_stepper_name(name)) {
+      throw Error(s.where, fmt::format("[{}]: amctl names a generic_cartesian stepper by the word "
+                                       "after 'stepper', expected letters, digits and _ other than "
+                                       "e, e1, ... (the extruders'), got '{}'",
+                                       s.name, name));
+    }
+    out.push_back({s.name, name, false});
+  }
+  return out;
+}
+
+GenericCartesian GenericCartesian::from_klipper(const KlipperConfig& cfg) {
+  GenericCartesian g;
+  for (ConfigSection& s : cfg.sections()) {
+    Carriage c;
+    std::string name;
+    if (!(name = name_after(s.name, "carriage ")).empty()) {
+      c.type = Carriage::Type::primary;
+    } else if (!(name = name_after(s.name, "extra_carriage ")).empty()) {
+      c.type = Carriage::Type::extra;
+    } else if (!(name = name_after(s.name, "dual_carriage ")).empty()) {
+      c.type = Carriage::Type::dual;
+    } else if (!(name = name_after(s.name, "stepper ")).empty()) {
+      g.stepper_carriages[name] = cfg.section(s.name).require_text("carriages");
+      continue;
+    } else {
+      continue;
+    }
+    const KlipperSection sec = cfg.section(s.name);
+    if (c.type == Carriage::Type::primary) {
+      const bool named_axis = name == "x" || name == "y" || name == "z";
+      c.axis = named_axis ? sec.get_choice("axis", name, {"x", "y", "z"})
+                          : sec.get_choice("axis", "", {"x", "y", "z"});
+      if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
+    } else if (c.type == Carriage::Type::extra) {
+      c.primary_carriage = sec.require_text("primary_carriage");
+    } else {
+      // A dual carriage names its primary_carriage (axis optional, must match it) or, without
+      // one, its own axis (generic_cartesian.py DualCarriage).
+      if (sec.has("primary_carriage")) {
+        c.primary_carriage = sec.require_text("primary_carriage");
+        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
+      } else {
+        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
+        if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
+      }
+    }
+    if (c.type != Carriage::Type::extra) {
+      c.position_endstop_mm = sec.require_float("position_endstop");
+      c.position_min_mm = sec.get_float("position_min", 0.0);
+      c.position_max_mm = sec.require_float("position_max", {.above = *c.position_min_mm});
+      c.homing_speed_mm_s = sec.get_float("homing_speed", 5.0, {.above = 0.0});
+    }
+    if (c.type == Carriage::Type::dual && !c.primary_carriage.empty()) {
+      c.safe_distance_mm = sec.get_float("safe_distance", {.minval = 0.0});
+    }
+    if (g.carriages.count(name) != 0) {
+      throw Error(s.where, fmt::format("[{}]: carriage '{}' is defined twice, expected one section "
+                                       "per carriage name",
+                                       s.name, name));
+    }
+    g.carriages[name] = c;
+  }
+  if (g.carriages.empty()) {
+    throw Error(cfg.printer_where(), "a generic_cartesian printer needs [carriage NAME] sections (one "
+                                     "per axis x, y, z) and [stepper NAME] sections with carriages");
+  }
+  detail::refuse_dual_carriage(cfg);
+  return g;
+}
+
+namespace {
+
+constexpr std::string_view kCarriageTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
+constexpr std::string_view kAxes[] = {"x", "y", "z"};
+
+Carriage* carriage_of(GenericCartesian& g, std::string_view name, bool create) {
+  if (name.empty()) return nullptr;
+  if (create) return &g.carriages[std::string(name)];
+  const auto it = g.carriages.find(std::string(name));
+  return it == g.carriages.end() ? nullptr : &it->second;
+}
+
+std::vector<std::string> carriage_names(const GenericCartesian& g) {
+  std::vector<std::string> out;
+  for (const auto& [name, c] : g.carriages) out.push_back(name);
+  return out;
+}
+
+}  // namespace
+
+std::span<const ParamKey<GenericCartesian>> GenericCartesian::keys() {
+  using G = GenericCartesian;
+  using Opt = std::optional<double>;
+  static const std::vector<ParamKey<G>> keys = {
+      {"carriage", "type", KeyBound::finite, "",
+       "generic_cartesian carriages ([carriage.NAME]): carriage (moves its axis), "
+       "extra_carriage (moves with its primary) or dual_carriage (the second carriage of an IDEX "
+       "axis, parked).",
+       nullptr, nullptr, nullptr, kCarriageTypes, carriage_names,
+       [](G& g, std::string_view i) -> int {
+         const Carriage* k = carriage_of(g, i, false);
+         return k ? static_cast<int>(k->type) : -1;
+       },
+       [](G& g, std::string_view i, int index) -> bool {
+         Carriage* k = carriage_of(g, i, true);
+         if (k != nullptr) k->type = static_cast<Carriage::Type>(index);
+         return k != nullptr;
+       }},
+      {"carriage", "axis", KeyBound::finite, "",
+       "The axis a carriage moves: x, y or z (primary carriages; a dual carriage without "
+       "primary_carriage).",
+       nullptr, nullptr,
+       [](G& g, std::string_view i, bool c) -> std::string* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->axis : nullptr;
+       },
+       kAxes, carriage_names},
+      {"carriage", "primary_carriage", KeyBound::finite, "",
+       "Extra and dual carriages: the carriage they belong to.", nullptr, nullptr,
+       [](G& g, std::string_view i, bool c) -> std::string* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->primary_carriage : nullptr;
+       },
+       {}, carriage_names},
+      {"carriage", "position_min", KeyBound::finite, "mm",
+       "Carriage range: lowest position (Klipper position_min; unset = 0).",
+       [](G& g, std::string_view i, bool c) -> Opt* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->position_min_mm : nullptr;
+       },
+       nullptr, nullptr, {}, carriage_names},
+      {"carriage", "position_max", KeyBound::finite, "mm",
+       "Carriage range: highest position (Klipper position_max; required on primary and dual "
+       "carriages).",
+       [](G& g, std::string_view i, bool c) -> Opt* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->position_max_mm : nullptr;
+       },
+       nullptr, nullptr, {}, carriage_names},
+      {"carriage", "position_endstop", KeyBound::finite, "mm",
+       "Where homing leaves the carriage (Klipper position_endstop; required on primary and dual "
+       "carriages).",
+       [](G& g, std::string_view i, bool c) -> Opt* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->position_endstop_mm : nullptr;
+       },
+       nullptr, nullptr, {}, carriage_names},
+      {"carriage", "homing_speed", KeyBound::positive, "mm/s",
+       "Carriage homing speed (Klipper homing_speed; RESTORE_DUAL_CARRIAGE_STATE moves an IDEX "
+       "pair at the lower one).",
+       nullptr,
+       [](G& g, std::string_view i, bool c) -> double* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->homing_speed_mm_s : nullptr;
+       },
+       nullptr, {}, carriage_names},
+      {"carriage", "safe_distance", KeyBound::non_negative, "mm",
+       "Dual carriages: the closest the pair may come (Klipper safe_distance; unset = from the "
+       "rails).",
+       [](G& g, std::string_view i, bool c) -> Opt* {
+         Carriage* k = carriage_of(g, i, c);
+         return k ? &k->safe_distance_mm : nullptr;
+       },
+       nullptr, nullptr, {}, carriage_names},
+      {"stepper", "carriages", KeyBound::finite, "",
+       "generic_cartesian steppers: the carriages the stepper moves, as a linear combination "
+       "(Klipper carriages: \"carriage_x+carriage_y\", \"carriage_u-carriage_y1\", "
+       "\"1*carriage_y+0.5*carriage_z\").",
+       nullptr, nullptr,
+       [](G& g, std::string_view i, bool c) -> std::string* {
+         if (!generic_stepper_name(i)) return nullptr;
+         if (c) return &g.stepper_carriages[std::string(i)];
+         const auto it = g.stepper_carriages.find(std::string(i));
+         return it == g.stepper_carriages.end() ? nullptr : &it->second;
+       }},
+  };
+  return keys;
+}
+
 std::unique_ptr<Kinematics> make_kinematics(const GenericCartesian& p, const Context& ctx) {
   return std::make_unique<GenericCartesianKinematics>(p, ctx);
 }

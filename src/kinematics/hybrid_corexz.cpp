@@ -8,7 +8,10 @@ constexpr std::array<double, 4> kRowX{1, 0, -1, 0}, kRowY{0, 1, 0, 0}, kRowZ{0, 
 
 class HybridCoreXZKinematics final : public Kinematics {
  public:
-  HybridCoreXZKinematics(const HybridCoreXZ& p, const Context& ctx) : p_(p), th_(ctx.toolhead) {}
+  HybridCoreXZKinematics(const HybridCoreXZ& p, const Context& ctx) : p_(p), th_(ctx.toolhead) {
+    detail::check_rails(p.rails);
+    detail::check_dual_carriage(p.rails, p.dual_carriage);
+  }
   std::string_view name() const override { return HybridCoreXZ::kName; }
   std::vector<Motor> motors(const std::vector<std::string>& keys,
                             std::vector<std::string>& missing) const override {
@@ -16,13 +19,13 @@ class HybridCoreXZKinematics final : public Kinematics {
   }
   MoveRules move_rules() const override { return detail::cartesian_move_rules(p_.rails, th_); }
   std::vector<IdexPair> idex_pairs() const override {
-    if (!p_.dual_carriage) return {};
+    if (!p_.dual_carriage || p_.dual_carriage->axis.empty()) return {};
     return {detail::idex_pair(p_.rails, *p_.dual_carriage)};
   }
   Homing homing() const override {
     Homing h = detail::cartesian_homing(p_.rails);
     // G28 puts the first carriage of an IDEX axis at its endstop.
-    if (p_.dual_carriage) {
+    if (p_.dual_carriage && !p_.dual_carriage->axis.empty()) {
       const IdexPair d = detail::idex_pair(p_.rails, *p_.dual_carriage);
       h.position_mm[static_cast<std::size_t>(d.axis)] = d.position_endstop_mm[0];
     }
@@ -39,6 +42,27 @@ class HybridCoreXZKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> HybridCoreXZ::klipper_steppers(const KlipperConfig& cfg) {
+  return detail::axis_steppers(cfg, "xyz");
+}
+
+HybridCoreXZ HybridCoreXZ::from_klipper(const KlipperConfig& cfg) {
+  HybridCoreXZ k;
+  for (const KlipperStepper& s : klipper_steppers(cfg)) detail::read_rail(cfg.section(s.section), k.rails, s.key);
+  k.dual_carriage = detail::read_dual_carriage(cfg);
+  return k;
+}
+
+std::span<const ParamKey<HybridCoreXZ>> HybridCoreXZ::keys() {
+  static const std::vector<ParamKey<HybridCoreXZ>> keys = [] {
+    std::vector<ParamKey<HybridCoreXZ>> k;
+    detail::add_rail_keys(k);
+    detail::add_dual_carriage_keys(k);
+    return k;
+  }();
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const HybridCoreXZ& p, const Context& ctx) {
   return std::make_unique<HybridCoreXZKinematics>(p, ctx);

@@ -111,6 +111,31 @@ std::optional<Params> params_named(std::string_view name) {
   return default_named(name, std::make_index_sequence<std::variant_size_v<Params>>());
 }
 
+Params convert(const Params& from, std::size_t index) {
+  if (from.index() == index) return from;
+  Params to = *params_named(kNames.at(index));
+  std::visit(
+      [&](auto& t) {
+        std::visit(
+            [&](const auto& f) {
+              if constexpr (requires { t.rails; f.rails; }) t.rails = f.rails;
+              if constexpr (requires { f.dual_carriage; }) {
+                if (f.dual_carriage) {
+                  if constexpr (requires { t.dual_carriage; }) {
+                    t.dual_carriage = f.dual_carriage;
+                  } else {
+                    throw Error("dual_carriage: Klipper supports a dual carriage on cartesian, "
+                                "hybrid_corexy and hybrid_corexz kinematics only");
+                  }
+                }
+              }
+            },
+            from);
+      },
+      to);
+  return to;
+}
+
 std::unique_ptr<Kinematics> make(const Params& p, const Context& ctx) {
   return std::visit([&](const auto& k) { return make_kinematics(k, ctx); }, p);
 }

@@ -1,6 +1,8 @@
 // Klipper's `none` kinematics: no motors, no checks.
 #include "amctl/kinematics/none.hpp"
 
+#include "amctl/kinematics/rails.hpp"
+
 namespace amctl::kinematics {
 namespace {
 
@@ -15,6 +17,11 @@ class NoneKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+None None::from_klipper(const KlipperConfig& cfg) {
+  detail::refuse_dual_carriage(cfg);
+  return {};
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const None&, const Context&) {
   return std::make_unique<NoneKinematics>();

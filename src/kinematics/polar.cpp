@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/kinematics/rails.hpp"
 
 namespace amctl::kinematics {
 
@@ -76,6 +77,7 @@ class PolarKinematics final : public Kinematics {
                                 name));
       }
     }
+    detail::check_rails(p.rails);
     g_ = polar_geometry(p);
   }
   std::string_view name() const override { return Polar::kName; }
@@ -172,6 +174,66 @@ class PolarKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> Polar::klipper_steppers(const KlipperConfig& cfg) {
+  for (const char* s : {"stepper_bed", "stepper_arm", "stepper_z"}) {
+    if (!cfg.has(s)) {
+      throw Error(cfg.printer_where(),
+                  fmt::format("a polar printer needs [{}] (stepper_bed, stepper_arm, stepper_z)", s));
+    }
+  }
+  std::vector<KlipperStepper> out;
+  for (const ConfigSection& s : cfg.sections()) {
+    if (s.name == "stepper_bed") out.push_back({s.name, "bed", true});
+    if (s.name == "stepper_arm") out.push_back({s.name, "arm", false});
+  }
+  for (KlipperStepper& s : detail::axis_steppers(cfg, "z")) out.push_back(std::move(s));
+  return out;
+}
+
+Polar Polar::from_klipper(const KlipperConfig& cfg) {
+  // polar.py: max_angular_velocity (> 0, default 0 = off); stepper_bed (radians),
+  // stepper_arm (position_max: the reach), stepper_z (+ z1, ...).
+  const KlipperSection printer = cfg.section("printer");
+  Polar p;
+  if (printer.has("max_angular_velocity")) {
+    p.max_angular_velocity_rad_s = printer.get_float("max_angular_velocity", {.above = 0.0});
+  }
+  for (const KlipperStepper& s : klipper_steppers(cfg)) {
+    const KlipperSection sec = cfg.section(s.section);
+    if (s.key == "arm") {
+      Rail& r = p.rails["arm"];
+      r.position_endstop_mm = sec.require_float("position_endstop");
+      r.position_min_mm = sec.get_float("position_min", 0.0);
+      r.position_max_mm = sec.require_float("position_max", {.above = *r.position_min_mm});
+    } else if (s.key != "bed") {
+      detail::read_rail(sec, p.rails, s.key);
+    }
+  }
+  detail::refuse_dual_carriage(cfg);
+  return p;
+}
+
+std::span<const std::string_view> Polar::printer_options() {
+  static constexpr std::string_view kOptions[] = {"max_angular_velocity"};
+  return kOptions;
+}
+
+std::span<const ParamKey<Polar>> Polar::keys() {
+  static const std::vector<ParamKey<Polar>> keys = [] {
+    std::vector<ParamKey<Polar>> k = {
+        {"printer", "max_angular_velocity", KeyBound::non_negative, "rad/s",
+         "Polar: moves passing within d of the bed's centre at speed v are slowed when v / d "
+         "exceeds it (Klipper max_angular_velocity; unset or 0 = no limit).",
+         [](Polar& p, std::string_view, bool) -> std::optional<double>* {
+           return &p.max_angular_velocity_rad_s;
+         }},
+    };
+    detail::add_rail_keys(k);
+    return k;
+  }();
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const Polar& p, const Context& ctx) {
   return std::make_unique<PolarKinematics>(p, ctx);

@@ -2,6 +2,8 @@
 // hybrid_corexy.py, hybrid_corexz.py all build their rails with stepper.py's PrinterRail).
 #include "amctl/kinematics/rails.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
@@ -83,6 +85,96 @@ LinearMap linear_map_of(const std::vector<Motor>& motors) {
     map.rows.push_back({m.row[0], m.row[1], m.row[2]});
   }
   return map;
+}
+
+}  // namespace amctl::kinematics::detail
+
+namespace amctl::kinematics::detail {
+
+std::vector<KlipperStepper> axis_steppers(const KlipperConfig& cfg, std::string_view axes) {
+  std::vector<KlipperStepper> out;
+  for (const ConfigSection& s : cfg.sections()) {
+    if (s.name.size() < 9 || s.name.compare(0, 8, "stepper_") != 0) continue;
+    const std::string key = s.name.substr(8);
+    if (axes.find(key[0]) == std::string_view::npos) continue;
+    if (!std::all_of(key.begin() + 1, key.end(), [](char c) { return c >= '0' && c <= '9'; })) continue;
+    out.push_back({s.name, key, false});
+  }
+  return out;
+}
+
+void read_rail(const KlipperSection& sec, Rails& rails, const std::string& key) {
+  if ((key == "x" || key == "y" || key == "z") && sec.has("position_max")) {
+    Rail& r = rails[key];
+    r.position_min_mm = sec.get_float("position_min", 0.0);
+    r.position_max_mm = sec.get_float("position_max", {.above = *r.position_min_mm});
+    r.position_endstop_mm = sec.get_float("position_endstop");
+  }
+}
+
+std::optional<DualCarriage> read_dual_carriage(const KlipperConfig& cfg) {
+  const KlipperSection d = cfg.section("dual_carriage");
+  if (!d.present()) return std::nullopt;
+  DualCarriage dc;
+  dc.axis = d.get_choice("axis", "", {"x", "y"});
+  if (dc.axis.empty()) throw Error(d.where(), "[dual_carriage] axis: must be specified (x or y)");
+  dc.position_endstop_mm = d.require_float("position_endstop");
+  dc.position_min_mm = d.get_float("position_min", 0.0);
+  dc.position_max_mm = d.get_float("position_max", {.above = *dc.position_min_mm});
+  if (!dc.position_max_mm) throw Error(d.where(), "[dual_carriage] position_max: must be specified");
+  dc.safe_distance_mm = d.get_float("safe_distance", {.minval = 0.0});
+  dc.homing_speed_mm_s = d.get_float("homing_speed", 5.0, {.above = 0.0});
+  const KlipperSection first = cfg.section("stepper_" + dc.axis);
+  if (first.present()) dc.primary_homing_speed_mm_s = first.get_float("homing_speed", 5.0, {.above = 0.0});
+  return dc;
+}
+
+void refuse_dual_carriage(const KlipperConfig& cfg) {
+  const KlipperSection d = cfg.section("dual_carriage");
+  if (d.present()) {
+    throw Error(d.where(), "[dual_carriage]: amctl models a dual carriage on cartesian, "
+                           "hybrid_corexy and hybrid_corexz kinematics only (as Klipper)");
+  }
+}
+
+}  // namespace amctl::kinematics::detail
+
+namespace amctl::kinematics::detail {
+
+void check_rails(const Rails& rails) {
+  for (const auto& [name, r] : rails) {
+    if (r.position_min_mm && r.position_max_mm && *r.position_min_mm > *r.position_max_mm) {
+      throw Error(fmt::format("stepper_{}.position_min ({} mm) must be <= position_max ({} mm)",
+                              name, *r.position_min_mm, *r.position_max_mm));
+    }
+  }
+}
+
+void check_dual_carriage(const Rails& rails, const std::optional<DualCarriage>& d) {
+  if (!d || d->axis.empty()) return;
+  const DualCarriage& dc = *d;
+  if (dc.axis != "x" && dc.axis != "y") {
+    throw Error(fmt::format("dual_carriage.axis must be \"x\", \"y\" or \"\" (none), got \"{}\"", dc.axis));
+  }
+  if (!dc.position_max_mm || !dc.position_endstop_mm) {
+    throw Error("dual_carriage: position_max and position_endstop are required with an axis");
+  }
+  const auto first = rails.find(dc.axis);
+  if (first == rails.end() || !first->second.position_endstop_mm || !first->second.position_max_mm) {
+    throw Error(fmt::format("dual_carriage: stepper_{} (the first carriage's rail) needs "
+                            "position_endstop and position_max",
+                            dc.axis));
+  }
+  const double lo = dc.position_min_mm.value_or(0.0);
+  if (lo >= *dc.position_max_mm) {
+    throw Error(fmt::format("dual_carriage.position_min ({} mm) must be < position_max ({} mm)", lo,
+                            *dc.position_max_mm));
+  }
+  if (*dc.position_endstop_mm < lo || *dc.position_endstop_mm > *dc.position_max_mm) {
+    throw Error(fmt::format("dual_carriage.position_endstop ({} mm) must lie in [position_min, "
+                            "position_max] = [{}, {}] mm",
+                            *dc.position_endstop_mm, lo, *dc.position_max_mm));
+  }
 }
 
 }  // namespace amctl::kinematics::detail

@@ -12,6 +12,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/kinematics/delta.hpp"
+#include "amctl/kinematics/rails.hpp"
 #include "detail.hpp"
 
 namespace amctl::kinematics {
@@ -206,6 +207,118 @@ class RotaryDeltaKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> RotaryDelta::klipper_steppers(const KlipperConfig& cfg) {
+  for (const char* arm : {"stepper_a", "stepper_b", "stepper_c"}) {
+    if (!cfg.has(arm)) {
+      throw Error(cfg.printer_where(),
+                  fmt::format("a rotary delta needs [{}] (arms stepper_a, stepper_b, stepper_c)", arm));
+    }
+  }
+  std::vector<KlipperStepper> out;
+  for (const ConfigSection& s : cfg.sections()) {
+    if (s.name == "stepper_a" || s.name == "stepper_b" || s.name == "stepper_c") {
+      out.push_back({s.name, s.name.substr(8), true});
+    }
+  }
+  return out;
+}
+
+RotaryDelta RotaryDelta::from_klipper(const KlipperConfig& cfg) {
+  // rotary_delta.py: shoulder_radius, shoulder_height (required, > 0), minimum_z_position
+  // (0, at most the lowest endstop: rotary_delta_geometry); max_z_accel is not an option.
+  const KlipperSection printer = cfg.section("printer");
+  RotaryDelta d;
+  d.shoulder_radius_mm = printer.require_float("shoulder_radius", {.above = 0.0});
+  d.shoulder_height_mm = printer.require_float("shoulder_height", {.above = 0.0});
+  d.minimum_z_position_mm = printer.get_float("minimum_z_position");
+  if (printer.has("max_z_accel")) {
+    throw Error(printer.raw("max_z_accel")->where,
+                "[printer] max_z_accel: not an option of a rotary delta (rotary_delta.py caps "
+                "only the speed of moves with Z), expected no max_z_accel");
+  }
+  for (const KlipperStepper& s : klipper_steppers(cfg)) {
+    // rotary_delta.py: arms in radians (gear_ratio); upper_arm_length, lower_arm_length and
+    // position_endstop required on a, b and c default to a's; angle 30/150/270.
+    const KlipperSection sec = cfg.section(s.section);
+    RotaryArm& arm = d.arms[s.key];
+    const bool a = s.key == "a";
+    arm.upper_arm_length_mm = a ? std::optional(sec.require_float("upper_arm_length", {.above = 0.0}))
+                                : sec.get_float("upper_arm_length", {.above = 0.0});
+    arm.lower_arm_length_mm = a ? std::optional(sec.require_float("lower_arm_length", {.above = 0.0}))
+                                : sec.get_float("lower_arm_length", {.above = 0.0});
+    arm.angle_deg = sec.get_float("angle");
+    arm.position_endstop_mm = a ? std::optional(sec.require_float("position_endstop"))
+                                : sec.get_float("position_endstop");
+  }
+  // Sections that give none of these keys hold no entry (as a TOML machine reads them).
+  std::erase_if(d.arms, [](const auto& kv) { return kv.second == RotaryArm{}; });
+  detail::refuse_dual_carriage(cfg);
+  return d;
+}
+
+std::span<const std::string_view> RotaryDelta::printer_options() {
+  static constexpr std::string_view kOptions[] = {"shoulder_radius", "shoulder_height",
+                                                  "minimum_z_position"};
+  return kOptions;
+}
+
+namespace {
+
+RotaryArm* arm_of(RotaryDelta& d, std::string_view key, bool create) {
+  if (key != "a" && key != "b" && key != "c") return nullptr;
+  if (create) return &d.arms[std::string(key)];
+  const auto it = d.arms.find(std::string(key));
+  return it == d.arms.end() ? nullptr : &it->second;
+}
+
+}  // namespace
+
+std::span<const ParamKey<RotaryDelta>> RotaryDelta::keys() {
+  using Opt = std::optional<double>;
+  using R = RotaryDelta;
+  static const std::vector<ParamKey<R>> keys = {
+      {"delta", "shoulder_radius", KeyBound::positive, "mm",
+       "Rotary delta: horizontal distance from the centre to each shoulder joint (Klipper "
+       "[printer] shoulder_radius; required for a rotary delta).",
+       [](R& d, std::string_view, bool) -> Opt* { return &d.shoulder_radius_mm; }},
+      {"delta", "shoulder_height", KeyBound::positive, "mm",
+       "Rotary delta: height of the shoulder joints above z = 0 (Klipper [printer] "
+       "shoulder_height; required for a rotary delta).",
+       [](R& d, std::string_view, bool) -> Opt* { return &d.shoulder_height_mm; }},
+      {"delta", "minimum_z_position", KeyBound::finite, "mm",
+       "Rotary delta: lowest Z a move may reach (Klipper minimum_z_position; unset = 0).",
+       [](R& d, std::string_view, bool) -> Opt* { return &d.minimum_z_position_mm; }},
+      {"stepper", "upper_arm_length", KeyBound::positive, "mm",
+       "Rotary delta arms (stepper_a, _b, _c): shoulder-to-elbow length (Klipper "
+       "upper_arm_length; required on a, b and c default to a's).",
+       [](R& d, std::string_view i, bool c) -> Opt* {
+         RotaryArm* a = arm_of(d, i, c);
+         return a ? &a->upper_arm_length_mm : nullptr;
+       }},
+      {"stepper", "lower_arm_length", KeyBound::positive, "mm",
+       "Rotary delta arms: elbow-to-effector length (Klipper lower_arm_length; required on a, "
+       "b and c default to a's).",
+       [](R& d, std::string_view i, bool c) -> Opt* {
+         RotaryArm* a = arm_of(d, i, c);
+         return a ? &a->lower_arm_length_mm : nullptr;
+       }},
+      {"stepper", "angle", KeyBound::finite, "degrees",
+       "Rotary delta arms: azimuth of the arm around the centre (Klipper angle; unset = 30, "
+       "150, 270 for a, b, c).",
+       [](R& d, std::string_view i, bool c) -> Opt* {
+         RotaryArm* a = arm_of(d, i, c);
+         return a ? &a->angle_deg : nullptr;
+       }},
+      {"stepper", "position_endstop", KeyBound::finite, "mm",
+       "Klipper position_endstop: the position after homing (informative).",
+       [](R& d, std::string_view i, bool c) -> Opt* {
+         RotaryArm* a = arm_of(d, i, c);
+         return a ? &a->position_endstop_mm : nullptr;
+       }},
+  };
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const RotaryDelta& p, const Context& ctx) {
   return std::make_unique<RotaryDeltaKinematics>(p, ctx);

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/kinematics/rails.hpp"
 
 namespace amctl::kinematics {
 namespace {
@@ -63,6 +64,77 @@ class WinchKinematics final : public Kinematics {
 };
 
 }  // namespace
+
+std::vector<KlipperStepper> Winch::klipper_steppers(const KlipperConfig& cfg) {
+  // winch.py: stepper_a, _b, _c required, more (d, e, ...) while present. amctl takes up to
+  // four (stepper_e would be the extruder's name in amctl's TOML form).
+  for (const char* cable : {"stepper_a", "stepper_b", "stepper_c"}) {
+    if (!cfg.has(cable)) {
+      throw Error(cfg.printer_where(),
+                  fmt::format("a winch needs [{}] (cables stepper_a, stepper_b, stepper_c)", cable));
+    }
+  }
+  if (cfg.has("stepper_d") && cfg.has("stepper_e")) {
+    throw Error(cfg.section("stepper_e").where(),
+                "amctl supports winches of 3 or 4 cables (stepper_a .. stepper_d)");
+  }
+  std::vector<KlipperStepper> out;
+  for (const ConfigSection& s : cfg.sections()) {
+    if (s.name == "stepper_a" || s.name == "stepper_b" || s.name == "stepper_c" || s.name == "stepper_d") {
+      out.push_back({s.name, s.name.substr(8), false});
+    }
+  }
+  return out;
+}
+
+Winch Winch::from_klipper(const KlipperConfig& cfg) {
+  Winch w;
+  for (const KlipperStepper& s : klipper_steppers(cfg)) {
+    const KlipperSection sec = cfg.section(s.section);
+    WinchAnchor& a = w.anchors[s.key];
+    a.x_mm = sec.require_float("anchor_x");
+    a.y_mm = sec.require_float("anchor_y");
+    a.z_mm = sec.require_float("anchor_z");
+  }
+  detail::refuse_dual_carriage(cfg);
+  return w;
+}
+
+namespace {
+
+WinchAnchor* anchor_of(Winch& w, std::string_view key, bool create) {
+  if (key != "a" && key != "b" && key != "c" && key != "d") return nullptr;
+  if (create) return &w.anchors[std::string(key)];
+  const auto it = w.anchors.find(std::string(key));
+  return it == w.anchors.end() ? nullptr : &it->second;
+}
+
+}  // namespace
+
+std::span<const ParamKey<Winch>> Winch::keys() {
+  using Opt = std::optional<double>;
+  static const std::vector<ParamKey<Winch>> keys = {
+      {"stepper", "anchor_x", KeyBound::finite, "mm",
+       "Winch cables (stepper_a .. stepper_d): X of the cable's anchor (Klipper anchor_x).",
+       [](Winch& w, std::string_view i, bool c) -> Opt* {
+         WinchAnchor* a = anchor_of(w, i, c);
+         return a ? &a->x_mm : nullptr;
+       }},
+      {"stepper", "anchor_y", KeyBound::finite, "mm",
+       "Winch cables: Y of the cable's anchor (Klipper anchor_y).",
+       [](Winch& w, std::string_view i, bool c) -> Opt* {
+         WinchAnchor* a = anchor_of(w, i, c);
+         return a ? &a->y_mm : nullptr;
+       }},
+      {"stepper", "anchor_z", KeyBound::finite, "mm",
+       "Winch cables: Z of the cable's anchor (Klipper anchor_z).",
+       [](Winch& w, std::string_view i, bool c) -> Opt* {
+         WinchAnchor* a = anchor_of(w, i, c);
+         return a ? &a->z_mm : nullptr;
+       }},
+  };
+  return keys;
+}
 
 std::unique_ptr<Kinematics> make_kinematics(const Winch& p, const Context& ctx) {
   // A winch needs its three cables, each anchored.

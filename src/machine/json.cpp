@@ -7,6 +7,7 @@
 #include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
+#include "kinematics_keys.hpp"
 
 namespace amctl::machine {
 namespace {
@@ -22,7 +23,7 @@ Json to_json(const Machine& m) {
   j["printer"] = {
       {"name", m.name},
       {"firmware", to_string(m.firmware)},
-      {"kinematics", to_string(m.kinematics)},
+      {"kinematics", kinematics::name_of(m.kinematics)},
       {"junction", to_string(m.junction)},
       {"profile", to_string(m.profile)},
       {"max_velocity", m.max_velocity_mm_s},
@@ -59,6 +60,13 @@ Json to_json(const Machine& m) {
       {"instantaneous_corner_velocity", m.extruder.instantaneous_corner_velocity_mm_s},
       {"max_extrude_cross_section", optional_number(m.extruder.max_extrude_cross_section_mm2)},
   };
+  // Only when they say something: machines without them print as before.
+  if (!m.extruder.present) j["extruder"]["present"] = false;
+  if (m.extruder.pressure_advance_s != 0.0 ||
+      m.extruder.pressure_advance_smooth_time_s != kinematics::Extruder{}.pressure_advance_smooth_time_s) {
+    j["extruder"]["pressure_advance"] = m.extruder.pressure_advance_s;
+    j["extruder"]["pressure_advance_smooth_time"] = m.extruder.pressure_advance_smooth_time_s;
+  }
   j["arcs"] = {
       {"enabled", m.arcs.enabled},
       {"resolution", m.arcs.mm_per_arc_segment},
@@ -85,23 +93,31 @@ Json to_json(const Machine& m) {
     };
   }
   Json steppers = Json::object();
+  Machine copy = m;  // the key tables' accessors take a mutable machine
+  const std::vector<detail::BoundKey> bound = detail::bound_keys(copy);
   for (const auto& [name, s] : m.steppers) {
-    steppers[name] = {{"rotation_distance", s.rotation_distance_mm},
-                      {"microsteps", s.microsteps},
-                      {"full_steps_per_rotation", s.full_steps_per_rotation},
-                      {"steps_per_mm", s.steps_per_mm()}};
-    // Range keys only when set: machines without them print as before.
-    if (s.position_min_mm) steppers[name]["position_min"] = *s.position_min_mm;
-    if (s.position_max_mm) steppers[name]["position_max"] = *s.position_max_mm;
-    if (s.position_endstop_mm) steppers[name]["position_endstop"] = *s.position_endstop_mm;
-    if (s.arm_length_mm) steppers[name]["arm_length"] = *s.arm_length_mm;
-    if (s.angle_deg) steppers[name]["angle"] = *s.angle_deg;
-    if (s.anchor_x_mm) steppers[name]["anchor_x"] = *s.anchor_x_mm;
-    if (s.anchor_y_mm) steppers[name]["anchor_y"] = *s.anchor_y_mm;
-    if (s.anchor_z_mm) steppers[name]["anchor_z"] = *s.anchor_z_mm;
-    if (s.upper_arm_length_mm) steppers[name]["upper_arm_length"] = *s.upper_arm_length_mm;
-    if (s.lower_arm_length_mm) steppers[name]["lower_arm_length"] = *s.lower_arm_length_mm;
-    if (!s.carriages.empty()) steppers[name]["carriages"] = s.carriages;
+    if (detail::drive_train_unit(m, name) == kinematics::Unit::rad) {
+      const double rd = s.rotation_distance_rad.value_or(0.0);
+      steppers[name] = {{"rotation_distance", rd},
+                        {"microsteps", s.microsteps},
+                        {"full_steps_per_rotation", s.full_steps_per_rotation},
+                        {"steps_per_rad", s.microsteps * s.full_steps_per_rotation / rd}};
+    } else {
+      steppers[name] = {{"rotation_distance", s.rotation_distance_mm},
+                        {"microsteps", s.microsteps},
+                        {"full_steps_per_rotation", s.full_steps_per_rotation},
+                        {"steps_per_mm", s.steps_per_mm()}};
+    }
+    // The kinematics' keys of this stepper, only when set: machines without them print as
+    // before.
+    for (const detail::BoundKey& b : bound) {
+      if (b.section != "stepper") continue;
+      if (b.optional_number) {
+        if (const auto* v = b.optional_number(name, false); v && *v) steppers[name][std::string(b.key)] = **v;
+      } else if (b.text) {
+        if (const auto* v = b.text(name, false); v && !v->empty()) steppers[name][std::string(b.key)] = *v;
+      }
+    }
     // Motor, driver and drive-train keys (step-level physics), only when set.
     const std::pair<const char*, const std::optional<double>*> motor[] = {
         {"run_current", &s.run_current_a},       {"supply_voltage", &s.supply_voltage_v},

@@ -60,7 +60,7 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   StepsReport r;
   r.file = gcode_path;
   r.machine_name = m.name;
-  r.kinematics = std::string(machine::to_string(m.kinematics));
+  r.kinematics = std::string(kinematics::name_of(m.kinematics));
   r.csv_path = csv_path;
   r.print_time_s = summary.end_time_s;
   r.moves = moves;

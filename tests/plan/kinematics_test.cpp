@@ -76,7 +76,7 @@ TEST(DeltaLimits, HomingPutsTheEffectorAtTheTop) {
   EXPECT_NEAR(r.total_time_s, trapezoid_s(287.05, 150, 1500), 1e-9);
 }
 
-machine::Machine gantry(machine::Kinematics k) {
+machine::Machine gantry(kinematics::Params k) {
   machine::Machine m;
   m.kinematics = k;
   m.max_z_velocity_mm_s = 10;
@@ -85,10 +85,10 @@ machine::Machine gantry(machine::Kinematics k) {
 }
 
 TEST(GantryLimits, CoreXZAndHybridLimitZLikeCartesian) {
-  for (auto k : {machine::Kinematics::corexz, machine::Kinematics::hybrid_corexy,
-                 machine::Kinematics::hybrid_corexz}) {
+  for (const kinematics::Params& k : {kinematics::Params{kinematics::CoreXZ{}}, kinematics::Params{kinematics::HybridCoreXY{}},
+                                    kinematics::Params{kinematics::HybridCoreXZ{}}}) {
     const auto r = estimate_text("G1 Z20 F6000\n", "z.gcode", gantry(k));
-    EXPECT_NEAR(r.total_time_s, trapezoid_s(20, 10, 100), 1e-9) << machine::to_string(k);
+    EXPECT_NEAR(r.total_time_s, trapezoid_s(20, 10, 100), 1e-9) << kinematics::name_of(k);
   }
 }
 
@@ -126,7 +126,7 @@ TEST(GantryLimits, WinchHasNoZLimit) {
 
 TEST(GantryLimits, NoneHasNoZLimit) {
   // Klipper's none kinematics checks nothing: the toolhead's 300 mm/s and 3000 mm/s^2 apply.
-  const auto r = estimate_text("G1 Z100 F18000\n", "z.gcode", gantry(machine::Kinematics::none));
+  const auto r = estimate_text("G1 Z100 F18000\n", "z.gcode", gantry(kinematics::None{}));
   EXPECT_NEAR(r.total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
 }
 

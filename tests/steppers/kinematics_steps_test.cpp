@@ -27,12 +27,12 @@ constexpr double kRadius = 174.75, kArm = 333.0, kEndstop = 297.05;
 
 Machine delta_machine() {
   Machine m;
-  m.kinematics = machine::Kinematics::delta;
-  m.delta.radius_mm = kRadius;
-  m.delta.minimum_z_position_mm = -5.0;
+  kinematics::Delta d;
+  d.radius_mm = kRadius;
+  d.minimum_z_position_mm = -5.0;
+  d.towers["a"] = {kArm, std::nullopt, kEndstop};
+  m.kinematics = d;
   for (const char* t : {"a", "b", "c"}) m.steppers[t] = {40.0, 16, 200};  // 0.0125 mm
-  m.steppers["a"].arm_length_mm = kArm;
-  m.steppers["a"].position_endstop_mm = kEndstop;
   m.steppers["e"] = {33.5, 16, 200};
   return m;
 }
@@ -166,14 +166,13 @@ constexpr std::array<std::array<double, 3>, 4> kAnchors{
 
 Machine winch_machine() {
   Machine m;
-  m.kinematics = machine::Kinematics::winch;
+  kinematics::Winch w;
   for (std::size_t i = 0; i < 4; ++i) {
-    machine::Stepper s{40.0, 16, 200};
-    s.anchor_x_mm = kAnchors[i][0];
-    s.anchor_y_mm = kAnchors[i][1];
-    s.anchor_z_mm = kAnchors[i][2];
-    m.steppers[std::string(1, static_cast<char>('a' + i))] = s;
+    const std::string k(1, static_cast<char>('a' + i));
+    w.anchors[k] = {kAnchors[i][0], kAnchors[i][1], kAnchors[i][2]};
+    m.steppers[k] = {40.0, 16, 200};
   }
+  m.kinematics = w;
   m.steppers["e"] = {33.5, 16, 200};
   return m;
 }
@@ -231,15 +230,13 @@ TEST(DeltesianSteps, TowersInTheXZPlaneStayOnTheGrid) {
   // tests/reference/klipper/deltesian.cfg geometry: arms 217, arm_x 160; left tower at
   // x = -160, right at +160; y is cartesian.
   Machine m;
-  m.kinematics = machine::Kinematics::deltesian;
+  kinematics::Deltesian d;
+  d.towers["left"] = {160.0, 217.0, 268.0};
+  d.rails["y"] = {0.0, 200.0, std::nullopt};
+  m.kinematics = d;
   m.steppers["left"] = {40.0, 16, 200};
-  m.steppers["left"].arm_length_mm = 217.0;
-  m.steppers["left"].arm_x_length_mm = 160.0;
-  m.steppers["left"].position_endstop_mm = 268.0;
   m.steppers["right"] = {40.0, 16, 200};
   m.steppers["y"] = {40.0, 16, 200};
-  m.steppers["y"].position_min_mm = 0.0;
-  m.steppers["y"].position_max_mm = 200.0;
   m.steppers["e"] = {33.5, 16, 200};
   const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=100 Z=10\nG1 X40 Y120 F6000\nG1 X-40 Z20\nG1 Y20\n", m);
   ASSERT_EQ(r.motors.size(), 4u);
@@ -274,13 +271,13 @@ TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
   m.steppers["z"] = {40.0, 16, 200};
   m.steppers["e"] = {33.5, 16, 200};
   struct Case {
-    machine::Kinematics k;
+    kinematics::Params k;
     std::array<double, 4> x, y, z;
   };
   const Case cases[] = {
-      {machine::Kinematics::corexz, {1, 0, 1, 0}, {0, 1, 0, 0}, {1, 0, -1, 0}},
-      {machine::Kinematics::hybrid_corexy, {1, -1, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
-      {machine::Kinematics::hybrid_corexz, {1, 0, -1, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
+      {kinematics::CoreXZ{}, {1, 0, 1, 0}, {0, 1, 0, 0}, {1, 0, -1, 0}},
+      {kinematics::HybridCoreXY{}, {1, -1, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
+      {kinematics::HybridCoreXZ{}, {1, 0, -1, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
   };
   for (const Case& c : cases) {
     m.kinematics = c.k;
@@ -302,7 +299,7 @@ TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
 
 TEST(LinearGantrySteps, NoneHasOnlyTheExtruder) {
   Machine m;
-  m.kinematics = machine::Kinematics::none;
+  m.kinematics = kinematics::None{};
   m.steppers["e"] = {33.5, 16, 200};
   const auto ch = machine::motors(m);
   ASSERT_EQ(ch.size(), 1u);
@@ -369,7 +366,7 @@ TEST(RotaryDeltaSteps, ArmAnglesPutTheElbowsAtTheLowerArmLength) {
   const Machine m =
       machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/rotary_delta.cfg");
   const kinematics::RotaryDeltaGeometry g = kinematics::rotary_delta_geometry(
-      std::get<kinematics::RotaryDelta>(machine::kinematics_params(m)));
+      std::get<kinematics::RotaryDelta>(m.kinematics));
   const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=0 Z=10\nG1 X100 Y40 F6000\nG1 X-120 Y-20 Z40\nG1 X0 Y150 Z5\n", m);
   ASSERT_EQ(r.motors.size(), 4u);
   const trajectory::Trajectory traj(r.moves);

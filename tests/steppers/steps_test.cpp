@@ -18,7 +18,7 @@ namespace {
 
 using machine::Machine;
 
-Machine test_machine(machine::Kinematics k = machine::Kinematics::cartesian,
+Machine test_machine(kinematics::Params k = kinematics::Cartesian{},
                      machine::VelocityProfile p = machine::VelocityProfile::trapezoid) {
   Machine m;
   m.kinematics = k;
@@ -37,8 +37,8 @@ using test::StepRun;
 // The tool state with X, Y replaced by the motors' A, B: CoreXY A = X + Y, B = X - Y
 // (Klipper's kin_corexy.c), cartesian unchanged. Written here, independent of the kinematics
 // module.
-trajectory::AxisState to_motor(machine::Kinematics k, trajectory::AxisState s) {
-  if (k != machine::Kinematics::corexy) return s;
+trajectory::AxisState to_motor(kinematics::Params k, trajectory::AxisState s) {
+  if (!kinematics::is<kinematics::CoreXY>(k)) return s;
   for (auto* v : {&s.pos_mm, &s.vel_mm_s, &s.acc_mm_s2, &s.jerk_mm_s3}) {
     const double x = (*v)[0], y = (*v)[1];
     (*v)[0] = x + y;
@@ -49,7 +49,7 @@ trajectory::AxisState to_motor(machine::Kinematics k, trajectory::AxisState s) {
 
 // Every step sits on its half-step level: motor position at the step time, from
 // Trajectory::evaluate, equals origin + (n - dir/2) * step after the step to 1e-9 mm.
-void expect_on_levels(const StepRun& r, machine::Kinematics k) {
+void expect_on_levels(const StepRun& r, kinematics::Params k) {
   const trajectory::Trajectory traj(r.moves);
   const auto s0 = to_motor(k, traj.evaluate(r.moves.front().start_time_s));
   for (std::uint32_t c = 0; c < r.motors.size(); ++c) {
@@ -118,7 +118,7 @@ TEST(Steps, ReversalChangesDirection) {
 }
 
 TEST(Steps, CoreXYPureXPureYAndDiagonal) {
-  const Machine m = test_machine(machine::Kinematics::corexy);
+  const Machine m = test_machine(kinematics::Params{kinematics::CoreXY{}});
   {  // pure X: A = X + Y and B = X - Y both turn forward, step for step
     const StepRun r = run("G1 X10 F6000\n", m);
     const auto a = r.of(0), b = r.of(1);
@@ -179,7 +179,7 @@ TEST(Steps, ExtrudeOnlyMove) {
 
 // Crossing times on jerk-limited pieces against a plain bisection on Trajectory::evaluate.
 void check_against_bisection(machine::VelocityProfile p) {
-  const Machine m = test_machine(machine::Kinematics::cartesian, p);
+  const Machine m = test_machine(kinematics::Params{kinematics::Cartesian{}}, p);
   const StepRun r = run("G1 X10 Y3 F9000\nG1 X2 Y5\n", m);
   ASSERT_EQ(r.moves.size(), 2u);
   ASSERT_EQ(r.moves[0].profile, p);
@@ -220,7 +220,7 @@ TEST(Steps, Bezier5CrossingsMatchBisection) { check_against_bisection(machine::V
 // with Z hops and retracts: every step on its half-step level, times non-decreasing, and the
 // net step position of each motor equal to its rounded displacement.
 TEST(Steps, RandomZigzagStaysOnTheGrid) {
-  for (const auto k : {machine::Kinematics::cartesian, machine::Kinematics::corexy}) {
+  for (const kinematics::Params& k : {kinematics::Params{kinematics::Cartesian{}}, kinematics::Params{kinematics::CoreXY{}}}) {
     for (const auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::scurve7,
                          machine::VelocityProfile::bezier5}) {
       const Machine m = test_machine(k, p);

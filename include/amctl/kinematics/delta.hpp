@@ -14,10 +14,14 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "amctl/kinematics/keys.hpp"
 #include "amctl/kinematics/kinematics.hpp"
+#include "amctl/kinematics/klipper_config.hpp"
 
 namespace amctl::kinematics {
 
@@ -35,6 +39,17 @@ struct Delta {
   std::optional<double> minimum_z_position_mm;  ///< unset: 0
   std::map<std::string, DeltaTower> towers;     ///< by drive-train key a, b, c
   bool operator==(const Delta&) const = default;
+
+  /// printer.cfg: [stepper_a], [stepper_b], [stepper_c] (required).
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  /// [printer] delta_radius (required, > 0), print_radius (> 0), minimum_z_position; the
+  /// towers' arm_length (required on a, > delta_radius), angle, position_endstop (required on a).
+  [[nodiscard]] static Delta from_klipper(const KlipperConfig& cfg);
+  [[nodiscard]] static std::span<const std::string_view> printer_options();
+  /// TOML: [delta] radius, print_radius, minimum_z_position; [stepper_a..c] arm_length,
+  /// angle, position_endstop.
+  [[nodiscard]] static std::span<const ParamKey<Delta>> keys();
+  [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
 };
 
 struct DeltaGeometry {

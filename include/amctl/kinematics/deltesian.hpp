@@ -8,7 +8,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <span>
 #include <string_view>
+#include <vector>
 
 #include "amctl/kinematics/rails.hpp"
 
@@ -32,6 +34,22 @@ struct Deltesian {
   std::map<std::string, DeltesianTower> towers;  ///< left, right
   Rails rails;                                   ///< y
   bool operator==(const Deltesian&) const = default;
+
+  /// printer.cfg: [stepper_left], [stepper_right], [stepper_y] (required).
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  /// [printer] min_angle ([0, 90]), print_width (>= 0), slow_ratio (>= 0), minimum_z_position;
+  /// the towers' arm_x_length, arm_length (> 0; required on left) and position_endstop
+  /// (required on left); stepper_y's rail.
+  [[nodiscard]] static Deltesian from_klipper(const KlipperConfig& cfg);
+  [[nodiscard]] static std::span<const std::string_view> printer_options();
+  /// TOML: [delta] min_angle, print_width, slow_ratio, minimum_z_position; [stepper_left],
+  /// [stepper_right] arm_x_length, arm_length, position_endstop; the rails' ranges.
+  [[nodiscard]] static std::span<const ParamKey<Deltesian>> keys();
+  [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  static Rail* rail(Deltesian& k, std::string_view key, bool create) {
+    if (key == "left" || key == "right") return nullptr;
+    return detail::rail_of(k.rails, key, create);
+  }
 };
 
 struct DeltesianGeometry {

@@ -8,10 +8,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <span>
 #include <string_view>
 #include <vector>
 
+#include "amctl/kinematics/keys.hpp"
 #include "amctl/kinematics/kinematics.hpp"
+#include "amctl/kinematics/klipper_config.hpp"
 
 namespace amctl::kinematics {
 
@@ -45,7 +48,23 @@ struct GenericCartesian {
   /// key): "carriage_x+carriage_y", "carriage_u-carriage_y1", "1*carriage_y+0.5*carriage_z".
   std::map<std::string, std::string> stepper_carriages;
   bool operator==(const GenericCartesian&) const = default;
+
+  /// printer.cfg: every [stepper NAME] (NAME letters, digits and _, not an extruder's name).
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  /// [carriage NAME] (axis: x, y or z, by default the name when it is one of them;
+  /// position_endstop, position_min (0), position_max, homing_speed), [extra_carriage NAME]
+  /// (primary_carriage), [dual_carriage NAME] (primary_carriage or axis, the range,
+  /// safe_distance) and the steppers' carriages. The checks that need all of them together are
+  /// generic_cartesian_geometry's.
+  [[nodiscard]] static GenericCartesian from_klipper(const KlipperConfig& cfg);
+  [[nodiscard]] static std::span<const std::string_view> printer_options() { return {}; }
+  /// TOML: the [carriage.NAME] tables and the steppers' carriages keys.
+  [[nodiscard]] static std::span<const ParamKey<GenericCartesian>> keys();
+  [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
 };
+
+/// A generic_cartesian stepper's name: letters, digits and '_', not an extruder's (e, e1, ...).
+[[nodiscard]] bool generic_stepper_name(std::string_view name);
 
 /// One stepper: its position is coeffs . (X, Y, Z) [mm] with the dual carriages parked.
 struct GenericStepper {

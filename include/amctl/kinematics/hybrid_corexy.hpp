@@ -4,7 +4,9 @@
 // [dual_carriage] on X or Y.
 // klippy/kinematics/hybrid_corexy.py, chelper/kin_corexy.c (read at 84104bbb, nothing copied).
 #include <memory>
+#include <span>
 #include <string_view>
+#include <vector>
 
 #include "amctl/kinematics/rails.hpp"
 
@@ -15,6 +17,19 @@ struct HybridCoreXY {
   Rails rails;
   std::optional<DualCarriage> dual_carriage;
   bool operator==(const HybridCoreXY&) const = default;
+
+  /// printer.cfg: [stepper_x], [stepper_y], [stepper_z] and their extra steppers
+  /// (stepper_z1, ...), [dual_carriage].
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  [[nodiscard]] static HybridCoreXY from_klipper(const KlipperConfig& cfg);
+  /// [printer] options beyond the toolhead's: none.
+  [[nodiscard]] static std::span<const std::string_view> printer_options() { return {}; }
+  /// TOML keys: the rails' position_min, position_max, position_endstop and [dual_carriage].
+  [[nodiscard]] static std::span<const ParamKey<HybridCoreXY>> keys();
+  [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  static Rail* rail(HybridCoreXY& k, std::string_view key, bool create) {
+    return detail::rail_of(k.rails, key, create);
+  }
 };
 
 [[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const HybridCoreXY& p, const Context& ctx);

@@ -32,6 +32,12 @@ using Params = std::variant<Cartesian, CoreXY, CoreXZ, HybridCoreXY, HybridCoreX
 [[nodiscard]] std::span<const std::string_view> names();
 /// Default parameters of the kinematics called `name`; nothing for an unknown name.
 [[nodiscard]] std::optional<Params> params_named(std::string_view name);
+/// The parameters of kinematics number `index` (of Params) for a machine that had `from`
+/// (`--set printer.kinematics=...`): the rails and an IDEX's dual carriage carry over between
+/// the cartesian-like kinematics. Throws amctl::Error when `from` has a dual carriage the new
+/// kinematics cannot have.
+[[nodiscard]] Params convert(const Params& from, std::size_t index);
+
 /// The kinematics built from its parameters (checks them: throws amctl::Error naming the
 /// missing or inconsistent key).
 [[nodiscard]] std::unique_ptr<Kinematics> make(const Params& p, const Context& ctx);

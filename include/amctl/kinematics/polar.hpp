@@ -5,7 +5,9 @@
 #include <array>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string_view>
+#include <vector>
 
 #include "amctl/kinematics/rails.hpp"
 
@@ -18,6 +20,22 @@ struct Polar {
   std::optional<double> max_angular_velocity_rad_s;
   Rails rails;  ///< arm (position_max: the reach; position_endstop), z, z1, ...
   bool operator==(const Polar&) const = default;
+
+  /// printer.cfg: [stepper_bed] (radians), [stepper_arm], [stepper_z] (required) and the
+  /// extra Z steppers.
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  /// [printer] max_angular_velocity (> 0); stepper_arm's position_endstop, position_max
+  /// (required) and position_min (0); the Z rail.
+  [[nodiscard]] static Polar from_klipper(const KlipperConfig& cfg);
+  [[nodiscard]] static std::span<const std::string_view> printer_options();
+  /// TOML: printer.max_angular_velocity; the rails' ranges of stepper_arm and stepper_z.
+  [[nodiscard]] static std::span<const ParamKey<Polar>> keys();
+  /// The bed turns: its drive train is in radians.
+  [[nodiscard]] static Unit unit_of(std::string_view key) { return key == "bed" ? Unit::rad : Unit::mm; }
+  static Rail* rail(Polar& k, std::string_view key, bool create) {
+    if (key == "bed") return nullptr;
+    return detail::rail_of(k.rails, key, create);
+  }
 };
 
 struct PolarGeometry {

@@ -6,7 +6,9 @@
 #include <optional>
 #include <string>
 
+#include "amctl/kinematics/keys.hpp"
 #include "amctl/kinematics/kinematics.hpp"
+#include "amctl/kinematics/klipper_config.hpp"
 
 namespace amctl::kinematics {
 
@@ -41,6 +43,12 @@ struct DualCarriage {
 
 namespace detail {
 
+/// Klipper's rail rules: position_min <= position_max on every rail.
+void check_rails(const Rails& rails);
+/// A dual carriage's axis is x or y, its range and endstop given and consistent, the first
+/// carriage's rail complete (no dual carriage, or one with axis "": nothing to check).
+void check_dual_carriage(const Rails& rails, const std::optional<DualCarriage>& dc);
+
 /// The MoveRules of a cartesian-like kinematics: Z limited by the toolhead, the ranges of the
 /// x, y, z rails.
 [[nodiscard]] MoveRules cartesian_move_rules(const Rails& rails, const Toolhead& th);
@@ -62,3 +70,115 @@ namespace detail {
 }  // namespace detail
 
 }  // namespace amctl::kinematics
+
+namespace amctl::kinematics::detail {
+
+/// The [stepper_NAME] sections of axes `axes` ("xyz": stepper_x, stepper_x1, ..., stepper_z3;
+/// Klipper's extra steppers of a rail), in file order.
+[[nodiscard]] std::vector<KlipperStepper> axis_steppers(const KlipperConfig& cfg, std::string_view axes);
+/// stepper.py PrinterRail: the first stepper of rail `key` holds its range when it gives
+/// position_max: position_min (default 0), position_max (above position_min), position_endstop.
+void read_rail(const KlipperSection& s, Rails& rails, const std::string& key);
+/// Klipper [dual_carriage] (idex_modes.py; stepper.py's rail rules: position_min 0, endstop
+/// and max required); unset without the section.
+[[nodiscard]] std::optional<DualCarriage> read_dual_carriage(const KlipperConfig& cfg);
+/// Throws at a [dual_carriage] section: Klipper has one on cartesian, hybrid_corexy and
+/// hybrid_corexz printers only.
+void refuse_dual_carriage(const KlipperConfig& cfg);
+/// The TOML keys of the rails (position_min, position_max, position_endstop of the
+/// [stepper_NAME] tables whose instance `accept` takes) and of [dual_carriage].
+template <class K>
+void add_rail_keys(std::vector<ParamKey<K>>& keys);
+template <class K>
+void add_dual_carriage_keys(std::vector<ParamKey<K>>& keys);
+
+}  // namespace amctl::kinematics::detail
+
+namespace amctl::kinematics::detail {
+
+inline Rail* rail_of(Rails& rails, std::string_view key, bool create) {
+  if (create) return &rails[std::string(key)];
+  const auto it = rails.find(std::string(key));
+  return it == rails.end() ? nullptr : &it->second;
+}
+
+template <class K>
+void add_rail_keys(std::vector<ParamKey<K>>& keys) {
+  using Opt = std::optional<double>;
+  keys.push_back({"stepper", "position_min", KeyBound::finite, "mm",
+                  "Klipper position_min: lowest position a move may end at (unset: no range check).",
+                  [](K& k, std::string_view i, bool c) -> Opt* {
+                    Rail* r = K::rail(k, i, c);
+                    return r ? &r->position_min_mm : nullptr;
+                  }});
+  keys.push_back({"stepper", "position_max", KeyBound::finite, "mm",
+                  "Klipper position_max: highest position a move may end at (unset: no range check).",
+                  [](K& k, std::string_view i, bool c) -> Opt* {
+                    Rail* r = K::rail(k, i, c);
+                    return r ? &r->position_max_mm : nullptr;
+                  }});
+  keys.push_back({"stepper", "position_endstop", KeyBound::finite, "mm",
+                  "Klipper position_endstop: the position after homing (informative).",
+                  [](K& k, std::string_view i, bool c) -> Opt* {
+                    Rail* r = K::rail(k, i, c);
+                    return r ? &r->position_endstop_mm : nullptr;
+                  }});
+}
+
+inline constexpr std::string_view kDualCarriageAxes[] = {"", "x", "y"};
+
+template <class K>
+void add_dual_carriage_keys(std::vector<ParamKey<K>>& keys) {
+  using Opt = std::optional<double>;
+  keys.push_back({"dual_carriage", "axis", KeyBound::finite, "",
+                  "Klipper [dual_carriage] axis: \"x\" or \"y\" for an IDEX (a second carriage on "
+                  "that axis, SET_DUAL_CARRIAGE); \"\" = none.",
+                  nullptr, nullptr,
+                  [](K& k, std::string_view, bool c) -> std::string* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->axis : nullptr;
+                  },
+                  kDualCarriageAxes});
+  keys.push_back({"dual_carriage", "position_min", KeyBound::finite, "mm",
+                  "Second carriage: lowest position (Klipper position_min; unset = 0).",
+                  [](K& k, std::string_view, bool c) -> Opt* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->position_min_mm : nullptr;
+                  }});
+  keys.push_back({"dual_carriage", "position_max", KeyBound::finite, "mm",
+                  "Second carriage: highest position (Klipper position_max; required with an axis).",
+                  [](K& k, std::string_view, bool c) -> Opt* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->position_max_mm : nullptr;
+                  }});
+  keys.push_back({"dual_carriage", "position_endstop", KeyBound::finite, "mm",
+                  "Second carriage: where G28 parks it (Klipper position_endstop; required with an "
+                  "axis).",
+                  [](K& k, std::string_view, bool c) -> Opt* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->position_endstop_mm : nullptr;
+                  }});
+  keys.push_back({"dual_carriage", "safe_distance", KeyBound::non_negative, "mm",
+                  "Closest approach of the two carriages (Klipper safe_distance; unset = the "
+                  "smaller difference of the rails' minima or maxima).",
+                  [](K& k, std::string_view, bool c) -> Opt* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->safe_distance_mm : nullptr;
+                  }});
+  keys.push_back({"dual_carriage", "homing_speed", KeyBound::positive, "mm/s",
+                  "Second carriage's homing speed (Klipper homing_speed).", nullptr,
+                  [](K& k, std::string_view, bool c) -> double* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->homing_speed_mm_s : nullptr;
+                  }});
+  keys.push_back({"dual_carriage", "primary_homing_speed", KeyBound::positive, "mm/s",
+                  "First carriage's homing speed ([stepper_x] or [stepper_y] homing_speed); "
+                  "RESTORE_DUAL_CARRIAGE_STATE moves at the lower of the two.",
+                  nullptr,
+                  [](K& k, std::string_view, bool c) -> double* {
+                    if (c && !k.dual_carriage) k.dual_carriage.emplace();
+                    return k.dual_carriage ? &k.dual_carriage->primary_homing_speed_mm_s : nullptr;
+                  }});
+}
+
+}  // namespace amctl::kinematics::detail

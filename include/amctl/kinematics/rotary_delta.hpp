@@ -12,9 +12,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <span>
 #include <string_view>
+#include <vector>
 
+#include "amctl/kinematics/keys.hpp"
 #include "amctl/kinematics/kinematics.hpp"
+#include "amctl/kinematics/klipper_config.hpp"
 
 namespace amctl::kinematics {
 
@@ -32,6 +36,21 @@ struct RotaryDelta {
   std::optional<double> shoulder_radius_mm, shoulder_height_mm, minimum_z_position_mm;
   std::map<std::string, RotaryArm> arms;  ///< a, b, c
   bool operator==(const RotaryDelta&) const = default;
+
+  /// printer.cfg: [stepper_a], [stepper_b], [stepper_c] (required; radians).
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  /// [printer] shoulder_radius, shoulder_height (required, > 0), minimum_z_position (no
+  /// max_z_accel); the arms' upper_arm_length, lower_arm_length, position_endstop (required on
+  /// a) and angle.
+  [[nodiscard]] static RotaryDelta from_klipper(const KlipperConfig& cfg);
+  [[nodiscard]] static std::span<const std::string_view> printer_options();
+  /// TOML: [delta] shoulder_radius, shoulder_height, minimum_z_position; [stepper_a..c]
+  /// upper_arm_length, lower_arm_length, angle, position_endstop.
+  [[nodiscard]] static std::span<const ParamKey<RotaryDelta>> keys();
+  /// The arms turn: their drive trains are in radians.
+  [[nodiscard]] static Unit unit_of(std::string_view key) {
+    return key == "a" || key == "b" || key == "c" ? Unit::rad : Unit::mm;
+  }
 };
 
 struct RotaryDeltaGeometry {

@@ -11,9 +11,6 @@
 
 namespace amctl::machine {
 
-/// The kinematics parameters of m.
-[[nodiscard]] kinematics::Params kinematics_params(const Machine& m);
-
 /// What the kinematics of m is built from besides its parameters.
 [[nodiscard]] kinematics::Context kinematics_context(const Machine& m);
 
@@ -22,10 +19,11 @@ namespace amctl::machine {
 [[nodiscard]] std::unique_ptr<const kinematics::Kinematics> make_kinematics(const Machine& m);
 
 /// Klipper stepper.py: rotation_distance / (full_steps_per_rotation * microsteps), the gear
-/// ratio already folded in by the loaders. Throws amctl::Error naming
-/// `label`.rotation_distance / .microsteps / .full_steps_per_rotation when one is not
-/// positive.
-[[nodiscard]] double step_distance(const Stepper& s, const std::string& label);
+/// ratio already folded in by the loaders, in `unit` (rotation_distance_rad for a motor that
+/// turns). Throws amctl::Error naming `label`.rotation_distance / .microsteps /
+/// .full_steps_per_rotation when one is not positive.
+[[nodiscard]] double step_distance(const Stepper& s, const std::string& label,
+                                   kinematics::Unit unit = kinematics::Unit::mm);
 
 /// Every motor of m with its step distance, in the order stepper_x, stepper_y, stepper_z,
 /// stepper_z1, ..., extruder (a delta: stepper_a, _b, _c, extruder; ...), as Klipper's
