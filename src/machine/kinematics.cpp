@@ -86,8 +86,8 @@ MotorSpace motor_space(const Machine& m) {
   if (!map) {
     throw Error(fmt::format("--motor-space: the {} kinematics of machine '{}' has no linear motor "
                             "map (its motors' positions are curves of X, Y, Z), expected a "
-                            "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz or "
-                            "generic_cartesian machine; simulate it without --motor-space",
+                            "kinematics whose motors move linearly with X, Y, Z (cartesian, corexy, "
+                            "...); simulate it without --motor-space",
                             kin->name(), m.name));
   }
   MotorSpace out;

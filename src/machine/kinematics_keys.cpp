@@ -111,6 +111,10 @@ std::vector<BoundKey> all_kinematics_keys() {
   return out;
 }
 
+bool owned_stepper(const Machine& m, std::string_view key) {
+  return std::visit([&](const auto& k) { return k.owns_stepper(key); }, m.kinematics);
+}
+
 kinematics::Unit drive_train_unit(const Machine& m, std::string_view key) {
   return std::visit([&](const auto& k) { return std::decay_t<decltype(k)>::unit_of(key); }, m.kinematics);
 }

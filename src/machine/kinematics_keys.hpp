@@ -46,6 +46,9 @@ struct BoundKey {
 /// Every kinematics' keys and the extruder's, once each (section, key), for the key list:
 /// (section, key, kind, bound, unit, description) as BoundKey without accessors.
 [[nodiscard]] std::vector<BoundKey> all_kinematics_keys();
+/// True when drive train `key` is one of m's kinematics' motors beyond the axes' (a delta's
+/// a, b, c; a generic_cartesian stepper with carriages).
+[[nodiscard]] bool owned_stepper(const Machine& m, std::string_view key);
 /// The unit of drive train `key` on machine m (the kinematics' motor unit).
 [[nodiscard]] kinematics::Unit drive_train_unit(const Machine& m, std::string_view key);
 

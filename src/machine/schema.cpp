@@ -1,5 +1,7 @@
 #include "schema.hpp"
 
+#include "kinematics_keys.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -33,10 +35,17 @@ const std::vector<KeyDef>& key_table() {
          nullptr, nullptr, nullptr, nullptr, [](Machine& m) -> std::string& { return m.name; }});
     add({"printer", "firmware", Kind::firmware, Bound::finite, "",
          "Whose G-code semantics apply: klipper, marlin or reprap."});
-    add({"printer", "kinematics", Kind::kinematics, Bound::finite, "",
-         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian, "
-         "generic_cartesian, polar or rotary_delta (Klipper's "
-         "kinematics of those names; per-axis limits apply to X, Y, Z, E of the tool)."});
+    static const std::string kinematics_doc = [] {
+      const auto names = kinematics::names();
+      std::string list;
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        list += i == 0 ? "" : i + 1 == names.size() ? " or " : ", ";
+        list += names[i];
+      }
+      return list + " (Klipper's kinematics of those names; per-axis limits apply to X, Y, Z, E "
+                    "of the tool).";
+    }();
+    add({"printer", "kinematics", Kind::kinematics, Bound::finite, "", kinematics_doc});
     add({"printer", "junction", Kind::junction, Bound::finite, "",
          "Corner speed policy: square_corner_velocity (Klipper), junction_deviation (Marlin JD) "
          "or classic_jerk (Marlin/RRF jerk). Default: square_corner_velocity for klipper, "
@@ -256,7 +265,18 @@ char lower(char c) { return static_cast<char>(std::tolower(static_cast<unsigned 
 
 std::span<const KeyDef> machine_keys() { return key_table(); }
 std::span<const StepperKeyDef> stepper_keys() { return stepper_table(); }
-std::span<const std::string_view> machine_sections() { return kSections; }
+std::span<const std::string_view> machine_sections() {
+  // The machine's tables, then those of the kinematics' keys ([delta], [dual_carriage]).
+  static const std::vector<std::string_view> sections = [] {
+    std::vector<std::string_view> out(std::begin(kSections), std::end(kSections));
+    for (const BoundKey& b : all_kinematics_keys()) {
+      if (b.section == "stepper" || b.section == "carriage") continue;
+      if (std::find(out.begin(), out.end(), b.section) == out.end()) out.push_back(b.section);
+    }
+    return out;
+  }();
+  return sections;
+}
 
 const KeyDef* find_key(std::string_view section, std::string_view key) {
   for (const KeyDef& d : key_table()) {
@@ -274,15 +294,10 @@ const StepperKeyDef* find_stepper_key(std::string_view key) {
 
 bool valid_stepper_name(std::string_view name) {
   if (name.empty()) return false;
-  if (name == "a" || name == "b" || name == "c" || name == "d") return true;  // delta, winch
-  if (name == "left" || name == "right") return true;                         // deltesian
-  if (name == "bed" || name == "arm") return true;                            // polar
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });
 }
-
-bool generic_stepper_name(std::string_view name) { return kinematics::generic_stepper_name(name); }
 
 std::span<const std::string_view> enum_names(Kind kind) {
   switch (kind) {

@@ -74,11 +74,9 @@ std::span<const std::string_view> machine_sections();
 
 const KeyDef* find_key(std::string_view section, std::string_view key);
 const StepperKeyDef* find_stepper_key(std::string_view key);
-/// "x", "y", "z", "e", "z1", "e2", ... (and a, b, c, d, left, right, bed, arm): the stepper
-/// names amctl accepts. A generic_cartesian's steppers are named freely (generic_stepper_name).
+/// "x", "y", "z", "e", "z1", "e2", ...: the axes' stepper names, valid on every machine (a
+/// kinematics' own motors: stepper_a of a delta, ... are its owns_stepper()).
 bool valid_stepper_name(std::string_view name);
-/// A generic_cartesian stepper's name: letters, digits and '_', not an extruder's (e, e1, ...).
-bool generic_stepper_name(std::string_view name);
 
 // Enumerations as text.
 std::span<const std::string_view> enum_names(Kind kind);

@@ -233,6 +233,13 @@ std::vector<std::string> stepper_key_names() {
   return out;
 }
 
+/// True when some kinematics owns [stepper_NAME] key `key` (a generic_cartesian's carriages).
+bool is_kinematics_stepper_key(std::string_view key) {
+  static const std::vector<detail::BoundKey> all = detail::all_kinematics_keys();
+  return std::any_of(all.begin(), all.end(),
+                     [&](const detail::BoundKey& b) { return b.section == "stepper" && b.key == key; });
+}
+
 /// "unknown key 'x' in [s]; did you mean 'y'?" or "...; 'x' belongs in [marlin]".
 std::string unknown_key_message(std::string_view section, std::string_view key,
                                 std::vector<std::string> candidates) {
@@ -423,7 +430,12 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
       }
     } else if (section.rfind("stepper_", 0) == 0 &&
                (detail::valid_stepper_name(section.substr(8)) ||
-                (detail::generic_stepper_name(section.substr(8)) && table->contains("carriages")))) {
+                detail::owned_stepper(m, section.substr(8)) ||
+                std::any_of(table->begin(), table->end(), [&](auto&& kv) {
+                  // A stepper a kinematics names by one of its keys (a generic_cartesian
+                  // stepper by its carriages); on another kinematics the key is refused below.
+                  return is_kinematics_stepper_key(kv.first.str());
+                }))) {
       const std::string name = section.substr(8);
       const bool radians = detail::drive_train_unit(m, name) == kinematics::Unit::rad;
       Stepper s;
@@ -711,7 +723,8 @@ void apply_override(Machine& m, std::string_view assignment) {
   if (parts[0].rfind("stepper_", 0) == 0) {
     const std::string name = parts[0].substr(8);
     const bool known_stepper = m.steppers.find(name) != m.steppers.end();
-    if ((!detail::valid_stepper_name(name) && !known_stepper) || parts.size() != 2) {
+    if ((!detail::valid_stepper_name(name) && !detail::owned_stepper(m, name) && !known_stepper) ||
+        parts.size() != 2) {
       throw Error(where, fmt::format("unknown key '{}', expected a stepper section stepper_x, "
                                      "stepper_y, stepper_z, stepper_e, stepper_z1, ...",
                                      path));

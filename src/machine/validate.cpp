@@ -55,12 +55,11 @@ void check_bounds_for_validate(Machine& m) {
       default: break;
     }
   }
-  const bool generic = kinematics::is<kinematics::GenericCartesian>(m.kinematics);
   for (auto& [name, s] : m.steppers) {
-    const bool generic_name = generic && detail::generic_stepper_name(name);
-    if (!detail::valid_stepper_name(name) && !generic_name) {
-      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1{}", name,
-                              generic ? " (or any name with carriages, on a generic_cartesian)" : ""));
+    if (!detail::valid_stepper_name(name) && !detail::owned_stepper(m, name)) {
+      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1 or a motor of the "
+                              "{} kinematics",
+                              name, kinematics::name_of(m.kinematics)));
     }
     for (const StepperKeyDef& d : detail::stepper_keys()) {
       const std::string label = fmt::format("stepper_{}.{}", name, d.key);

@@ -25,6 +25,8 @@ struct CoreXY {
   /// TOML keys: the rails' position_min, position_max, position_endstop.
   [[nodiscard]] static std::span<const ParamKey<CoreXY>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): none.
+  [[nodiscard]] bool owns_stepper(std::string_view) const { return false; }
   static Rail* rail(CoreXY& k, std::string_view key, bool create) {
     return detail::rail_of(k.rails, key, create);
   }

@@ -50,6 +50,8 @@ struct Delta {
   /// angle, position_endstop.
   [[nodiscard]] static std::span<const ParamKey<Delta>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): The towers stepper_a, _b, _c.
+  [[nodiscard]] bool owns_stepper(std::string_view key) const { return key == "a" || key == "b" || key == "c"; }
 };
 
 struct DeltaGeometry {

@@ -46,6 +46,8 @@ struct Deltesian {
   /// [stepper_right] arm_x_length, arm_length, position_endstop; the rails' ranges.
   [[nodiscard]] static std::span<const ParamKey<Deltesian>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): The towers stepper_left, stepper_right.
+  [[nodiscard]] bool owns_stepper(std::string_view key) const { return key == "left" || key == "right"; }
   static Rail* rail(Deltesian& k, std::string_view key, bool create) {
     if (key == "left" || key == "right") return nullptr;
     return detail::rail_of(k.rails, key, create);

@@ -61,6 +61,8 @@ struct GenericCartesian {
   /// TOML: the [carriage.NAME] tables and the steppers' carriages keys.
   [[nodiscard]] static std::span<const ParamKey<GenericCartesian>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): Every [stepper NAME] with carriages.
+  [[nodiscard]] bool owns_stepper(std::string_view key) const { return stepper_carriages.count(std::string(key)) != 0; }
 };
 
 /// A generic_cartesian stepper's name: letters, digits and '_', not an extruder's (e, e1, ...).

@@ -27,6 +27,8 @@ struct HybridCoreXY {
   /// TOML keys: the rails' position_min, position_max, position_endstop and [dual_carriage].
   [[nodiscard]] static std::span<const ParamKey<HybridCoreXY>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): none.
+  [[nodiscard]] bool owns_stepper(std::string_view) const { return false; }
   static Rail* rail(HybridCoreXY& k, std::string_view key, bool create) {
     return detail::rail_of(k.rails, key, create);
   }

@@ -26,6 +26,8 @@ struct HybridCoreXZ {
   /// TOML keys: the rails' position_min, position_max, position_endstop and [dual_carriage].
   [[nodiscard]] static std::span<const ParamKey<HybridCoreXZ>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): none.
+  [[nodiscard]] bool owns_stepper(std::string_view) const { return false; }
   static Rail* rail(HybridCoreXZ& k, std::string_view key, bool create) {
     return detail::rail_of(k.rails, key, create);
   }

@@ -22,6 +22,8 @@ struct None {
   [[nodiscard]] static std::span<const std::string_view> printer_options() { return {}; }
   [[nodiscard]] static std::span<const ParamKey<None>> keys() { return {}; }
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): none.
+  [[nodiscard]] bool owns_stepper(std::string_view) const { return false; }
 };
 
 [[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const None& p, const Context& ctx);

@@ -32,6 +32,8 @@ struct Polar {
   [[nodiscard]] static std::span<const ParamKey<Polar>> keys();
   /// The bed turns: its drive train is in radians.
   [[nodiscard]] static Unit unit_of(std::string_view key) { return key == "bed" ? Unit::rad : Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): stepper_bed, stepper_arm.
+  [[nodiscard]] bool owns_stepper(std::string_view key) const { return key == "bed" || key == "arm"; }
   static Rail* rail(Polar& k, std::string_view key, bool create) {
     if (key == "bed") return nullptr;
     return detail::rail_of(k.rails, key, create);

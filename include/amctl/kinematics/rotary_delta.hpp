@@ -51,6 +51,8 @@ struct RotaryDelta {
   [[nodiscard]] static Unit unit_of(std::string_view key) {
     return key == "a" || key == "b" || key == "c" ? Unit::rad : Unit::mm;
   }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): The arms stepper_a, _b, _c.
+  [[nodiscard]] bool owns_stepper(std::string_view key) const { return key == "a" || key == "b" || key == "c"; }
 };
 
 struct RotaryDeltaGeometry {

@@ -35,6 +35,8 @@ struct Winch {
   /// TOML: [stepper_a..d] anchor_x, anchor_y, anchor_z.
   [[nodiscard]] static std::span<const ParamKey<Winch>> keys();
   [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): The cables stepper_a .. stepper_d.
+  [[nodiscard]] bool owns_stepper(std::string_view key) const { return key == "a" || key == "b" || key == "c" || key == "d"; }
 };
 
 [[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const Winch& p, const Context& ctx);
