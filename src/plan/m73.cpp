@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/gcode/parser.hpp"
 #include "amctl/plan/estimate.hpp"
@@ -37,7 +38,8 @@ std::size_t write_m73(const std::string& input_path, const std::string& output_p
   std::size_t written = 0;
   const double total = report.total_time_s;
   try {
-    gcode::LineReader reader(input_path);
+    const auto reader_ptr = formats::open_gcode_reader(input_path);
+    gcode::LineReader& reader = *reader_ptr;
     std::string_view line;
     std::size_t next = 0;
     const auto& cps = report.checkpoints;
