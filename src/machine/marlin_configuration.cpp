@@ -19,14 +19,33 @@ namespace {
 struct Define {
   std::string value;
   SourceLocation where;
+  bool certain = true;  ///< false: inside a conditional that could not be decided
 };
 
-/// The #define lines of a C header that are not commented out (// or /* */). The first
-/// definition of a name wins (conditionals are not evaluated).
+/// Three-valued truth of a preprocessor condition: the derived HAS_* switches of Marlin's own
+/// headers are not in the configuration files, so a condition on them is "maybe".
+enum class Truth { no, maybe, yes };
+Truth operator!(Truth t) { return t == Truth::yes ? Truth::no : t == Truth::no ? Truth::yes : Truth::maybe; }
+Truth operator&&(Truth a, Truth b) {
+  if (a == Truth::no || b == Truth::no) return Truth::no;
+  return a == Truth::yes && b == Truth::yes ? Truth::yes : Truth::maybe;
+}
+Truth operator||(Truth a, Truth b) {
+  if (a == Truth::yes || b == Truth::yes) return Truth::yes;
+  return a == Truth::no && b == Truth::no ? Truth::no : Truth::maybe;
+}
+
+/// The #define lines of a C header that are not commented out (// or /* */), inside the
+/// #if / #ifdef / #elif / #else blocks that apply. Conditions are Marlin's: ENABLED(),
+/// DISABLED(), ANY(), EITHER(), ALL(), BOTH(), NONE(), defined(), !, &&, ||, comparisons of
+/// numbers. A name no configuration file defines is 0 / disabled, except Marlin's derived
+/// switches (HAS_*, IS_*, NEEDS_*), which make a condition "maybe": a define under a maybe is
+/// used only when no definition surely applies. The first definition of a name wins.
 class Defines {
  public:
   void read(std::string_view text, const std::string& source) {
     bool in_block = false;
+    levels_.clear();
     for (const detail::MarlinLine& l : detail::split_lines(text)) {
       // Remove comments, keeping columns: /* ... */ (across lines) and // to the end.
       std::string line(l.text);
@@ -52,8 +71,16 @@ class Defines {
       if (at == std::string::npos || line[at] != '#') continue;
       ++at;
       while (at < line.size() && (line[at] == ' ' || line[at] == '\t')) ++at;
-      if (line.compare(at, 6, "define") != 0) continue;
-      at += 6;
+      std::size_t word_end = at;
+      while (word_end < line.size() && std::isalpha(static_cast<unsigned char>(line[word_end]))) ++word_end;
+      const std::string directive = line.substr(at, word_end - at);
+      const std::string rest = line.substr(word_end);
+      if (directive != "define") {
+        conditional(directive, rest);
+        continue;
+      }
+      if (active() == Truth::no) continue;
+      at = word_end;
       if (at < line.size() && line[at] != ' ' && line[at] != '\t') continue;
       while (at < line.size() && (line[at] == ' ' || line[at] == '\t')) ++at;
       const std::size_t name_start = at;
@@ -63,10 +90,20 @@ class Defines {
       while (at < line.size() && (line[at] == ' ' || line[at] == '\t')) ++at;
       std::string value = line.substr(at);
       while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.pop_back();
-      defs_.try_emplace(name, Define{value, SourceLocation{source, l.number, static_cast<std::uint32_t>(at + 1)}});
+      const bool certain = active() == Truth::yes;
+      Define d{value, SourceLocation{source, l.number, static_cast<std::uint32_t>(at + 1)}, certain};
+      const auto it = defs_.find(name);
+      if (it == defs_.end()) {
+        defs_.emplace(name, std::move(d));
+      } else if (certain && !it->second.certain) {
+        it->second = std::move(d);  // a definition that surely applies beats a maybe
+      }
     }
   }
-  [[nodiscard]] bool has(const std::string& name) const { return defs_.contains(name); }
+  [[nodiscard]] bool has(const std::string& name) const {
+    const Define* d = get(name);
+    return d != nullptr && d->value != "0" && d->value != "false";
+  }
   [[nodiscard]] const Define* get(const std::string& name) const {
     const auto it = defs_.find(name);
     return it == defs_.end() ? nullptr : &it->second;
@@ -197,7 +234,212 @@ class Defines {
     return v;
   }
 
+  /// One #if ... #endif level: whether its current branch applies, and whether an earlier
+  /// branch of the chain did (or may have).
+  struct Level {
+    Truth parent = Truth::yes;
+    Truth branch = Truth::yes;
+    Truth taken = Truth::no;  ///< some earlier branch applied
+  };
+  [[nodiscard]] Truth active() const { return levels_.empty() ? Truth::yes : levels_.back().branch; }
+
+  void conditional(const std::string& directive, const std::string& rest) {
+    if (directive == "if" || directive == "ifdef" || directive == "ifndef") {
+      Truth c = directive == "if" ? condition(rest) : is_defined(trim_copy(rest));
+      if (directive == "ifndef") c = !c;
+      Level l;
+      l.parent = active();
+      l.branch = l.parent && c;
+      l.taken = c;
+      levels_.push_back(l);
+    } else if (directive == "elif" && !levels_.empty()) {
+      Level& l = levels_.back();
+      const Truth c = condition(rest);
+      l.branch = l.parent && !l.taken && c;
+      l.taken = l.taken || c;
+    } else if (directive == "else" && !levels_.empty()) {
+      Level& l = levels_.back();
+      l.branch = l.parent && !l.taken;
+      l.taken = Truth::yes;
+    } else if (directive == "endif" && !levels_.empty()) {
+      levels_.pop_back();
+    } else if (directive == "undef" && active() == Truth::yes) {
+      defs_.erase(trim_copy(rest));
+    }
+  }
+
+  static std::string trim_copy(std::string_view s) {
+    while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+    while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+    return std::string(s);
+  }
+
+  static bool derived(std::string_view name) {
+    return name.starts_with("HAS_") || name.starts_with("IS_") || name.starts_with("NEEDS_");
+  }
+
+  [[nodiscard]] Truth is_defined(const std::string& name) const {
+    if (name == "HAS_MEDIA") return enabled("SDSUPPORT");  // Marlin derives it from SDSUPPORT
+    const Define* d = get(name);
+    if (d != nullptr) return d->certain ? Truth::yes : Truth::maybe;
+    return derived(name) ? Truth::maybe : Truth::no;
+  }
+  /// ENABLED(X): defined and not 0 / false.
+  [[nodiscard]] Truth enabled(const std::string& name) const {
+    const Truth t = is_defined(name);
+    const Define* d = get(name);
+    if (d != nullptr && (d->value == "0" || d->value == "false")) return Truth::no;
+    return t;
+  }
+
+  /// A #if condition, three-valued. Values are numbers; a maybe poisons what it touches.
+  [[nodiscard]] Truth condition(std::string_view text) const {
+    struct Value {
+      Truth known = Truth::yes;  // yes: `number` holds; maybe: unknown
+      double number = 0.0;
+    };
+    std::size_t i = 0;
+    auto blanks = [&] {
+      while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
+    };
+    auto truth = [](const Value& v) { return v.known == Truth::maybe ? Truth::maybe : (v.number != 0 ? Truth::yes : Truth::no); };
+    auto of = [](Truth t) { return t == Truth::maybe ? Value{Truth::maybe, 0} : Value{Truth::yes, t == Truth::yes ? 1.0 : 0.0}; };
+    auto ident = [&]() {
+      const std::size_t s0 = i;
+      while (i < text.size() && (std::isalnum(static_cast<unsigned char>(text[i])) || text[i] == '_')) ++i;
+      return std::string(text.substr(s0, i - s0));
+    };
+    std::function<Value()> unary, comparison, conjunction, disjunction;
+    auto arguments = [&]() {
+      std::vector<std::string> args;
+      blanks();
+      if (i < text.size() && text[i] == '(') {
+        ++i;
+        for (;;) {
+          blanks();
+          args.push_back(ident());
+          blanks();
+          if (i < text.size() && text[i] == ',') {
+            ++i;
+            continue;
+          }
+          if (i < text.size() && text[i] == ')') ++i;
+          break;
+        }
+      }
+      return args;
+    };
+    unary = [&]() -> Value {
+      blanks();
+      if (i >= text.size()) return Value{Truth::maybe, 0};
+      if (text[i] == '!') {
+        ++i;
+        return of(!truth(unary()));
+      }
+      if (text[i] == '(') {
+        ++i;
+        const Value v = disjunction();
+        blanks();
+        if (i < text.size() && text[i] == ')') ++i;
+        return v;
+      }
+      if (std::isdigit(static_cast<unsigned char>(text[i])) || text[i] == '-') {
+        const std::size_t s0 = i++;
+        while (i < text.size() && (std::isalnum(static_cast<unsigned char>(text[i])) || text[i] == '.')) ++i;
+        try {
+          return Value{Truth::yes, detail::parse_marlin_number(text.substr(s0, i - s0), {}, "")};
+        } catch (const Error&) {
+          return Value{Truth::maybe, 0};
+        }
+      }
+      const std::string name = ident();
+      if (name.empty()) {
+        ++i;
+        return Value{Truth::maybe, 0};
+      }
+      if (name == "ENABLED" || name == "DISABLED" || name == "ANY" || name == "EITHER" ||
+          name == "ALL" || name == "BOTH" || name == "NONE" || name == "defined") {
+        const std::vector<std::string> args = arguments();
+        const bool all = name == "ALL" || name == "BOTH" || name == "ENABLED" || name == "defined";
+        Truth t = all ? Truth::yes : Truth::no;
+        for (const std::string& a : args) {
+          const Truth e = name == "defined" ? is_defined(a) : enabled(a);
+          t = all ? (t && e) : (t || e);
+        }
+        if (name == "DISABLED" || name == "NONE") t = !(name == "DISABLED" ? enabled(args.empty() ? "" : args[0]) : t);
+        return of(t);
+      }
+      blanks();
+      if (i < text.size() && text[i] == '(') {  // another macro call: not decided here
+        int depth = 0;
+        do {
+          if (text[i] == '(') ++depth;
+          if (text[i] == ')') --depth;
+          ++i;
+        } while (i < text.size() && depth > 0);
+        return Value{Truth::maybe, 0};
+      }
+      const Define* d = get(name);
+      if (d == nullptr) return of(is_defined(name));  // undefined: 0; derived: maybe
+      if (!d->certain) return Value{Truth::maybe, 0};
+      if (d->value.empty()) return Value{Truth::yes, 1};
+      try {
+        return Value{Truth::yes, eval(d->value, d->where, name, 0)};
+      } catch (const Error&) {
+        return Value{Truth::maybe, 0};
+      }
+    };
+    comparison = [&]() -> Value {
+      Value a = unary();
+      for (;;) {
+        blanks();
+        std::string op;
+        for (const char* o : {"==", "!=", "<=", ">=", "<", ">"}) {
+          if (text.substr(i).starts_with(o)) {
+            op = o;
+            break;
+          }
+        }
+        if (op.empty()) return a;
+        i += op.size();
+        const Value b = unary();
+        if (a.known == Truth::maybe || b.known == Truth::maybe) {
+          a = Value{Truth::maybe, 0};
+          continue;
+        }
+        bool r = false;
+        if (op == "==") r = a.number == b.number;
+        if (op == "!=") r = a.number != b.number;
+        if (op == "<=") r = a.number <= b.number;
+        if (op == ">=") r = a.number >= b.number;
+        if (op == "<") r = a.number < b.number;
+        if (op == ">") r = a.number > b.number;
+        a = Value{Truth::yes, r ? 1.0 : 0.0};
+      }
+    };
+    conjunction = [&]() -> Value {
+      Value a = comparison();
+      for (;;) {
+        blanks();
+        if (!text.substr(i).starts_with("&&")) return a;
+        i += 2;
+        a = of(truth(a) && truth(comparison()));
+      }
+    };
+    disjunction = [&]() -> Value {
+      Value a = conjunction();
+      for (;;) {
+        blanks();
+        if (!text.substr(i).starts_with("||")) return a;
+        i += 2;
+        a = of(truth(a) || truth(conjunction()));
+      }
+    };
+    return truth(disjunction());
+  }
+
   std::map<std::string, Define> defs_;
+  std::vector<Level> levels_;
 };
 
 void set_axes(std::array<double, 4>& out, const std::vector<double>& v) {

@@ -247,6 +247,40 @@ TEST(MarlinConfiguration, ClassicJerkAndCoreXyWhenDefined) {
   EXPECT_EQ(m.kinematics, Kinematics::corexy);
 }
 
+TEST(MarlinConfiguration, ConditionalsDecideWhichDefinitionApplies) {
+  // Marlin 2.1's Configuration_adv.h: the planner buffer depends on the SD card; the jerk
+  // values exist only with CLASSIC_JERK; a derived switch nobody defines stays undecided.
+  const std::string adv = R"(#if ALL(HAS_MEDIA, DIRECT_STEPPING)
+  #define BLOCK_BUFFER_SIZE  8
+#elif HAS_MEDIA
+  #define BLOCK_BUFFER_SIZE 32
+#else
+  #define BLOCK_BUFFER_SIZE 16
+#endif
+#if HAS_SOMETHING_DERIVED
+  #define DEFAULT_MINSEGMENTTIME 30000
+#else
+  #define DEFAULT_MINSEGMENTTIME 10000
+#endif
+#ifndef DEFAULT_MINIMUMFEEDRATE
+  #define DEFAULT_MINIMUMFEEDRATE 0.5
+#endif
+#if EXTRUDERS > 1 && ENABLED(SDSUPPORT)
+  #define DEFAULT_MINTRAVELFEEDRATE 7
+#endif
+)";
+  const Machine no_sd = parse_marlin_configuration(kConfigurationH, "c.h", adv, "a.h");
+  EXPECT_EQ(no_sd.block_buffer_size, 16);
+  EXPECT_DOUBLE_EQ(no_sd.jerk_mm_s[0], Machine{}.jerk_mm_s[0]);  // DEFAULT_XJERK is off
+  EXPECT_DOUBLE_EQ(no_sd.min_segment_time_s, 0.03);  // undecided: the first of the chain
+  EXPECT_DOUBLE_EQ(no_sd.min_feedrate_mm_s, 0.5);
+  EXPECT_DOUBLE_EQ(no_sd.min_travel_feedrate_mm_s, 0.0);  // EXTRUDERS undefined = 0
+  const std::string sd = std::string(kConfigurationH) + "#define SDSUPPORT\n#define EXTRUDERS 2\n";
+  const Machine with_sd = parse_marlin_configuration(sd, "c.h", adv, "a.h");
+  EXPECT_EQ(with_sd.block_buffer_size, 32);
+  EXPECT_DOUBLE_EQ(with_sd.min_travel_feedrate_mm_s, 7.0);
+}
+
 TEST(MarlinConfiguration, FilesWithoutLimitsAreErrorsNeverTheDefaultMachine) {
   TempDir dir("marlin_conf_bad");
   // Configuration_adv.h alone, and a #define-only file without the limits under any name.
