@@ -15,7 +15,7 @@ the parameter.
 
 from ._errors import Error, InternalError
 from ._amctl import AxisModel, Machine, MOVE_DTYPE, __version__
-from ._planning import estimate, iter_plan, plan
+from ._planning import estimate, gcode_inputs, iter_plan, plan
 from ._dynamics import simulate
 from ._thermal import bed, hotend, sls_build, sls_margins
 from ._process import estimate_empirical, shrink_fit
@@ -24,7 +24,7 @@ from ._shaping import (compare, compensate, report, resonance_calibrate, shaper_
 
 __all__ = [
     "Error", "InternalError", "Machine", "AxisModel", "MOVE_DTYPE",
-    "estimate", "plan", "iter_plan", "simulate",
+    "estimate", "plan", "iter_plan", "simulate", "gcode_inputs",
     "sls_margins", "sls_build", "hotend", "bed",
     "shrink_fit", "estimate_empirical",
     "shaper_show", "resonance_calibrate", "report", "steps", "stepper_simulate", "stepper_sweep", "compensate", "compare",

@@ -1,5 +1,7 @@
 """Print time and planned moves: amctl estimate and amctl plan (docs/planner.md)."""
 
+import os
+
 import numpy as np
 
 from . import _amctl
@@ -106,3 +108,17 @@ def plan(path, machine=None, set=None, *, lenient=False, t_begin=None, t_end=Non
     if len(batches) == 1:
         return batches[0]
     return np.concatenate(batches)
+
+
+def gcode_inputs(inputs):
+    """The G-code inputs that ``inputs`` name, in order (``formats::expand_gcode_inputs``, as
+    ``amctl estimate A B DIR ...`` expands them): a file as it is, a directory's G-code files
+    (not recursive: .gcode, .gco, .g, .bgcode, .gcode.3mf, .gcode.gz; sorted), and a 3MF with
+    several plates as one path per plate ("print.gcode.3mf/Metadata/plate_2.gcode", which
+    ``estimate`` reads). A path that does not exist is kept (reading it raises).
+
+    Raises amctl.Error for a directory without G-code.
+    """
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    return _amctl._gcode_inputs([_args.path(p, "inputs") for p in inputs])

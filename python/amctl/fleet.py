@@ -35,31 +35,32 @@ import time
 ROW_KEYS = (
     "file", "machine", "set", "total_time_s", "motion_time_s", "dwell_time_s",
     "travel_time_s", "extrude_time_s", "filament_mm", "moves", "layers",
-    "slicer_estimate_s", "compute_time_s", "error",
+    "slicer_estimate_s", "compute_time_s", "error", "note",
 )
 
-GCODE_SUFFIXES = (".gcode", ".gco", ".g", ".GCODE", ".GCO", ".G")
+#: Names a directory's G-code files end with (any case), as amctl.gcode_inputs reads them.
+GCODE_SUFFIXES = (".gcode", ".gco", ".g", ".bgcode", ".gcode.3mf", ".gcode.gz")
 
 
 def expand_inputs(inputs):
     """Files named by ``inputs``: a file as is, a directory's G-code files (not recursive:
-    ``*.gcode``, ``*.gco``, ``*.g``), a glob pattern's matches. Sorted, without duplicates.
+    text, binary G-code, sliced 3MF, gzip; see GCODE_SUFFIXES), a glob pattern's matches, and
+    a 3MF of several plates as its plates (amctl.gcode_inputs). Sorted, without duplicates.
     Raises amctl.Error when an input matches nothing."""
     from ._errors import Error
+    from ._planning import gcode_inputs
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     out = []
     for item in inputs:
         item = os.fspath(item)
-        if os.path.isdir(item):
-            found = [os.path.join(item, n) for n in os.listdir(item) if n.endswith(GCODE_SUFFIXES)]
-        elif os.path.exists(item):
+        if os.path.exists(item):
             found = [item]
         else:
             found = [f for f in glob.glob(item) if os.path.isfile(f)]
         if not found:
             raise Error(f"{item}: no G-code file there (a file, a directory or a glob pattern)")
-        out.extend(found)
+        out.extend(gcode_inputs(found))
     return sorted(set(out))
 
 
@@ -74,6 +75,8 @@ def _row(file, machine, overrides, report=None, error=None):
                     "compute_time_s"):
             row[key] = report.get(key)
         row["layers"] = len(report.get("layers", []))
+        if report.get("moves") == 0:
+            row["note"] = "no moves"  # an empty file, or only comments: not a print of 0 s
     row["error"] = error
     return row
 
@@ -154,7 +157,8 @@ def run(files, machines, *, overrides=None, workers=None, scheduler=None, client
     """Estimates every file on every machine; returns the rows (dicts with ROW_KEYS) in input
     order.
 
-    files:     list of paths (see expand_inputs for directories and patterns).
+    files:     list of paths; a directory stands for its G-code files and a 3MF of several
+               plates for its plates, in place (amctl.gcode_inputs); patterns: expand_inputs.
     machines:  list of machine specs (preset, .toml, printer.cfg) or amctl.Machine objects.
     overrides: one {"section.key": value} dict applied to every machine, or a list of such
                dicts, one per run of the grid (sweep uses it); None for none.
@@ -167,7 +171,8 @@ def run(files, machines, *, overrides=None, workers=None, scheduler=None, client
     progress:  draw a progress bar on stderr.
     """
     from ._errors import Error
-    files = [os.fspath(f) for f in files]
+    from ._planning import gcode_inputs
+    files = gcode_inputs([os.fspath(f) for f in files]) if files else []
     if isinstance(machines, (str, os.PathLike)) or not hasattr(machines, "__iter__"):
         machines = [machines]
     machines = list(machines)
@@ -324,6 +329,8 @@ def main(argv=None):
         mach_w = max(len(r["machine"]) for r in rows)
         for r in rows:
             figure = _hms(r["total_time_s"]) if r["error"] is None else f"error: {r['error']}"
+            if r["error"] is None and r["note"]:
+                figure = r["note"]
             print(f"{os.path.basename(r['file']):<{name_w}}  {r['machine']:<{mach_w}}  {figure}")
     failed = sum(1 for r in rows if r["error"] is not None)
     if failed:

@@ -9,6 +9,7 @@
 #include <pybind11/stl.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
@@ -249,6 +250,9 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
 
   m.def("_estimate", &estimate, py::arg("path"), py::arg("machine"), py::arg("strict"),
         "amctl estimate --json (plan::estimate_file + plan::to_json); see amctl.estimate.");
+  m.def("_gcode_inputs",
+        [](const std::vector<std::string>& inputs) { return amctl::formats::expand_gcode_inputs(inputs); },
+        py::arg("inputs"), "formats::expand_gcode_inputs; see amctl.gcode_inputs.");
 
   register_plan(m);
   register_simulate(m);

@@ -1,6 +1,9 @@
 #include "amctl/formats/input.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <filesystem>
 #include <cstring>
 #include <optional>
 #include <vector>
@@ -321,12 +324,57 @@ std::vector<std::string> gcode_parts(const std::string& path, const InputLimits&
   if (!r->member.empty() || detect_content(r->prefix, r->size) != ContentKind::zip || !r->regular) {
     return {path};
   }
-  const ZipArchive z = open_archive(*r, limits);
-  const std::vector<ArchiveMember> ms = z.gcode_members();
+  std::vector<ArchiveMember> ms;
+  try {
+    ms = open_archive(*r, limits).gcode_members();
+  } catch (const Error&) {
+    return {path};  // a damaged archive: reading it gives the error
+  }
   if (ms.size() <= 1) return {path};
   std::vector<std::string> parts;
   for (const auto& m : ms) parts.push_back(path + "/" + m.name);
   return parts;
+}
+
+bool has_gcode_suffix(std::string_view name) {
+  std::string lower(name);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const char* suffix : {".gcode", ".gco", ".g", ".bgcode", ".gcode.3mf", ".gcode.gz"}) {
+    if (lower.ends_with(suffix)) return true;
+  }
+  return false;
+}
+
+std::vector<std::string> expand_gcode_inputs(const std::vector<std::string>& inputs,
+                                             const InputLimits& limits) {
+  std::vector<std::string> out;
+  for (const std::string& in : inputs) {
+    struct stat st{};
+    if (in != "-" && ::stat(in.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+      std::vector<std::string> found;
+      std::error_code ec;
+      for (const auto& e : std::filesystem::directory_iterator(in, ec)) {
+        if (e.is_regular_file(ec) && has_gcode_suffix(e.path().filename().string())) {
+          found.push_back(e.path().string());
+        }
+      }
+      if (ec) {
+        throw Error(SourceLocation{in, 0, 0}, fmt::format("cannot list the directory: {}", ec.message()));
+      }
+      if (found.empty()) {
+        throw Error(SourceLocation{in, 0, 0},
+                    "found a directory without G-code, expected files ending in .gcode, .gco, "
+                    ".g, .bgcode, .gcode.3mf or .gcode.gz");
+      }
+      std::sort(found.begin(), found.end());
+      for (const std::string& f : found) {
+        for (std::string& p : gcode_parts(f, limits)) out.push_back(std::move(p));
+      }
+      continue;
+    }
+    for (std::string& p : gcode_parts(in, limits)) out.push_back(std::move(p));
+  }
+  return out;
 }
 
 const char* to_string(GcodeFormat f) {

@@ -162,4 +162,18 @@ Json to_json(const std::vector<ProfileRun>& runs, const std::string& file,
   return j;
 }
 
+Json to_json(const std::vector<EstimateRow>& rows, const machine::Machine& machine) {
+  Json files = Json::array();
+  for (const EstimateRow& r : rows) {
+    if (r.report) {
+      Json j = to_json(*r.report, machine, r.compute_time_s);
+      j["no_moves"] = r.no_moves();
+      files.push_back(std::move(j));
+    } else {
+      files.push_back(Json{{"file", r.file}, {"error", r.error}});
+    }
+  }
+  return Json{{"machine", machine.name}, {"files", std::move(files)}};
+}
+
 }  // namespace amctl::plan

@@ -12,6 +12,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
+#include <vector>
 
 namespace amctl::formats {
 namespace {
@@ -128,6 +129,28 @@ TEST_F(Input, MissingFilesAndDirectoriesAreClearErrors) {
   // A member path under a file that is not a zip.
   const std::string text = write("t.gcode", "G28\n");
   EXPECT_NE(error_of(text + "/Metadata/plate_1.gcode").find("is not a zip archive"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace amctl::formats
+
+namespace amctl::formats {
+namespace {
+
+TEST_F(Input, DirectoriesExpandToTheirGcodeFilesSorted) {
+  write("b.gcode", "G1 X1\n");
+  write("a.BGCODE", "GCDE");
+  write("c.gcode.3mf", "PK\x03\x04");
+  write("notes.txt", "x");
+  const std::vector<std::string> got = expand_gcode_inputs({dir_.string(), "-", "missing.gcode"});
+  ASSERT_EQ(got.size(), 5u);
+  EXPECT_EQ(got[0], (dir_ / "a.BGCODE").string());
+  EXPECT_EQ(got[1], (dir_ / "b.gcode").string());
+  EXPECT_EQ(got[2], (dir_ / "c.gcode.3mf").string());  // not a real zip: the error comes on reading
+  EXPECT_EQ(got[3], "-");
+  EXPECT_EQ(got[4], "missing.gcode");
+  fs::create_directories(dir_ / "empty");
+  EXPECT_THROW(expand_gcode_inputs({(dir_ / "empty").string()}), Error);
 }
 
 }  // namespace

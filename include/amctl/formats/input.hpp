@@ -60,6 +60,17 @@ std::unique_ptr<gcode::LineReader> open_gcode_reader(
 /// directory. Throws amctl::Error as open_gcode_input() does for a model.
 std::vector<std::string> gcode_parts(const std::string& path, const InputLimits& limits = {});
 
+/// The G-code inputs named by `inputs`, in order: a file as it is, a directory's G-code files
+/// (not recursive; names ending in .gcode, .gco, .g, .bgcode, .gcode.3mf, .gcode.gz, any case;
+/// sorted), and each 3MF with several plates as its plates (gcode_parts). A path that does not
+/// exist is kept (reading it gives the error). Throws amctl::Error for a directory without
+/// G-code.
+std::vector<std::string> expand_gcode_inputs(const std::vector<std::string>& inputs,
+                                             const InputLimits& limits = {});
+
+/// True if `name` ends like a G-code file of any format expand_gcode_inputs() takes.
+bool has_gcode_suffix(std::string_view name);
+
 const char* to_string(GcodeFormat f);
 
 }  // namespace amctl::formats

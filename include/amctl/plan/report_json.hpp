@@ -17,6 +17,10 @@ namespace amctl::plan {
 [[nodiscard]] Json to_json(const EstimateReport& report, const machine::Machine& machine,
                            double compute_time_s);
 
+/// `amctl estimate A B ... --json`: {"machine", "files": [one `estimate --json` object per
+/// file, or {"file", "error"}]}; a file without moves has "no_moves": true.
+[[nodiscard]] Json to_json(const std::vector<EstimateRow>& rows, const machine::Machine& machine);
+
 /// One velocity profile's figures in `estimate --compare-profiles`.
 struct ProfileRun {
   machine::VelocityProfile profile = machine::VelocityProfile::trapezoid;
