@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -22,7 +23,7 @@ namespace amctl::cli {
 namespace {
 
 struct CalibrateArgs {
-  std::string file;
+  std::vector<std::string> files;
   std::string axis;
   std::string csv;
   std::string sweep;
@@ -114,9 +115,13 @@ void register_resonance(CLI::App& app) {
   CLI::App* cal = res->add_subcommand(
       "calibrate", "Klipper's input-shaper calibration (Welch PSD, shaper fit, recommendation) of "
                    "a Klipper raw CSV, a corpus CSV or a Klipper PSD CSV");
-  cal->add_option("FILE", a->file, "Accelerometer CSV or PSD CSV")->required();
-  cal->add_option("--axis", a->axis, "The axis the record excited: x or y")
-      ->required()
+  cal->add_option("FILE", a->files,
+                  "Accelerometer CSV or PSD CSV ('-' reads standard input); several files join "
+                  "one fit, as calibrate_shaper.py A.csv B.csv")
+      ->required();
+  cal->add_option("--axis", a->axis,
+                  "The axis the record excited: x or y (reports that axis's peak; needed by "
+                  "--sweep; the fit, as Klipper's, uses x+y+z)")
       ->check(CLI::IsMember({"x", "y"}));
   cal->add_option("--sweep", a->sweep,
                   "The commanded sweep F0,F1,RATE,ACCEL (Hz, Hz, Hz/s, mm/s^2): adds the "
@@ -139,8 +144,16 @@ void register_resonance(CLI::App& app) {
                   "With --recommend: smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
   cal->callback([a] {
     resonance::CalibrateOptions o;
-    o.axis = a->axis.front();
+    o.axis = a->axis.empty() ? '\0' : a->axis.front();
     if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
+    if (o.sweep && o.axis == 0) {
+      throw Error(SourceLocation{"--axis", 0, 0},
+                  "found --sweep without --axis, expected the axis the sweep excited (x or y)");
+    }
+    if (a->files.size() > 1 && (!a->csv.empty() || !a->response_csv.empty())) {
+      throw Error(SourceLocation{a->csv.empty() ? "--response-csv" : "--csv", 0, 0},
+                  "found several files, expected one with this flag");
+    }
     if (a->modes) {
       if (!o.sweep) throw Error("--modes needs --sweep (the modes are fitted to the sweep's response)");
       if (*a->modes < 1 || *a->modes > resonance::kMaxModes) {
@@ -151,7 +164,7 @@ void register_resonance(CLI::App& app) {
     if (a->recommend && !o.sweep) throw Error("--recommend needs --sweep (the modal model comes from the sweep's fit)");
     if (a->max_smoothing_mm && !a->recommend) throw Error("--max-smoothing-mm needs --recommend");
     const tuning::RecommendOptions ro = recommend_options(a->max_smoothing_mm);
-    const resonance::CalibrationReport r = resonance::calibrate_file(a->file, o);
+    const resonance::CalibrationReport r = resonance::calibrate_files(a->files, o);
     std::optional<tuning::Recommendation> rec;
     if (a->recommend) {
       const machine::Machine m = resolve_machine(a->machine);

@@ -1,6 +1,7 @@
 """Input shapers and resonance calibration (docs/shaping.md, docs/resonance.md)."""
 
 import numbers
+import os
 
 from . import _amctl
 from . import _args
@@ -49,13 +50,18 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
 
     Args:
         path: Klipper raw accelerometer CSV (#time,accel_x,accel_y,accel_z), Klipper PSD CSV
-              (freq,psd_x,psd_y,psd_z,psd_xyz) or the corpus CSV (#time_s,accel_x_mm_s2,...).
-        axis: 'x' or 'y', the axis the record excited.
+              (freq,psd_x,psd_y,psd_z,psd_xyz, also the older calibration_data_*.csv with a
+              column per shaper and the several-record freq,NAME1,NAME2,...) or the corpus CSV
+              (#time_s,accel_x_mm_s2,...); or a list of them, joined in one fit as
+              ``calibrate_shaper.py A.csv B.csv`` joins them (``sources`` lists them).
+        axis: 'x' or 'y', the axis the record excited; None as calibrate_shaper.py (no axis
+              peak; the fit uses x+y+z either way). A sweep needs it.
         sweep: the commanded sine sweep, (f0_hz, f1_hz, rate_hz_s, accel_mm_s2) or the
               command line's "F0,F1,RATE,ACCEL".
     """
-    p = _args.path(path, "path")
-    a = _args.text(axis, "axis")
+    paths = [path] if isinstance(path, (str, os.PathLike)) else list(path)
+    p = [_args.path(x, "path") for x in paths]
+    a = "" if axis is None else _args.text(axis, "axis")
     s = ""
     if sweep is not None:
         if isinstance(sweep, str):

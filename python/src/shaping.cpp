@@ -37,18 +37,18 @@ py::object shaper_show(const std::string& type, double freq_hz, double damping_r
   return to_python(j);
 }
 
-py::object resonance_calibrate(const std::string& path, const std::string& axis,
+py::object resonance_calibrate(const std::vector<std::string>& paths, const std::string& axis,
                                const std::string& sweep) {
   resonance::CalibrateOptions o;
-  if (axis != "x" && axis != "y" && axis != "X" && axis != "Y") {
-    throw Error("axis must be 'x' or 'y', got '" + axis + "'");
+  if (axis != "x" && axis != "y" && axis != "X" && axis != "Y" && !axis.empty()) {
+    throw Error("axis must be 'x', 'y' or None, got '" + axis + "'");
   }
-  o.axis = static_cast<char>(axis[0] | 0x20);
+  o.axis = axis.empty() ? '\0' : static_cast<char>(axis[0] | 0x20);
   if (!sweep.empty()) o.sweep = resonance::parse_sweep(sweep);
   Json j;
   {
     py::gil_scoped_release nogil;
-    j = resonance::to_json(resonance::calibrate_file(path, o));
+    j = resonance::to_json(resonance::calibrate_files(paths, o));
   }
   return to_python(j);
 }
@@ -179,7 +179,7 @@ void register_shaping(py::module_& m) {
   m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
         py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
         "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");
-  m.def("_resonance_calibrate", &resonance_calibrate, py::arg("path"), py::arg("axis"), py::arg("sweep"),
+  m.def("_resonance_calibrate", &resonance_calibrate, py::arg("paths"), py::arg("axis"), py::arg("sweep"),
         "amctl resonance calibrate --json (resonance::calibrate_file + to_json); see "
         "amctl.resonance_calibrate.");
 }

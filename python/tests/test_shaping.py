@@ -52,6 +52,11 @@ def test_resonance_calibration_equals_the_cli(cli, source_dir, tmp_path):
         amctl.resonance_calibrate(str(psd), axis="z")
     with pytest.raises(TypeError):
         amctl.resonance_calibrate(str(psd), sweep=(5, 80, 1))
+    # Several records in one fit, and no axis, as calibrate_shaper.py A B.
+    both = amctl.resonance_calibrate([psd, psd], axis=None)
+    assert both == cli.json("resonance", "calibrate", str(psd), str(psd), "--json")
+    assert both["sources"] == [str(psd), str(psd)] and both["axis"] is None
+    assert both["klipper"]["recommended"] == r["klipper"]["recommended"]  # the same record twice
 
 
 def test_report_equals_the_cli_and_writes_one_self_contained_page(cli, source_dir, tmp_path):

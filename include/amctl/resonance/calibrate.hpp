@@ -79,10 +79,17 @@ struct KlipperCalibration {
 [[nodiscard]] KlipperCalibration klipper_calibrate(const PsdTable& normalized_psd,
                                                    const KlipperOptions& options = {});
 
+/// The same fit over several records (calibrate_shaper.py A.csv B.csv since Klipper's rework
+/// of October 2025): each record keeps its own PSD, and at every test frequency a shaper's
+/// remaining vibrations are the worst over the records (and the test damping ratios).
+[[nodiscard]] KlipperCalibration klipper_calibrate(const std::vector<PsdTable>& normalized_psds,
+                                                   const KlipperOptions& options = {});
+
 /// What `amctl resonance calibrate FILE --axis x|y` does.
 struct CalibrateOptions {
   char axis = 'x';  ///< 'x' or 'y': the axis the record excited (the fit, like Klipper's
-                    ///< calibrate_shaper.py, uses psd_xyz; the axis picks the peak reported)
+                    ///< calibrate_shaper.py, uses psd_xyz; the axis picks the peak reported);
+                    ///< 0: not said (as calibrate_shaper.py, which has no axis): no axis peak
   KlipperOptions klipper;
   /// The commanded sweep, when known: adds the frequency response and the modal fit
   /// (identify_sweep; time records only).
@@ -93,6 +100,9 @@ struct CalibrateOptions {
 
 struct CalibrationReport {
   std::string source;
+  /// Every record of the fit, the first one's name first (several files, or the columns of a
+  /// several-record PSD file); the fields below describe the first record.
+  std::vector<std::string> sources;
   RecordFormat format = RecordFormat::corpus;
   char axis = 'x';
   std::optional<RecordQuality> quality;  ///< for time records
@@ -107,6 +117,11 @@ struct CalibrationReport {
 /// Reads the file and calibrates. Throws amctl::Error on bad input or options.
 [[nodiscard]] CalibrationReport calibrate_file(const std::string& path,
                                                const CalibrateOptions& options);
+/// Several files at once, as `calibrate_shaper.py A.csv B.csv`: every record (a raw record,
+/// a PSD file, each column of a several-record PSD file) joins the fit (klipper_calibrate over
+/// a list). The report's record fields are the first file's. --sweep takes one record.
+[[nodiscard]] CalibrationReport calibrate_files(const std::vector<std::string>& paths,
+                                                const CalibrateOptions& options);
 /// Same on a file already read.
 [[nodiscard]] CalibrationReport calibrate(const AccelFile& file, const std::string& source,
                                           const CalibrateOptions& options);
