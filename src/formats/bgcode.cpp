@@ -532,8 +532,8 @@ std::string BgcodeReader::origin(std::uint64_t offset) const {
   if (it == o.begin()) return {};
   --it;
   if (it->gcode_block == 0) return "the print metadata, given as comment lines";
-  return fmt::format("G-code block {} (block {} at byte {})", it->gcode_block, it->block,
-                     it->file_offset);
+  return fmt::format("G-code block {}, the file's block {} at byte {}", it->gcode_block,
+                     it->block, it->file_offset);
 }
 
 const BgcodeStats& BgcodeReader::stats() const { return impl_->stats; }

@@ -258,6 +258,7 @@ class RecordParser {
         (psd && !out.psd.normalized && fields.size() > ncols)) {
       std::string want;
       for (std::size_t i = 0; i < names.size(); ++i) want += (i ? "," : "") + std::string(names[i]);
+      for (const std::string& n : set_names) want += "," + n;
       throw Error(SourceLocation{source_, line_no, 0},
                   fmt::format("{} column{}, expected {} ({})", fields.size(),
                               fields.size() == 1 ? "" : "s", ncols, want));

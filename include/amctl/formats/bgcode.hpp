@@ -24,7 +24,7 @@
 //
 // Errors are amctl::Error naming the file, the block (its number, counting from 1, and its
 // byte offset in the file), what was found and what was expected. A line of the decoded text
-// is placed by origin(): "G-code block 3 (block 8 at byte 4711)".
+// is placed by origin(): "G-code block 3, the file's block 8 at byte 4711".
 #include <cstdint>
 #include <memory>
 #include <string>

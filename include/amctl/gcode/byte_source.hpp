@@ -15,8 +15,8 @@ class ByteSource {
   /// Throws amctl::Error on a read error or malformed input (naming the file and the place).
   virtual std::size_t read(char* dst, std::size_t n) = 0;
   /// Where the byte at `offset` of this stream (0-based) came from, for messages: empty when
-  /// the stream is the file's own bytes, else for example "G-code block 3 at byte 4711 of the
-  /// file" or "Metadata/plate_1.gcode".
+  /// the stream is the file's own bytes, else for example "G-code block 3, the file's block 8
+  /// at byte 4711" or "Metadata/plate_1.gcode".
   [[nodiscard]] virtual std::string origin(std::uint64_t offset) const {
     (void)offset;
     return {};

@@ -60,7 +60,7 @@ class LineReader {
   /// True if the input did not end with a newline (a possibly truncated file).
   [[nodiscard]] bool ended_without_newline() const { return no_final_newline_; }
   /// Where the line last returned came from inside the file, when the text is decoded from
-  /// a container ("G-code block 3 at byte 4711 of the file"); empty for plain text.
+  /// a container ("G-code block 3, the file's block 8 at byte 4711"); empty for plain text.
   [[nodiscard]] std::string origin_of_line() const {
     return source_ ? source_->origin(line_start_) : std::string();
   }
