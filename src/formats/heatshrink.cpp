@@ -1,5 +1,7 @@
 #include "amctl/formats/heatshrink.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
@@ -17,31 +19,23 @@ HeatshrinkDecoder::HeatshrinkDecoder(int window_bits, int lookahead_bits)
 void HeatshrinkDecoder::reset(std::span<const std::uint8_t> input) {
   in_ = input;
   byte_ = 0;
-  bit_ = 0;
+  acc_ = 0;
+  acc_bits_ = 0;
   head_ = 0;
   produced_ = 0;
   copy_left_ = 0;
   copy_offset_ = 0;
 }
 
-std::size_t HeatshrinkDecoder::untouched_input_bytes() const {
-  if (byte_ >= in_.size()) return 0;
-  return in_.size() - byte_ - (bit_ > 0 ? 1 : 0);
-}
+std::size_t HeatshrinkDecoder::untouched_input_bytes() const { return in_.size() - byte_; }
 
-int HeatshrinkDecoder::bits(int count) {
-  const std::size_t left = (in_.size() - byte_) * 8 - static_cast<std::size_t>(bit_);
-  if (byte_ >= in_.size() || left < static_cast<std::size_t>(count)) return -1;
-  int v = 0;
-  for (int i = 0; i < count; ++i) {
-    const int b = (in_[byte_] >> (7 - bit_)) & 1;
-    v = (v << 1) | b;
-    if (++bit_ == 8) {
-      bit_ = 0;
-      ++byte_;
-    }
+std::uint32_t HeatshrinkDecoder::take(int count) {
+  while (acc_bits_ < count) {  // never more than count + 7 bits held: bytes stay untouched
+    acc_ = (acc_ << 8) | in_[byte_++];
+    acc_bits_ += 8;
   }
-  return v;
+  acc_bits_ -= count;
+  return static_cast<std::uint32_t>(acc_ >> acc_bits_) & ((1u << count) - 1u);
 }
 
 void HeatshrinkDecoder::put(std::uint8_t* out, std::size_t& k, std::uint8_t byte) {
@@ -56,34 +50,28 @@ std::size_t HeatshrinkDecoder::decode(std::uint8_t* out, std::size_t n) {
   const std::size_t mask = window_.size() - 1;
   while (k < n) {
     if (copy_left_ > 0) {
-      const std::uint8_t b = window_[(head_ - copy_offset_) & mask];
-      put(out, k, b);
-      --copy_left_;
+      const std::size_t run = std::min(copy_left_, n - k);
+      for (std::size_t i = 0; i < run; ++i) put(out, k, window_[(head_ - copy_offset_) & mask]);
+      copy_left_ -= run;
       continue;
     }
     // A whole item must be there: the tag and its payload (the encoder pads with zeros).
-    const std::size_t save_byte = byte_;
-    const int save_bit = bit_;
-    const int tag = bits(1);
-    if (tag < 0) break;
-    if (tag == 1) {
-      const int lit = bits(8);
-      if (lit < 0) {
-        byte_ = save_byte;
-        bit_ = save_bit;
-        break;
-      }
-      put(out, k, static_cast<std::uint8_t>(lit));
+    const std::size_t remaining = static_cast<std::size_t>(acc_bits_) + (in_.size() - byte_) * 8;
+    if (remaining == 0) break;
+    if (acc_bits_ == 0) {
+      acc_ = (acc_ << 8) | in_[byte_++];
+      acc_bits_ = 8;
+    }
+    const bool literal = ((acc_ >> (acc_bits_ - 1)) & 1u) != 0;
+    const std::size_t need = 1 + (literal ? 8 : static_cast<std::size_t>(window_bits_ + lookahead_bits_));
+    if (remaining < need) break;
+    (void)take(1);
+    if (literal) {
+      put(out, k, static_cast<std::uint8_t>(take(8)));
       continue;
     }
-    const int index = bits(window_bits_);
-    const int count = index < 0 ? -1 : bits(lookahead_bits_);
-    if (count < 0) {
-      byte_ = save_byte;
-      bit_ = save_bit;
-      break;
-    }
-    const std::size_t offset = static_cast<std::size_t>(index) + 1;
+    const std::size_t offset = static_cast<std::size_t>(take(window_bits_)) + 1;
+    const std::size_t count = static_cast<std::size_t>(take(lookahead_bits_)) + 1;
     if (offset > produced_) {
       throw Error(fmt::format(
           "heatshrink data: found a back-reference {} bytes back after {} bytes of output, "
@@ -91,7 +79,7 @@ std::size_t HeatshrinkDecoder::decode(std::uint8_t* out, std::size_t n) {
           offset, produced_));
     }
     copy_offset_ = offset;
-    copy_left_ = static_cast<std::size_t>(count) + 1;
+    copy_left_ = count;
   }
   return k;
 }

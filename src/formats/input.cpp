@@ -239,15 +239,63 @@ std::string member_list(const std::vector<ArchiveMember>& ms) {
                           z.member_count()));
 }
 
+/// A non-owning view of a byte source (the decoders below read a stream they do not own).
+class BorrowedSource final : public gcode::ByteSource {
+ public:
+  explicit BorrowedSource(gcode::ByteSource& s) : s_(s) {}
+  std::size_t read(char* dst, std::size_t n) override { return s_.read(dst, n); }
+  [[nodiscard]] std::string origin(std::uint64_t offset) const override { return s_.origin(offset); }
+
+ private:
+  gcode::ByteSource& s_;
+};
+
 }  // namespace
+
+bool is_gzip(std::string_view prefix) {
+  return prefix.size() >= 2 && static_cast<unsigned char>(prefix[0]) == 0x1f &&
+         static_cast<unsigned char>(prefix[1]) == 0x8b;
+}
+
+std::unique_ptr<gcode::ByteSource> decode_bgcode(gcode::ByteSource& raw, std::string name,
+                                                 const BgcodeLimits& limits) {
+  return std::make_unique<BgcodeReader>(std::make_unique<BorrowedSource>(raw), std::move(name), limits);
+}
+
+std::unique_ptr<gcode::ByteSource> decode_gzip(gcode::ByteSource& raw, std::string name) {
+  return std::make_unique<GzipSource>(std::make_unique<BorrowedSource>(raw), std::move(name));
+}
+
+std::unique_ptr<gcode::ByteSource> decode_sliced_3mf(gcode::ByteSource& raw, std::string name,
+                                                     const ArchiveLimits& limits) {
+  std::FILE* t = std::tmpfile();
+  if (t == nullptr) {
+    throw Error(SourceLocation{name, 0, 0},
+                fmt::format("cannot make a temporary copy of the zip archive: {}", std::strerror(errno)));
+  }
+  std::vector<char> buf(64 * 1024);
+  for (std::size_t k; (k = raw.read(buf.data(), buf.size())) > 0;) {
+    if (std::fwrite(buf.data(), 1, k, t) != k) {
+      std::fclose(t);
+      throw Error(SourceLocation{name, 0, 0}, "cannot make a temporary copy of the zip archive");
+    }
+  }
+  std::rewind(t);
+  const ZipArchive z(t, name, limits);
+  const std::vector<ArchiveMember> ms = z.gcode_members();
+  if (ms.empty()) no_gcode_in_archive(name, z);
+  if (ms.size() > 1) {
+    throw Error(SourceLocation{name, 0, 0},
+                fmt::format("found {} plates with G-code ({}), expected one: name it as {}/{}",
+                            ms.size(), member_list(ms), name, ms[1].name));
+  }
+  return z.open_member(ms.front().name, true);
+}
 
 ContentKind detect_content(std::string_view prefix, std::uint64_t file_size) {
   if (is_bgcode(prefix)) return ContentKind::binary_gcode;
   if (is_zip(prefix)) return ContentKind::zip;
-  if (prefix.size() >= 2 && static_cast<unsigned char>(prefix[0]) == 0x1f &&
-      static_cast<unsigned char>(prefix[1]) == 0x8b) {
-    return ContentKind::gzip;
-  }
+  if (is_gzip(prefix)) return ContentKind::gzip;
   if (file_size >= 84 && prefix.size() >= 84) {
     const auto* p = reinterpret_cast<const unsigned char*>(prefix.data()) + 80;
     const std::uint64_t triangles = static_cast<std::uint64_t>(p[0]) | (static_cast<std::uint64_t>(p[1]) << 8) |

@@ -77,7 +77,10 @@ std::optional<Report> parse_report(std::string_view text, std::uint32_t column,
   r.column = column;
   std::size_t i = 1;
   int n = 0;
-  while (i < text.size() && text[i] >= '0' && text[i] <= '9') n = n * 10 + (text[i++] - '0');
+  while (i < text.size() && text[i] >= '0' && text[i] <= '9') {
+    if (n < 100000) n = n * 10 + (text[i] - '0');  // no Marlin code is that long: ignored below
+    ++i;
+  }
   if (i < text.size() && text[i] != ' ' && text[i] != '\t') return std::nullopt;  // "M92X" is no report
   r.number = n;
   while (i < text.size()) {

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -12,7 +13,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
-#include <vector>
+#include "amctl/formats/sources.hpp"
 
 namespace amctl::formats {
 namespace {
@@ -151,6 +152,35 @@ TEST_F(Input, DirectoriesExpandToTheirGcodeFilesSorted) {
   EXPECT_EQ(got[4], "missing.gcode");
   fs::create_directories(dir_ / "empty");
   EXPECT_THROW(expand_gcode_inputs({(dir_ / "empty").string()}), Error);
+}
+
+}  // namespace
+}  // namespace amctl::formats
+
+namespace amctl::formats {
+namespace {
+
+TEST_F(Input, DecodersWrapAStreamTheyDoNotOwn) {
+  // The shape a reader with its own byte source uses: recognise the first bytes, then wrap.
+  const std::string text = "G28\nG1 X10 F600\n";
+  std::string gz(128, '\0');
+  uLongf len = 0;
+  {
+    z_stream zs{};
+    ASSERT_EQ(deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+    zs.avail_in = static_cast<uInt>(text.size());
+    zs.next_out = reinterpret_cast<Bytef*>(gz.data());
+    zs.avail_out = static_cast<uInt>(gz.size());
+    ASSERT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
+    len = zs.total_out;
+    deflateEnd(&zs);
+  }
+  gz.resize(len);
+  ASSERT_TRUE(is_gzip(gz));
+  MemorySource raw(gz);
+  auto decoded = decode_gzip(raw, "a.gz");
+  EXPECT_EQ(read_all(*decoded), text);
 }
 
 }  // namespace

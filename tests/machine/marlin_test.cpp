@@ -135,6 +135,12 @@ TEST(MarlinM503, OlderFirmwareM204SIsPrintAndTravel) {
   EXPECT_DOUBLE_EQ(m.travel_accel_mm_s2, 3000);
 }
 
+TEST(MarlinM503, CommandNumbersOfManyDigitsAreIgnoredNotOverflows) {
+  // fuzz_marlin (UBSan): "M922222222223" overflowed the command number.
+  const Machine m = parse_marlin_m503(std::string("echo:  M922222222222222222 X1\n") + kPrusa, "m.txt");
+  EXPECT_DOUBLE_EQ(m.print_accel_mm_s2, 1250);
+}
+
 TEST(MarlinM503, BadReportsNameTheLineAndWhatIsMissing) {
   std::string t = kPronterfaceJerk;
   t.replace(t.find("Y500 Z100"), 4, "Y5x0");

@@ -40,15 +40,16 @@ class HeatshrinkDecoder {
   [[nodiscard]] std::size_t untouched_input_bytes() const;
 
  private:
-  /// The next `count` bits (count <= 16), or -1 if fewer remain.
-  int bits(int count);
+  /// The next `count` bits (count <= 16); the caller has checked that they are there.
+  std::uint32_t take(int count);
   void put(std::uint8_t* out, std::size_t& k, std::uint8_t byte);
 
   int window_bits_;
   int lookahead_bits_;
   std::span<const std::uint8_t> in_;
-  std::size_t byte_ = 0;  // index of the byte being read
-  int bit_ = 0;           // bits of in_[byte_] already read (0..7)
+  std::size_t byte_ = 0;    // next byte to take into acc_
+  std::uint64_t acc_ = 0;   // bits taken but not yet used: the low acc_bits_ of it
+  int acc_bits_ = 0;
   std::vector<std::uint8_t> window_;  // the last 2^W bytes written, a ring
   std::size_t head_ = 0;              // where the next byte goes in window_
   std::uint64_t produced_ = 0;

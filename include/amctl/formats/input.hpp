@@ -50,6 +50,18 @@ ContentKind detect_content(std::string_view prefix, std::uint64_t file_size = 0)
 /// cannot be opened, is a 3D model, a 3MF without G-code or with several plates and none named.
 GcodeInput open_gcode_input(const std::string& path, const InputLimits& limits = {});
 
+/// The decoders one by one, for a reader that opens its byte source itself and puts an
+/// optional decoder between it and the lines (recognise the first bytes, then wrap): each
+/// reads `raw` (which must outlive what it returns) from its first byte. `name` is used in
+/// messages. A sliced 3MF is copied to an unnamed temporary file first (a zip's directory is
+/// at its end) and gives its only plate; several plates are an error naming them.
+bool is_gzip(std::string_view prefix);
+std::unique_ptr<gcode::ByteSource> decode_bgcode(gcode::ByteSource& raw, std::string name,
+                                                 const BgcodeLimits& limits = {});
+std::unique_ptr<gcode::ByteSource> decode_gzip(gcode::ByteSource& raw, std::string name);
+std::unique_ptr<gcode::ByteSource> decode_sliced_3mf(gcode::ByteSource& raw, std::string name,
+                                                     const ArchiveLimits& limits = {});
+
 /// open_gcode_input() wrapped in a line reader.
 std::unique_ptr<gcode::LineReader> open_gcode_reader(
     const std::string& path, const InputLimits& limits = {},
