@@ -81,14 +81,13 @@ Machine load_file(const fs::path& path, const std::string& spec) {
   ss << in.rdbuf();
   const std::string text = ss.str();
   const std::string ext = lowercase(path.extension().string());
-  // Marlin's own files, recognised by what they hold (docs/machine.md, "Marlin printers").
-  if (looks_like_m503(text)) return parse_marlin_m503(text, spec);
-  if (ext == ".h" || (ext != ".toml" && ext != ".cfg" && ext != ".conf" && ext != ".ini" &&
-                      looks_like_marlin_configuration(text))) {
-    return load_marlin_configuration(path, text, spec);
-  }
   if (ext == ".toml") return parse_toml_file(text, spec);
   if (ext == ".cfg" || ext == ".conf" || ext == ".ini") return parse_klipper_cfg(text, spec);
+  // Marlin's own files, recognised by what they hold (docs/machine.md, "Marlin printers").
+  if (looks_like_m503(text)) return parse_marlin_m503(text, spec);
+  if (ext == ".h" || looks_like_marlin_configuration(text)) {
+    return load_marlin_configuration(path, text, spec);
+  }
   // No telling extension: TOML if it parses as TOML, else a Klipper config.
   bool is_toml = true;
   try {

@@ -449,15 +449,24 @@ void set_axes(std::array<double, 4>& out, const std::vector<double>& v) {
 }  // namespace
 
 bool looks_like_marlin_configuration(std::string_view text) {
+  // A "#define NAME" with an upper-case C name (a '#' comment of a TOML file or printer.cfg
+  // that starts with "define" is prose), and no [section] line.
+  bool define = false;
   for (const detail::MarlinLine& l : detail::split_lines(text)) {
     std::string_view t = l.text;
     while (!t.empty() && (t.front() == ' ' || t.front() == '\t')) t.remove_prefix(1);
-    if (t.starts_with("#define ") || t.starts_with("#define\t") || t.starts_with("#ifndef ") ||
-        t.starts_with("#pragma once")) {
-      return true;
+    if (t.starts_with("[")) return false;
+    if (!t.starts_with("#define") || t.size() < 9 || (t[7] != ' ' && t[7] != '\t')) continue;
+    t.remove_prefix(8);
+    while (!t.empty() && (t.front() == ' ' || t.front() == '\t')) t.remove_prefix(1);
+    std::size_t n = 0;
+    while (n < t.size() && (std::isupper(static_cast<unsigned char>(t[n])) || t[n] == '_' ||
+                            (n > 0 && std::isdigit(static_cast<unsigned char>(t[n]))))) {
+      ++n;
     }
+    if (n > 0 && (n == t.size() || t[n] == ' ' || t[n] == '\t')) define = true;
   }
-  return false;
+  return define;
 }
 
 Machine parse_marlin_configuration(std::string_view text, const std::string& source_name,

@@ -112,6 +112,9 @@ std::optional<Report> parse_report(std::string_view text, std::uint32_t column,
 bool looks_like_m503(std::string_view text) {
   std::set<int> seen;
   for (const MarlinLine& l : detail::split_lines(text)) {
+    // An INI or TOML section: a configuration (a Klipper macro may hold M204 lines).
+    const std::size_t first = l.text.find_first_not_of(" \t");
+    if (first != std::string_view::npos && l.text[first] == '[') return false;
     const auto rt = report_text(l.text);
     if (!rt) continue;
     const std::string_view t = rt->first;
