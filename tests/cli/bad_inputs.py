@@ -296,6 +296,8 @@ CASES = [
          {"f.gcode": latin1(b"GCDE" + struct.pack("<IH", 2, 1))}, "f.gcode"),
     case("bgcode_bad_line_names_the_decoded_line", ["estimate", "f.bgcode"],
          {"f.bgcode": latin1(bgcode(GOOD_GCODE + "G1 Xq\n"))}, "f.bgcode:7:5"),
+    case("m73_into_binary_gcode_name", ["estimate", "f.bgcode", "--write-m73", "out.bgcode"],
+         {"f.bgcode": latin1(bgcode(GOOD_GCODE))}, "out.bgcode", ["out.bgcode"]),
     case("bgcode_plan_csv_not_left_behind", ["plan", "f.bgcode", "-o", "out.csv"],
          {"f.bgcode": latin1(bgcode_damaged_byte(GOOD_GCODE)[0])}, "f.bgcode", ["out.csv"]),
     # ---- sliced 3MF (.gcode.3mf) and models given as G-code ----
