@@ -70,7 +70,7 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
 
 def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=None,
            damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False, accel=None, accel_axis="x",
-           thermal=None):
+           thermal=None, file_limits="keep"):
     """Writes the self-contained HTML report of a print (``amctl report``, docs/report.md) and
     returns the dict of ``amctl report --json``: ``output`` (the page's path), ``bytes``,
     ``moves``, ``layers``, ``toolpath_points``, ``speed_buckets``, ``simulated``, ...
@@ -87,6 +87,8 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
             resonance section (Klipper's calibration, the PSD and the shaper curves).
         thermal: "hotend" or "bed": adds the heater loop section (temperature, set point and
             effort of the tuned PID and the MPC).
+        file_limits: the file's own limits: "keep" (default), "ignore" or "cap", as
+            amctl.estimate.
     """
     p = _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -97,7 +99,8 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
     acc = "" if accel is None else _args.path(accel, "accel")
     ax = _args.text(accel_axis, "accel_axis")
     th = "" if thermal is None else _args.text(thermal, "thermal")
-    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th)
+    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th,
+                          _args.text(file_limits, "file_limits"))
 
 
 def steps(path, machine=None, set=None, *, csv=None, step_filter="none"):

@@ -9,6 +9,7 @@
 
 #include "amctl/core/json.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 
 namespace amctl::py_bind {
 
@@ -33,6 +34,9 @@ template <class T>
   return py::array_t<T>({static_cast<py::ssize_t>(owned->size())}, {static_cast<py::ssize_t>(sizeof(T))},
                         owned->data(), base);
 }
+
+/// file_limits= "keep", "ignore" or "cap" (amctl::Error otherwise), as `--file-limits`.
+[[nodiscard]] plan::FileLimits file_limits_arg(const std::string& value);
 
 void register_plan(py::module_& m);
 void register_simulate(py::module_& m);

@@ -56,8 +56,10 @@ py::object resonance_calibrate(const std::string& path, const std::string& axis,
 py::object write_report(const std::string& path, const MachineValue& mv, const std::string& output,
                         std::optional<double> natural_frequency_hz, double damping_ratio,
                         double sample_rate_hz, bool strict, const std::string& accel,
-                        const std::string& accel_axis, const std::string& thermal) {
+                        const std::string& accel_axis, const std::string& thermal,
+                        const std::string& file_limits) {
   report::ReportOptions o;
+  o.file_limits = file_limits_arg(file_limits);
   o.thermal = thermal;
   o.accel_path = accel;
   if (accel_axis != "x" && accel_axis != "y") {
@@ -175,7 +177,8 @@ void register_shaping(py::module_& m) {
         "amctl steps --json (steppers::generate_steps_file + to_json); see amctl.steps.");
   m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
         py::arg("natural_frequency_hz"), py::arg("damping_ratio"), py::arg("sample_rate_hz"),
-        py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"), "amctl report --json (report::write_report + to_json); see amctl.report.");
+        py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"),
+        py::arg("file_limits") = "keep", "amctl report --json (report::write_report + to_json); see amctl.report.");
   m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
         py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
         "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");

@@ -98,3 +98,17 @@ def test_bad_arguments_raise_amctl_error():
         fleet.run(["x.gcode"], ["voron24"], workers=0, batch=0)
     with pytest.raises(amctl.Error):
         fleet.expand_inputs(["/nonexistent/*.gcode"])
+
+
+def test_file_limits_reach_every_run(tmp_path):
+    # M204 S4000 in the file on a 1000 mm/s^2 machine: kept (0.125 s) or capped (0.2 s),
+    # the closed forms of test_sweep_grid_matches_closed_forms.
+    g = tmp_path / "line.gcode"
+    g.write_text("M204 S4000\nG1 X10 F6000\n")
+    sets = {"printer.max_accel": 1000, "printer.minimum_cruise_ratio": 0}
+    keep = fleet.run([str(g)], ["default"], overrides=sets, workers=0)
+    cap = fleet.run([str(g)], ["default"], overrides=sets, workers=0, file_limits="cap")
+    assert math.isclose(keep[0]["total_time_s"], 0.125, rel_tol=1e-12)
+    assert math.isclose(cap[0]["total_time_s"], 0.2, rel_tol=1e-12)
+    with pytest.raises(amctl.Error):
+        fleet.run([str(g)], ["default"], workers=0, file_limits="never")

@@ -181,6 +181,7 @@ Json report_data(const std::string& path, const machine::Machine& machine,
   const auto t0 = std::chrono::steady_clock::now();
   plan::SourceOptions so;
   so.strict = options.strict;
+  so.planner.file_limits = options.file_limits;
   plan::PlanSource source(path, machine, so);
   plan::EstimateSink estimate(machine);
   SpeedLodSink lod(options.speed_buckets);

@@ -12,6 +12,7 @@
 //   link_length_widths, filament_diameter_mm                         numbers (scan options)
 // Keys left out keep the seed's values (EmpiricalTimeModel::fdm2000_seed()). Every error
 // names file:line.
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -59,7 +60,9 @@ struct PlannerCalibrationRequest {
   std::string timings_csv;
   machine::Machine machine;
   std::vector<std::string> limits;  ///< empty: default_limits_for(machine)
-  bool keep_file_limits = false;
+  /// The files' own limits commands: kept as the firmware does (default, as `amctl estimate`),
+  /// ignored (the fitted limits hold throughout) or capped at the fitted limits.
+  plan::FileLimits file_limits = plan::FileLimits::keep;
   bool absolute = false;            ///< residuals in seconds instead of relative ones
 };
 
@@ -73,6 +76,12 @@ struct TimeCalibration {
   ScanOptions scan;
   // Planner mode.
   std::optional<CalibrationResult> planner;
+  /// Planner mode: the policy, and the limits commands the files set (distinct files, planned
+  /// once more with the calibrated machine).
+  plan::FileLimits file_limits = plan::FileLimits::keep;
+  std::uint64_t file_limit_commands = 0;
+  std::size_t files_setting_limits = 0;
+  std::size_t files = 0;
   std::vector<CalibrationParameter> start;
   machine::Machine calibrated;  ///< the machine with the fitted limits
 };

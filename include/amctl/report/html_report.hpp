@@ -17,6 +17,7 @@
 
 #include "amctl/core/json.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 #include "amctl/report/toolpath.hpp"
 
 namespace amctl::report {
@@ -30,6 +31,8 @@ struct ReportOptions {
   std::optional<BeltModelOptions> belt;   ///< simulate and colour by contour error
   double sample_rate_hz = 1000.0;         ///< simulation rate (with a belt model)
   bool strict = true;                     ///< false: skip malformed lines (counted)
+  /// The file's own limits commands: kept as the firmware does, ignored or capped.
+  plan::FileLimits file_limits = plan::FileLimits::keep;
   std::size_t speed_buckets = 4096;       ///< at most this many (at least half) in the page
   ToolpathOptions toolpath;
   /// An accelerometer record (Klipper raw or PSD CSV, or the corpus CSV): adds the resonance
