@@ -94,8 +94,9 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
                       double sample_rate_hz, double lead_in_s, double tail_s, double knot_spacing_s,
                       int degree, double window_s, double overlap_s, double max_base_accel_mm_s2,
                       double effort_weight_s2, int max_iterations, const std::string& csv,
-                      const std::string& gcode) {
+                      const std::string& gcode, bool ignore_machine_limits) {
   compensation::CompensationOptions o;
+  o.judge_machine_accel = !ignore_machine_limits;
   o.method = compensation::parse_method(method);
   o.model_x = model_x;
   o.model_y = model_y;
@@ -171,6 +172,7 @@ void register_shaping(py::module_& m) {
         py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),
         py::arg("degree"), py::arg("window_s"), py::arg("overlap_s"), py::arg("max_base_accel_mm_s2"),
         py::arg("effort_weight_s2"), py::arg("max_iterations"), py::arg("csv"), py::arg("gcode"),
+        py::arg("ignore_machine_limits") = false,
         "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
         "arrays; see amctl.compensate.");
   m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"), py::arg("step_filter"),
