@@ -102,6 +102,15 @@ EmpiricalEstimate estimate_empirical(const std::string& gcode_path, const std::s
   e.params = read_empirical_params(params_path);
   e.scan = scan_gcode_file_for_time(gcode_path, e.params.scan);
   e.total_time_s = e.params.model.estimate_s(e.scan.total);
+  e.params_file = params_path;
+  if (params_path.empty()) {
+    e.caveat = fmt::format(
+        "uncalibrated: no --params, so these are the average head speeds measured on a Stratasys FDM "
+        "2000 in the UTFPR process-planning study (rasters {:.2f} mm/s), not this printer's; calibrate "
+        "on a few timed prints (amctl calibrate-time TIMES.csv --mode empirical --save P.json) and pass "
+        "--params P.json, or use the planner (the default mode)",
+        e.params.model.raster_speed_mm_s);
+  }
   return e;
 }
 
@@ -120,6 +129,8 @@ Json empirical_estimate_json(const EmpiricalEstimate& e) {
                       {"time_terms_s", terms}};
   return {{"file", e.file},
           {"mode", "empirical"},
+          {"params_file", e.params_file.empty() ? Json(nullptr) : Json(e.params_file)},
+          {"caveat", e.caveat.empty() ? Json(nullptr) : Json(e.caveat)},
           {"total_time_s", e.total_time_s},
           {"model", empirical_params_json(m, e.params.scan)},
           {"features", features},
@@ -133,9 +144,9 @@ std::string empirical_estimate_text(const EmpiricalEstimate& e) {
   const double t = e.total_time_s;
   const auto& f = e.scan.total;
   return fmt::format("{}: empirical {:.1f} s ({:.2f} min); raster {:.0f} mm, links {:.0f} mm, "
-                     "contour {:.0f} mm, travel {:.0f} mm, {} layers\n",
+                     "contour {:.0f} mm, travel {:.0f} mm, {} layers\n{}",
                      e.file, t, t / 60, f.raster_mm, f.link_mm, f.contour_mm, f.travel_mm,
-                     e.scan.layers.size());
+                     e.scan.layers.size(), e.caveat.empty() ? "" : "  caveat: " + e.caveat + "\n");
 }
 
 TimeCalibration calibrate_empirical_time(const EmpiricalCalibrationRequest& q) {

@@ -38,6 +38,11 @@ struct EmpiricalParams {
 
 struct EmpiricalEstimate {
   std::string file;
+  /// The parameter file (`--params`, e.g. `calibrate-time --mode empirical --save`'s). Empty:
+  /// the model runs on the process-planning study's FDM 2000 speeds (a 2000-era Stratasys
+  /// machine, ~24 mm/s rasters), not on this printer's, and `caveat` says so in the output.
+  std::string params_file;
+  std::string caveat;
   EmpiricalParams params;
   GcodeTimeScan scan;
   double total_time_s = 0.0;
