@@ -228,6 +228,11 @@ void register_thermal(CLI::App& app) {
     hc->add_option("--fan-loss-w-k", plant.fan_extra_loss_w_k,
                    "plant extra loss at 100 % fan, W/K");
     hc->add_option("--sensor-tau-s", plant.sensor_time_constant_s, "plant sensor time constant, s");
+    hc->add_option("--sensor-delay-s", plant.sensor_delay_s,
+                   "plant transport delay from the block to the reading, s");
+    hc->add_option("--core-capacity-j-k", plant.core_capacity_j_k,
+                   "plant heater-core heat capacity, J/K (0: no core node)");
+    hc->add_option("--core-to-block-w-k", plant.core_to_block_w_k, "plant heater core to block conductance, W/K");
     hc->add_flag("--json", ha->json_out, "print one JSON object");
     hc->callback([ha] { run_heater(*ha); });
   }
