@@ -96,7 +96,7 @@ void run_test_gcode(const TestGcodeArgs& a) {
     o.point_given = true;
     o.probe_points.clear();
     o.point_source = "--point";
-    o.point_location = {};
+    o.probe_point_locations.clear();
   }
   const std::string text = resonance::test_gcode(o, m);  // whole text first: all or nothing
   if (a.output.empty() || a.output == "-") {

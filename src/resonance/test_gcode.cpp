@@ -120,7 +120,8 @@ double config_number(const ConfigSection& sec, const char* key, double fallback,
 }
 
 // Klipper's getlists(seps=(',', '\n'), parser=float, count=3): one "x, y, z" per line.
-std::vector<std::array<double, 3>> probe_points_of(const ConfigSection& sec, const ConfigValue& v) {
+std::vector<std::array<double, 3>> probe_points_of(const ConfigSection& sec, const ConfigValue& v,
+                                                   std::vector<SourceLocation>& where_out) {
   std::vector<std::array<double, 3>> out;
   // The value's text is trimmed as a whole: an empty first line ("probe_points:" alone) has a
   // file line but no piece, so the pieces are the last ones of v.lines.
@@ -156,6 +157,11 @@ std::vector<std::array<double, 3>> probe_points_of(const ConfigSection& sec, con
         start = comma + 1;
       }
       out.push_back(p);
+      // On the option's own line: the value's column; a continuation line: the line (its
+      // indentation is not kept).
+      SourceLocation at = where;
+      at.column = 0;
+      where_out.push_back(line_index == 0 && v.lines.size() <= pieces ? v.where : at);
     }
     ++line_index;
     pos = eol + 1;
@@ -206,11 +212,11 @@ TestGcodeOptions machine_test_options(TestStyle style, char axis, const machine:
     }
     if (chip) o.accel_chip = chip->text;
     if (const ConfigValue* pp = rt->find("probe_points")) {
-      o.probe_points = probe_points_of(*rt, *pp);
+      o.probe_points = probe_points_of(*rt, *pp, o.probe_point_locations);
       for (int i = 0; i < 3; ++i) o.point_mm[i] = o.probe_points.front()[static_cast<std::size_t>(i)];
       o.point_given = true;
       o.point_source = fmt::format("[resonance_tester] probe_points, {}", where_of(*pp));
-      o.point_location = pp->where;
+
       return o;
     }
   }
@@ -251,7 +257,8 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
   if (points.empty()) points.push_back({o.point_mm[0], o.point_mm[1], o.point_mm[2]});
   // Every point and every stroke around it inside the machine's position limits.
   const TestExcursion ex = test_excursion(o);
-  for (const auto& p : points) {
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const auto& p = points[k];
     for (int a = 0; a < 3; ++a) {
       const auto r = axis_range(m, a);
       if (!r) continue;
@@ -262,7 +269,9 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
             "found test point {:g},{:g},{:g}, whose test moves {} from {:.4f} to {:.4f} mm, expected one "
             "within the machine's position limits {:g} to {:g} mm",
             p[0], p[1], p[2], static_cast<char>('X' + a), lo, hi, r->first, r->second);
-        if (!o.point_location.file.empty()) throw Error(o.point_location, "[resonance_tester] probe_points: " + what);
+        if (k < o.probe_point_locations.size()) {
+          throw Error(o.probe_point_locations[k], "[resonance_tester] probe_points: " + what);
+        }
         throw Error((o.point_source == "--point" ? "--point: " : "test point: ") + what);
       }
     }

@@ -225,6 +225,17 @@ CASES = [
          {"s.toml": "[material]\ndensity_kg_m3 = 930\n[bogus]\nx = 1\n"}, "s.toml:3:1", ["out.csv"]),
     case("sls_negative_density", ["thermal", "sls", "--config", "s.toml", "--csv", "out.csv"],
          {"s.toml": "[material]\ndensity_kg_m3 = -930\n"}, "s.toml:2:17", ["out.csv"]),
+    # ---- the command line: misspelt commands and options (with a did-you-mean) ----
+    case("misspelt_command", ["estimat", "f.gcode"], {"f.gcode": GOOD_GCODE}, "estimat"),
+    case("misspelt_subcommand", ["resonance", "calibrat", "f.csv"], {"f.csv": RAW_HEADER}, "calibrat"),
+    case("misspelt_option", ["estimate", "f.gcode", "--machin", "voron24"], {"f.gcode": GOOD_GCODE},
+         "--machin"),
+    case("bad_file_limits_policy", ["estimate", "f.gcode", "--file-limits", "sometimes"],
+         {"f.gcode": GOOD_GCODE}, "--file-limits"),
+    case("resonance_probe_point_beyond_limits",
+         ["resonance", "test-gcode", "--machine", "p.cfg", "--axis", "x", "-o", "out.gcode"],
+         {"p.cfg": STEPPER_CFG + "[resonance_tester]\nprobe_points:\n    199.9, 100, 20\n"},
+         "p.cfg:24", ["out.gcode"]),
 ]
 
 

@@ -39,8 +39,9 @@ struct TestGcodeOptions {
   /// probe_points of printer.cfg:40", "the middle of the machine's position limits", ...).
   std::string point_source;
   std::string parameter_source;
-  /// Where probe_points is written (errors about a point name it); empty file: not from a file.
-  SourceLocation point_location;
+  /// Where each probe point is written (errors about a point name its line); empty: not from
+  /// a file.
+  std::vector<SourceLocation> probe_point_locations;
   /// Start with G28 (every firmware refuses moves before homing).
   bool home = true;
   /// Speed of the move to each test point [mm/s] (Klipper [resonance_tester] move_speed).
