@@ -240,14 +240,15 @@ void register_estimate(CLI::App& app) {
   sub->add_option("--m73-interval", args->m73_interval_s, "Seconds of print time between M73 lines")
       ->default_val(60.0);
   sub->add_option("--mode", args->mode,
-                  "planner (default) or empirical: the seed-004 average-speed model")
+                  "planner (default) or empirical: the average-speed model of the UTFPR process-planning "
+                  "study (FDM 2000 speeds unless --params)")
       ->check(CLI::IsMember({"planner", "empirical"}));
   sub->add_flag("--compare-profiles", args->compare_profiles,
                 "Plan the file with trapezoid, bezier5 and scurve7 (jerk: printer.max_jerk) and print "
                 "print time, peak acceleration and peak jerk side by side");
   sub->add_option("--params", args->params,
                   "Empirical parameters (JSON from `calibrate-time --mode empirical --save`); "
-                  "default: the seed's FDM 2000 speeds");
+                  "default: the study's Stratasys FDM 2000 speeds, uncalibrated for your printer");
   sub->callback([args] {
     if (args->mode == "empirical") {
       run_empirical_estimate(args->file, args->params, args->json);

@@ -61,7 +61,7 @@ void register_shrink_fit(CLI::App& shrink) {
   cmd->add_option("file", o->file, "CSV with header nominal_mm,measured_mm[,axis,...]")->required();
   cmd->add_flag("--json", o->json, "print one JSON object");
   cmd->add_flag("--average", o->average,
-                "fit the mean error at each nominal value (the seed's procedure) instead of "
+                "fit the mean error at each nominal value (the process-planning study's procedure) instead of "
                 "every repeated measurement");
   cmd->add_option("--ranges", o->ranges,
                   "number of ranges with breakpoints found from the data (1, 2, ... or auto)");
@@ -105,7 +105,7 @@ void register_shrink_fit(CLI::App& shrink) {
 
 void register_shrink_slicing(CLI::App& shrink) {
   auto* cmd = shrink.add_subcommand(
-      "slicing", "Slicing, dimensional and total error of layered heights (seed Table 2)");
+      "slicing", "Slicing, dimensional and total error of layered heights (Table 2 of the UTFPR process-planning study)");
   struct Opts {
     pr::SlicingStudyRequest q;
     std::string factors;
@@ -119,7 +119,7 @@ void register_shrink_slicing(CLI::App& shrink) {
   cmd->add_option("--observed-slicing-column", o->q.observed_slicing_column,
                   "column with observed slicing errors (mm): fit the slice-plane position");
   cmd->add_option("--factors", o->factors, "Z compensation, e.g. z=0.9902:10:1.0032");
-  cmd->add_option("--scaling", o->scaling, "dimension (seed), position (continuous map) or none")
+  cmd->add_option("--scaling", o->scaling, "dimension (the study's per-dimension factors), position (continuous map) or none")
       ->check(CLI::IsMember({"dimension", "position", "none"}));
   cmd->add_option("--layer-mm", o->q.layer_mm, "layer thickness");
   cmd->add_option("--first-layer-mm", o->q.first_layer_mm, "first layer thickness (default: layer)");

@@ -175,7 +175,7 @@ void register_thermal(CLI::App& app) {
 
   auto margins = std::make_shared<MarginArgs>();
   auto* sm = th->add_subcommand(
-      "sls-margins", "Additive-uncertainty margins of a PI on the SLS powder bed (seed 002)");
+      "sls-margins", "Additive-uncertainty margins of a PI on the SLS powder bed (the SLS temperature-control paper, 2018)");
   thermal::MarginStudyOptions& ms = margins->study;
   sm->add_option("--kp", ms.kp_w_m2k, "PI gain kp, W/(m^2 K)")->capture_default_str();
   sm->add_option("--ti", ms.ti_s, "PI integral time Ti, s")->capture_default_str();

@@ -43,5 +43,6 @@ void register_simulate(py::module_& m);
 void register_studies(py::module_& m);
 void register_shaping(py::module_& m);
 void register_closedloop(py::module_& m);
+void register_jobs(py::module_& m);
 
 }  // namespace amctl::py_bind

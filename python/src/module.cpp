@@ -258,4 +258,5 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
   register_studies(m);
   register_shaping(m);
   register_closedloop(m);
+  register_jobs(m);
 }
