@@ -64,7 +64,7 @@ void run_margins(MarginArgs a) {
 
 struct SlsArgs {
   std::string config;
-  std::string csv = "sls_trace.csv";
+  std::string csv;  ///< "" (default): no trace file; the run writes nothing unless asked
   bool json_out = false;
   int layers = -1;
   std::string anti_windup;
@@ -199,7 +199,7 @@ void register_thermal(CLI::App& app) {
   auto* sc =
       th->add_subcommand("sls", "Closed-loop SLS powder-bed build (growing 1D heat equation)");
   sc->add_option("--config", sls->config, "TOML configuration (default: built-in PA12 values)");
-  sc->add_option("--csv", sls->csv, "trace CSV path ('' for none)")->capture_default_str();
+  sc->add_option("--csv", sls->csv, "write the trace (time, temperatures, heat flux) to this CSV (default: none)");
   sc->add_option("--layers", sls->layers, "override the number of layer additions");
   sc->add_option("--anti-windup", sls->anti_windup,
                  "override: none | clamp_integral | back_calculation | conditional_integration");
