@@ -43,6 +43,7 @@ struct EstimateArgs {
   std::string mode = "planner";  ///< or "empirical" (seed 004 estimator, cmd_process.cpp)
   std::string params;            ///< empirical parameters (JSON)
   bool compare_profiles = false; ///< trapezoid, bezier5 and scurve7 side by side
+  std::string file_limits = "keep";  ///< keep | ignore | cap
 };
 
 void print_human(const plan::EstimateReport& r, const machine::Machine& m, double compute_s,
@@ -74,6 +75,10 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
     }
   }
   if (r.range_error) o << "  warning: " << plan::describe_range_error(*r.range_error) << "\n";
+  const std::vector<std::string> limits = plan::describe_file_limits(r.diagnostics.file_limits);
+  for (std::size_t i = 0; i < limits.size(); ++i) {
+    o << (i == 0 ? "  file limits      " : "                   ") << limits[i] << "\n";
+  }
   if (!r.excluded_objects.empty()) {
     std::string names;
     for (const auto& x : r.excluded_objects) names += (names.empty() ? "" : ", ") + x.name;
@@ -176,6 +181,7 @@ void run_estimate(const EstimateArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
   plan::EstimateOptions opt;
   opt.strict = !a.lenient;
+  opt.planner.file_limits = file_limits_policy(a.file_limits);
   if (!a.m73_out.empty()) {
     require_positive_flag("--m73-interval", a.m73_interval_s);
     opt.checkpoint_interval_s = a.m73_interval_s;
@@ -203,6 +209,17 @@ void run_estimate(const EstimateArgs& a) {
       std::cout << fmt::format("  slicer {:+.1f} %",
                                (*r.slicer_estimate_s - r.total_time_s) / r.total_time_s * 100.0);
     }
+    const plan::FileLimitsReport& fl = r.diagnostics.file_limits;
+    if (fl.commands > 0) {
+      std::string what;
+      for (const auto& c : fl.by_command) {
+        if (c.firmware_acts) what += fmt::format("{}{} {}", what.empty() ? "" : ", ", c.lines, c.command);
+      }
+      const char* verb = fl.policy == plan::FileLimits::keep     ? "kept"
+                         : fl.policy == plan::FileLimits::ignore ? "ignored"
+                                                                 : "capped";
+      std::cout << fmt::format("  file limits {} ({})", verb, what);
+    }
     std::cout << "\n";
   } else if (a.json) {
     auto j = plan::to_json(r, m, compute_s);
@@ -228,6 +245,7 @@ void run_estimate_many(const EstimateArgs& a, const std::vector<std::string>& fi
   const machine::Machine m = resolve_machine(a.machine);
   plan::EstimateOptions opt;
   opt.strict = !a.lenient;
+  opt.planner.file_limits = file_limits_policy(a.file_limits);
   const std::vector<plan::EstimateRow> rows = plan::estimate_files(files, m, opt);
   std::size_t failed = 0;
   for (const auto& r : rows) failed += r.report ? 0 : 1;
@@ -275,6 +293,7 @@ void register_estimate(CLI::App& app) {
                   "3MF of several plates: one row each")
       ->required();
   add_machine_options(*sub, args->machine);
+  add_file_limits_option(*sub, args->file_limits);
   sub->add_flag("--json", args->json, "Print one JSON object on stdout");
   sub->add_flag("--lenient", args->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->add_flag("--layers", args->all_layers, "List every layer's start and duration");
@@ -284,14 +303,15 @@ void register_estimate(CLI::App& app) {
   sub->add_option("--m73-interval", args->m73_interval_s, "Seconds of print time between M73 lines")
       ->default_val(60.0);
   sub->add_option("--mode", args->mode,
-                  "planner (default) or empirical: the seed-004 average-speed model")
+                  "planner (default) or empirical: the average-speed model of the UTFPR process-planning "
+                  "study (FDM 2000 speeds unless --params)")
       ->check(CLI::IsMember({"planner", "empirical"}));
   sub->add_flag("--compare-profiles", args->compare_profiles,
                 "Plan the file with trapezoid, bezier5 and scurve7 (jerk: printer.max_jerk) and print "
                 "print time, peak acceleration and peak jerk side by side");
   sub->add_option("--params", args->params,
                   "Empirical parameters (JSON from `calibrate-time --mode empirical --save`); "
-                  "default: the seed's FDM 2000 speeds");
+                  "default: the study's Stratasys FDM 2000 speeds, uncalibrated for your printer");
   sub->callback([args] {
     const std::vector<std::string> files = formats::expand_gcode_inputs(args->files);
     std::error_code ec;

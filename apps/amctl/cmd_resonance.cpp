@@ -56,13 +56,16 @@ struct TestGcodeArgs {
   std::string style = "klipper";
   std::optional<double> freq_start, freq_end, accel_per_hz, accel, hz_per_sec;
   std::string point;
+  bool no_home = false;
 };
 
 void run_test_gcode(const TestGcodeArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
-  resonance::TestGcodeOptions o = resonance::default_test_options(
-      a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper);
-  o.axis = a.axis.front();
+  // The machine's own: [resonance_tester] (probe points, chip, frequencies) or the middle of its
+  // position limits; the flags below override.
+  resonance::TestGcodeOptions o = resonance::machine_test_options(
+      a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper, a.axis.front(), m);
+  o.home = !a.no_home;
   if (a.style == "marlin" && a.accel_per_hz) throw Error("--accel-per-hz applies to --style klipper; use --accel-mm-s2");
   if (a.style != "marlin" && a.accel) throw Error("--accel-mm-s2 applies to --style marlin; use --accel-per-hz");
   if (a.freq_start) o.freq_start_hz = *a.freq_start;
@@ -92,6 +95,9 @@ void run_test_gcode(const TestGcodeArgs& a) {
     }
     for (int i = 0; i < 3; ++i) o.point_mm[i] = v[i];
     o.point_given = true;
+    o.probe_points.clear();
+    o.point_source = "--point";
+    o.probe_point_locations.clear();
   }
   const std::string text = resonance::test_gcode(o, m);  // whole text first: all or nothing
   if (a.output.empty() || a.output == "-") {
@@ -212,19 +218,25 @@ void register_resonance(CLI::App& app) {
 
   auto t = std::make_shared<TestGcodeArgs>();
   CLI::App* tg = res->add_subcommand(
-      "test-gcode", "Resonance-test G-code: Klipper's TEST_RESONANCES move pattern or a Marlin-style "
-                    "sweep, as plain G-code");
+      "test-gcode", "A whole resonance-test program: homing, Klipper's TEST_RESONANCES move pattern (or a "
+                    "Marlin-style sweep) at each test point, recorded by the accelerometer commands");
   add_machine_options(*tg, t->machine);
   tg->add_option("--axis", t->axis, "The axis to excite: x or y")->required()->check(CLI::IsMember({"x", "y"}));
   tg->add_option("-o,--output", t->output, "Write the G-code to this file (atomically; default: standard output)");
   tg->add_option("--style", t->style, "klipper (accel per Hz, Klipper's defaults) or marlin (constant accel)")
       ->check(CLI::IsMember({"klipper", "marlin"}));
-  tg->add_option("--freq-start", t->freq_start, "Start frequency [Hz] (default 5)");
-  tg->add_option("--freq-end", t->freq_end, "End frequency [Hz] (default: klipper 135, marlin 80)");
-  tg->add_option("--accel-per-hz", t->accel_per_hz, "klipper style: acceleration per Hz [mm/s^2/Hz] (default 60)");
+  tg->add_option("--freq-start", t->freq_start, "Start frequency [Hz] (default: [resonance_tester] min_freq, else 5)");
+  tg->add_option("--freq-end", t->freq_end,
+                 "End frequency [Hz] (default: [resonance_tester] max_freq, else klipper 135, marlin 80)");
+  tg->add_option("--accel-per-hz", t->accel_per_hz,
+                 "klipper style: acceleration per Hz [mm/s^2/Hz] (default: [resonance_tester] accel_per_hz, else 60)");
   tg->add_option("--accel-mm-s2", t->accel, "marlin style: acceleration amplitude [mm/s^2] (default 4000)");
-  tg->add_option("--hz-per-sec", t->hz_per_sec, "Sweep rate [Hz/s] (default: klipper 1, marlin 4)");
-  tg->add_option("--point", t->point, "Test point X,Y,Z [mm] (default 100,100,20)");
+  tg->add_option("--hz-per-sec", t->hz_per_sec,
+                 "Sweep rate [Hz/s] (default: [resonance_tester] hz_per_sec, else klipper 1, marlin 4)");
+  tg->add_option("--point", t->point,
+                 "Test point X,Y,Z [mm] (default: the machine's [resonance_tester] probe_points, else the "
+                 "middle of its X/Y position limits 20 mm up, else 100,100,20)");
+  tg->add_flag("--no-home", t->no_home, "Leave out the G28 at the start (the printer is homed already)");
   tg->callback([t] { run_test_gcode(*t); });
 }
 

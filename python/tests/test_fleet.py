@@ -130,3 +130,15 @@ def test_directories_plates_and_empty_files(tmp_path, source_dir):
     (tmp_path / "nothing").mkdir()
     with pytest.raises(amctl.Error, match="directory without G-code"):
         amctl.gcode_inputs([tmp_path / "nothing"])
+def test_file_limits_reach_every_run(tmp_path):
+    # M204 S4000 in the file on a 1000 mm/s^2 machine: kept (0.125 s) or capped (0.2 s),
+    # the closed forms of test_sweep_grid_matches_closed_forms.
+    g = tmp_path / "line.gcode"
+    g.write_text("M204 S4000\nG1 X10 F6000\n")
+    sets = {"printer.max_accel": 1000, "printer.minimum_cruise_ratio": 0}
+    keep = fleet.run([str(g)], ["default"], overrides=sets, workers=0)
+    cap = fleet.run([str(g)], ["default"], overrides=sets, workers=0, file_limits="cap")
+    assert math.isclose(keep[0]["total_time_s"], 0.125, rel_tol=1e-12)
+    assert math.isclose(cap[0]["total_time_s"], 0.2, rel_tol=1e-12)
+    with pytest.raises(amctl.Error):
+        fleet.run([str(g)], ["default"], workers=0, file_limits="never")

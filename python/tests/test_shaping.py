@@ -137,6 +137,14 @@ def test_compensate_equals_the_cli_and_tracks_the_path(cli, source_dir, tmp_path
     err = np.hypot(t["x_sim_mm"] - t["x_des_mm"], t["y_sim_mm"] - t["y_des_mm"]).max()
     assert err == pytest.approx(r["max_tracking_error_mm"], rel=1e-9)
     assert (tmp_path / "py.csv").read_text() == (tmp_path / "cli.csv").read_text()
+    # Judged against the seed printer's own max_accel (5000 mm/s^2): the command needs more.
+    limit = r["machine_accel_limit"]
+    assert limit["key"] == "printer.max_accel" and limit["mm_s2"] == 5000.0
+    assert limit["ratio"] == pytest.approx(r["peak_command_accel_mm_s2"] / 5000.0, rel=1e-12)
+    assert r["status"] == "machine_accel_limit_exceeded" and "5000" in r["message"]
+    free = amctl.compensate(g, machine=cfg, method="fbf", natural_frequency_hz=f, damping_ratio=0.5,
+                            ignore_machine_limits=True)
+    assert free["status"] == "ok" and "machine_accel_limit" not in free
     with pytest.raises(amctl.Error, match="method"):
         amctl.compensate(g, machine=cfg, method="magic", natural_frequency_hz=f)
 

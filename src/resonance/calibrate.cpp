@@ -302,6 +302,45 @@ CalibrationReport calibrate(const AccelFile& file, const std::string& source,
   r.peak_axis_hz = options.axis != 0 && !axis_psd.empty() ? peak_freq(r.psd, axis_psd, fmax)
                                                            : std::numeric_limits<double>::quiet_NaN();
   r.peak_xyz_hz = peak_freq(r.psd, r.psd.psd_xyz, fmax);
+  if (options.sweep || file.format == RecordFormat::corpus) {
+    ExcitationCaveat c;
+    const std::string rule =
+        "Klipper's rule is tuned on Klipper's own test, pulses of accel_per_hz * f (60 mm/s^2 per Hz), "
+        "whose excitation grows as f^2 in the PSD";
+    if (options.sweep) {
+      c.excitation = "constant_amplitude_sweep";
+      c.why = fmt::format(
+          "{}; this record is a constant-amplitude sweep ({:g} mm/s^2, {:g} to {:g} Hz), flat in f, "
+          "so against Klipper's test it weights the low frequencies up by 1/f^2 (16 times at a quarter "
+          "of a frequency), where the measured acceleration is mostly the commanded motion itself: the "
+          "rule then favours low shaper frequencies",
+          rule, options.sweep->accel_mm_s2, options.sweep->f0_hz, options.sweep->f1_hz);
+      if (r.welch) {
+        // The excitation ratio (accel_per_hz f / A)^2 up to a constant, which the rule ignores.
+        PsdTable w = r.welch->table;
+        for (std::size_t i = 0; i < w.freq_hz.size(); ++i) {
+          const double f2 = w.freq_hz[i] * w.freq_hz[i];
+          w.psd_x[i] *= f2;
+          w.psd_y[i] *= f2;
+          w.psd_z[i] *= f2;
+          w.psd_xyz[i] *= f2;
+        }
+        w.normalized = false;
+        normalize_to_frequencies(w);
+        c.reweighted = klipper_calibrate(w, options.klipper);
+      }
+    } else {
+      c.excitation = "unknown";
+      c.why = fmt::format(
+          "{}; this record is not in Klipper's format ({}), so how it was excited is not known: if it "
+          "was a constant-amplitude sweep the rule is biased toward low shaper frequencies. Give the "
+          "sweep (--sweep F0,F1,RATE,ACCEL): the frequency response divides the excitation out "
+          "(modal fit), the rule is rerun on the PSD reweighted to Klipper's excitation, and "
+          "--recommend picks the shaper by simulating the fitted model",
+          rule, to_string(file.format));
+    }
+    r.caveat = std::move(c);
+  }
   return r;
 }
 
@@ -408,6 +447,14 @@ Json to_json(const CalibrationReport& r) {
   for (const ShaperFit& f : r.klipper.shapers) shapers.push_back(fit_json(f));
   k["shapers"] = shapers;
   j["klipper"] = k;
+  if (r.caveat) {
+    Json c{{"excitation", r.caveat->excitation}, {"why", r.caveat->why}};
+    c["klipper_rule_on_reweighted_psd"] =
+        r.caveat->reweighted ? Json{{"name", r.caveat->reweighted->recommended.name},
+                                    {"freq_hz", json_number(r.caveat->reweighted->recommended.freq_hz)}}
+                             : Json(nullptr);
+    j["excitation_caveat"] = std::move(c);
+  }
   if (r.identification) {
     const SweepIdentification& id = *r.identification;
     const ModalFit& m = id.model;
@@ -502,6 +549,38 @@ std::string to_text(const CalibrationReport& r) {
                          e.natural_frequency_hz, e.natural_frequency_std_hz, e.damping_ratio,
                          e.damping_ratio_std, e.gain, e.gain_std, e.peak_gain);
       }
+    }
+  }
+  if (r.caveat) {
+    s += r.caveat->reweighted ? "\n  caveat: Klipper's rule is biased on this record.\n"
+                              : "\n  caveat: Klipper's rule may be biased on this record.\n";
+    // Wrapped at ~92 columns for the terminal.
+    std::string line = "   ";
+    std::size_t pos = 0;
+    const std::string& why = r.caveat->why;
+    while (pos < why.size()) {
+      std::size_t end = why.find(' ', pos);
+      if (end == std::string::npos) end = why.size();
+      const std::string word = why.substr(pos, end - pos);
+      if (line.size() + 1 + word.size() > 92) {
+        s += line + "\n";
+        line = "   ";
+      }
+      line += " " + word;
+      pos = end + 1;
+    }
+    s += line + ".\n";
+    if (r.caveat->reweighted) {
+      const ShaperFit& k = r.klipper.recommended;
+      const ShaperFit& w = r.caveat->reweighted->recommended;
+      s += fmt::format("    Klipper's rule on this record: {} at {:.1f} Hz (PSD peak {:.1f} Hz); on its PSD "
+                       "reweighted to Klipper's\n    excitation (x f^2): {} at {:.1f} Hz",
+                       k.name, k.freq_hz, r.peak_xyz_hz, w.name, w.freq_hz);
+      if (r.identification) {
+        s += fmt::format("; the modal fit: f_n {:.1f} Hz, damping ratio {:.3f}",
+                         r.identification->model.natural_frequency_hz, r.identification->model.damping_ratio);
+      }
+      s += ".\n    --recommend (with --machine) picks the shaper by simulating the fitted model on a print.\n";
     }
   }
   return s;

@@ -340,6 +340,17 @@ CASES = [
          {"p.csv": "freq,psd_x,psd_y,psd_z,psd_xyz,bogus\n1,1,1,1,3,1\n2,1,1,1,3,1\n"}, "p.csv:1"),
     case("psd_several_records_short_row", ["resonance", "calibrate", "p.csv"],
          {"p.csv": "freq,a.csv,b.csv\n1,1,2\n2,1\n"}, "p.csv:3"),
+    # ---- the command line: misspelt commands and options (with a did-you-mean) ----
+    case("misspelt_command", ["estimat", "f.gcode"], {"f.gcode": GOOD_GCODE}, "estimat"),
+    case("misspelt_subcommand", ["resonance", "calibrat", "f.csv"], {"f.csv": RAW_HEADER}, "calibrat"),
+    case("misspelt_option", ["estimate", "f.gcode", "--machin", "voron24"], {"f.gcode": GOOD_GCODE},
+         "--machin"),
+    case("bad_file_limits_policy", ["estimate", "f.gcode", "--file-limits", "sometimes"],
+         {"f.gcode": GOOD_GCODE}, "--file-limits"),
+    case("resonance_probe_point_beyond_limits",
+         ["resonance", "test-gcode", "--machine", "p.cfg", "--axis", "x", "-o", "out.gcode"],
+         {"p.cfg": STEPPER_CFG + "[resonance_tester]\nprobe_points:\n    199.9, 100, 20\n"},
+         "p.cfg:24", ["out.gcode"]),
 ]
 
 

@@ -98,6 +98,23 @@ struct CalibrateOptions {
   int modes = 0;
 };
 
+/// Why Klipper's rule may be biased on this record, and what it picks once the bias is taken
+/// out. Klipper's shaper rule is tuned on its own test: pulses of accel_per_hz * f, so the
+/// excitation's PSD grows as f^2 (then divided by f + 0.1 in normalize_to_frequencies). A
+/// constant-amplitude sweep has a flat excitation: against Klipper's, every frequency f is
+/// weighted (f_ref / f)^2 more, the low frequencies (where the measured acceleration is mostly
+/// the commanded motion itself) dominate, and the rule picks a low shaper frequency. With the
+/// sweep known the record's PSD is reweighted by f^2 (the excitation ratio; the rule is
+/// scale-free) and the rule rerun: what Klipper would pick had it excited the axis itself.
+struct ExcitationCaveat {
+  /// "constant_amplitude_sweep" (a --sweep was given) or "unknown" (a foreign format without
+  /// --sweep: the corpus CSV).
+  std::string excitation;
+  std::string why;  ///< one paragraph, for the text report and the JSON
+  /// Klipper's rule on the PSD reweighted to Klipper's excitation (with a sweep only).
+  std::optional<KlipperCalibration> reweighted;
+};
+
 struct CalibrationReport {
   std::string source;
   /// Every record of the fit, the first one's name first (several files, or the columns of a
@@ -112,6 +129,9 @@ struct CalibrationReport {
   double peak_xyz_hz = 0.0;              ///< the normalised psd_xyz's peak (f <= max freq)
   KlipperCalibration klipper;
   std::optional<SweepIdentification> identification;  ///< with CalibrateOptions::sweep
+  /// When the record was not excited as Klipper excites (a --sweep, or a foreign format):
+  /// why Klipper's rule is biased there and its pick on the reweighted PSD.
+  std::optional<ExcitationCaveat> caveat;
 };
 
 /// Reads the file and calibrates. Throws amctl::Error on bad input or options.
@@ -133,7 +153,9 @@ struct CalibrationReport {
 /// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std,
 /// rms_residual, bins_used, sweep_start_s, alignment_peak, segment_samples, mode_count,
 /// mode_selection (asked|bic), bic[], dominant_mode, modes[{natural_frequency_hz,
-/// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std, peak_gain}]}.
+/// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std, peak_gain}]};
+/// when the record was not excited as Klipper excites, excitation_caveat{excitation, why,
+/// klipper_rule_on_reweighted_psd{name, freq_hz} (null without a sweep)}.
 [[nodiscard]] Json to_json(const CalibrationReport& report);
 [[nodiscard]] std::string to_text(const CalibrationReport& report);
 
