@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace amctl::machine::detail {
 namespace {
@@ -297,6 +298,22 @@ bool valid_stepper_name(std::string_view name) {
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });
+}
+
+void check_shaper_type(std::string_view text, const SourceLocation& where, std::string_view label) {
+  // The names of shaping::shaper_type_names() (the shaping module sits above this one).
+  static constexpr std::string_view kShapers[] = {"zv",       "mzv",      "zvd",  "ei",
+                                                  "2hump_ei", "3hump_ei", "zvdd", "zvddd"};
+  std::string name(text);
+  if (const std::size_t paren = name.find('('); paren != std::string::npos && name.back() == ')') {
+    name.resize(paren);
+  }
+  while (!name.empty() && name.back() == ' ') name.pop_back();
+  for (char& c : name) c = lower(c);
+  if (std::find(std::begin(kShapers), std::end(kShapers), name) != std::end(kShapers)) return;
+  throw Error(where, fmt::format("{}: found '{}', expected one of {}, optionally with parameters "
+                                 "as mzv(n=4, t=0.9) or ei(v_tol=0.02)",
+                                 label, text, fmt::join(kShapers, ", ")));
 }
 
 std::span<const std::string_view> enum_names(Kind kind) {

@@ -77,6 +77,10 @@ const StepperKeyDef* find_stepper_key(std::string_view key);
 /// "x", "y", "z", "e", "z1", "e2", ...: the axes' stepper names, valid on every machine (a
 /// kinematics' own motors: stepper_a of a delta, ... are its owns_stepper()).
 bool valid_stepper_name(std::string_view name);
+/// Throws at `where` unless `text` names a shaper `amctl shaper show` knows (zv, mzv, zvd, ei,
+/// 2hump_ei, 3hump_ei, zvdd, zvddd, any case, optionally with parameters: "mzv(n=4, t=0.9)");
+/// the parameters are checked where the shaper is built.
+void check_shaper_type(std::string_view text, const SourceLocation& where, std::string_view label);
 
 // Enumerations as text.
 std::span<const std::string_view> enum_names(Kind kind);

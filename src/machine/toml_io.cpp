@@ -142,6 +142,7 @@ void assign(Machine& m, const KeyDef& d, const toml::node& v, const SourceLocati
         throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
       d.text(m) = *v.value<std::string>();
+      if (d.section == "input_shaper") detail::check_shaper_type(d.text(m), where, label);
       if (d.key == "name") pending.name_given = true;
       return;
     case Kind::boolean:
@@ -399,6 +400,15 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
           assign(m, *d, *v, where, source_name, pending);
         } else if (const detail::BoundKey* b = detail::find_bound(bound, section, key, "")) {
           assign_bound(*b, "", *v, where, fmt::format("{}.{}", section, key));
+          if (b->extruder) {
+            // The extruder's checks beyond a key's bound (Klipper's smooth-time limit), here
+            // where the key's line is known.
+            try {
+              m.extruder.check();
+            } catch (const Error& e) {
+              throw Error(where, e.detail());
+            }
+          }
         } else {
           throw Error(location_of(k->source(), source_name),
                       unknown_key_message(section, key, candidates));
@@ -505,10 +515,17 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
 
 namespace {
 
+/// "# key is unset: ..." for an unset optional Klipper key, as firmware `fw` reads it.
+std::string unset_comment(std::string_view key, Firmware fw) {
+  return fw == Firmware::klipper
+             ? fmt::format("# {} is unset: Klipper's derived default applies\n", key)
+             : fmt::format("# {} is unset (a Klipper key, not read for {})\n", key, to_string(fw));
+}
+
 /// `key = value  # unit` of a bound key at `instance`; nothing when it does not apply or is
-/// unset (`comment_unset`: "# key is unset: ..." for an unset optional number instead).
+/// unset (`comment_unset`: unset_comment for an unset optional number instead).
 void append_bound(std::string& out, const detail::BoundKey& d, std::string_view instance,
-                  bool comment_unset) {
+                  std::optional<Firmware> comment_unset) {
   using BK = detail::BoundKey::Kind;
   const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
   switch (d.kind) {
@@ -522,7 +539,7 @@ void append_bound(std::string& out, const detail::BoundKey& d, std::string_view 
         if (*v) {
           out += fmt::format("{} = {}{}\n", d.key, detail::format_number(**v), unit);
         } else if (comment_unset) {
-          out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
+          out += unset_comment(d.key, *comment_unset);
         }
       }
       return;
@@ -572,6 +589,14 @@ std::string to_toml(const Machine& machine) {
     if (section == "input_shaper" && m.input_shaper == InputShaper{}) continue;
     std::string body;
     bool any = false;
+    const bool klipper = m.firmware == Firmware::klipper;
+    if (section == "printer" && !klipper) {
+      body += fmt::format(
+          "# firmware = {0}: its limits are the [marlin] section's (M201/M203/M204/M205); the\n"
+          "# Klipper toolhead keys here (max_velocity, max_accel, square_corner_velocity,\n"
+          "# minimum_cruise_ratio, max_z_velocity, max_z_accel) are not read for {0}\n",
+          to_string(m.firmware));
+    }
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;
       any = true;
@@ -585,7 +610,7 @@ std::string to_toml(const Machine& machine) {
             body += fmt::format("{} = {}{}\n", d.key,
                                 detail::format_number(*d.optional_number(m)), unit);
           } else if (d.section != "marlin") {  // unset soft endstops: nothing written
-            body += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
+            body += unset_comment(d.key, m.firmware);
           }
           break;
         case Kind::integer:
@@ -624,7 +649,7 @@ std::string to_toml(const Machine& machine) {
     for (const detail::BoundKey& d : bound) {
       if (d.section != section || !applies(d, "")) continue;
       any = true;
-      append_bound(body, d, "", d.extruder);
+      append_bound(body, d, "", d.extruder ? std::optional(m.firmware) : std::nullopt);
     }
     if (any) out += fmt::format("\n[{}]\n{}", section, body);
   }
@@ -637,7 +662,7 @@ std::string to_toml(const Machine& machine) {
       if (!kinematics_written && d.key == "run_current") {
         kinematics_written = true;
         for (const detail::BoundKey& b : bound) {
-          if (b.section == "stepper") append_bound(out, b, name, false);
+          if (b.section == "stepper") append_bound(out, b, name, std::nullopt);
         }
       }
       const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
@@ -664,7 +689,7 @@ std::string to_toml(const Machine& machine) {
         if (k.section != "carriage") continue;
         // homing_speed at Klipper's default is left out.
         if (k.key == "homing_speed" && k.number && *k.number(name, false) == 5.0) continue;
-        append_bound(out, k, name, false);
+        append_bound(out, k, name, std::nullopt);
       }
     }
     break;

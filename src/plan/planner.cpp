@@ -91,6 +91,17 @@ inline double PlannerCore::marlin_move_limits(const std::array<double, 4>& d, Mo
 const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
                                                    gcode::MoveRequest& /*scratch*/) {
   if (klipper_) {
+    if (no_extruder_ && r.end_mm[3] != r.start_mm[3]) {
+      // toolhead.py: without [extruder] the toolhead's extruder is a dummy whose check_move
+      // refuses any move with an E component; the print stops there.
+      throw Error(SourceLocation{"", r.line, 0},
+                  fmt::format("move extrudes (E {:.5f} to {:.5f}) on a printer without [extruder]; "
+                              "Klipper stops the print here with \"Extrude when no extruder "
+                              "present: {:.3f} {:.3f} {:.3f} [{:.3f}]\", expected a move without E "
+                              "or a printer.cfg with an [extruder] section",
+                              r.start_mm[3], r.end_mm[3], r.end_mm[0], r.end_mm[1], r.end_mm[2],
+                              r.end_mm[3]));
+    }
     // klippy/kinematics/cartesian.py check_move: an axis that moves must end inside
     // [position_min, position_max], else "Move out of range" and the print stops.
     if (range_reported_) return r;

@@ -22,6 +22,14 @@
 
 namespace amctl::plan::detail {
 
+/// Adds a limits command to the report (file_limits.cpp); `acts`: the modelled firmware acts
+/// on it; `reprap`: M203 is in mm/min (RepRapFirmware).
+void tally_file_limits(const gcode::LimitsCommand& c, bool acts, bool reprap, FileLimitsReport& report);
+/// FileLimits::cap: lowers every speed, acceleration, jerk and junction limit of `lim` above
+/// the machine's to the machine's (minimum_cruise_ratio: raises it to the machine's). True
+/// when a value changed.
+bool cap_limits(Planner::Limits& lim, const Planner::Limits& machine);
+
 class PlannerCore {
  public:
   PlannerCore(const machine::Machine& machine, PlanSink& sink, PlannerOptions options);
@@ -76,6 +84,7 @@ class PlannerCore {
   // The kinematics' own checks (Klipper check_move beyond the Z limit and the axis ranges:
   // delta, deltesian, polar, rotary delta): one flag on the hot path.
   bool special_kin_ = false;
+  bool no_extruder_ = false;  // Klipper printer.cfg without [extruder]: a move that extrudes stops
   /// The special kinematics' range check and speed limits (off the hot path).
   void special_range(const gcode::MoveRequest& r);
   void special_move_limits(const gcode::MoveRequest& r, const std::array<double, 4>& d,
@@ -101,6 +110,9 @@ class PlannerCore {
   // Last: large and read little per move (a few scalars), so the hot state above stays
   // compact whatever the machine description holds.
   machine::Machine machine_;
+  /// The machine's own limits (lim_ before any G-code changed it): the ceiling of
+  /// FileLimits::cap.
+  Planner::Limits machine_lim_{};
   std::unique_ptr<const kinematics::Kinematics> kinematics_;
 };
 

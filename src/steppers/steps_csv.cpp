@@ -14,6 +14,7 @@ StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names)
   file_ = std::fopen(tmp_.c_str(), "wb");
   if (file_ == nullptr) throw Error(fmt::format("cannot write CSV file '{}'", path_));
   buf_ = "stepper,time_s,direction\n";
+  bytes_ = buf_.size();
 }
 
 StepsCsvFile::~StepsCsvFile() {
@@ -29,12 +30,14 @@ void StepsCsvFile::flush() {
 }
 
 void StepsCsvFile::write(std::span<const Step> steps) {
+  const std::size_t before = buf_.size();
   auto it = std::back_inserter(buf_);
   for (const Step& s : steps) {
     // "{}" is the shortest form that reads back to the same double.
     fmt::format_to(it, "{},{},{}\n", names_[s.stepper], s.time_s, s.direction);
   }
   rows_ += steps.size();
+  bytes_ += buf_.size() - before;
   if (buf_.size() > (1u << 20)) flush();
 }
 
