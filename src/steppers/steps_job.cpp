@@ -1,12 +1,14 @@
 // `amctl steps`: G-code and machine to steps, the CSV and the report.
 #include <cmath>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/steppers/shaped_steps.hpp"
 #include "amctl/steppers/step_filter.hpp"
 #include "amctl/steppers/step_rate.hpp"
 #include "amctl/steppers/steps.hpp"
@@ -44,7 +46,7 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   std::vector<Step> passed;
   StepRateMeter rates(motors.size());
   bool warned = false;
-  StepSink sink(motors, [&](std::span<const Step> steps) {
+  auto on_steps = [&](std::span<const Step> steps) {
     rates.push(steps);
     if (filter == StepFilter::klipper) {
       passed.clear();
@@ -58,9 +60,19 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
         on_large_csv(csv->bytes(), steps.back().time_s);
       }
     }
-  });
+  };
+  // With [input_shaper] every motor follows the shaped toolhead (shaped_steps.hpp); without
+  // it the plain generator, whose output the shaped one equals with no shaper.
+  std::optional<StepSink> plain;
+  std::optional<ShapedStepSink> shaped;
+  plan::Sink* sink = nullptr;
+  if (m.input_shaper.active()) {
+    sink = &shaped.emplace(motors, axis_shapers(m.input_shaper), on_steps);
+  } else {
+    sink = &plain.emplace(motors, on_steps);
+  }
   plan::CallbackSink counter([&](const PlannedMove&) { ++moves; });
-  plan::Sink* sinks[] = {&sink, &counter};
+  plan::Sink* sinks[] = {sink, &counter};
   const plan::StreamSummary& summary = plan::run_pipeline(source, sinks);
   if (filter == StepFilter::klipper) {
     passed.clear();
@@ -79,13 +91,13 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   r.csv_path = csv_path;
   r.print_time_s = summary.end_time_s;
   r.moves = moves;
-  r.motors = sink.generator().motors();
+  r.motors = motors;
   r.step_filter = filter;
   if (filter == StepFilter::klipper) {
     r.stats = sds.stats();
     r.filtered_pairs = sds.pairs_removed();
   } else {
-    r.stats = sink.generator().stats();
+    r.stats = shaped ? shaped->generator().stats() : plain->generator().stats();
     r.filtered_pairs.assign(motors.size(), 0);
   }
   return r;

@@ -1,0 +1,85 @@
+#pragma once
+// The shaped plan as per-axis polynomial pieces (docs/steppers.md, "Input shaping").
+//
+// Each axis of the plan is a piecewise polynomial x(t) in time, with breaks at every move's
+// piece boundaries (plan::move_pieces), holding still between moves. Shaped as Klipper's
+// kin_shaper does it (shaped_trajectory.hpp):
+//     x_s(t) = sum_i a_i x(t - d_i),
+// x_s is again a piecewise polynomial, whose breaks are the plan's breaks shifted by every
+// delay d_i. ShapedPieceStream builds those pieces exactly (a Taylor shift of each plan piece
+// to the start of the shaped piece, weighted and summed), in time order, from a stream of
+// planned moves: memory is the moves within the shaper's span of the current time.
+//
+// A jump of an axis between two moves (G92, a homing reset) does not move the motor: it is
+// absorbed into a per-axis offset so x(t) stays continuous, as the unshaped step generator
+// absorbs it per motor.
+#include <array>
+#include <cstddef>
+#include <deque>
+#include <vector>
+
+#include "amctl/plan/planned_move.hpp"
+#include "amctl/plan/velocity_profile.hpp"
+#include "amctl/shaping/shaped_trajectory.hpp"
+
+namespace amctl::shaping {
+
+inline constexpr int kAxisPieceCoeffs = plan::kMaxPieceDegree + 1;
+
+/// One piece of every axis over [t0_s, t0_s + duration_s]: x_a(t0 + tau) = sum_k c[a][k] tau^k.
+struct AxisPiece {
+  double t0_s = 0.0;
+  double duration_s = 0.0;
+  int degree = 0;  ///< the highest degree of any axis
+  std::array<std::array<double, kAxisPieceCoeffs>, 4> c{};  ///< X, Y, Z, E
+  std::int64_t line = 0;  ///< G-code line of the latest move that contributes
+};
+
+/// Planned moves in, shaped axis pieces out (in time order, contiguous from the first).
+class ShapedPieceStream {
+ public:
+  explicit ShapedPieceStream(const AxisShapers& shapers);
+
+  /// Appends the move (moves come in time order) and every shaped piece it completes to `out`.
+  void push(const plan::PlannedMove& move, std::vector<AxisPiece>& out);
+  /// The pieces left once no move follows (the tool rests after the last move), to `out`.
+  void finish(std::vector<AxisPiece>& out);
+
+  /// Largest look-behind delay (>= 0) and the most negative look-ahead delay (<= 0) [s].
+  [[nodiscard]] double max_delay_s() const { return max_delay_s_; }
+  [[nodiscard]] double min_delay_s() const { return min_delay_s_; }
+
+ private:
+  struct Source {  ///< one plan piece (or a rest) of every axis, in absolute time
+    double t0_s = 0.0;
+    double t1_s = 0.0;
+    int degree = 0;
+    std::array<std::array<double, kAxisPieceCoeffs>, 4> c{};
+    std::int64_t line = 0;
+  };
+  struct Tap {
+    double delay_s = 0.0;
+    std::array<double, 4> weight{};
+    std::size_t index = 0;  ///< absolute index of the source piece the tap reads
+  };
+  void append_source(const Source& s);
+  void append_rest(double t0, double t1);
+  void generate(std::vector<AxisPiece>& out, bool final);
+  [[nodiscard]] const Source& source(std::size_t index) const { return sources_[index - base_]; }
+
+  std::vector<Tap> taps_;
+  double max_delay_s_ = 0.0;
+  double min_delay_s_ = 0.0;
+  std::deque<Source> sources_;
+  std::size_t base_ = 0;     ///< absolute index of sources_.front()
+  bool started_ = false;
+  double out_t_s_ = 0.0;     ///< start of the next shaped piece
+  std::array<double, 4> offset_mm_{};
+  std::array<double, 4> end_mm_{};  ///< every axis at the end of the last source
+  std::array<plan::PathPiece, 7> pieces_{};
+};
+
+/// Taylor shift: the coefficients of p(tau + h) from those of p(tau) (degree `degree`).
+void taylor_shift(const double* c, int degree, double h, double* out);
+
+}  // namespace amctl::shaping

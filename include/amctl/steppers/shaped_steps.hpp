@@ -1,0 +1,87 @@
+#pragma once
+// Step generation with input shaping (docs/steppers.md, "Input shaping"): Klipper's
+// kin_shaper wraps any kinematics, so every motor follows its kinematics applied to the
+// shaped toolhead position x_s(t) = sum_i a_i x(t - d_i) (per axis; the extruder is not
+// shaped). shaping::ShapedPieceStream turns the plan into per-axis polynomial pieces in time;
+// here each motor is stepped on them with Klipper's half-step convention (steps.hpp):
+//  - a linear motor q = row . x_s is a polynomial on each piece; its turning points are the
+//    real roots of q' (isolated recursively through the roots of q'', ...), and each
+//    half-step crossing on a monotone interval is one root (closed form for degree <= 2,
+//    safeguarded Newton above);
+//  - a non-linear motor q = curve(x_s) is sampled for turning points every kCurveSampleS (and
+//    at least 8 times a piece), each sign change of its slope bisected, then stepped as above.
+#include <cstdint>
+#include <vector>
+
+#include "amctl/kinematics/kinematics.hpp"
+#include "amctl/plan/planned_move.hpp"
+#include "amctl/shaping/shaped_pieces.hpp"
+#include "amctl/steppers/steps.hpp"
+
+namespace amctl::steppers {
+
+/// Sampling interval of a non-linear motor's turning points on a shaped piece [s].
+inline constexpr double kCurveSampleS = 0.25e-3;
+
+class ShapedStepGenerator {
+ public:
+  ShapedStepGenerator(std::vector<kinematics::Motor> motors, const shaping::AxisShapers& shapers);
+
+  /// Appends the steps the move completes (time-ordered; ties: motor order) to `out`. The
+  /// steps of a move come out up to the shaper's look-ahead later, with a later move.
+  void add_move(const plan::PlannedMove& move, std::vector<Step>& out);
+  /// The steps left at the end of the plan.
+  void finish(std::vector<Step>& out);
+
+  [[nodiscard]] const std::vector<kinematics::Motor>& motors() const { return motors_; }
+  [[nodiscard]] const std::vector<StepperStats>& stats() const { return stats_; }
+  [[nodiscard]] const shaping::ShapedPieceStream& stream() const { return stream_; }
+
+ private:
+  struct State {
+    bool started = false;
+    double origin = 0.0;  ///< motor position of step 0
+    std::int64_t n = 0;
+    double last_step_s = -std::numeric_limits<double>::infinity();
+  };
+  void step_pieces(std::vector<Step>& out);
+  void linear_piece(std::uint32_t c, const shaping::AxisPiece& piece);
+  void curve_piece(std::uint32_t c, const shaping::AxisPiece& piece);
+  void record(std::uint32_t c, double t, int dir);
+
+  std::vector<kinematics::Motor> motors_;
+  std::vector<State> state_;
+  std::vector<StepperStats> stats_;
+  shaping::ShapedPieceStream stream_;
+  std::vector<shaping::AxisPiece> pieces_;
+  std::vector<std::vector<Step>> scratch_;
+  std::vector<double> bounds_;
+};
+
+/// The shapers `[input_shaper]` configures (an axis with frequency 0 is not shaped).
+[[nodiscard]] shaping::AxisShapers axis_shapers(const machine::InputShaper& config);
+
+/// A sink of the plan stream running a ShapedStepGenerator (see StepSink).
+class ShapedStepSink final : public plan::Sink {
+ public:
+  using Callback = std::function<void(std::span<const Step>)>;
+  ShapedStepSink(std::vector<kinematics::Motor> motors, const shaping::AxisShapers& shapers,
+                 Callback on_steps);
+  void consume(const plan::PlanBatch& batch) override;
+  void finish(const plan::StreamSummary& summary) override;
+  [[nodiscard]] const ShapedStepGenerator& generator() const { return gen_; }
+
+ private:
+  ShapedStepGenerator gen_;
+  Callback on_steps_;
+  std::vector<Step> buf_;
+};
+
+namespace detail {
+/// The real roots of the polynomial sum c[k] x^k (degree `degree` <= 6) in the open interval
+/// (a, b), ascending, appended to `out`; a root where the polynomial touches zero without
+/// changing sign may be left out.
+void real_roots(const double* c, int degree, double a, double b, std::vector<double>& out);
+}  // namespace detail
+
+}  // namespace amctl::steppers

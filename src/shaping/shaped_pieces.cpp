@@ -1,0 +1,165 @@
+// The shaped plan as per-axis polynomial pieces (shaped_pieces.hpp).
+#include "amctl/shaping/shaped_pieces.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "amctl/core/error.hpp"
+#include "amctl/trajectory/trajectory.hpp"
+
+namespace amctl::shaping {
+
+void taylor_shift(const double* c, int degree, double h, double* out) {
+  for (int k = 0; k <= degree; ++k) out[k] = c[k];
+  if (h == 0.0) return;
+  // Repeated synthetic division by (tau - (-h)): O(degree^2), exact up to round-off.
+  for (int i = 0; i < degree; ++i) {
+    for (int j = degree - 1; j >= i; --j) out[j] += h * out[j + 1];
+  }
+}
+
+ShapedPieceStream::ShapedPieceStream(const AxisShapers& shapers) {
+  const auto tap_at = [&](double delay) -> Tap& {
+    for (Tap& t : taps_) {
+      if (t.delay_s == delay) return t;
+    }
+    taps_.push_back(Tap{delay, {}, 0});
+    return taps_.back();
+  };
+  for (std::size_t axis = 0; axis < 4; ++axis) {
+    const Shaper* s = axis < 3 && shapers.xyz[axis] ? &*shapers.xyz[axis] : nullptr;
+    if (s == nullptr) {
+      tap_at(0.0).weight[axis] += 1.0;
+      continue;
+    }
+    const AppliedPulses p = applied_pulses(*s);
+    for (std::size_t i = 0; i < p.weights.size(); ++i) {
+      tap_at(p.delays_s[i]).weight[axis] += p.weights[i];
+    }
+  }
+  for (const Tap& t : taps_) {
+    max_delay_s_ = std::max(max_delay_s_, t.delay_s);
+    min_delay_s_ = std::min(min_delay_s_, t.delay_s);
+  }
+}
+
+void ShapedPieceStream::append_source(const Source& s) { sources_.push_back(s); }
+
+void ShapedPieceStream::append_rest(double t0, double t1) {
+  Source s;
+  s.t0_s = t0;
+  s.t1_s = t1;
+  s.degree = 0;
+  for (std::size_t a = 0; a < 4; ++a) s.c[a][0] = end_mm_[a];
+  s.line = sources_.empty() ? 0 : sources_.back().line;
+  sources_.push_back(s);
+}
+
+void ShapedPieceStream::push(const plan::PlannedMove& move, std::vector<AxisPiece>& out) {
+  const std::size_t count = trajectory::move_pieces(move, pieces_);
+  if (!started_) {
+    started_ = true;
+    for (std::size_t a = 0; a < 4; ++a) end_mm_[a] = move.start_mm[a];
+    const double span = max_delay_s_ - min_delay_s_;
+    append_rest(move.start_time_s - span - 1.0, move.start_time_s);
+    base_ = 0;
+    for (Tap& t : taps_) t.index = 0;
+    out_t_s_ = move.start_time_s + min_delay_s_;
+  } else {
+    for (std::size_t a = 0; a < 4; ++a) {
+      const double p = move.start_mm[a] + offset_mm_[a];
+      if (std::abs(p - end_mm_[a]) > 1e-9 * (1.0 + std::abs(end_mm_[a]))) {
+        offset_mm_[a] += end_mm_[a] - p;
+      }
+    }
+    const double last = sources_.back().t1_s;
+    if (move.start_time_s > last) append_rest(last, move.start_time_s);
+  }
+  double t = std::max(move.start_time_s, sources_.back().t1_s);
+  double s_end = 0.0;
+  for (std::size_t j = 0; j < count; ++j) {
+    const plan::PathPiece& p = pieces_[j];
+    double s1 = 0.0;
+    for (int k = p.degree; k >= 0; --k) s1 = s1 * p.duration_s + p.c[static_cast<std::size_t>(k)];
+    s_end = s1;
+    if (!(p.duration_s > 0.0)) continue;
+    Source src;
+    src.t0_s = t;
+    src.t1_s = t + p.duration_s;
+    src.degree = p.degree;
+    src.line = static_cast<std::int64_t>(move.line);
+    for (std::size_t a = 0; a < 4; ++a) {
+      const double r = move.axes_r[a];
+      src.c[a][0] = move.start_mm[a] + offset_mm_[a] + r * p.c[0];
+      for (int k = 1; k <= p.degree; ++k) {
+        src.c[a][static_cast<std::size_t>(k)] = r * p.c[static_cast<std::size_t>(k)];
+      }
+    }
+    append_source(src);
+    t = src.t1_s;
+  }
+  for (std::size_t a = 0; a < 4; ++a) {
+    end_mm_[a] = move.start_mm[a] + offset_mm_[a] + move.axes_r[a] * s_end;
+  }
+  generate(out, false);
+}
+
+void ShapedPieceStream::finish(std::vector<AxisPiece>& out) {
+  if (!started_) return;
+  append_rest(sources_.back().t1_s, std::numeric_limits<double>::infinity());
+  generate(out, true);
+}
+
+void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
+  const std::size_t end_index = base_ + sources_.size();
+  while (true) {
+    double next = std::numeric_limits<double>::infinity();
+    bool all_rest = true;
+    for (Tap& tap : taps_) {
+      while (source(tap.index).t1_s + tap.delay_s <= out_t_s_) {
+        if (tap.index + 1 >= end_index) return;  // the next move decides what follows
+        ++tap.index;
+      }
+      const Source& s = source(tap.index);
+      if (std::isfinite(s.t1_s)) all_rest = false;
+      next = std::min(next, s.t1_s + tap.delay_s);
+    }
+    if (final && all_rest) break;
+    if (!std::isfinite(next)) break;
+    if (next > out_t_s_) {
+      AxisPiece piece;
+      piece.t0_s = out_t_s_;
+      piece.duration_s = next - out_t_s_;
+      std::array<double, kAxisPieceCoeffs> shifted{};
+      for (const Tap& tap : taps_) {
+        const Source& s = source(tap.index);
+        piece.line = std::max(piece.line, s.line);
+        const double h = out_t_s_ - tap.delay_s - s.t0_s;
+        piece.degree = std::max(piece.degree, s.degree);
+        for (std::size_t a = 0; a < 4; ++a) {
+          const double w = tap.weight[a];
+          if (w == 0.0) continue;
+          if (s.degree == 0) {
+            piece.c[a][0] += w * s.c[a][0];
+            continue;
+          }
+          taylor_shift(s.c[a].data(), s.degree, h, shifted.data());
+          for (int k = 0; k <= s.degree; ++k) {
+            piece.c[a][static_cast<std::size_t>(k)] += w * shifted[static_cast<std::size_t>(k)];
+          }
+        }
+      }
+      out.push_back(piece);
+    }
+    out_t_s_ = next;
+    std::size_t lowest = end_index;
+    for (const Tap& tap : taps_) lowest = std::min(lowest, tap.index);
+    while (base_ < lowest) {
+      sources_.pop_front();
+      ++base_;
+    }
+  }
+}
+
+}  // namespace amctl::shaping

@@ -1,0 +1,372 @@
+// Step generation on the shaped plan (shaped_steps.hpp, docs/steppers.md "Input shaping").
+#include "amctl/steppers/shaped_steps.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/shaping/shaper.hpp"
+
+namespace amctl::steppers {
+
+using shaping::AxisPiece;
+
+namespace {
+
+constexpr int kMaxDegree = shaping::kAxisPieceCoeffs - 1;
+
+double peval(const double* c, int deg, double x) {
+  double v = 0.0;
+  for (int k = deg; k >= 0; --k) v = v * x + c[k];
+  return v;
+}
+
+double peval_d(const double* c, int deg, double x, double& d) {
+  double v = 0.0, dv = 0.0;
+  for (int k = deg; k >= 0; --k) {
+    dv = dv * x + v;
+    v = v * x + c[k];
+  }
+  d = dv;
+  return v;
+}
+
+/// The root of c in [a, b] where it changes sign (fa = c(a), fa * c(b) < 0): safeguarded
+/// Newton, to round-off.
+double bracket_root(const double* c, int deg, double a, double b, double fa) {
+  double x = 0.5 * (a + b);
+  for (int it = 0; it < 200; ++it) {
+    double d = 0.0;
+    const double f = peval_d(c, deg, x, d);
+    if (f == 0.0) return x;
+    if ((f < 0.0) == (fa < 0.0)) a = x;
+    else b = x;
+    double nx = d != 0.0 ? x - f / d : 0.5 * (a + b);
+    if (!(nx > a && nx < b)) nx = 0.5 * (a + b);
+    if (std::abs(nx - x) <= 1e-15 * (1.0 + std::abs(x)) ||
+        b - a <= 1e-15 * (1.0 + std::abs(a) + std::abs(b))) {
+      return nx;
+    }
+    x = nx;
+  }
+  return x;
+}
+
+void roots_rec(const double* c, int deg, double a, double b, double* out, int& n) {
+  while (deg > 0 && c[deg] == 0.0) --deg;
+  if (deg <= 0) return;
+  if (deg == 1) {
+    const double r = -c[0] / c[1];
+    if (r > a && r < b) out[n++] = r;
+    return;
+  }
+  if (deg == 2) {
+    const double disc = c[1] * c[1] - 4.0 * c[2] * c[0];
+    if (disc < 0.0) return;
+    const double q = -0.5 * (c[1] + std::copysign(std::sqrt(disc), c[1]));
+    double r1 = q / c[2];
+    double r2 = q != 0.0 ? c[0] / q : r1;
+    if (r1 > r2) std::swap(r1, r2);
+    if (r1 > a && r1 < b) out[n++] = r1;
+    if (r2 > a && r2 < b && r2 != r1) out[n++] = r2;
+    return;
+  }
+  double d[kMaxDegree + 1];
+  for (int k = 0; k < deg; ++k) d[k] = (k + 1) * c[k + 1];
+  double crit[kMaxDegree + 2];
+  int m = 0;
+  roots_rec(d, deg - 1, a, b, crit, m);
+  double x = a, fx = peval(c, deg, a);
+  for (int i = 0; i <= m; ++i) {
+    const double y = i < m ? crit[i] : b;
+    const double fy = peval(c, deg, y);
+    if (fx == 0.0 && x > a) out[n++] = x;
+    else if ((fx < 0.0 && fy > 0.0) || (fx > 0.0 && fy < 0.0)) out[n++] = bracket_root(c, deg, x, y, fx);
+    x = y;
+    fx = fy;
+  }
+}
+
+/// tau in [lo, b] where the polynomial (monotone there, in direction dir) reaches `level`.
+double crossing(const double* p, int deg, double lo, double b, double level, int dir) {
+  double tau = lo;
+  if (deg <= 0) return lo;
+  if (deg == 1) {
+    if (p[1] != 0.0) tau = (level - p[0]) / p[1];
+  } else if (deg == 2) {
+    // At lo: g(s) = A s^2 + B s - D with B = dir q'(lo) >= 0 and D = dir (level - q(lo)):
+    // s = 2D / (B + sqrt(B^2 + 4 A D)), free of cancellation for both signs of A.
+    const double v0 = p[0] + lo * (p[1] + lo * p[2]);
+    const double v1 = p[1] + 2.0 * lo * p[2];
+    const double D = dir * (level - v0);
+    const double B = dir * v1, A = dir * p[2];
+    const double den = B + std::sqrt(std::max(0.0, B * B + 4.0 * A * D));
+    tau = den > 0.0 ? lo + 2.0 * D / den : lo;
+  } else {
+    double g[kMaxDegree + 1];
+    for (int k = 0; k <= deg; ++k) g[k] = p[k];
+    g[0] -= level;
+    const double ga = peval(g, deg, lo);
+    if (dir * ga >= 0.0) return lo;
+    if (dir * peval(g, deg, b) <= 0.0) return b;
+    tau = bracket_root(g, deg, lo, b, ga);
+  }
+  return std::clamp(tau, lo, b);
+}
+
+}  // namespace
+
+namespace detail {
+void real_roots(const double* c, int degree, double a, double b, std::vector<double>& out) {
+  AMCTL_CHECK(degree <= kMaxDegree, "polynomial degree at most 6");
+  double r[kMaxDegree + 2];
+  int n = 0;
+  roots_rec(c, degree, a, b, r, n);
+  out.insert(out.end(), r, r + n);
+}
+}  // namespace detail
+
+shaping::AxisShapers axis_shapers(const machine::InputShaper& config) {
+  shaping::AxisShapers s;
+  if (config.shaper_freq_x_hz > 0.0) {
+    s.xyz[0] = shaping::make_shaper(config.shaper_type_x, config.shaper_freq_x_hz,
+                                    config.damping_ratio_x);
+  }
+  if (config.shaper_freq_y_hz > 0.0) {
+    s.xyz[1] = shaping::make_shaper(config.shaper_type_y, config.shaper_freq_y_hz,
+                                    config.damping_ratio_y);
+  }
+  return s;
+}
+
+ShapedStepGenerator::ShapedStepGenerator(std::vector<kinematics::Motor> motors,
+                                         const shaping::AxisShapers& shapers)
+    : motors_(std::move(motors)),
+      state_(motors_.size()),
+      stats_(motors_.size()),
+      stream_(shapers),
+      scratch_(motors_.size()) {
+  for (const kinematics::Motor& m : motors_) {
+    AMCTL_CHECK(m.step_distance.value > 0.0, "step distance must be positive");
+  }
+}
+
+void ShapedStepGenerator::add_move(const plan::PlannedMove& move, std::vector<Step>& out) {
+  pieces_.clear();
+  stream_.push(move, pieces_);
+  step_pieces(out);
+}
+
+void ShapedStepGenerator::finish(std::vector<Step>& out) {
+  pieces_.clear();
+  stream_.finish(pieces_);
+  step_pieces(out);
+}
+
+void ShapedStepGenerator::record(std::uint32_t c, double t, int dir) {
+  State& st = state_[c];
+  StepperStats& stats = stats_[c];
+  t = std::max(t, st.last_step_s);
+  st.n += dir;
+  const double interval = t - st.last_step_s;
+  if (interval < stats.min_interval_s) {
+    stats.min_interval_s = interval;
+    stats.peak_time_s = t;
+  }
+  st.last_step_s = t;
+  scratch_[c].push_back(Step{t, c, dir});
+  ++stats.steps;
+  if (dir > 0) ++stats.steps_positive;
+  else ++stats.steps_negative;
+  stats.position_steps = st.n;
+}
+
+void ShapedStepGenerator::step_pieces(std::vector<Step>& out) {
+  if (pieces_.empty()) return;
+  for (auto& s : scratch_) s.clear();
+  for (const AxisPiece& piece : pieces_) {
+    for (std::uint32_t c = 0; c < motors_.size(); ++c) {
+      if (motors_[c].linear()) linear_piece(c, piece);
+      else curve_piece(c, piece);
+    }
+  }
+  // k-way merge by time (ties: motor order).
+  std::size_t total = 0;
+  for (const auto& s : scratch_) total += s.size();
+  out.reserve(out.size() + total);
+  std::vector<std::size_t> head(motors_.size(), 0);
+  for (std::size_t k = 0; k < total; ++k) {
+    std::size_t best = motors_.size();
+    double best_t = 0.0;
+    for (std::size_t c = 0; c < motors_.size(); ++c) {
+      if (head[c] < scratch_[c].size()) {
+        const double t = scratch_[c][head[c]].time_s;
+        if (best == motors_.size() || t < best_t) {
+          best = c;
+          best_t = t;
+        }
+      }
+    }
+    out.push_back(scratch_[best][head[best]++]);
+  }
+}
+
+void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) {
+  const kinematics::Motor& motor = motors_[c];
+  State& st = state_[c];
+  const auto& r = motor.row;
+  double p[kMaxDegree + 1] = {};
+  int deg = 0;
+  for (int k = 0; k <= piece.degree; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    p[k] = r[0] * piece.c[0][kk] + r[1] * piece.c[1][kk] + r[2] * piece.c[2][kk] +
+           r[3] * piece.c[3][kk];
+    if (k > 0 && p[k] != 0.0) deg = k;
+  }
+  if (!st.started) {
+    st.started = true;
+    st.origin = p[0];
+  }
+  if (deg == 0) return;
+  const double L = piece.duration_s;
+  const double step = motor.step_distance.value;
+  bounds_.assign(1, 0.0);
+  double d[kMaxDegree];
+  for (int k = 0; k < deg; ++k) d[k] = (k + 1) * p[k + 1];
+  detail::real_roots(d, deg - 1, 0.0, L, bounds_);
+  bounds_.push_back(L);
+  for (std::size_t i = 0; i + 1 < bounds_.size(); ++i) {
+    const double a = bounds_[i], b = bounds_[i + 1];
+    const double ub = (peval(p, deg, b) - st.origin) / step;
+    double lo = a;
+    while (static_cast<double>(st.n) + 0.5 <= ub) {
+      const double level = st.origin + (static_cast<double>(st.n) + 0.5) * step;
+      lo = crossing(p, deg, lo, b, level, 1);
+      record(c, piece.t0_s + lo, 1);
+    }
+    while (static_cast<double>(st.n) - 0.5 >= ub) {
+      const double level = st.origin + (static_cast<double>(st.n) - 0.5) * step;
+      lo = crossing(p, deg, lo, b, level, -1);
+      record(c, piece.t0_s + lo, -1);
+    }
+  }
+}
+
+void ShapedStepGenerator::curve_piece(std::uint32_t c, const AxisPiece& piece) {
+  const kinematics::Motor& motor = motors_[c];
+  const kinematics::MotorCurve& curve = *motor.curve;
+  State& st = state_[c];
+  const int deg = piece.degree;
+  auto point = [&](double tau) {
+    return kinematics::Vec3{peval(piece.c[0].data(), deg, tau), peval(piece.c[1].data(), deg, tau),
+                            peval(piece.c[2].data(), deg, tau)};
+  };
+  auto q = [&](double tau) {
+    const kinematics::Vec3 pt = point(tau);
+    const double v = curve.position(pt);
+    if (!std::isfinite(v)) {
+      throw Error(fmt::format("line {}: {}", piece.line, curve.out_of_reach(pt, motor.name)));
+    }
+    return v;
+  };
+  const double q0 = q(0.0);
+  if (!st.started) {
+    st.started = true;
+    st.origin = q0;
+  }
+  bool moves = false;
+  for (std::size_t a = 0; a < 3 && !moves; ++a) {
+    for (int k = 1; k <= deg; ++k) moves = moves || piece.c[a][static_cast<std::size_t>(k)] != 0.0;
+  }
+  if (!moves) return;
+  const double L = piece.duration_s;
+  const int samples = std::max(8, static_cast<int>(std::ceil(L / kCurveSampleS)));
+  // Turning points: sign changes of the sampled differences, each refined by bisection on
+  // the sign of q(x + h) - q(x - h).
+  bounds_.assign(1, 0.0);
+  const double dt = L / samples;
+  double prev_q = q0;
+  int prev_sign = 0;
+  for (int j = 1; j <= samples; ++j) {
+    const double qj = q(j == samples ? L : j * dt);
+    const int sign = qj > prev_q ? 1 : (qj < prev_q ? -1 : 0);
+    if (sign != 0 && prev_sign != 0 && sign != prev_sign) {
+      double lo = (j - 2) * dt, hi = j * dt;
+      const double h = 1e-9 * (1.0 + L);
+      for (int it = 0; it < 60 && hi - lo > 1e-13 * (1.0 + L); ++it) {
+        const double mid = 0.5 * (lo + hi);
+        const double slope = q(std::min(L, mid + h)) - q(std::max(0.0, mid - h));
+        if ((slope > 0.0 ? 1 : -1) == prev_sign) lo = mid;
+        else hi = mid;
+      }
+      bounds_.push_back(0.5 * (lo + hi));
+    }
+    if (sign != 0) prev_sign = sign;
+    prev_q = qj;
+  }
+  bounds_.push_back(L);
+  const double step = motor.step_distance.value;
+  // Illinois regula falsi on q - level, bracketed on a monotone interval.
+  auto solve = [&](double a, double b, double level, int dir) {
+    double fa = dir * (q(a) - level), fb = dir * (q(b) - level);
+    if (fa >= 0.0) return a;
+    if (fb <= 0.0) return b;
+    int side = 0;
+    double x = a;
+    for (int it = 0; it < 200 && b - a > 1e-13 * (1.0 + L); ++it) {
+      x = (a * fb - b * fa) / (fb - fa);
+      if (!(x > a && x < b)) x = 0.5 * (a + b);
+      const double fx = dir * (q(x) - level);
+      if (fx == 0.0) return x;
+      if (fx < 0.0) {
+        a = x;
+        fa = fx;
+        if (side == -1) fb *= 0.5;
+        side = -1;
+      } else {
+        b = x;
+        fb = fx;
+        if (side == 1) fa *= 0.5;
+        side = 1;
+      }
+    }
+    return x;
+  };
+  for (std::size_t i = 0; i + 1 < bounds_.size(); ++i) {
+    const double a = bounds_[i], b = bounds_[i + 1];
+    if (!(b > a)) continue;
+    const double ub = (q(b) - st.origin) / step;
+    double lo = a;
+    while (static_cast<double>(st.n) + 0.5 <= ub) {
+      lo = solve(lo, b, st.origin + (static_cast<double>(st.n) + 0.5) * step, 1);
+      record(c, piece.t0_s + lo, 1);
+    }
+    while (static_cast<double>(st.n) - 0.5 >= ub) {
+      lo = solve(lo, b, st.origin + (static_cast<double>(st.n) - 0.5) * step, -1);
+      record(c, piece.t0_s + lo, -1);
+    }
+  }
+}
+
+ShapedStepSink::ShapedStepSink(std::vector<kinematics::Motor> motors,
+                               const shaping::AxisShapers& shapers, Callback on_steps)
+    : gen_(std::move(motors), shapers), on_steps_(std::move(on_steps)) {}
+
+void ShapedStepSink::consume(const plan::PlanBatch& batch) {
+  for (const plan::PlannedMove& m : batch.moves) {
+    buf_.clear();
+    gen_.add_move(m, buf_);
+    if (!buf_.empty() && on_steps_) on_steps_(buf_);
+  }
+}
+
+void ShapedStepSink::finish(const plan::StreamSummary&) {
+  buf_.clear();
+  gen_.finish(buf_);
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+}  // namespace amctl::steppers
