@@ -10,6 +10,7 @@
 #include "amctl/plan/stream.hpp"
 #include "amctl/steppers/step_filter.hpp"
 #include "amctl/machine/kinematics.hpp"
+#include "amctl/steppers/shaped_steps.hpp"
 #include "amctl/steppers/step_rate.hpp"
 #include "amctl/steppers/steps.hpp"
 
@@ -135,3 +136,43 @@ void BM_StepsDeltaSynthetic(benchmark::State& state) {
 BENCHMARK(BM_StepsDeltaSynthetic)->Unit(benchmark::kMillisecond);
 
 }  // namespace
+
+// Input shaping (shaped_steps.hpp) on the same print: the shaped plan's pieces and the step
+// solver on them; the cost of the shaper is this rate against BM_StepsBoxbossCoreXY's.
+void run_shaped_steps(benchmark::State& state, const Planned& p, const char* tx, double fx,
+                      const char* ty, double fy) {
+  const auto channels = amctl::machine::motors(p.machine);
+  amctl::shaping::AxisShapers shapers;
+  shapers.xyz[0] = amctl::shaping::make_shaper(tx, fx, 0.1);
+  shapers.xyz[1] = amctl::shaping::make_shaper(ty, fy, 0.1);
+  std::uint64_t steps = 0;
+  for (auto _ : state) {
+    std::uint64_t n = 0;
+    double last = 0.0;
+    amctl::steppers::ShapedStepSink sink(channels, shapers,
+                                         [&](std::span<const amctl::steppers::Step> s) {
+                                           n += s.size();
+                                           last = s.back().time_s;
+                                         });
+    for (const auto& b : p.batches) sink.consume(b);
+    sink.finish({});
+    benchmark::DoNotOptimize(last);
+    steps = n;
+  }
+  state.counters["steps"] = static_cast<double>(steps);
+  state.SetItemsProcessed(static_cast<std::int64_t>(steps) * state.iterations());
+}
+
+void BM_StepsBoxbossCoreXYShapedMzv(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  run_shaped_steps(state, p, "mzv", 40.0, "mzv", 40.0);
+}
+BENCHMARK(BM_StepsBoxbossCoreXYShapedMzv)->Unit(benchmark::kMillisecond);
+
+void BM_StepsBoxbossCoreXYShaped3HumpEi(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  run_shaped_steps(state, p, "3hump_ei", 60.0, "ei", 45.0);
+}
+BENCHMARK(BM_StepsBoxbossCoreXYShaped3HumpEi)->Unit(benchmark::kMillisecond);
