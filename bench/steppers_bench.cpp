@@ -149,7 +149,7 @@ void run_shaped_steps(benchmark::State& state, const Planned& p, const char* tx,
   for (auto _ : state) {
     std::uint64_t n = 0;
     double last = 0.0;
-    amctl::steppers::ShapedStepSink sink(channels, shapers,
+    amctl::steppers::ShapedStepSink sink(channels, shapers, {},
                                          [&](std::span<const amctl::steppers::Step> s) {
                                            n += s.size();
                                            last = s.back().time_s;

@@ -19,7 +19,9 @@ void taylor_shift(const double* c, int degree, double h, double* out) {
   }
 }
 
-ShapedPieceStream::ShapedPieceStream(const AxisShapers& shapers) {
+ShapedPieceStream::ShapedPieceStream(const AxisShapers& shapers, const PressureAdvance& pa)
+    : pa_(pa) {
+  if (pa_.active()) half_smooth_s_ = 0.5 * pa_.smooth_time_s;
   const auto tap_at = [&](double delay) -> Tap& {
     for (Tap& t : taps_) {
       if (t.delay_s == delay) return t;
@@ -30,13 +32,27 @@ ShapedPieceStream::ShapedPieceStream(const AxisShapers& shapers) {
   for (std::size_t axis = 0; axis < 4; ++axis) {
     const Shaper* s = axis < 3 && shapers.xyz[axis] ? &*shapers.xyz[axis] : nullptr;
     if (s == nullptr) {
-      tap_at(0.0).weight[axis] += 1.0;
+      // The extruder under pressure advance is integrated (smoothed_extruder), not tapped.
+      if (!(axis == 3 && half_smooth_s_ > 0.0)) tap_at(0.0).weight[axis] += 1.0;
       continue;
     }
     const AppliedPulses p = applied_pulses(*s);
     for (std::size_t i = 0; i < p.weights.size(); ++i) {
       tap_at(p.delays_s[i]).weight[axis] += p.weights[i];
     }
+  }
+  if (half_smooth_s_ > 0.0) {
+    // Taps of zero weight whose breaks bound the integral: at t - h, t and t + h.
+    const auto index_of = [&](double delay) {
+      tap_at(delay);
+      for (std::size_t i = 0; i < taps_.size(); ++i) {
+        if (taps_[i].delay_s == delay) return i;
+      }
+      return std::size_t{0};
+    };
+    tap_behind_ = index_of(half_smooth_s_);
+    tap_now_ = index_of(0.0);
+    tap_ahead_ = index_of(-half_smooth_s_);
   }
   for (const Tap& t : taps_) {
     max_delay_s_ = std::max(max_delay_s_, t.delay_s);
@@ -52,6 +68,7 @@ void ShapedPieceStream::append_rest(double t0, double t1) {
   s.t1_s = t1;
   s.degree = 0;
   for (std::size_t a = 0; a < 4; ++a) s.c[a][0] = end_mm_[a];
+  s.e_pa[0] = end_mm_[3];
   s.line = sources_.empty() ? 0 : sources_.back().line;
   sources_.push_back(s);
 }
@@ -94,6 +111,16 @@ void ShapedPieceStream::push(const plan::PlannedMove& move, std::vector<AxisPiec
       src.c[a][0] = move.start_mm[a] + offset_mm_[a] + r * p.c[0];
       for (int k = 1; k <= p.degree; ++k) {
         src.c[a][static_cast<std::size_t>(k)] = r * p.c[static_cast<std::size_t>(k)];
+      }
+    }
+    // Klipper applies pressure advance to moves that extrude while moving in X or Y.
+    const bool advance = half_smooth_s_ > 0.0 && !move.extrude_only && move.axes_r[3] > 0.0 &&
+                         (move.axes_r[0] != 0.0 || move.axes_r[1] != 0.0);
+    src.e_pa = src.c[3];
+    if (advance) {
+      for (int k = 0; k < p.degree; ++k) {
+        src.e_pa[static_cast<std::size_t>(k)] +=
+            pa_.advance_s * (k + 1) * src.c[3][static_cast<std::size_t>(k + 1)];
       }
     }
     append_source(src);
@@ -150,6 +177,11 @@ void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
           }
         }
       }
+      if (half_smooth_s_ > 0.0) {
+        int deg = 0;
+        smoothed_extruder(out_t_s_, piece.c[3].data(), deg);
+        piece.degree = std::max(piece.degree, deg);
+      }
       out.push_back(piece);
     }
     out_t_s_ = next;
@@ -160,6 +192,74 @@ void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
       ++base_;
     }
   }
+}
+
+void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) const {
+  constexpr int N = kAxisPieceCoeffs;
+  const double h = half_smooth_s_;
+  const std::size_t iL = taps_[tap_behind_].index, iM = taps_[tap_now_].index,
+                    iR = taps_[tap_ahead_].index;
+  bool moving = false;
+  for (std::size_t j = iL; j <= iR; ++j) moving = moving || source(j).degree > 0;
+  for (int k = 0; k < N; ++k) out[k] = 0.0;
+  degree = 0;
+  if (!moving) {  // at rest over the whole window: the weights integrate to one
+    out[0] = source(iM).e_pa[0];
+    return;
+  }
+  std::array<double, N> P{}, Q0{}, Q1{}, tmp{}, D0{}, D1{};
+  // Q(l0 + l1 sigma) as a polynomial in sigma (l1 is 0 or 1).
+  const auto at = [&](const std::array<double, N>& Q, int qdeg, double l0, double l1,
+                      std::array<double, N>& r) {
+    if (l1 == 0.0) {
+      double v = 0.0;
+      for (int k = qdeg; k >= 0; --k) v = v * l0 + Q[static_cast<std::size_t>(k)];
+      r.fill(0.0);
+      r[0] = v;
+    } else {
+      taylor_shift(Q.data(), qdeg, l0, r.data());
+      for (int k = qdeg + 1; k < N; ++k) r[static_cast<std::size_t>(k)] = 0.0;
+    }
+  };
+  // One half of the kernel over source j between the limits (a0 + a1 sigma, b0 + b1 sigma).
+  const auto half = [&](const Source& s, double a0, double a1, double b0, double b1, bool left) {
+    const int d = s.degree;
+    taylor_shift(s.e_pa.data(), d, a0 - s.t0_s, P.data());  // y = x - a0
+    Q0.fill(0.0);
+    Q1.fill(0.0);
+    for (int k = 0; k <= d; ++k) {
+      Q0[static_cast<std::size_t>(k + 1)] = P[static_cast<std::size_t>(k)] / (k + 1);
+      Q1[static_cast<std::size_t>(k + 2)] = P[static_cast<std::size_t>(k)] / (k + 2);
+    }
+    at(Q0, d + 1, b0 - a0, b1, D0);
+    at(Q0, d + 1, 0.0, a1, tmp);
+    for (int k = 0; k < N; ++k) D0[static_cast<std::size_t>(k)] -= tmp[static_cast<std::size_t>(k)];
+    at(Q1, d + 2, b0 - a0, b1, D1);
+    at(Q1, d + 2, 0.0, a1, tmp);
+    for (int k = 0; k < N; ++k) D1[static_cast<std::size_t>(k)] -= tmp[static_cast<std::size_t>(k)];
+    // left: weight x - t + h = y + (cL - sigma); right: t + h - x = -y + (cR + sigma).
+    const double sign = left ? 1.0 : -1.0;
+    const double c = left ? a0 - u0 + h : u0 + h - a0;
+    for (int k = 0; k < N; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      out[k] += sign * D1[kk] + c * D0[kk] - (k > 0 ? sign * D0[kk - 1] : 0.0);
+    }
+    degree = std::max(degree, d + 2);
+  };
+  for (std::size_t j = iL; j <= iR; ++j) {
+    const Source& s = source(j);
+    if (j <= iM) {
+      const bool lo_t = j == iL, hi_t = j == iM;
+      half(s, lo_t ? u0 - h : s.t0_s, lo_t ? 1.0 : 0.0, hi_t ? u0 : s.t1_s, hi_t ? 1.0 : 0.0, true);
+    }
+    if (j >= iM) {
+      const bool lo_t = j == iM, hi_t = j == iR;
+      half(s, lo_t ? u0 : s.t0_s, lo_t ? 1.0 : 0.0, hi_t ? u0 + h : s.t1_s, hi_t ? 1.0 : 0.0, false);
+    }
+  }
+  const double inv = 1.0 / (h * h);
+  for (int k = 0; k < N; ++k) out[k] *= inv;
+  degree = std::min(degree, N - 1);
 }
 
 }  // namespace amctl::shaping

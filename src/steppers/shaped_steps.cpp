@@ -121,7 +121,7 @@ double crossing(const double* p, int deg, double lo, double b, double level, int
 
 namespace detail {
 void real_roots(const double* c, int degree, double a, double b, std::vector<double>& out) {
-  AMCTL_CHECK(degree <= kMaxDegree, "polynomial degree at most 6");
+  AMCTL_CHECK(degree <= kMaxDegree, "polynomial degree at most 8");
   double r[kMaxDegree + 2];
   int n = 0;
   roots_rec(c, degree, a, b, r, n);
@@ -142,12 +142,19 @@ shaping::AxisShapers axis_shapers(const machine::InputShaper& config) {
   return s;
 }
 
+shaping::PressureAdvance pressure_advance(const machine::Machine& m) {
+  if (!m.extruder.present) return {};
+  return shaping::PressureAdvance{m.extruder.pressure_advance_s,
+                                  m.extruder.pressure_advance_smooth_time_s};
+}
+
 ShapedStepGenerator::ShapedStepGenerator(std::vector<kinematics::Motor> motors,
-                                         const shaping::AxisShapers& shapers)
+                                         const shaping::AxisShapers& shapers,
+                                         const shaping::PressureAdvance& pa)
     : motors_(std::move(motors)),
       state_(motors_.size()),
       stats_(motors_.size()),
-      stream_(shapers),
+      stream_(shapers, pa),
       scratch_(motors_.size()) {
   for (const kinematics::Motor& m : motors_) {
     AMCTL_CHECK(m.step_distance.value > 0.0, "step distance must be positive");
@@ -352,8 +359,9 @@ void ShapedStepGenerator::curve_piece(std::uint32_t c, const AxisPiece& piece) {
 }
 
 ShapedStepSink::ShapedStepSink(std::vector<kinematics::Motor> motors,
-                               const shaping::AxisShapers& shapers, Callback on_steps)
-    : gen_(std::move(motors), shapers), on_steps_(std::move(on_steps)) {}
+                               const shaping::AxisShapers& shapers,
+                               const shaping::PressureAdvance& pa, Callback on_steps)
+    : gen_(std::move(motors), shapers, pa), on_steps_(std::move(on_steps)) {}
 
 void ShapedStepSink::consume(const plan::PlanBatch& batch) {
   for (const plan::PlannedMove& m : batch.moves) {

@@ -61,13 +61,15 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
       }
     }
   };
-  // With [input_shaper] every motor follows the shaped toolhead (shaped_steps.hpp); without
-  // it the plain generator, whose output the shaped one equals with no shaper.
+  // With [input_shaper] every motor follows the shaped toolhead and with pressure advance the
+  // extruder its advanced, smoothed position (shaped_steps.hpp); without either the plain
+  // generator, whose output the shaped one equals then.
   std::optional<StepSink> plain;
   std::optional<ShapedStepSink> shaped;
   plan::Sink* sink = nullptr;
-  if (m.input_shaper.active()) {
-    sink = &shaped.emplace(motors, axis_shapers(m.input_shaper), on_steps);
+  const shaping::PressureAdvance pa = pressure_advance(m);
+  if (m.input_shaper.active() || pa.active()) {
+    sink = &shaped.emplace(motors, axis_shapers(m.input_shaper), pa, on_steps);
   } else {
     sink = &plain.emplace(motors, on_steps);
   }

@@ -5,6 +5,7 @@
 // every sample time the steps taken so far must equal the motor's rounded position.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -16,6 +17,7 @@
 #include "amctl/shaping/shaped_trajectory.hpp"
 #include "amctl/steppers/shaped_steps.hpp"
 #include "amctl/steppers/steps.hpp"
+#include "amctl/trajectory/trajectory.hpp"
 #include "step_run.hpp"
 
 namespace amctl::steppers {
@@ -76,11 +78,12 @@ struct ShapedRun {
   std::vector<StepperStats> stats;
 };
 
-ShapedRun run_shaped(const std::string& gcode, const Machine& m, const shaping::AxisShapers& s) {
+ShapedRun run_shaped(const std::string& gcode, const Machine& m, const shaping::AxisShapers& s,
+                     const shaping::PressureAdvance& pa = {}) {
   ShapedRun r;
   r.motors = machine::motors(m);
   plan::PlanSource source(std::string_view(gcode), "test", m);
-  ShapedStepSink sink(r.motors, s, [&](std::span<const Step> st) {
+  ShapedStepSink sink(r.motors, s, pa, [&](std::span<const Step> st) {
     r.steps.insert(r.steps.end(), st.begin(), st.end());
   });
   plan::CollectSink collect;
@@ -116,9 +119,9 @@ double motor_position(const Machine& m, std::uint32_t c, const std::array<double
 // Each step on its level (to `tol_mm`), and the step count so far equal to the rounded motor
 // position at every sample 0.1 ms apart (skipping samples within 1e-6 step of a level).
 void check_against_sampling(const ShapedRun& r, const Machine& m, const shaping::AxisShapers& s,
-                            double tol_mm) {
+                            double tol_mm, std::uint32_t motors = 99) {
   ASSERT_FALSE(r.moves.empty());
-  for (std::uint32_t c = 0; c < r.motors.size(); ++c) {
+  for (std::uint32_t c = 0; c < std::min<std::uint32_t>(motors, r.motors.size()); ++c) {
     const double step = r.motors[c].step_distance.value;
     std::vector<Step> mine;
     for (const Step& st : r.steps) if (st.stepper == c) mine.push_back(st);
@@ -147,6 +150,101 @@ void check_against_sampling(const ShapedRun& r, const Machine& m, const shaping:
     }
     EXPECT_GT(checked, 1000u);
   }
+}
+
+// Pressure advance's extruder position by quadrature: the triangle-weighted mean of
+// e + pa v_e (pa only on moves extruding while moving in X or Y) over [t - h, t + h], each
+// stretch between the plan's piece breaks integrated by 5-point Gauss-Legendre (exact for
+// the polynomial degrees of the plan), the plan read through trajectory::Trajectory.
+double extruder_by_quadrature(const trajectory::Trajectory& traj, double pa, double h, double t) {
+  std::vector<double> br{t - h, t, t + h};
+  std::array<plan::PathPiece, 7> pieces{};
+  for (const plan::PlannedMove& mv : traj.moves()) {
+    if (mv.end_time_s() < t - h || mv.start_time_s > t + h) continue;
+    double at = mv.start_time_s;
+    br.push_back(at);
+    const std::size_t n = trajectory::move_pieces(mv, pieces);
+    for (std::size_t i = 0; i < n; ++i) br.push_back(at += pieces[i].duration_s);
+  }
+  std::sort(br.begin(), br.end());
+  const double x5[] = {0.0, -0.5384693101056831, 0.5384693101056831, -0.9061798459386640,
+                       0.9061798459386640};
+  const double w5[] = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665,
+                       0.2369268850561891, 0.2369268850561891};
+  double sum = 0.0;
+  for (std::size_t i = 0; i + 1 < br.size(); ++i) {
+    const double a = std::max(br[i], t - h), b = std::min(br[i + 1], t + h);
+    if (!(b > a)) continue;
+    const double mid = 0.5 * (a + b);
+    bool advance = false;
+    for (const plan::PlannedMove& mv : traj.moves()) {
+      if (mv.start_time_s <= mid && mid < mv.end_time_s()) {
+        advance = !mv.extrude_only && mv.axes_r[3] > 0.0 && (mv.axes_r[0] != 0.0 || mv.axes_r[1] != 0.0);
+      }
+    }
+    for (int k = 0; k < 5; ++k) {
+      const double x = mid + 0.5 * (b - a) * x5[k];
+      const trajectory::AxisState st = traj.evaluate(x);
+      const double e = st.pos_mm[3] + (advance ? pa * st.vel_mm_s[3] : 0.0);
+      sum += 0.5 * (b - a) * w5[k] * (h - std::abs(x - t)) * e;
+    }
+  }
+  return sum / (h * h);
+}
+
+// The extruder's steps on their levels of the quadrature, and its step count at samples.
+void check_extruder(const ShapedRun& r, double pa, double h) {
+  const trajectory::Trajectory traj(r.moves);
+  const std::uint32_t c = 3;
+  const double step = r.motors[c].step_distance.value;
+  const double origin = traj.evaluate(r.moves.front().start_time_s).pos_mm[3];
+  long n = 0;
+  std::vector<Step> mine;
+  for (const Step& st : r.steps) if (st.stepper == c) mine.push_back(st);
+  ASSERT_GT(mine.size(), 200u);
+  for (const Step& st : mine) {
+    const double level = origin + (static_cast<double>(n) + 0.5 * st.direction) * step;
+    n += st.direction;
+    ASSERT_NEAR(extruder_by_quadrature(traj, pa, h, st.time_s), level, 1e-9) << " t=" << st.time_s;
+  }
+  std::size_t k = 0;
+  long taken = 0;
+  for (double t = r.moves.front().start_time_s; t < traj.end_time_s() + h; t += 2e-4) {
+    while (k < mine.size() && mine[k].time_s <= t) taken += mine[k++].direction;
+    const double u = (extruder_by_quadrature(traj, pa, h, t) - origin) / step;
+    if (std::abs(u - std::floor(u) - 0.5) < 1e-6) continue;
+    ASSERT_EQ(taken, std::lround(u)) << " t=" << t;
+  }
+}
+
+// Extrusions at changing speeds, retracts (no advance), a Z hop and an extrude-only prime.
+std::string extrusions() {
+  return "G1 X5 Y5 F6000\nG1 X25 Y5 E1.2 F3000\nG1 X25 Y9 E1.5\nG1 X5 Y30 E3.1 F9000\n"
+         "G1 E2.3 F2400\nG1 Z0.4\nG1 X30 Y30 F12000\nG1 Z0.2\nG1 E3.1 F2400\n"
+         "G1 X30 Y10 E4.0 F1800\nG1 X31 Y10 E4.05\nG1 X31 Y11 E4.1\nG1 X10 Y11 E5.5 F7200\n"
+         "G4 P50\nG1 E6.5 F300\nG1 X40 Y40 E8.0 F6000\n";
+}
+
+TEST(PressureAdvanceSteps, ExtruderAgainstQuadrature) {
+  for (const auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::scurve7}) {
+    const Machine m = cartesian(kinematics::Cartesian{}, p);
+    for (const auto& [pa, smooth] : {std::pair{0.05, 0.04}, std::pair{0.5, 0.2}, std::pair{0.02, 0.01}}) {
+      const ShapedRun r = run_shaped(extrusions(), m, {}, shaping::PressureAdvance{pa, smooth});
+      check_extruder(r, pa, 0.5 * smooth);
+      // The other motors are the plain generator's (no shaper).
+      const test::StepRun plain = test::run(extrusions(), m);
+      for (std::uint32_t c = 0; c < 3; ++c) EXPECT_EQ(r.stats[c].steps, plain.stats[c].steps);
+      EXPECT_EQ(r.stats[3].position_steps, plain.stats[3].position_steps);
+    }
+  }
+}
+
+TEST(PressureAdvanceSteps, WithInputShapingOnCoreXY) {
+  const Machine m = cartesian(kinematics::CoreXY{}, machine::VelocityProfile::trapezoid);
+  const auto s = shapers("mzv", 45.0, "ei", 38.0);
+  const ShapedRun r = run_shaped(extrusions(), m, s, shaping::PressureAdvance{0.04, 0.04});
+  check_against_sampling(r, m, s, 1e-9, 3);
+  check_extruder(r, 0.04, 0.02);
 }
 
 // Without a shaper the shaped generator is the plain one: same steps, same times.

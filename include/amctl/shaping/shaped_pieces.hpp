@@ -10,6 +10,13 @@
 // to the start of the shaped piece, weighted and summed), in time order, from a stream of
 // planned moves: memory is the moves within the shaper's span of the current time.
 //
+// Pressure advance (Klipper's kin_extruder.c) replaces the extruder axis by its advanced and
+// smoothed position: e_pa(t) = e(t) + pa e'(t) on moves that extrude while moving in X or Y
+// (e_pa = e elsewhere), averaged with the triangular weight of half-width h = smooth_time / 2:
+//     E(t) = (1 / h^2) integral_{-h}^{h} (h - |u|) e_pa(t + u) du,
+// integrated exactly on each piece (breaks at every plan break shifted by -h, 0 and +h; E's
+// degree is the plan's plus 2). With pa = 0 the extruder follows e, as in Klipper.
+//
 // A jump of an axis between two moves (G92, a homing reset) does not move the motor: it is
 // absorbed into a per-axis offset so x(t) stays continuous, as the unshaped step generator
 // absorbs it per motor.
@@ -24,7 +31,15 @@
 
 namespace amctl::shaping {
 
-inline constexpr int kAxisPieceCoeffs = plan::kMaxPieceDegree + 1;
+/// Coefficients of an axis piece: the plan's degree, plus 2 for pressure advance's smoothing.
+inline constexpr int kAxisPieceCoeffs = plan::kMaxPieceDegree + 3;
+
+/// Klipper's pressure advance: pa [s] (0 = off) and the smoothing time [s] (> 0).
+struct PressureAdvance {
+  double advance_s = 0.0;
+  double smooth_time_s = 0.040;
+  [[nodiscard]] bool active() const { return advance_s > 0.0 && smooth_time_s > 0.0; }
+};
 
 /// One piece of every axis over [t0_s, t0_s + duration_s]: x_a(t0 + tau) = sum_k c[a][k] tau^k.
 struct AxisPiece {
@@ -38,7 +53,7 @@ struct AxisPiece {
 /// Planned moves in, shaped axis pieces out (in time order, contiguous from the first).
 class ShapedPieceStream {
  public:
-  explicit ShapedPieceStream(const AxisShapers& shapers);
+  explicit ShapedPieceStream(const AxisShapers& shapers, const PressureAdvance& pa = {});
 
   /// Appends the move (moves come in time order) and every shaped piece it completes to `out`.
   void push(const plan::PlannedMove& move, std::vector<AxisPiece>& out);
@@ -55,6 +70,7 @@ class ShapedPieceStream {
     double t1_s = 0.0;
     int degree = 0;
     std::array<std::array<double, kAxisPieceCoeffs>, 4> c{};
+    std::array<double, kAxisPieceCoeffs> e_pa{};  ///< e + pa e' (pressure advance on)
     std::int64_t line = 0;
   };
   struct Tap {
@@ -65,9 +81,14 @@ class ShapedPieceStream {
   void append_source(const Source& s);
   void append_rest(double t0, double t1);
   void generate(std::vector<AxisPiece>& out, bool final);
+  /// Pressure advance's extruder over the piece starting at u0 (coefficients in tau).
+  void smoothed_extruder(double u0, double* out, int& degree) const;
   [[nodiscard]] const Source& source(std::size_t index) const { return sources_[index - base_]; }
 
   std::vector<Tap> taps_;
+  PressureAdvance pa_;
+  double half_smooth_s_ = 0.0;   ///< h; 0 without pressure advance
+  std::size_t tap_behind_ = 0, tap_now_ = 0, tap_ahead_ = 0;  ///< taps reading t - h, t, t + h
   double max_delay_s_ = 0.0;
   double min_delay_s_ = 0.0;
   std::deque<Source> sources_;

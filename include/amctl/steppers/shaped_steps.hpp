@@ -1,5 +1,5 @@
 #pragma once
-// Step generation with input shaping (docs/steppers.md, "Input shaping"): Klipper's
+// Step generation with input shaping and pressure advance (docs/steppers.md, "Input shaping"): Klipper's
 // kin_shaper wraps any kinematics, so every motor follows its kinematics applied to the
 // shaped toolhead position x_s(t) = sum_i a_i x(t - d_i) (per axis; the extruder is not
 // shaped). shaping::ShapedPieceStream turns the plan into per-axis polynomial pieces in time;
@@ -25,7 +25,8 @@ inline constexpr double kCurveSampleS = 0.25e-3;
 
 class ShapedStepGenerator {
  public:
-  ShapedStepGenerator(std::vector<kinematics::Motor> motors, const shaping::AxisShapers& shapers);
+  ShapedStepGenerator(std::vector<kinematics::Motor> motors, const shaping::AxisShapers& shapers,
+                      const shaping::PressureAdvance& pa = {});
 
   /// Appends the steps the move completes (time-ordered; ties: motor order) to `out`. The
   /// steps of a move come out up to the shaper's look-ahead later, with a later move.
@@ -60,13 +61,15 @@ class ShapedStepGenerator {
 
 /// The shapers `[input_shaper]` configures (an axis with frequency 0 is not shaped).
 [[nodiscard]] shaping::AxisShapers axis_shapers(const machine::InputShaper& config);
+/// The extruder's pressure advance (off without an extruder).
+[[nodiscard]] shaping::PressureAdvance pressure_advance(const machine::Machine& m);
 
 /// A sink of the plan stream running a ShapedStepGenerator (see StepSink).
 class ShapedStepSink final : public plan::Sink {
  public:
   using Callback = std::function<void(std::span<const Step>)>;
   ShapedStepSink(std::vector<kinematics::Motor> motors, const shaping::AxisShapers& shapers,
-                 Callback on_steps);
+                 const shaping::PressureAdvance& pa, Callback on_steps);
   void consume(const plan::PlanBatch& batch) override;
   void finish(const plan::StreamSummary& summary) override;
   [[nodiscard]] const ShapedStepGenerator& generator() const { return gen_; }
