@@ -140,16 +140,16 @@ BENCHMARK(BM_StepsDeltaSynthetic)->Unit(benchmark::kMillisecond);
 // Input shaping (shaped_steps.hpp) on the same print: the shaped plan's pieces and the step
 // solver on them; the cost of the shaper is this rate against BM_StepsBoxbossCoreXY's.
 void run_shaped_steps(benchmark::State& state, const Planned& p, const char* tx, double fx,
-                      const char* ty, double fy) {
+                      const char* ty, double fy, amctl::shaping::PressureAdvance pa = {}) {
   const auto channels = amctl::machine::motors(p.machine);
   amctl::shaping::AxisShapers shapers;
-  shapers.xyz[0] = amctl::shaping::make_shaper(tx, fx, 0.1);
-  shapers.xyz[1] = amctl::shaping::make_shaper(ty, fy, 0.1);
+  if (fx > 0.0) shapers.xyz[0] = amctl::shaping::make_shaper(tx, fx, 0.1);
+  if (fy > 0.0) shapers.xyz[1] = amctl::shaping::make_shaper(ty, fy, 0.1);
   std::uint64_t steps = 0;
   for (auto _ : state) {
     std::uint64_t n = 0;
     double last = 0.0;
-    amctl::steppers::ShapedStepSink sink(channels, shapers, {},
+    amctl::steppers::ShapedStepSink sink(channels, shapers, pa,
                                          [&](std::span<const amctl::steppers::Step> s) {
                                            n += s.size();
                                            last = s.back().time_s;
@@ -176,3 +176,18 @@ void BM_StepsBoxbossCoreXYShaped3HumpEi(benchmark::State& state) {
   run_shaped_steps(state, p, "3hump_ei", 60.0, "ei", 45.0);
 }
 BENCHMARK(BM_StepsBoxbossCoreXYShaped3HumpEi)->Unit(benchmark::kMillisecond);
+
+// Pressure advance alone (pa 0.04 s, smooth time 0.04 s), and with the mzv shaper.
+void BM_StepsBoxbossCoreXYPressureAdvance(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  run_shaped_steps(state, p, "mzv", 0.0, "mzv", 0.0, {0.04, 0.04});
+}
+BENCHMARK(BM_StepsBoxbossCoreXYPressureAdvance)->Unit(benchmark::kMillisecond);
+
+void BM_StepsBoxbossCoreXYShapedMzvPressureAdvance(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  run_shaped_steps(state, p, "mzv", 40.0, "mzv", 40.0, {0.04, 0.04});
+}
+BENCHMARK(BM_StepsBoxbossCoreXYShapedMzvPressureAdvance)->Unit(benchmark::kMillisecond);

@@ -123,6 +123,9 @@ void ShapedPieceStream::push(const plan::PlannedMove& move, std::vector<AxisPiec
             pa_.advance_s * (k + 1) * src.c[3][static_cast<std::size_t>(k + 1)];
       }
     }
+    for (int k = 1; k <= p.degree; ++k) {
+      if (src.e_pa[static_cast<std::size_t>(k)] != 0.0) src.e_degree = k;
+    }
     append_source(src);
     t = src.t1_s;
   }
@@ -200,7 +203,7 @@ void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) c
   const std::size_t iL = taps_[tap_behind_].index, iM = taps_[tap_now_].index,
                     iR = taps_[tap_ahead_].index;
   bool moving = false;
-  for (std::size_t j = iL; j <= iR; ++j) moving = moving || source(j).degree > 0;
+  for (std::size_t j = iL; j <= iR; ++j) moving = moving || source(j).e_degree > 0;
   for (int k = 0; k < N; ++k) out[k] = 0.0;
   degree = 0;
   if (!moving) {  // at rest over the whole window: the weights integrate to one
@@ -223,7 +226,7 @@ void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) c
   };
   // One half of the kernel over source j between the limits (a0 + a1 sigma, b0 + b1 sigma).
   const auto half = [&](const Source& s, double a0, double a1, double b0, double b1, bool left) {
-    const int d = s.degree;
+    const int d = s.e_degree;
     taylor_shift(s.e_pa.data(), d, a0 - s.t0_s, P.data());  // y = x - a0
     Q0.fill(0.0);
     Q1.fill(0.0);

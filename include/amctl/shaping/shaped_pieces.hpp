@@ -71,6 +71,7 @@ class ShapedPieceStream {
     int degree = 0;
     std::array<std::array<double, kAxisPieceCoeffs>, 4> c{};
     std::array<double, kAxisPieceCoeffs> e_pa{};  ///< e + pa e' (pressure advance on)
+    int e_degree = 0;  ///< the degree of e_pa (0: the extruder stands still)
     std::int64_t line = 0;
   };
   struct Tap {
