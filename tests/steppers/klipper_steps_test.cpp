@@ -82,6 +82,48 @@ TEST(KlipperSteps, SyntheticFilesHaveKlippersStepCountsAndTimes) {
   EXPECT_EQ(files, 14);  // 7 synthetic inputs x 2 printers
 }
 
+// Input shaping and pressure advance (klipper_steps_shaped.json: the same script on
+// steps_corexy_shaped.cfg and steps_cartesian_shaped.cfg, a different shaper on X and Y and
+// pressure_advance 0.04 s): with Klipper's step filter, every stepper's count, forward count,
+// first and last step time of the runs without a batch-mode stop (syn_circle1000 has one, and
+// the stop changes the shaped motion itself).
+TEST(KlipperSteps, ShapedAndPressureAdvanceHaveKlippersStepCountsAndTimes) {
+  std::ifstream in(kDir + "klipper_steps_shaped.json");
+  ASSERT_TRUE(in) << "missing " << kDir << "klipper_steps_shaped.json";
+  const auto ref = nlohmann::json::parse(in);
+  const std::string csv = std::string(AMCTL_BINARY_DIR) + "/klipper_steps_shaped_test.csv";
+  int files = 0;
+  for (const auto& r : ref.at("results")) {
+    if (!r.at("ok").get<bool>()) continue;
+    const std::string file = r.at("file").get<std::string>();
+    const std::string cfg = r.at("cfg").get<std::string>();
+    const auto m = machine::load_machine(kDir + cfg);
+    ASSERT_TRUE(m.input_shaper.active()) << cfg;
+    ASSERT_GT(m.extruder.pressure_advance_s, 0.0) << cfg;
+    const StepsReport rep = generate_steps_file(kDir + file, m, csv, StepFilter::klipper);
+    const auto fl = first_last_from_csv(csv);
+    std::remove(csv.c_str());
+    const double bound_s = r.at("bound_us").get<double>() * 1e-6;
+    for (const auto& s : r.at("steppers")) {
+      const std::string name = s.at("stepper").get<std::string>();
+      std::size_t c = 0;
+      while (c < rep.motors.size() && rep.motors[c].name != name) ++c;
+      ASSERT_LT(c, rep.motors.size()) << cfg << " " << file << " " << name;
+      EXPECT_EQ(rep.stats[c].steps, s.at("klipper_steps").get<std::uint64_t>())
+          << cfg << " " << file << " " << name;
+      EXPECT_EQ(rep.stats[c].steps_positive, s.at("klipper_steps_positive").get<std::uint64_t>())
+          << cfg << " " << file << " " << name;
+      if (rep.stats[c].steps == 0) continue;
+      const double d_first = s.at("klipper_first_step_s").get<double>() - fl.at(name).first_s;
+      const double d_last = s.at("klipper_last_step_s").get<double>() - fl.at(name).last_s;
+      EXPECT_LE(std::abs(d_first), bound_s) << cfg << " " << file << " " << name;
+      EXPECT_LE(std::abs(d_last), bound_s) << cfg << " " << file << " " << name;
+    }
+    ++files;
+  }
+  EXPECT_EQ(files, 12);  // 7 synthetic inputs x 2 printers, less the two with a stop
+}
+
 // generic_cartesian, polar and rotary_delta (klipper_steps_kinematics.json, the same script on
 // their reference configs and synthetic files). Klipper drops a step followed within 750 us by
 // one back (SDS_FILTER_TIME); amctl emits both, so its count is Klipper's plus the pairs the
