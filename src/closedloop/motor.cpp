@@ -96,6 +96,22 @@ StepperAxisModel::StepperAxisModel(const MotorParameters& motor, const DrivePara
   end_x_ = axis_.end_load_start_mm * 1e-3;
   bump_lo_ = (axis_.bump_position_mm - axis_.bump_half_width_mm) * 1e-3;
   bump_hi_ = (axis_.bump_position_mm + axis_.bump_half_width_mm) * 1e-3;
+  coulomb_plus_drag_n_ = axis_.coulomb_friction_n + axis_.drag_force_n;
+  viscous_plus_drag_ = axis_.viscous_friction_n_s_per_m + axis_.drag_n_s_per_m;
+  inv_vs_ = 1.0 / axis_.friction_smoothing_m_s;
+  vmax_ = drive_.supply_voltage_v;
+  r_ohm_ = motor_.phase_resistance_ohm;
+  detent_ = motor_.detent_torque_n_m;
+  damping_ = motor_.rotor_damping_n_m_s_per_rad;
+  f_ext_ = axis_.external_force_n;
+  bump_f_ = axis_.bump_force_n;
+  const int cycle = 4 * drive_.microsteps;
+  micro_cos_.resize(static_cast<std::size_t>(cycle));
+  micro_sin_.resize(static_cast<std::size_t>(cycle));
+  for (int n = 0; n < cycle; ++n) {
+    micro_cos_[static_cast<std::size_t>(n)] = std::cos(n * rad_per_micro_);
+    micro_sin_[static_cast<std::size_t>(n)] = std::sin(n * rad_per_micro_);
+  }
 }
 
 double StepperAxisModel::magnetic_stiffness_n_m_per_rad() const {
@@ -114,15 +130,18 @@ MotorState StepperAxisModel::rest_state(double x_mm) const {
   set_current(s, drive_.current_amplitude_a);
   s.i_a = s.ref_a;
   s.i_b = s.ref_b;
+  sync_angle(s);
   return s;
 }
 
 void StepperAxisModel::set_microstep(MotorState& s, std::int64_t n) const {
   s.microstep = n;
-  const double phi = static_cast<double>(n) * rad_per_micro_;
+  // The electrical angle n 2 pi / (4 microsteps), from the table of one cycle.
+  const auto cycle = static_cast<std::int64_t>(micro_cos_.size());
+  const auto j = static_cast<std::size_t>(((n % cycle) + cycle) % cycle);
   const double amp = s.current_a > 0.0 ? s.current_a : drive_.current_amplitude_a;
-  s.ref_a = amp * std::cos(phi);
-  s.ref_b = amp * std::sin(phi);
+  s.ref_a = amp * micro_cos_[j];
+  s.ref_b = amp * micro_sin_[j];
 }
 
 double StepperAxisModel::max_current_a() const {
@@ -143,55 +162,31 @@ void StepperAxisModel::set_current(MotorState& s, double amplitude_a) const {
   }
 }
 
-void StepperAxisModel::step(MotorState& s, double h) const {
-  const double pth = p_ * s.theta_rad;
-  const double sn = std::sin(pth), cs = std::cos(pth);
+SubstepCoefficients StepperAxisModel::substep(double h) const {
   const double L = motor_.phase_inductance_h, R = motor_.phase_resistance_ohm;
-  const double vmax = drive_.supply_voltage_v;
-  // Back-EMF as a voltage drop e (L di/dt = v - R i - e), taken at the start of the step.
-  const double e_a = -kt_ * s.omega_rad_s * sn;
-  const double e_b = kt_ * s.omega_rad_s * cs;
-  // The chopper applies v = Kc (i_ref - i) + R i_ref (it holds the current at standstill
-  // exactly, as a hysteresis chopper does). Backward Euler of L di/dt = v - R i - e; if v
-  // exceeds the supply, the chopper saturates: L di/dt = +-V - R i - e, again backward Euler.
-  auto phase = [&](double i0, double ref, double e) {
-    double i1 = (L * i0 + h * ((kc_ + R) * ref - e)) / (L + h * (kc_ + R));
-    const double v = kc_ * (ref - i1) + R * ref;
-    if (v > vmax || v < -vmax) {
-      const double vs = v > 0 ? vmax : -vmax;
-      i1 = (L * i0 + h * (vs - e)) / (L + h * R);
-    }
-    return i1;
-  };
-  s.i_a = phase(s.i_a, s.ref_a, e_a);
-  s.i_b = phase(s.i_b, s.ref_b, e_b);
-  // sin(4 p th) from sin, cos of p th (double angle twice).
-  const double s2 = 2.0 * sn * cs, c2 = cs * cs - sn * sn;
-  const double s4 = 2.0 * s2 * c2;
-  const double tm = kt_ * (-s.i_a * sn + s.i_b * cs) - motor_.detent_torque_n_m * s4;
-  s.torque_n_m = tm;
-  const double stretch = r_ * s.theta_rad - s.x_m;
-  const double stretch_rate = r_ * s.omega_rad_s - s.v_m_s;
-  double f_belt = 0.0;
-  if (half_backlash_ == 0.0) {
-    f_belt = k_ * stretch + c_ * stretch_rate;
-  } else if (stretch > half_backlash_) {  // engaged pulling +x: a contact pushes, never pulls
-    f_belt = std::max(0.0, k_ * (stretch - half_backlash_) + c_ * stretch_rate);
-  } else if (stretch < -half_backlash_) {
-    f_belt = std::min(0.0, k_ * (stretch + half_backlash_) + c_ * stretch_rate);
-  }
-  const double t_rotor = tm - motor_.rotor_damping_n_m_s_per_rad * s.omega_rad_s - r_ * f_belt;
-  const double sgn = std::tanh(s.v_m_s / axis_.friction_smoothing_m_s);
-  const double f_cart = f_belt - (axis_.coulomb_friction_n + axis_.drag_force_n) * sgn -
-                        (axis_.viscous_friction_n_s_per_m + axis_.drag_n_s_per_m) * s.v_m_s +
-                        axis_.external_force_n +
-                        end_k_ * std::max(0.0, end_x_ - s.x_m) -
-                        ((s.x_m >= bump_lo_ && s.x_m <= bump_hi_) ? axis_.bump_force_n * sgn : 0.0);
-  // Semi-implicit Euler: velocities first, positions with the new velocities.
-  s.omega_rad_s += h * t_rotor / j_;
-  s.v_m_s += h * f_cart * inv_m_;
-  s.theta_rad += h * s.omega_rad_s;
-  s.x_m += h * s.v_m_s;
+  SubstepCoefficients k;
+  k.h_s = h;
+  const double den = L + h * (kc_ + R);
+  k.ci0 = L / den;
+  k.cref = h * (kc_ + R) / den;
+  k.ce = h / den;
+  const double den_sat = L + h * R;
+  k.si0 = L / den_sat;
+  k.sv = h / den_sat;
+  k.h_over_j = h / j_;
+  k.h_over_m = h * inv_m_;
+  return k;
+}
+
+void StepperAxisModel::sync_angle(MotorState& s) const {
+  const double pth = p_ * s.theta_rad;
+  s.sin_e = std::sin(pth);
+  s.cos_e = std::cos(pth);
+}
+
+void StepperAxisModel::step(MotorState& s, double h) const {
+  sync_angle(s);
+  integrate(s, substep(h));
 }
 
 double StepperAxisModel::load_angle_rad(const MotorState& s) const {

@@ -103,6 +103,7 @@ Json to_json(const Machine& m) {
     if (s.upper_arm_length_mm) steppers[name]["upper_arm_length"] = *s.upper_arm_length_mm;
     if (s.lower_arm_length_mm) steppers[name]["lower_arm_length"] = *s.lower_arm_length_mm;
     if (!s.carriages.empty()) steppers[name]["carriages"] = s.carriages;
+    if (!s.motor.empty()) steppers[name]["motor"] = s.motor;
     // Motor, driver and drive-train keys (step-level physics), only when set.
     const std::pair<const char*, const std::optional<double>*> motor[] = {
         {"run_current", &s.run_current_a},       {"supply_voltage", &s.supply_voltage_v},

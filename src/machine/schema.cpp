@@ -1,5 +1,7 @@
 #include "schema.hpp"
 
+#include "amctl/machine/motor_presets.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -376,6 +378,11 @@ const std::vector<StepperKeyDef>& stepper_table() {
        "(Klipper carriages: \"carriage_x+carriage_y\", \"carriage_u-carriage_y1\", "
        "\"1*carriage_y+0.5*carriage_z\").",
        nullptr, nullptr, nullptr, [](Stepper& s) -> std::string& { return s.carriages; }},
+      {"motor", Kind::text, Bound::finite, "",
+       "The motor by preset name: 17hs4401, ldo-42sth48-2504ac, ldo-42sth48-2004mah (0.9 deg), "
+       "ldo-42sth40-1004a (docs/machine.md, motor presets); the numeric motor keys override its "
+       "values. Step-level physics only.",
+       nullptr, nullptr, nullptr, [](Stepper& s) -> std::string& { return s.motor; }},
   };
   return keys;
 }
@@ -567,6 +574,13 @@ double parse_gear_ratio(std::string_view text, const SourceLocation& where,
   }
   if (pairs == 0) number("");  // throws
   return result;
+}
+
+void check_motor_preset(std::string_view name, const SourceLocation& where, std::string_view label) {
+  if (machine::find_motor_preset(name) != nullptr) return;
+  throw Error(where, fmt::format("{}: unknown motor '{}', expected one of {} (or leave it out and "
+                                 "give the motor's datasheet keys)",
+                                 label, name, machine::motor_preset_names()));
 }
 
 }  // namespace amctl::machine::detail

@@ -1,5 +1,5 @@
 // Controllers: seed 003's law (5)-(11) by hand, the stability check of the linearised loop,
-// and the seed003 scenario end to end (step counts by hand, no loss without load, the closed
+// and the reversing-strokes scenario end to end (step counts by hand, no loss without load, the closed
 // loops against open loop).
 #include <cmath>
 #include <numbers>
@@ -19,10 +19,10 @@ StepperAxisModel default_model() {
   return StepperAxisModel(MotorParameters{}, DriveParameters{}, AxisMechanics{});
 }
 
-TEST(Seed003Law, CorrectsTheSpeedAgainstTheErrorLimitedByDStar) {
+TEST(SpeedTrackingLaw, CorrectsTheSpeedAgainstTheErrorLimitedByDStar) {
   const StepperAxisModel model = default_model();
   ControllerParameters p;  // alpha 0.6 /s, D* = sqrt(2 * 3000 * 0.0125) = 8.660 mm/s
-  auto c = make_controller(ControllerKind::seed003, p, model);
+  auto c = make_controller(ControllerKind::speed_tracking, p, model);
   ControlInput in;
   in.ref_vel_mm_s = 10.0;
   in.measured_mm = 1.0;        // 1 mm ahead of the reference
@@ -38,8 +38,8 @@ TEST(Seed003Law, CorrectsTheSpeedAgainstTheErrorLimitedByDStar) {
 TEST(LoopStability, DefaultGainsAreStableAndAHighGainIsRejected) {
   const StepperAxisModel model = default_model();
   ControllerParameters p;
-  for (ControllerKind k : {ControllerKind::open, ControllerKind::seed003, ControllerKind::pid,
-                           ControllerKind::best}) {
+  for (ControllerKind k : {ControllerKind::open, ControllerKind::speed_tracking, ControllerKind::pid,
+                           ControllerKind::feedforward}) {
     EXPECT_TRUE(analyse_loop(k, p, model).stable) << to_string(k);
   }
   p.kp = 20.0;
@@ -80,12 +80,12 @@ TEST(LoopStability, OpenLoopRadiusIsThePlantsSlowestDecay) {
 
 machine::Machine ender3() { return machine::load_machine("ender3"); }
 
-TEST(Seed003Scenario, OpenLoopWithoutLoadAt30LosesNoStepAndStepsTheStrokes) {
-  Seed003Scenario sc;
+TEST(ReversingStrokes, OpenLoopWithoutLoadAt30LosesNoStepAndStepsTheStrokes) {
+  ReversingStrokesScenario sc;
   sc.speed_mm_s = 30.0;
   sc.load = false;
   SimulationOptions o;
-  const SimulationResult r = simulate_seed003(ender3(), sc, o);
+  const SimulationResult r = simulate_reversing_strokes(ender3(), sc, o);
   ASSERT_EQ(r.axes.size(), 2u);
   for (const AxisResult& a : r.axes) {
     EXPECT_EQ(a.lost_steps, 0u) << a.name;
@@ -96,9 +96,9 @@ TEST(Seed003Scenario, OpenLoopWithoutLoadAt30LosesNoStepAndStepsTheStrokes) {
   }
 }
 
-TEST(Seed003Scenario, TheLoadMakesOpenLoopLoseStepsInWholeCycles) {
+TEST(ReversingStrokes, TheLoadMakesOpenLoopLoseStepsInWholeCycles) {
   SimulationOptions o;
-  const SimulationResult r = simulate_seed003(ender3(), Seed003Scenario{}, o);
+  const SimulationResult r = simulate_reversing_strokes(ender3(), ReversingStrokesScenario{}, o);
   std::uint64_t lost = 0;
   for (const AxisResult& a : r.axes) {
     EXPECT_EQ(a.lost_steps % 64u, 0u);  // 4 full steps x 16 microsteps per cycle
@@ -107,100 +107,100 @@ TEST(Seed003Scenario, TheLoadMakesOpenLoopLoseStepsInWholeCycles) {
   EXPECT_GT(lost, 0u);
 }
 
-TEST(Seed003Scenario, BestCutsTheLoadedErrorByNinetyNinePercentAtBothSpeeds) {
+TEST(ReversingStrokes, FeedforwardCutsTheLoadedErrorByNinetyNinePercentAtBothSpeeds) {
   // The figure: under the scenario's load open loop slips whole cycles near the
-  // reversals (10-14 mm of error); best, which boosts the current while loaded, loses no step
+  // reversals (10-14 mm of error); feedforward, which boosts the current while loaded, loses no step
   // and keeps within 1 % of open loop's maximum and rms error on each axis.
   for (double v : {90.0, 120.0}) {
-    Seed003Scenario sc;
+    ReversingStrokesScenario sc;
     sc.speed_mm_s = v;
     SimulationOptions o;
-    const SimulationResult open = simulate_seed003(ender3(), sc, o);
-    o.controller = ControllerKind::best;
-    const SimulationResult best = simulate_seed003(ender3(), sc, o);
+    const SimulationResult open = simulate_reversing_strokes(ender3(), sc, o);
+    o.controller = ControllerKind::feedforward;
+    const SimulationResult ff = simulate_reversing_strokes(ender3(), sc, o);
     for (int i = 0; i < 2; ++i) {
       EXPECT_GT(open.axes[i].lost_full_steps, 0u) << v;
-      EXPECT_EQ(best.axes[i].lost_steps, 0u) << v;
-      EXPECT_LT(best.axes[i].max_tracking_error_mm, 0.01 * open.axes[i].max_tracking_error_mm) << v;
-      EXPECT_LT(best.axes[i].rms_tracking_error_mm, 0.01 * open.axes[i].rms_tracking_error_mm) << v;
+      EXPECT_EQ(ff.axes[i].lost_steps, 0u) << v;
+      EXPECT_LT(ff.axes[i].max_tracking_error_mm, 0.01 * open.axes[i].max_tracking_error_mm) << v;
+      EXPECT_LT(ff.axes[i].rms_tracking_error_mm, 0.01 * open.axes[i].rms_tracking_error_mm) << v;
       // The boost stays between the run current (0.8 A RMS) and the rated 1.7 A.
-      EXPECT_LE(best.axes[i].peak_current_a, 1.7 + 1e-12);
-      EXPECT_GE(best.axes[i].mean_current_a, std::numbers::sqrt2 * 0.8 - 1e-12);
+      EXPECT_LE(ff.axes[i].peak_current_a, 1.7 + 1e-12);
+      EXPECT_GE(ff.axes[i].mean_current_a, std::numbers::sqrt2 * 0.8 - 1e-12);
       EXPECT_NEAR(open.axes[i].peak_current_a, std::numbers::sqrt2 * 0.8, 1e-12);
     }
   }
 }
 
-TEST(Seed003Scenario, BestKeepsItsFigureWithItsModelTwentyPercentOff) {
-  // Robustness: best believing a belt 20 % softer or stiffer and a carriage 20 % lighter or
+TEST(ReversingStrokes, FeedforwardKeepsItsFigureWithItsModelTwentyPercentOff) {
+  // Robustness: feedforward believing a belt 20 % softer or stiffer and a carriage 20 % lighter or
   // heavier than the true one still loses no step and stays within 1 % of open loop.
-  const SimulationResult open = simulate_seed003(ender3(), Seed003Scenario{}, SimulationOptions{});
+  const SimulationResult open = simulate_reversing_strokes(ender3(), ReversingStrokesScenario{}, SimulationOptions{});
   for (double mass : {0.8, 1.2}) {
     for (double stiffness : {0.8, 1.2}) {
       SimulationOptions o;
-      o.controller = ControllerKind::best;
-      o.gains.best_model_mass_scale = mass;
-      o.gains.best_model_stiffness_scale = stiffness;
-      const SimulationResult best = simulate_seed003(ender3(), Seed003Scenario{}, o);
+      o.controller = ControllerKind::feedforward;
+      o.gains.ff_model_mass_scale = mass;
+      o.gains.ff_model_stiffness_scale = stiffness;
+      const SimulationResult ff = simulate_reversing_strokes(ender3(), ReversingStrokesScenario{}, o);
       for (int i = 0; i < 2; ++i) {
-        EXPECT_EQ(best.axes[i].lost_steps, 0u) << mass << " " << stiffness;
-        EXPECT_LT(best.axes[i].max_tracking_error_mm, 0.01 * open.axes[i].max_tracking_error_mm)
+        EXPECT_EQ(ff.axes[i].lost_steps, 0u) << mass << " " << stiffness;
+        EXPECT_LT(ff.axes[i].max_tracking_error_mm, 0.01 * open.axes[i].max_tracking_error_mm)
             << mass << " " << stiffness;
       }
     }
   }
 }
 
-TEST(Seed003Scenario, OpenLoopErrorGrowsFrom90To120) {
+TEST(ReversingStrokes, OpenLoopErrorGrowsFrom90To120) {
   // The load grows with speed (12 N + 150 N s/m): at 120 mm/s open loop slips more (seed 003:
   // "open-loop error grows from 90 to 120 mm/s").
-  Seed003Scenario sc;
-  const SimulationResult slow = simulate_seed003(ender3(), sc, SimulationOptions{});
+  ReversingStrokesScenario sc;
+  const SimulationResult slow = simulate_reversing_strokes(ender3(), sc, SimulationOptions{});
   sc.speed_mm_s = 120.0;
-  const SimulationResult fast = simulate_seed003(ender3(), sc, SimulationOptions{});
+  const SimulationResult fast = simulate_reversing_strokes(ender3(), sc, SimulationOptions{});
   for (int i = 0; i < 2; ++i) {
     EXPECT_GT(fast.axes[i].lost_full_steps, slow.axes[i].lost_full_steps);
     EXPECT_GT(fast.axes[i].max_tracking_error_mm, slow.axes[i].max_tracking_error_mm);
   }
 }
 
-TEST(Seed003Scenario, ClosedLoopsBeatOpenLoopWithoutLoad) {
-  Seed003Scenario sc;
+TEST(ReversingStrokes, ClosedLoopsBeatOpenLoopWithoutLoad) {
+  ReversingStrokesScenario sc;
   sc.load = false;
   SimulationOptions o;
-  const SimulationResult open = simulate_seed003(ender3(), sc, o);
+  const SimulationResult open = simulate_reversing_strokes(ender3(), sc, o);
   o.controller = ControllerKind::pid;
-  const SimulationResult pid = simulate_seed003(ender3(), sc, o);
-  o.controller = ControllerKind::best;
-  const SimulationResult best = simulate_seed003(ender3(), sc, o);
+  const SimulationResult pid = simulate_reversing_strokes(ender3(), sc, o);
+  o.controller = ControllerKind::feedforward;
+  const SimulationResult ff = simulate_reversing_strokes(ender3(), sc, o);
   for (int i = 0; i < 2; ++i) {
     EXPECT_LT(pid.axes[i].rms_tracking_error_mm, 0.5 * open.axes[i].rms_tracking_error_mm);
-    EXPECT_LT(best.axes[i].rms_tracking_error_mm, 0.2 * open.axes[i].rms_tracking_error_mm);
-    EXPECT_EQ(best.axes[i].lost_steps, 0u);
+    EXPECT_LT(ff.axes[i].rms_tracking_error_mm, 0.2 * open.axes[i].rms_tracking_error_mm);
+    EXPECT_EQ(ff.axes[i].lost_steps, 0u);
   }
 }
 
-TEST(Seed003Scenario, CorruptedFramesAreRejectedAndTheLoopStaysOnThePath) {
-  Seed003Scenario sc;
+TEST(ReversingStrokes, CorruptedFramesAreRejectedAndTheLoopStaysOnThePath) {
+  ReversingStrokesScenario sc;
   sc.load = false;
   SimulationOptions o;
-  o.controller = ControllerKind::best;
-  const SimulationResult clean = simulate_seed003(ender3(), sc, o);
+  o.controller = ControllerKind::feedforward;
+  const SimulationResult clean = simulate_reversing_strokes(ender3(), sc, o);
   o.encoder.corrupt_probability = 0.05;
-  const SimulationResult noisy = simulate_seed003(ender3(), sc, o);
+  const SimulationResult noisy = simulate_reversing_strokes(ender3(), sc, o);
   for (int i = 0; i < 2; ++i) {
     EXPECT_GT(noisy.axes[i].encoder_rejected_frames, 0u);
     EXPECT_LT(noisy.axes[i].rms_tracking_error_mm, 1.5 * clean.axes[i].rms_tracking_error_mm);
   }
 }
 
-TEST(Seed003Scenario, AStepRateTheDriverCannotReachIsNamed) {
+TEST(ReversingStrokes, AStepRateTheDriverCannotReachIsNamed) {
   machine::Machine m = ender3();
   m.steppers["x"].microsteps = 256;
-  Seed003Scenario sc;
+  ReversingStrokesScenario sc;
   sc.speed_mm_s = 1000.0;  // 1000 mm/s * 1280 steps/mm > 200 k steps/s
   try {
-    (void)simulate_seed003(m, sc, SimulationOptions{});
+    (void)simulate_reversing_strokes(m, sc, SimulationOptions{});
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("drive.max_step_rate_hz"), std::string::npos) << e.what();

@@ -21,7 +21,10 @@
 // r = rotation_distance / (2 pi), J = rotor + pulley inertia. A step is lost when d leaves
 // (-pi, pi): the rotor settles one electrical cycle (4 full steps) further on; slip cycles are
 // counted as round(d / 2 pi).
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "amctl/dynamics/model.hpp"
 
@@ -113,6 +116,18 @@ struct MotorState {
   double current_a = 0.0;       ///< commanded current amplitude I [A]
   double ref_a = 0.0, ref_b = 0.0;  ///< I cos(phi), I sin(phi) of that microstep [A]
   double torque_n_m = 0.0;      ///< motor torque of the last step
+  /// sin, cos of the electrical angle p theta, carried from substep to substep by the fast
+  /// path (StepperAxisModel::advance); sync_angle() recomputes them exactly.
+  double sin_e = 0.0, cos_e = 1.0;
+};
+
+/// The constants of one integration substep of h seconds (StepperAxisModel::substep).
+struct SubstepCoefficients {
+  double h_s = 0.0;
+  // Phase current, backward Euler: unsaturated i1 = ci0 i0 + cref ref - ce e; saturated
+  // i1 = si0 i0 + sv (+-V - e).
+  double ci0 = 0.0, cref = 0.0, ce = 0.0, si0 = 0.0, sv = 0.0;
+  double h_over_j = 0.0, h_over_m = 0.0;
 };
 
 /// The model: immutable, precomputed constants; state lives in MotorState.
@@ -134,6 +149,15 @@ class StepperAxisModel {
   /// pole (R + Kc)/L ~ 3e4 1/s is stiff); mechanics: semi-implicit (symplectic) Euler, stable
   /// for h well under 2/w_max with w_max the rotor's magnetic-spring frequency (~1.8e3 rad/s).
   void step(MotorState& s, double h_s) const;
+  /// The constants of a substep of h seconds, for advance().
+  [[nodiscard]] SubstepCoefficients substep(double h_s) const;
+  /// Recomputes s.sin_e, s.cos_e from s.theta_rad (after setting theta from outside).
+  void sync_angle(MotorState& s) const;
+  /// The same integration step as step(s, h) (equal to rounding), the fast path: the sine
+  /// and cosine of the electrical angle are rotated by the substep's increment p w h (a
+  /// Taylor polynomial, error below 1e-15 for p w h < 0.2 rad) instead of recomputed; call
+  /// sync_angle() once per control period to keep them exact.
+  void advance(MotorState& s, const SubstepCoefficients& k) const;
 
   /// Load angle d = phi - p theta [rad] (unwrapped).
   [[nodiscard]] double load_angle_rad(const MotorState& s) const;
@@ -166,6 +190,80 @@ class StepperAxisModel {
   int p_ = 50;
   double kt_ = 0, r_ = 0, j_ = 0, kc_ = 0, step_mm_ = 0, rad_per_micro_ = 0;
   double inv_m_ = 0, k_ = 0, c_ = 0, half_backlash_ = 0, end_k_ = 0, end_x_ = 0, bump_lo_ = 0, bump_hi_ = 0;
+  double coulomb_plus_drag_n_ = 0, viscous_plus_drag_ = 0, inv_vs_ = 0;
+  double vmax_ = 0, r_ohm_ = 0, detent_ = 0, damping_ = 0, f_ext_ = 0, bump_f_ = 0;
+  /// cos, sin of the electrical angle of each microstep in a cycle (4 microsteps entries).
+  std::vector<double> micro_cos_, micro_sin_;
+  /// The body of a step: s.sin_e, s.cos_e hold the electrical angle at the start.
+  void integrate(MotorState& s, const SubstepCoefficients& k) const;
 };
+
+// The integration step, inline: the simulator's hot path (docs/closedloop.md, section 1).
+inline void StepperAxisModel::advance(MotorState& s, const SubstepCoefficients& k) const {
+  integrate(s, k);
+  // Rotate (sin, cos) of p theta by d = p (theta1 - theta0) = p h w1: Taylor polynomials of sin d and
+  // cos d to the 7th and 8th order (truncation d^9 / 9! < 1e-15 for d < 0.2 rad).
+  const double d = p_ * k.h_s * s.omega_rad_s;
+  const double d2 = d * d;
+  constexpr double c6 = 1.0 / 6.0, c20 = 1.0 / 20.0, c42 = 1.0 / 42.0, c12 = 1.0 / 12.0,
+                   c30 = 1.0 / 30.0, c56 = 1.0 / 56.0;
+  const double sd = d * (1.0 - d2 * c6 * (1.0 - d2 * c20 * (1.0 - d2 * c42)));
+  const double cd = 1.0 - d2 * 0.5 * (1.0 - d2 * c12 * (1.0 - d2 * c30 * (1.0 - d2 * c56)));
+  const double sn = s.sin_e * cd + s.cos_e * sd;
+  const double cs = s.cos_e * cd - s.sin_e * sd;
+  s.sin_e = sn;
+  s.cos_e = cs;
+}
+
+inline void StepperAxisModel::integrate(MotorState& s, const SubstepCoefficients& k) const {
+  const double sn = s.sin_e, cs = s.cos_e;
+  const double vmax = vmax_;
+  const double R = r_ohm_;
+  // Back-EMF as a voltage drop e (L di/dt = v - R i - e), taken at the start of the step.
+  const double e_a = -kt_ * s.omega_rad_s * sn;
+  const double e_b = kt_ * s.omega_rad_s * cs;
+  // The chopper applies v = Kc (i_ref - i) + R i_ref (it holds the current at standstill
+  // exactly, as a hysteresis chopper does). Backward Euler of L di/dt = v - R i - e; if v
+  // exceeds the supply, the chopper saturates: L di/dt = +-V - R i - e, again backward Euler.
+  auto phase = [&](double i0, double ref, double e) {
+    double i1 = k.ci0 * i0 + k.cref * ref - k.ce * e;
+    const double v = kc_ * (ref - i1) + R * ref;
+    if (v > vmax || v < -vmax) {
+      const double vs = v > 0 ? vmax : -vmax;
+      i1 = k.si0 * i0 + k.sv * (vs - e);
+    }
+    return i1;
+  };
+  s.i_a = phase(s.i_a, s.ref_a, e_a);
+  s.i_b = phase(s.i_b, s.ref_b, e_b);
+  // sin(4 p th) from sin, cos of p th (double angle twice).
+  const double s2 = 2.0 * sn * cs, c2 = cs * cs - sn * sn;
+  const double s4 = 2.0 * s2 * c2;
+  const double tm = kt_ * (-s.i_a * sn + s.i_b * cs) - detent_ * s4;
+  s.torque_n_m = tm;
+  const double stretch = r_ * s.theta_rad - s.x_m;
+  const double stretch_rate = r_ * s.omega_rad_s - s.v_m_s;
+  double f_belt = 0.0;
+  if (half_backlash_ == 0.0) {
+    f_belt = k_ * stretch + c_ * stretch_rate;
+  } else if (stretch > half_backlash_) {  // engaged pulling +x: a contact pushes, never pulls
+    f_belt = std::max(0.0, k_ * (stretch - half_backlash_) + c_ * stretch_rate);
+  } else if (stretch < -half_backlash_) {
+    f_belt = std::min(0.0, k_ * (stretch + half_backlash_) + c_ * stretch_rate);
+  }
+  const double t_rotor = tm - damping_ * s.omega_rad_s - r_ * f_belt;
+  // tanh(v / v_s): beyond |v / v_s| = 20 it rounds to +-1 exactly in double precision.
+  const double xs = s.v_m_s * inv_vs_;
+  const double sgn = xs > 20.0 ? 1.0 : (xs < -20.0 ? -1.0 : std::tanh(xs));
+  double f_cart = f_belt - coulomb_plus_drag_n_ * sgn - viscous_plus_drag_ * s.v_m_s +
+                  f_ext_;
+  if (end_k_ != 0.0) f_cart += end_k_ * std::max(0.0, end_x_ - s.x_m);
+  if (s.x_m >= bump_lo_ && s.x_m <= bump_hi_) f_cart -= bump_f_ * sgn;
+  // Semi-implicit Euler: velocities first, positions with the new velocities.
+  s.omega_rad_s += k.h_over_j * t_rotor;
+  s.v_m_s += k.h_over_m * f_cart;
+  s.theta_rad += k.h_s * s.omega_rad_s;
+  s.x_m += k.h_s * s.v_m_s;
+}
 
 }  // namespace amctl::closedloop

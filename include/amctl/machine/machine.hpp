@@ -91,6 +91,9 @@ struct Stepper {
   std::optional<double> run_current_a, supply_voltage_v, holding_torque_n_m, rated_current_a,
       phase_resistance_ohm, phase_inductance_h, rotor_inertia_kg_m2, detent_torque_n_m,
       backlash_mm;
+  /// The motor by preset name (amctl/machine/motor_presets.hpp, e.g. "ldo-42sth48-2004mah");
+  /// the numeric keys above override single values of it. Empty: the default preset.
+  std::string motor;
   /// Rotary delta arms (stepper_a, _b, _c): upper arm (shoulder to elbow) and lower arm
   /// (elbow to effector) lengths (Klipper upper_arm_length, lower_arm_length; required on a,
   /// b and c default to a's).
