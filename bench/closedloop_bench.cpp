@@ -47,7 +47,7 @@ void BM_ClosedLoopOpenSynthetic60s(benchmark::State& state) {
 BENCHMARK(BM_ClosedLoopOpenSynthetic60s)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_ClosedLoopBestSynthetic60s(benchmark::State& state) {
-  run(state, amctl::closedloop::ControllerKind::best);
+  run(state, amctl::closedloop::ControllerKind::feedforward);
 }
 BENCHMARK(BM_ClosedLoopBestSynthetic60s)->Unit(benchmark::kMillisecond)->Iterations(3);
 

@@ -140,7 +140,7 @@ void register_stepper(CLI::App& app) {
   sim->add_option("--model-mass-scale", a->req.model_mass_scale, "feedforward: factor on the carriage mass its model believes (robustness; default 1)");
   sim->add_option("--model-stiffness-scale", a->req.model_stiffness_scale, "feedforward: factor on the belt stiffness its model believes (robustness; default 1)");
   sim->add_option("--drag-gain", a->req.drag_gain_per_s, "feedforward: adaptation gain of the learned drag [1/s] (default 20; 0 = off)");
-  sim->add_option("--load-angle-deg", a->req.load_angle_deg, "feedforward: load angle the current is sized for [deg] (default 45; 0 = run current only)");
+  sim->add_option("--load-angle-deg", a->req.load_angle_deg, "feedforward: load angle the current is sized for [deg] (default 40; 0 = run current only)");
   sim->add_option("--alpha", a->req.alpha_per_s, "encoder-sequenced / speed-tracking: the paper's alpha [1/s] (default 0.6)");
   sim->add_option("--encoder-rate-hz", a->req.encoder_rate_hz, "encoder frame rate = control rate [Hz] (default 10000; a whole number of 20 us substeps, at most 50000)");
   sim->add_option("--encoder-resolution-um", a->req.encoder_resolution_um, "encoder count [um] (default the AS5311's 0.488; at most half a microstep)");

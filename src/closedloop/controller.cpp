@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <vector>
 #include <numbers>
 
@@ -144,8 +145,9 @@ class EncoderSequenced final : public Controller {
     return in.command_mm + v_ * period_;
   }
   [[nodiscard]] ControllerKind kind() const override { return ControllerKind::encoder_sequenced; }
+  // Done when the sequence is empty and the encoder reads the last point within a microstep.
   [[nodiscard]] bool finished() const override {
-    return queue_.empty() && std::abs(v_) * period_ < 0.5 * step_mm_;
+    return queue_.empty() && std::abs(p_event_ - from_) <= step_mm_;
   }
   [[nodiscard]] std::optional<std::pair<double, double>> active_segment() const override {
     if (queue_.empty()) return std::pair{from_, from_};
@@ -223,6 +225,9 @@ class Pid {
   bool first_ = true;
 };
 
+// tanh, exactly +-1 beyond |x| = 20 (where it rounds to +-1 in double precision anyway).
+double smooth_sign(double x) { return x > 20.0 ? 1.0 : (x < -20.0 ? -1.0 : std::tanh(x)); }
+
 bool integrating(const ControlInput& in) {
   return !in.limited && (in.limits == nullptr || in.limits->feasible);
 }
@@ -275,7 +280,7 @@ class Feedforward final : public Controller {
     // motion, moves into the drag estimate, which the feed-forward flips with the direction (the
     // integral then unloads). Driven by the integral rather than the raw error, the estimate is
     // filtered twice and cannot ring with the loop. The drag opposes motion: never negative.
-    const double dir = std::tanh(in.ref_vel_mm_s / flip_mm_s_);
+    const double dir = smooth_sign(in.ref_vel_mm_s / flip_mm_s_);
     const double k = m_.axis().belt.stiffness_n_per_m;
     if (integrate) {
       drag_n_ = std::max(0.0, drag_n_ + drag_gain_ * period_ * k * pid_.integral() * 1e-3 * dir);
@@ -284,11 +289,21 @@ class Feedforward final : public Controller {
     // lets the acceleration lead in, rail friction) and the learned drag; the integral holds
     // the rest as a lead k I (it is not fed forward again).
     const double acc = accel_lead(in) ? in.next_acc_mm_s2 : 0.0;
-    const double f = force_n(in.next_vel_mm_s, acc);
     const double r = m_.pulley_radius_m();
-    const double w = in.next_vel_mm_s * 1e-3 / r;
-    const double tau = r * f + m_.inertia_kg_m2() * acc * 1e-3 / r +
-                       m_.motor().rotor_damping_n_m_s_per_rad * w;
+    // The model's force and torque change only with the reference's speed and acceleration,
+    // the learned drag and the current: recomputed when one of them moved.
+    const bool same = acc == acc_ && std::abs(in.next_vel_mm_s - vel_) < 1e-3 &&
+                      std::abs(drag_n_ - drag_at_) < 1e-4 && current_ == current_at_;
+    if (!same) {
+      acc_ = acc;
+      vel_ = in.next_vel_mm_s;
+      drag_at_ = drag_n_;
+      f_ = force_n(in.next_vel_mm_s, acc);
+      const double w = in.next_vel_mm_s * 1e-3 / r;
+      tau_ = r * f_ + m_.inertia_kg_m2() * acc * 1e-3 / r + m_.motor().rotor_damping_n_m_s_per_rad * w;
+      w_ = w;
+    }
+    const double f = f_, tau = tau_, w = w_;
     if (sin_angle_ > 0.0) {
       // Current sized so that the torque is reached at the design load angle (closed-loop
       // current scaling): the larger of the model's torque and the torque the measured lead
@@ -303,7 +318,10 @@ class Feedforward final : public Controller {
       current_ = std::clamp(tau_need / (kt * sin_angle_), m_.drive().current_amplitude_a,
                             m_.max_current_a());
     }
-    lead_ = lead_mm(f, tau, w);
+    if (!same || current_ != current_at_) {
+      current_at_ = current_;
+      lead_ = lead_mm(f, tau, w);
+    }
     return in.next_ref_mm + lead_ + u;
   }
   [[nodiscard]] double current_request_a() const override { return current_; }
@@ -316,8 +334,8 @@ class Feedforward final : public Controller {
     const AxisMechanics& ax = m_.axis();
     const double v = v_mm_s * 1e-3;
     return ax.belt.mass_kg * a_mm_s2 * 1e-3 +
-           ax.coulomb_friction_n * std::tanh(v / ax.friction_smoothing_m_s) +
-           drag_n_ * std::tanh(v_mm_s / flip_mm_s_) + ax.viscous_friction_n_s_per_m * v;
+           ax.coulomb_friction_n * smooth_sign(v / ax.friction_smoothing_m_s) +
+           drag_n_ * smooth_sign(v_mm_s / flip_mm_s_) + ax.viscous_friction_n_s_per_m * v;
   }
   // Where the motor must be ahead of the carriage to produce force f: belt stretch f / k, the
   // backlash's half on the side the belt pulls, and the rotor's load angle asin(tau / T_po) / p
@@ -333,6 +351,9 @@ class Feedforward final : public Controller {
   Pid pid_;
   double period_, drag_gain_, flip_mm_s_, sin_angle_ = 0.0;
   double drag_n_ = 0.0, current_ = 0.0, lead_ = 0.0;
+  // The last model evaluation and what it was made at (NaN: none yet).
+  double acc_ = std::numeric_limits<double>::quiet_NaN(), vel_ = 0.0, drag_at_ = 0.0,
+         current_at_ = 0.0, f_ = 0.0, tau_ = 0.0, w_ = 0.0;
   StepperAxisModel m_;  // a copy: the caller's model may move
 };
 
@@ -421,8 +442,16 @@ LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
 }
 
 void require_stable_loop(ControllerKind kind, const ControllerParameters& p,
-                         const StepperAxisModel& model, const std::string& axis_name) {
-  const LoopAnalysis a = analyse_loop(kind, p, model);
+                         const StepperAxisModel& model, const std::string& axis_name,
+                         double design_load_angle_rad) {
+  // At rest and at the design load angle, where the rotor's spring is softest (the loop's
+  // gain through it lowest, its phase worst); the governor keeps the rotor within.
+  double angle = 0.0;
+  LoopAnalysis a = analyse_loop(kind, p, model, 0.0);
+  if (a.stable && design_load_angle_rad > 0.0) {
+    a = analyse_loop(kind, p, model, design_load_angle_rad);
+    angle = design_load_angle_rad;
+  }
   if (a.stable) return;
   std::string gains;
   switch (kind) {
@@ -440,8 +469,10 @@ void require_stable_loop(ControllerKind kind, const ControllerParameters& p,
   }
   throw Error(fmt::format(
       "controller {} on axis {}: gains {} make the loop unstable (spectral radius {:.4f} >= 1 "
-      "of the linearised loop at period {} s, latency {} s); lower the gains",
-      to_string(kind), axis_name, gains, a.spectral_radius, p.period_s, p.latency_s));
+      "of the linearised loop at load angle {:.0f} deg, period {} s, latency {} s, run current "
+      "{:.2f} A); lower the gains",
+      to_string(kind), axis_name, gains, a.spectral_radius, angle * 180.0 / std::numbers::pi,
+      p.period_s, p.latency_s, model.drive().current_amplitude_a));
 }
 
 std::unique_ptr<Controller> make_controller(ControllerKind kind, const ControllerParameters& p,

@@ -59,12 +59,13 @@ As5311Encoder::As5311Encoder(const EncoderParameters& p, double start_mm) : p_(p
   p_.validate();
   counts_ = static_cast<int>(std::lround(kAs5311PolePairMm / p_.resolution_mm));
   res_mm_ = kAs5311PolePairMm / counts_;
+  inv_res_ = 1.0 / res_mm_;
   std::normal_distribution<double> normal(0.0, 1.0);
   normals_.resize(4096);
   for (double& v : normals_) v = normal(rng_);
   pick_ = p.seed * 0x9E3779B97F4A7C15ull + 1;
   // Place the strip so that start_mm falls in the middle of a count.
-  const double counts = std::floor(start_mm / res_mm_);
+  const double counts = std::floor(start_mm * inv_res_);
   offset_mm_ = 0.0;
   turns_counts_ = static_cast<std::int64_t>(counts);
   last_count_ = static_cast<int>(((turns_counts_ % counts_) + counts_) % counts_);
@@ -77,9 +78,12 @@ double As5311Encoder::read(double x_mm) {
   pick_ ^= pick_ >> 7;
   pick_ ^= pick_ << 17;
   const double sensed = x_mm + p_.noise_rms_um * 1e-3 * normals_[pick_ >> 52];
-  const auto counts = static_cast<std::int64_t>(std::floor(sensed / res_mm_));
+  const auto counts = static_cast<std::int64_t>(std::floor(sensed * inv_res_));
   As5311Frame f;
-  f.position = static_cast<std::uint16_t>(((counts % counts_) + counts_) % counts_);
+  // Within the pole pair (a mask for the AS5311's 4096 counts, no division).
+  f.position = static_cast<std::uint16_t>((counts_ & (counts_ - 1)) == 0
+                                              ? (counts & (counts_ - 1))
+                                              : ((counts % counts_) + counts_) % counts_);
   DecodedFrame d;
   if (p_.corrupt_probability > 0.0) {
     // The frame on the wire, possibly with a flipped bit, and what the reader makes of it.

@@ -101,7 +101,11 @@ MoveLimits CommandGovernor::limits(double peak_speed_mm_s, double accel_mm_s2) c
     const double d_plan = std::asin(std::min(1.0, l.plan_torque_n_m / l.pull_out_n_m));
     const double d_max = std::asin(sin_max_);
     l.free_step_mm = 1e3 * (r / p) * std::max(0.0, d_max - d_plan) / 4.0;
-    l.max_feedback_mm = 1e3 * (margin / r) / m_.axis().belt.stiffness_n_per_m;
+    // No bound on the feedback's size: it makes up for loads the model does not know (a drag
+    // holds the carriage back whatever the command does) and for cycles the rotor slipped (a
+    // whole electrical cycle of command lead is no force at all); the current scaling, not a
+    // smaller u, answers a load.
+    l.max_feedback_mm = std::numeric_limits<double>::infinity();
     // The acceleration lead changes by up to twice the move's acceleration at a junction
     // (a reversal from +a to -a).
     l.accel_lead = belt_phase(2.0 * accel_mm_s2, l.correction_accel_mm_s2) <= p_.belt_phase_limit;
@@ -138,16 +142,20 @@ CommandLimiter::Out CommandLimiter::next(double lead_mm, double feedback_mm,
   // rate that can still brake to 0 over the distance left, changed by at most A_c T).
   const double a = l.correction_accel_mm_s2;
   const double e = lead_w - smooth_;
+  // The fastest rate from which steps of A T per period still stop within |e|: moving n A T,
+  // then (n - 1) A T, ... covers A T^2 n (n + 1) / 2 <= |e|.
   double want = e / T;
-  const double brake = std::sqrt(2.0 * a * std::abs(e));
+  const double at = a * T;
+  const double brake = at > 0.0 ? 0.5 * at * (std::sqrt(1.0 + 8.0 * std::abs(e) / (at * T)) - 1.0) : 0.0;
   if (std::abs(want) > brake) want = std::copysign(brake, e);
-  rate_ = std::clamp(std::clamp(want, rate_ - a * T, rate_ + a * T), lo, hi);
+  rate_ = std::clamp(std::clamp(want, rate_ - at, rate_ + at), lo, hi);
   smooth_ += rate_ * T;
   const double lead = smooth_ + std::clamp(lead_w - smooth_, -l.free_step_mm, l.free_step_mm);
   // Feedback: at most s_free per period (on a degraded move, s_free of the margin left).
   const double step = l.free_step_mm;
   const double u = std::clamp(u_w, u_ - step, u_ + step);
   out.feedback_limited = std::abs(u - feedback_mm) > 1e-9;
+
 
   // The command's speed over the period.
   double d = std::clamp(lead + u, lead_ + u_ + lo * T, lead_ + u_ + hi * T);

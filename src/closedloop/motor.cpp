@@ -106,6 +106,7 @@ StepperAxisModel::StepperAxisModel(const MotorParameters& motor, const DrivePara
   f_ext_ = axis_.external_force_n;
   bump_f_ = axis_.bump_force_n;
   const int cycle = 4 * drive_.microsteps;
+  cycle_mask_ = (cycle & (cycle - 1)) == 0 ? cycle - 1 : -1;
   micro_cos_.resize(static_cast<std::size_t>(cycle));
   micro_sin_.resize(static_cast<std::size_t>(cycle));
   for (int n = 0; n < cycle; ++n) {
@@ -136,12 +137,36 @@ MotorState StepperAxisModel::rest_state(double x_mm) const {
 
 void StepperAxisModel::set_microstep(MotorState& s, std::int64_t n) const {
   s.microstep = n;
-  // The electrical angle n 2 pi / (4 microsteps), from the table of one cycle.
+  // The electrical angle n 2 pi / (4 microsteps), from the table of one cycle (a power of two
+  // for every power-of-two microstepping: a mask, not a division).
   const auto cycle = static_cast<std::int64_t>(micro_cos_.size());
-  const auto j = static_cast<std::size_t>(((n % cycle) + cycle) % cycle);
+  const auto j = static_cast<std::size_t>(cycle_mask_ >= 0 ? (n & cycle_mask_) : ((n % cycle) + cycle) % cycle);
   const double amp = s.current_a > 0.0 ? s.current_a : drive_.current_amplitude_a;
   s.ref_a = amp * micro_cos_[j];
   s.ref_b = amp * micro_sin_[j];
+}
+
+void StepperAxisModel::set_microstep_path(MotorState& s, std::int64_t n0, std::int64_t n1,
+                                          double c0, double c1) const {
+  const auto cycle = static_cast<std::int64_t>(micro_cos_.size());
+  auto idx = [&](std::int64_t n) {
+    return static_cast<std::size_t>(cycle_mask_ >= 0 ? (n & cycle_mask_) : ((n % cycle) + cycle) % cycle);
+  };
+  const std::int64_t dir = n1 > n0 ? 1 : -1;
+  const double span = c1 - c0;
+  double ra = 0.0, rb = 0.0, prev = 0.0;
+  for (std::int64_t m = n0; m != n1; m += dir) {
+    // The command crosses (m + dir / 2) s at fraction f of the step.
+    const double f = std::clamp(((static_cast<double>(m) + 0.5 * static_cast<double>(dir)) * step_mm_ - c0) / span, prev, 1.0);
+    ra += (f - prev) * micro_cos_[idx(m)];
+    rb += (f - prev) * micro_sin_[idx(m)];
+    prev = f;
+  }
+  ra += (1.0 - prev) * micro_cos_[idx(n1)];
+  rb += (1.0 - prev) * micro_sin_[idx(n1)];
+  const double amp = s.current_a > 0.0 ? s.current_a : drive_.current_amplitude_a;
+  s.ref_a = amp * ra;
+  s.ref_b = amp * rb;
 }
 
 double StepperAxisModel::max_current_a() const {
@@ -166,13 +191,23 @@ SubstepCoefficients StepperAxisModel::substep(double h) const {
   const double L = motor_.phase_inductance_h, R = motor_.phase_resistance_ohm;
   SubstepCoefficients k;
   k.h_s = h;
-  const double den = L + h * (kc_ + R);
-  k.ci0 = L / den;
-  k.cref = h * (kc_ + R) / den;
-  k.ce = h / den;
-  const double den_sat = L + h * R;
-  k.si0 = L / den_sat;
-  k.sv = h / den_sat;
+  // The current loop is linear with constant inputs over the substep: its exact solution.
+  // Unsaturated, di/dt = lam (i_inf - i), lam = (Kc + R) / L, i_inf = ref - e / (Kc + R):
+  // i1 = E i0 + (1 - E) i_inf, E = exp(-lam h); the mean over the step (for the chopper's
+  // voltage) i0 g + (1 - g) i_inf, g = (1 - E) / (lam h). Saturated, L di/dt = +-V - e - R i:
+  // i1 = Es i0 + (1 - Es) (+-V - e) / R, Es = exp(-R h / L).
+  const double lam = (kc_ + R) / L;
+  const double e = std::exp(-lam * h);
+  const double g = (1.0 - e) / (lam * h);
+  k.ci0 = e;
+  k.cref = 1.0 - e;
+  k.ce = (1.0 - e) / (kc_ + R);
+  k.gi0 = g;
+  k.gref = 1.0 - g;
+  k.ge = (1.0 - g) / (kc_ + R);
+  const double es = std::exp(-R * h / L);
+  k.si0 = es;
+  k.sv = (1.0 - es) / R;
   k.h_over_j = h / j_;
   k.h_over_m = h * inv_m_;
   return k;
@@ -194,7 +229,7 @@ double StepperAxisModel::load_angle_rad(const MotorState& s) const {
 }
 
 std::int64_t StepperAxisModel::slip_cycles(const MotorState& s) const {
-  return static_cast<std::int64_t>(std::llround(load_angle_rad(s) / (2.0 * std::numbers::pi)));
+  return static_cast<std::int64_t>(std::floor(load_angle_rad(s) * (0.5 / std::numbers::pi) + 0.5));
 }
 
 double StepperAxisModel::pull_out_torque_at_n_m(double omega) const {

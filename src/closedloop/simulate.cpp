@@ -79,19 +79,51 @@ void set_motor(AxisSetup& a, const machine::Stepper& st, const std::string& key)
   over(st.phase_inductance_h, a.motor.phase_inductance_h, "phase_inductance");
   over(st.rotor_inertia_kg_m2, a.motor.rotor_inertia_kg_m2, "rotor_inertia");
   over(st.detent_torque_n_m, a.motor.detent_torque_n_m, "detent_torque");
-  if (!own.empty()) {
+  if (st.holding_torque_n_m && st.rated_current_a && st.phase_resistance_ohm && st.phase_inductance_h) {
+    // The machine describes its own motor: the preset only fills what it leaves out.
+    a.motor_name = "the machine's own";
+    a.motor_source = fmt::format("stepper_{}'s {}{}", key, fmt::join(own, ", "),
+                                 own.size() < 6 ? fmt::format("; the rest of {}", preset->name) : "");
+  } else if (!own.empty()) {
     a.motor_source += fmt::format(", with the machine's {}", fmt::join(own, ", "));
   }
+}
+
+// A machine without [stepper_x] / [stepper_y] (the default preset, a printer.cfg that leaves
+// them out) runs on the default drive train, and the notes say so; a missing [stepper_z] or
+// extruder (not simulated here) is filled in silently. Only for kinematics whose X and Y
+// motors are stepper_x and stepper_y.
+machine::Machine with_default_drive_train(const machine::Machine& in, std::vector<std::string>& notes) {
+  machine::Machine m = in;
+  using machine::Kinematics;
+  if (m.kinematics != Kinematics::cartesian && m.kinematics != Kinematics::corexy &&
+      m.kinematics != Kinematics::corexz) {
+    return m;
+  }
+  for (const char* key : {"x", "y"}) {
+    if (m.steppers.count(key) == 0) {
+      m.steppers[key] = machine::Stepper{};
+      notes.push_back(fmt::format(
+          "the machine has no [stepper_{}]: the default drive train is assumed (rotation_distance "
+          "40 mm, 16 microsteps, 200 full steps per rotation)",
+          key));
+    }
+  }
+  for (const char* key : {"z", "e"}) {
+    if (m.steppers.count(key) == 0) m.steppers[key] = machine::Stepper{};
+  }
+  return m;
 }
 
 // A current amplitude above the motor's rating is refused, naming where it came from.
 void require_rated_current(const AxisSetup& a, double amplitude_a, const std::string& what) {
   if (amplitude_a > a.motor.rated_current_a * (1.0 + 1e-9)) {
     throw Error(fmt::format(
-        "{} = {:.3f} A amplitude ({:.3f} A RMS) on axis {} is above the motor's rated current "
-        "{} A ({}): at most {:.3f} A RMS",
-        what, amplitude_a, amplitude_a / std::numbers::sqrt2, a.name, a.motor.rated_current_a,
-        a.motor_name, a.motor.rated_current_a / std::numbers::sqrt2));
+        "{}: {:.3f} A RMS ({:.3f} A amplitude) on axis {} is above the rated current of motor {} "
+        "({} A per phase): expected at most {:.3f} A RMS ({} A amplitude)",
+        what, amplitude_a / std::numbers::sqrt2, amplitude_a, a.name, a.motor_name,
+        a.motor.rated_current_a, a.motor.rated_current_a / std::numbers::sqrt2,
+        a.motor.rated_current_a));
   }
 }
 
@@ -141,42 +173,72 @@ void require_encoder_rate(const AxisSetup& a, double speed_mm_s, double period_s
   const double per_read = std::abs(speed_mm_s) * period_s;
   if (per_read >= 0.5 * kAs5311PolePairMm) {
     throw Error(fmt::format(
-        "{}: axis {} moves {:.3f} mm between two encoder frames at {} mm/s and a frame rate of "
-        "{:.0f} Hz; the AS5311 unwraps pole crossings only below 1 mm per frame: raise "
-        "--encoder-rate-hz above {:.0f} Hz",
-        where, a.name, per_read, speed_mm_s, 1.0 / period_s, 2.0 * std::abs(speed_mm_s) / kAs5311PolePairMm));
+        "{}: {:.0f} frames/s: axis {} moves {:.3f} mm between two encoder frames at {:g} mm/s, "
+        "and the AS5311 unwraps its 2 mm pole pairs only below 1 mm per frame: expected above "
+        "{:.0f} frames/s",
+        where, 1.0 / period_s, a.name, per_read, speed_mm_s,
+        2.0 * std::abs(speed_mm_s) / kAs5311PolePairMm));
   }
 }
 
-// A reference sample of one axis from the move under way (or the hold): position, speed,
-// acceleration, and the move's figures along this axis for the governor and the path error.
-RefSample axis_sample(const trajectory::AxisState& st, const trajectory::Cursor::Location& loc,
-                      const trajectory::Cursor& cur, const std::array<double, 4>& row,
-                      std::uint64_t move_base) {
-  RefSample r;
-  for (int k = 0; k < 4; ++k) {
-    r.pos_mm += row[k] * st.pos_mm[k];
-    r.vel_mm_s += row[k] * st.vel_mm_s[k];
-    r.acc_mm_s2 += row[k] * st.acc_mm_s2[k];
+// The reference of the axes along their channel rows, with the figures of the move under way
+// along each axis (the governor's check and the path error), recomputed only when the move
+// changes.
+class AxisSampler {
+ public:
+  AxisSampler(std::vector<std::array<double, 4>> rows) : rows_(std::move(rows)), moves_(rows_.size()) {}
+  void sample(trajectory::Cursor& cur, double t, std::uint64_t move_base, RefSample* out) {
+    const trajectory::Cursor::Location& loc = cur.locate(t);
+    const std::uint64_t id = loc.holding ? 0 : move_base + loc.move_index + 1;
+    const bool fresh = id != id_ || id == 0;
+    id_ = id;
+    const trajectory::AxisState st = cur.evaluate(t);
+    for (std::size_t i = 0; i < rows_.size(); ++i) {
+      const std::array<double, 4>& row = rows_[i];
+      RefSample& r = out[i];
+      r.pos_mm = r.vel_mm_s = r.acc_mm_s2 = 0.0;
+      for (int k = 0; k < 4; ++k) {
+        r.pos_mm += row[k] * st.pos_mm[k];
+        r.vel_mm_s += row[k] * st.vel_mm_s[k];
+        r.acc_mm_s2 += row[k] * st.acc_mm_s2[k];
+      }
+      if (fresh) {
+        RefSample& m = moves_[i];
+        m = RefSample{};
+        if (id == 0) {
+          m.seg_from_mm = m.seg_to_mm = r.pos_mm;
+        } else {
+          const plan::PlannedMove& mv = cur.move(loc.move_index);
+          double c = 0.0, start = 0.0;
+          for (int k = 0; k < 4; ++k) {
+            c += row[k] * mv.axes_r[k];
+            start += row[k] * mv.start_mm[k];
+          }
+          m.move = id;
+          m.move_speed_mm_s = std::abs(c) * mv.cruise_v_mm_s;
+          m.move_accel_mm_s2 = std::abs(c) * mv.accel_mm_s2;
+          m.seg_from_mm = start;
+          m.seg_to_mm = start + c * mv.distance_mm;
+          m.line = mv.line;
+        }
+      }
+      const RefSample& m = moves_[i];
+      r.move = m.move;
+      r.move_speed_mm_s = m.move_speed_mm_s;
+      r.move_accel_mm_s2 = m.move_accel_mm_s2;
+      r.seg_from_mm = m.seg_from_mm;
+      r.seg_to_mm = m.seg_to_mm;
+      r.line = m.line;
+    }
   }
-  if (loc.holding) {
-    r.seg_from_mm = r.seg_to_mm = r.pos_mm;
-    return r;
-  }
-  const plan::PlannedMove& mv = cur.move(loc.move_index);
-  double c = 0.0, start = 0.0;
-  for (int k = 0; k < 4; ++k) {
-    c += row[k] * mv.axes_r[k];
-    start += row[k] * mv.start_mm[k];
-  }
-  r.move = move_base + loc.move_index + 1;
-  r.move_speed_mm_s = std::abs(c) * mv.cruise_v_mm_s;
-  r.move_accel_mm_s2 = std::abs(c) * mv.accel_mm_s2;
-  r.seg_from_mm = start;
-  r.seg_to_mm = start + c * mv.distance_mm;
-  r.line = mv.line;
-  return r;
-}
+  /// Forget the cached move (a new window: its indices start over).
+  void reset() { id_ = static_cast<std::uint64_t>(-1); }
+
+ private:
+  std::vector<std::array<double, 4>> rows_;
+  std::vector<RefSample> moves_;
+  std::uint64_t id_ = static_cast<std::uint64_t>(-1);
+};
 
 // The commands of a move on each axis's own sequence (the encoder-sequenced law).
 void push_move_commands(ClosedLoopSimulator& sim, const plan::PlannedMove& mv,
@@ -197,32 +259,16 @@ double overtime_s(double plan_duration_s) { return std::max(5.0, 0.5 * plan_dura
 
 }  // namespace
 
-SimulationResult simulate_reversing_strokes(const machine::Machine& machine_in,
-                                            const ReversingStrokesScenario& sc,
-                                            const SimulationOptions& options) {
-  require_positive("--speed-mm-s", sc.speed_mm_s);
-  // The default preset has no stepper sections: the scenario then runs on the default drive
-  // train (rotation_distance 40, 16 microsteps, 200 steps) and says so.
+std::vector<AxisSetup> reversing_strokes_axes(const machine::Machine& machine_in,
+                                              const ReversingStrokesScenario& sc,
+                                              std::vector<std::string>* notes) {
+  // The scenario drives each motor on its own (the kinematics does not matter): a machine
+  // without the two sections (the default preset) runs on the default drive train.
+  std::vector<std::string> ignored;
   machine::Machine m = machine_in;
-  std::vector<std::string> notes;
-  for (const char* key : {"x", "y"}) {
-    if (m.steppers.count(key) == 0) {
-      m.steppers[key] = machine::Stepper{};
-      notes.push_back(fmt::format(
-          "the machine has no [stepper_{}]: the scenario's default drive train is assumed "
-          "(rotation_distance 40 mm, 16 microsteps, 200 full steps per rotation)",
-          key));
-    }
-  }
-  std::vector<AxisSetup> axes;
-  {
-    // The scenario drives each motor on its own: only the two sections are needed.
-    machine::Machine only = m;
-    only.kinematics = machine::Kinematics::cartesian;
-    if (only.steppers.count("z") == 0) only.steppers["z"] = machine::Stepper{};
-    if (only.steppers.count("e") == 0) only.steppers["e"] = machine::Stepper{};
-    axes = machine_axes(only);
-  }
+  m.kinematics = machine::Kinematics::cartesian;
+  m = with_default_drive_train(m, notes ? *notes : ignored);
+  std::vector<AxisSetup> axes = machine_axes(m);
   axes[0].mechanics.belt.mass_kg = sc.x_mass_kg;
   axes[1].mechanics.belt.mass_kg = sc.y_mass_kg;
   for (AxisSetup& a : axes) {
@@ -255,8 +301,19 @@ SimulationResult simulate_reversing_strokes(const machine::Machine& machine_in,
       a.mechanics.bump_half_width_mm = sc.bump_half_width_mm;
       a.mechanics.drag_n_s_per_m = sc.drag_n_s_per_m;
     }
+  }
+  return axes;
+}
+
+SimulationResult simulate_reversing_strokes(const machine::Machine& m,
+                                            const ReversingStrokesScenario& sc,
+                                            const SimulationOptions& options) {
+  require_positive("--speed-mm-s", sc.speed_mm_s);
+  std::vector<std::string> notes;
+  std::vector<AxisSetup> axes = reversing_strokes_axes(m, sc, &notes);
+  for (const AxisSetup& a : axes) {
     require_step_rate(a, sc.speed_mm_s, "scenario reversing-strokes");
-    require_encoder_rate(a, sc.speed_mm_s, options.gains.period_s, "scenario reversing-strokes");
+    require_encoder_rate(a, sc.speed_mm_s, options.gains.period_s, "--encoder-rate-hz");
   }
   // 0 -> -stroke -> 0 ..., each stroke from rest to rest.
   std::vector<trajectory::MoveSpec> specs;
@@ -279,11 +336,8 @@ SimulationResult simulate_reversing_strokes(const machine::Machine& machine_in,
   ch[0].row = ch[1].row = {1.0, 0.0, 0.0, 0.0};  // both axes follow the same stroke
   for (const plan::PlannedMove& mv : moves) push_move_commands(sim, mv, ch);
   RefSample now[2], next[2];
-  auto sample = [&](double t, RefSample* out) {
-    const trajectory::Cursor::Location loc = cur.locate(t0 + t);
-    const trajectory::AxisState st = cur.evaluate(t0 + t);
-    for (int i = 0; i < 2; ++i) out[i] = axis_sample(st, loc, cur, ch[i].row, 0);
-  };
+  AxisSampler sampler({ch[0].row, ch[1].row});
+  auto sample = [&](double t, RefSample* out) { sampler.sample(cur, t0 + t, 0, out); };
   sample(0.0, now);
   const double t_end = t_plan + options.settle_s;
   const double t_limit = t_end + overtime_s(t_plan);
@@ -309,7 +363,7 @@ class ClosedLoopSink final : public plan::Sink {
   ClosedLoopSink(ClosedLoopSimulator& sim, std::vector<steppers::StepperChannel> ch,
                  std::vector<AxisSetup> axes, const SimulationOptions& options)
       : sim_(sim), ch_(std::move(ch)), axes_(std::move(axes)), settle_s_(options.settle_s),
-        period_s_(options.gains.period_s) {}
+        period_s_(options.gains.period_s), sampler_({ch_[0].row, ch_[1].row}) {}
 
   void consume(const plan::PlanBatch& batch) override {
     if (batch.moves.empty()) return;
@@ -341,16 +395,13 @@ class ClosedLoopSink final : public plan::Sink {
       for (int k = 0; k < 4; ++k) speed += ch_[i].row[k] * mv.axes_r[k];
       speed = std::abs(speed) * mv.cruise_v_mm_s;
       require_step_rate(axes_[i], speed, fmt::format("line {}", mv.line));
-      require_encoder_rate(axes_[i], speed, period_s_, fmt::format("line {}", mv.line));
+      require_encoder_rate(axes_[i], speed, period_s_, fmt::format("--encoder-rate-hz (line {})", mv.line));
     }
   }
-  void sample(trajectory::Cursor& cur, double t, RefSample* out) {
-    const trajectory::Cursor::Location loc = cur.locate(t);
-    const trajectory::AxisState st = cur.evaluate(t);
-    for (std::size_t i = 0; i < axes_.size(); ++i) out[i] = axis_sample(st, loc, cur, ch_[i].row, base_);
-  }
+  void sample(trajectory::Cursor& cur, double t, RefSample* out) { sampler_.sample(cur, t, base_, out); }
   void run_until(double t_end) {
     trajectory::Cursor cur(window_);
+    sampler_.reset();
     if (!started_) {
       t0_ = window_.front().start_time_s;
       started_ = true;
@@ -369,6 +420,7 @@ class ClosedLoopSink final : public plan::Sink {
   std::vector<steppers::StepperChannel> ch_;
   std::vector<AxisSetup> axes_;
   double settle_s_, period_s_;
+  AxisSampler sampler_;
   std::vector<plan::PlannedMove> window_;
   std::uint64_t base_ = 0;  // the plan's index of window_[0]
   bool started_ = false;
@@ -409,8 +461,10 @@ class LazyClosedLoop final : public plan::Sink {
 
 }  // namespace
 
-SimulationResult simulate_file(const std::string& gcode_path, const machine::Machine& m,
+SimulationResult simulate_file(const std::string& gcode_path, const machine::Machine& machine_in,
                                const SimulationOptions& options) {
+  std::vector<std::string> notes;
+  const machine::Machine m = with_default_drive_train(machine_in, notes);
   LazyClosedLoop lazy(m, options);
   plan::PlanSource source(gcode_path, m);
   plan::Sink* sinks[] = {&lazy};
@@ -418,6 +472,7 @@ SimulationResult simulate_file(const std::string& gcode_path, const machine::Mac
   if (!lazy.started()) throw Error(fmt::format("{}: no moves to simulate", gcode_path));
   SimulationResult r = lazy.result();
   r.source = gcode_path;
+  r.notes.insert(r.notes.begin(), notes.begin(), notes.end());
   return r;
 }
 
@@ -483,37 +538,40 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   if (a.model_mass_scale) require_positive("--model-mass-scale", *a.model_mass_scale);
   if (a.model_stiffness_scale) require_positive("--model-stiffness-scale", *a.model_stiffness_scale);
   if (!(a.corrupt_probability >= 0.0 && a.corrupt_probability <= 1.0)) {
-    throw Error(fmt::format("--corrupt-probability must be a probability in [0, 1], got {}",
+    throw Error(fmt::format("--corrupt-probability: {}: expected a probability in [0, 1]",
                             a.corrupt_probability));
   }
   if (a.encoder_rate_hz) {
-    require_positive("--encoder-rate-hz", *a.encoder_rate_hz);
-    // The AS5311's SSI: 18 bits at up to 1 MHz, plus chip-select time: at most 50 kHz.
-    if (*a.encoder_rate_hz > 50000.0) {
-      throw Error(fmt::format("--encoder-rate-hz {}: the AS5311 reads at most 50000 frames/s "
-                              "(18-bit SSI frames at its 1 MHz clock)",
-                              *a.encoder_rate_hz));
+    const double rate = *a.encoder_rate_hz;
+    // The AS5311's SSI: 18-bit frames at up to 1 MHz, plus chip-select time: 50 kHz at most.
+    if (!(std::isfinite(rate) && rate > 0.0 && rate <= 50000.0)) {
+      throw Error(fmt::format("--encoder-rate-hz: {} frames/s: the AS5311 reads 18-bit SSI "
+                              "frames at a 1 MHz clock: expected a rate in (0, 50000]",
+                              rate));
     }
-    const double period = 1.0 / *a.encoder_rate_hz;
-    const double ratio = period / o.substep_s;
-    if (std::abs(ratio - std::round(ratio)) > 1e-6 * ratio) {
-      throw Error(fmt::format("--encoder-rate-hz {}: the control period 1/rate = {} us must be a "
-                              "whole number of the {} us physics substeps (50000, 25000, 16666.67, "
-                              "12500, 10000, ... Hz)",
-                              *a.encoder_rate_hz, period * 1e6, o.substep_s * 1e6));
+    // The control period 1 / rate, a whole number of microseconds; the physics substep the
+    // largest whole fraction of it not above 50 us.
+    const double period_us = 1e6 / rate;
+    if (std::abs(period_us - std::round(period_us)) > 1e-6 * period_us) {
+      throw Error(fmt::format("--encoder-rate-hz: {} frames/s gives a control period of {} us: "
+                              "expected a whole number of microseconds (50000, 40000, 25000, "
+                              "20000, 12500, 10000, 8000, 5000, ... frames/s)",
+                              rate, period_us));
     }
-    o.gains.period_s = std::round(ratio) * o.substep_s;
+    o.gains.period_s = std::round(period_us) * 1e-6;
+    o.substep_s = o.gains.period_s / std::ceil(o.gains.period_s / 50e-6 - 1e-9);
     // The encoder's latency: its internal sampling plus one frame.
     o.encoder.latency_s = o.gains.period_s;
   }
   if (a.encoder_resolution_um) {
-    require_positive("--encoder-resolution-um", *a.encoder_resolution_um);
-    o.encoder.resolution_mm = *a.encoder_resolution_um * 1e-3;
-    try {
-      o.encoder.validate();
-    } catch (const Error& e) {
-      throw Error(fmt::format("--encoder-resolution-um: {}", e.what()));
+    const double res = *a.encoder_resolution_um;
+    if (!(std::isfinite(res) && res >= kAs5311ResolutionMm * 1e3 * (1.0 - 1e-9) &&
+          res <= 0.25 * kAs5311PolePairMm * 1e3)) {
+      throw Error(fmt::format("--encoder-resolution-um: {} um: the AS5311's frame carries 12 bits "
+                              "per 2 mm pole pair: expected a count in [{:.4f}, 500] um",
+                              res, kAs5311ResolutionMm * 1e3));
     }
+    o.encoder.resolution_mm = res * 1e-3;
   }
   if (a.model_mass_scale) o.gains.ff_model_mass_scale = *a.model_mass_scale;
   if (a.model_stiffness_scale) o.gains.ff_model_stiffness_scale = *a.model_stiffness_scale;
@@ -524,26 +582,17 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   if (a.drag_gain_per_s) o.gains.ff_drag_gain_per_s = *a.drag_gain_per_s;
   if (a.load_angle_deg) o.gains.ff_load_angle_deg = *a.load_angle_deg;
   o.encoder.corrupt_probability = a.corrupt_probability;
-  auto encoder_resolution = [&](const std::vector<AxisSetup>& axes) {
-    // The position judgement and the loops need the encoder to resolve a step.
-    for (const AxisSetup& ax : axes) {
-      const double step = ax.mechanics.rotation_distance_mm /
-                          (static_cast<double>(ax.motor.full_steps_per_rotation) * ax.drive.microsteps);
-      if (is_feedback(o.controller) && o.encoder.resolution_mm > 0.5 * step) {
-        throw Error(fmt::format("--encoder-resolution-um {}: coarser than half a microstep of axis "
-                                "{} ({:.3f} um); the controller could not tell one step from the "
-                                "next: at most {:.3f} um",
-                                o.encoder.resolution_mm * 1e3, ax.name, step * 1e3, 0.5 * step * 1e3));
-      }
-    }
-  };
-  SimulationResult r;
+
+  // The axes as they will be simulated: the scenario's or the machine's.
+  ReversingStrokesScenario sc;
+  std::vector<AxisSetup> axes;
+  std::vector<steppers::StepperChannel> channels;
+  std::vector<std::string> ignored;
   if (!a.scenario.empty()) {
     if (!a.file.empty()) throw Error("give either FILE or --scenario, not both");
     if (a.scenario != "reversing-strokes" && a.scenario != "seed003") {
-      throw Error(fmt::format("--scenario '{}': expected reversing-strokes", a.scenario));
+      throw Error(fmt::format("--scenario: '{}': expected reversing-strokes", a.scenario));
     }
-    ReversingStrokesScenario sc;
     sc.speed_mm_s = a.speed_mm_s;
     sc.load = a.load;
     if (a.drag_force_n) sc.drag_force_n = *a.drag_force_n;
@@ -553,19 +602,7 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
     if (a.backlash_mm) sc.backlash_mm = *a.backlash_mm;
     if (a.run_current_a) sc.run_current_a = *a.run_current_a;
     if (a.max_current_a) sc.max_current_a = *a.max_current_a;
-    if (a.encoder_resolution_um) {
-      machine::Machine mm = m;
-      for (const char* key : {"x", "y", "z", "e"}) {
-        if (mm.steppers.count(key) == 0) mm.steppers[key] = machine::Stepper{};
-      }
-      mm.kinematics = machine::Kinematics::cartesian;
-      encoder_resolution(machine_axes(mm));
-    }
-    r = simulate_reversing_strokes(m, sc, o);
-    if (a.scenario == "seed003") {
-      r.notes.insert(r.notes.begin(), "--scenario seed003 is now 'reversing-strokes'; the old name "
-                                      "goes in the next release");
-    }
+    axes = reversing_strokes_axes(m, sc, nullptr);
   } else {
     if (a.file.empty()) throw Error("give a G-code FILE or --scenario reversing-strokes");
     if (a.run_current_a || a.max_current_a || a.backlash_mm || a.drag_force_n || a.bump_force_n ||
@@ -574,7 +611,78 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
                   "--scenario only; for a file, set the machine's stepper_x.run_current, "
                   "stepper_x.backlash, ... (--set)");
     }
-    encoder_resolution(machine_axes(m));
+    const machine::Machine mm = with_default_drive_train(m, ignored);
+    axes = machine_axes(mm);
+    channels = xy_channels(mm);
+  }
+  // Refused before anything is simulated, each naming its flag and the limit: an encoder that
+  // cannot resolve a step, a frame rate too low for the fastest move the machine allows, gains
+  // that make the loop unstable.
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const AxisSetup& ax = axes[i];
+    const double step = ax.mechanics.rotation_distance_mm /
+                        (static_cast<double>(ax.motor.full_steps_per_rotation) * ax.drive.microsteps);
+    if (is_feedback(o.controller) && o.encoder.resolution_mm > 0.5 * step * (1.0 + 1e-9)) {
+      throw Error(fmt::format("--encoder-resolution-um: {} um is coarser than half a microstep of "
+                              "axis {} ({:.3f} um): expected at most {:.3f} um (the controller must "
+                              "tell one step from the next)",
+                              o.encoder.resolution_mm * 1e3, ax.name, step * 1e3, 0.5 * step * 1e3));
+    }
+    if (is_feedback(o.controller)) {
+      // The fastest the axis can move: the scenario's speed, or the machine's max_velocity
+      // along the motor's row (a CoreXY motor turns at up to sqrt 2 times it on a diagonal).
+      double vmax = sc.speed_mm_s;
+      if (a.scenario.empty()) {
+        const std::array<double, 4>& row = channels[i].row;
+        vmax = m.max_velocity_mm_s * std::hypot(row[0], row[1]);
+      }
+      require_encoder_rate(ax, vmax, o.gains.period_s, "--encoder-rate-hz");
+    }
+    const StepperAxisModel model(ax.motor, ax.drive, ax.mechanics);
+    ControllerParameters g = o.gains;
+    g.latency_s = std::round(o.encoder.latency_s / g.period_s) * g.period_s;
+    const double design = o.governor.max_load_angle_deg * std::numbers::pi / 180.0;
+    for (double angle : {0.0, design}) {
+      const LoopAnalysis la = analyse_loop(o.controller, g, model, angle);
+      if (la.stable) continue;
+      std::vector<std::string> flags, values;
+      const bool pid_like = o.controller == ControllerKind::pid || o.controller == ControllerKind::feedforward;
+      const ControllerParameters d;
+      if (pid_like) {
+        if (a.kp) flags.emplace_back("--kp");
+        if (a.ki_per_s) flags.emplace_back("--ki");
+        if (a.kd_s) flags.emplace_back("--kd");
+        const bool ff = o.controller == ControllerKind::feedforward;
+        values.push_back(fmt::format("kp {}, ki {} /s, kd {} s", ff ? g.ff_kp : g.kp,
+                                     ff ? g.ff_ki_per_s : g.ki_per_s, ff ? g.ff_kd_s : g.kd_s));
+        values.push_back(fmt::format("kp {}, ki {} /s, kd {} s", ff ? d.ff_kp : d.kp,
+                                     ff ? d.ff_ki_per_s : d.ki_per_s, ff ? d.ff_kd_s : d.kd_s));
+      } else {
+        if (a.alpha_per_s) flags.emplace_back("--alpha");
+      }
+      if (a.encoder_rate_hz) flags.emplace_back("--encoder-rate-hz");
+      if (!pid_like) {
+        values.push_back(fmt::format("alpha {} /s", g.alpha_per_s));
+        values.push_back(fmt::format("alpha {} /s", d.alpha_per_s));
+      }
+      throw Error(fmt::format(
+          "{}: {} make the {} loop on axis {} unstable (spectral radius {:.4f} of the linearised "
+          "loop at load angle {:.0f} deg, run current {:.2f} A, period {} us): expected a radius "
+          "below 1; lower the gains (the defaults: {})",
+          flags.empty() ? std::string("--controller") : fmt::format("{}", fmt::join(flags, ", ")),
+          values[0], to_string(o.controller), ax.name, la.spectral_radius,
+          angle * 180.0 / std::numbers::pi, ax.drive.current_amplitude_a, g.period_s * 1e6,
+          values[1]));
+    }
+  }
+  SimulationResult r;
+  if (!a.scenario.empty()) {
+    r = simulate_reversing_strokes(m, sc, o);
+    if (a.scenario == "seed003") {
+      r.notes.insert(r.notes.begin(), "--scenario seed003 is now 'reversing-strokes'; the old name "
+                                      "goes in the next release");
+    }
+  } else {
     r = simulate_file(a.file, m, o);
   }
   if (auto note = controller_alias_note(a.controller)) r.notes.insert(r.notes.begin(), *note);

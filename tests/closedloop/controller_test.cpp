@@ -219,3 +219,127 @@ TEST(FileSimulation, ASquareOpenLoopLosesNoStep) {
 
 }  // namespace
 }  // namespace amctl::closedloop
+
+namespace amctl::closedloop {
+namespace {
+
+// The published law, step by step by hand: (5)-(11) with v(k) the measured speed, D* =
+// sqrt(2 a_max s) = 8.660 mm/s, alpha 0.6 /s; the position judgement moves to the next command
+// when the encoder reaches p*(h).
+TEST(EncoderSequencedLaw, RunsEquationsFiveToElevenOnItsOwnCommandSequence) {
+  const StepperAxisModel model(MotorParameters{}, DriveParameters{}, AxisMechanics{});
+  ControllerParameters p;  // alpha 0.6, a_max 3000, T = 100 us; s = 0.0125 mm
+  auto c = make_controller(ControllerKind::encoder_sequenced, p, model, 0.0);
+  ASSERT_TRUE(c->sequenced());
+  c->push_command({10.0, 50.0, 1});
+  c->push_command({10.0, 50.0, 2});   // does not move the axis: not a command of its sequence
+  c->push_command({4.0, 30.0, 3});
+  const double dstar = std::sqrt(2.0 * 3000.0 * 0.0125);
+  ControlInput in;
+  // Rest, no step due: evaluated. dp = 0 - 10, vbar = 50 + 6 = 56, D = 56 - 0 > D*: v = D*.
+  in.t_s = 0.0;
+  EXPECT_NEAR(c->target_mm(in), dstar * 1e-4, 1e-15);
+  // A step event 100 us on at 0.5 um: v(k) = 5 mm/s measured; vbar = 50 - 0.6 (0.0005 - 10).
+  in.t_s = 1e-4;
+  in.measured_mm = 0.0005;
+  in.command_mm = dstar * 1e-4;
+  in.steps_since_last = 1;
+  EXPECT_NEAR(c->target_mm(in), in.command_mm + (5.0 + dstar) * 1e-4, 1e-12);
+  ASSERT_TRUE(c->active_segment());
+  EXPECT_EQ(*c->active_segment(), (std::pair<double, double>{0.0, 10.0}));
+  // Within D* of vbar: v = vbar. Measured 55 mm/s over the next 100 us.
+  in.t_s = 2e-4;
+  const double p2 = 0.0005 + 55.0 * 1e-4;
+  in.measured_mm = p2;
+  const double vbar = 50.0 - 0.6 * (p2 - 10.0);
+  EXPECT_NEAR(c->target_mm(in), in.command_mm + vbar * 1e-4, 1e-12);
+  // The encoder reads p*(h) (within half a step): the next command, back towards 4 at 30 mm/s.
+  in.t_s = 3e-4;
+  in.measured_mm = 10.004;
+  in.steps_since_last = 1;
+  (void)c->target_mm(in);
+  EXPECT_EQ(c->commands_reached(), 1u);
+  EXPECT_EQ(*c->active_segment(), (std::pair<double, double>{10.0, 4.0}));
+  EXPECT_EQ(c->commands_pending(), 1u);
+  EXPECT_FALSE(c->finished());
+}
+
+TEST(ReversingStrokes, TheEncoderSequencedLawReachesEveryCommandWithoutLoad) {
+  ReversingStrokesScenario sc;
+  sc.load = false;
+  SimulationOptions o;
+  o.controller = ControllerKind::encoder_sequenced;
+  const SimulationResult r = simulate_reversing_strokes(machine::load_machine("ender3"), sc, o);
+  for (const AxisResult& a : r.axes) {
+    EXPECT_EQ(a.commands_reached, 6u) << a.name;
+    EXPECT_EQ(a.commands_left, 0u) << a.name;
+    EXPECT_EQ(a.lost_steps, 0u) << a.name;
+    // It ends near where the last command ends (0 mm): past it by its overshoot, which the
+    // law's alpha = 0.6 /s brings back only slowly (a 1.7 s time constant).
+    EXPECT_LE(std::abs(a.final_error_mm), a.max_path_error_mm + 1e-9) << a.name;
+  }
+}
+
+machine::Machine with_motor(std::string motor, int steps) {
+  machine::Machine m = machine::load_machine("ender3");
+  m.steppers["x"].motor = std::move(motor);
+  m.steppers["x"].full_steps_per_rotation = steps;
+  return m;
+}
+
+TEST(MotorPresets, TheMachineNamesItsMotorAndTheDatasheetKeysOverrideIt) {
+  // No motor key: the default 17HS4401 at its rated current as the amplitude.
+  const std::vector<AxisSetup> def = machine_axes(machine::load_machine("ender3"));
+  EXPECT_EQ(def[0].motor_name, "17hs4401");
+  EXPECT_NEAR(def[0].drive.current_amplitude_a, 1.7, 1e-12);
+  EXPECT_NEAR(def[0].motor.holding_torque_n_m, 0.40, 1e-12);
+  // The LDO 0.9 degree motor by name (its values from the preset table).
+  machine::Machine m = with_motor("LDO-42STH48-2004MAH", 400);
+  const std::vector<AxisSetup> ldo = machine_axes(m);
+  EXPECT_EQ(ldo[0].motor_name, "ldo-42sth48-2004mah");
+  EXPECT_EQ(ldo[0].motor.full_steps_per_rotation, 400);
+  EXPECT_NEAR(ldo[0].motor.rated_current_a, 2.0, 1e-12);
+  EXPECT_NEAR(ldo[0].motor.phase_inductance_h, 2.0e-3, 1e-15);
+  EXPECT_EQ(ldo[0].motor_source, "stepper_x.motor");
+  // A datasheet key of the section wins over the preset, and the source says so.
+  m.steppers["x"].holding_torque_n_m = 0.5;
+  const std::vector<AxisSetup> own = machine_axes(m);
+  EXPECT_NEAR(own[0].motor.holding_torque_n_m, 0.5, 1e-12);
+  EXPECT_NE(own[0].motor_source.find("holding_torque"), std::string::npos);
+  // A 400-step stepper without a motor key gets the 0.9 degree preset, not a 1.8 degree one.
+  machine::Machine nine = machine::load_machine("ender3");
+  nine.steppers["y"].full_steps_per_rotation = 400;
+  EXPECT_EQ(machine_axes(nine)[1].motor_name, "ldo-42sth48-2004mah");
+}
+
+TEST(MotorPresets, AStepAngleTheSectionContradictsAndACurrentAboveTheRatingAreRefused) {
+  try {
+    (void)machine_axes(with_motor("ldo-42sth48-2004mah", 200));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("full_steps_per_rotation is 200"), std::string::npos) << e.what();
+  }
+  machine::Machine m = machine::load_machine("ender3");
+  m.steppers["x"].run_current_a = 1.5;  // RMS: 2.12 A amplitude > 1.7 A
+  try {
+    (void)machine_axes(m);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("stepper_x.run_current"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected at most 1.202 A RMS"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ReversingStrokes, RunsOnTheDefaultMachineAndSaysWhichDriveTrainItAssumed) {
+  ReversingStrokesScenario sc;
+  sc.load = false;
+  sc.speed_mm_s = 60.0;
+  const SimulationResult r = simulate_reversing_strokes(machine::load_machine("default"), sc, SimulationOptions{});
+  ASSERT_EQ(r.axes.size(), 2u);
+  EXPECT_EQ(r.axes[0].motor_name, "17hs4401");
+  ASSERT_FALSE(r.notes.empty());
+  EXPECT_NE(r.notes[0].find("no [stepper_x]"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace amctl::closedloop

@@ -74,7 +74,7 @@ struct ControllerParameters {
   /// The load angle the current is sized for [deg]: I = tau / (Kt sin(angle)), between the run
   /// current and the drive's max_current (a closed-loop drive's current boost). 0 or >= 90:
   /// the run current always.
-  double ff_load_angle_deg = 45.0;
+  double ff_load_angle_deg = 40.0;
   /// The reference speed over which the direction of the drag and of the backlash flips in
   /// the feed-forward (tanh(v / v_flip)) [mm/s].
   double ff_flip_speed_mm_s = 2.0;
@@ -168,8 +168,10 @@ struct LoopAnalysis {
 /// detent, p (Kt I + 4 T_det).
 [[nodiscard]] LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
                                         const StepperAxisModel& model, double load_angle_rad = 0.0);
-/// Throws amctl::Error naming the gains of `kind` when analyse_loop finds the loop unstable.
+/// Throws amctl::Error naming the gains of `kind` when analyse_loop finds the loop unstable at
+/// rest or at the design load angle (the governor's max_load_angle_deg, in rad).
 void require_stable_loop(ControllerKind kind, const ControllerParameters& p,
-                         const StepperAxisModel& model, const std::string& axis_name);
+                         const StepperAxisModel& model, const std::string& axis_name,
+                         double design_load_angle_rad = 60.0 * 3.14159265358979323846 / 180.0);
 
 }  // namespace amctl::closedloop

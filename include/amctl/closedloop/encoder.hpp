@@ -75,6 +75,7 @@ class As5311Encoder {
   int last_count_ = 0;
   double offset_mm_ = 0.0;         ///< strip zero so that the first read returns start_mm
   double res_mm_ = kAs5311ResolutionMm;  ///< one count
+  double inv_res_ = 1.0 / kAs5311ResolutionMm;
   int counts_ = kAs5311Counts;     ///< counts per pole pair
   std::uint64_t rejected_ = 0, reads_ = 0;
   bool last_valid_ = true;

@@ -17,8 +17,10 @@
 //     to twice), plus at most s_free at once;
 //   - the feedback may step by at most s_free = (r / p) (d_max - d_plan) / 4 per period,
 //     d_plan = asin(tau_plan / T_po) (a command step of s_free rings the rotor by at most half
-//     the angle margin; encoder noise through the loop stays below it), and may ask the belt
-//     for at most the margin's force: |u| <= U_max = M / (r k);
+//     the angle margin; encoder noise through the loop stays below it). Its size is not
+//     bounded: u makes up for loads the model does not know (which hold the carriage back
+//     whatever the command) and for electrical cycles the rotor slipped (a whole cycle of lead
+//     is no force); the current scaling, not a smaller u, answers a load;
 //   - the command's speed |c'| <= V_c: the lower of 90 % of the drive's step rate and the
 //     speed at which T_po(w, I) sin(d_max) still covers the plan's cruise torque;
 //   - the acceleration part of the lead (m dA / k for a change dA of the plan's acceleration)
@@ -53,7 +55,7 @@ struct MoveLimits {
   double max_command_speed_mm_s = 0.0;  ///< V_c
   double correction_accel_mm_s2 = 0.0;  ///< A_c (0 when degraded and no margin is left)
   double free_step_mm = 0.0;            ///< s_free
-  double max_feedback_mm = 0.0;         ///< U_max
+  double max_feedback_mm = 0.0;         ///< the feedback's size (infinite: unbounded; 0 degraded)
   double plan_torque_n_m = 0.0;         ///< tau_plan at the move's peak
   double pull_out_n_m = 0.0;            ///< T_po at the move's peak speed and current
 };
@@ -93,8 +95,8 @@ class CommandGovernor {
 /// Applies MoveLimits period by period: the lead through a second-order limiter (a smooth part
 /// S reaching the wanted lead in minimum time without overshoot under |S''| <= A_c, plus at
 /// most s_free of what is left, never accumulated), the feedback through a step limit (s_free
-/// per period) and a magnitude limit (U_max); both brought back to 0 on a degraded move; the
-/// command's speed within +-V_c.
+/// per period; max_feedback_mm bounds its size where set); both brought back to 0 on a
+/// degraded move; the command's speed within +-V_c.
 class CommandLimiter {
  public:
   struct Out {

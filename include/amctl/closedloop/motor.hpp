@@ -124,9 +124,9 @@ struct MotorState {
 /// The constants of one integration substep of h seconds (StepperAxisModel::substep).
 struct SubstepCoefficients {
   double h_s = 0.0;
-  // Phase current, backward Euler: unsaturated i1 = ci0 i0 + cref ref - ce e; saturated
-  // i1 = si0 i0 + sv (+-V - e).
-  double ci0 = 0.0, cref = 0.0, ce = 0.0, si0 = 0.0, sv = 0.0;
+  // Phase current, exact for inputs held over the substep: unsaturated i1 = ci0 i0 + cref ref
+  // - ce e, its mean over the step gi0 i0 + gref ref - ge e; saturated i1 = si0 i0 + sv (+-V - e).
+  double ci0 = 0.0, cref = 0.0, ce = 0.0, gi0 = 0.0, gref = 0.0, ge = 0.0, si0 = 0.0, sv = 0.0;
   double h_over_j = 0.0, h_over_m = 0.0;
 };
 
@@ -140,23 +140,30 @@ class StepperAxisModel {
   [[nodiscard]] MotorState rest_state(double x_mm) const;
   /// Commands microstep n (updates the current reference).
   void set_microstep(MotorState& s, std::int64_t n) const;
+  /// For the next step only: the current reference held at microstep n0 until fraction f1 of
+  /// the step, then n0 + dir until f2, ... and n1 for the rest (the time-weighted mean of the
+  /// references, the current loop's input averaged over the step: steps land between substeps).
+  /// Call set_microstep(s, n1) after the step.
+  void set_microstep_path(MotorState& s, std::int64_t n0, std::int64_t n1, double c0_mm,
+                          double c1_mm) const;
   /// Commands the current amplitude, clamped to (0, max_current_a()] (updates the reference).
   void set_current(MotorState& s, double amplitude_a) const;
   /// The largest current a controller may request: drive.max_current_a, or the motor's rated
   /// current when that is 0 [A].
   [[nodiscard]] double max_current_a() const;
-  /// One integration step of h seconds. Electrical side: backward Euler (the current loop's
-  /// pole (R + Kc)/L ~ 3e4 1/s is stiff); mechanics: semi-implicit (symplectic) Euler, stable
-  /// for h well under 2/w_max with w_max the rotor's magnetic-spring frequency (~1.8e3 rad/s).
+  /// One integration step of h seconds. Electrical side: the current loop's exact solution for
+  /// inputs held over the step (its pole (R + Kc)/L ~ 3e4 1/s is stiff), the back-EMF at the
+  /// step's middle angle; mechanics: semi-implicit (symplectic) Euler, stable for h well under
+  /// 2/w_max with w_max the rotor's magnetic-spring frequency (~1.8e3 rad/s).
   void step(MotorState& s, double h_s) const;
   /// The constants of a substep of h seconds, for advance().
   [[nodiscard]] SubstepCoefficients substep(double h_s) const;
   /// Recomputes s.sin_e, s.cos_e from s.theta_rad (after setting theta from outside).
   void sync_angle(MotorState& s) const;
-  /// The same integration step as step(s, h) (equal to rounding), the fast path: the sine
-  /// and cosine of the electrical angle are rotated by the substep's increment p w h (a
-  /// Taylor polynomial, error below 1e-15 for p w h < 0.2 rad) instead of recomputed; call
-  /// sync_angle() once per control period to keep them exact.
+  /// The same integration step as step(s, h), the fast path: the sine and cosine of the
+  /// electrical angle are rotated by the substep's increment p w h (Taylor polynomials, error
+  /// below 2.5e-9 a step for p w h < 0.2 rad) instead of recomputed; call sync_angle() every
+  /// few tens of steps to keep them exact.
   void advance(MotorState& s, const SubstepCoefficients& k) const;
 
   /// Load angle d = phi - p theta [rad] (unwrapped).
@@ -194,6 +201,7 @@ class StepperAxisModel {
   double vmax_ = 0, r_ohm_ = 0, detent_ = 0, damping_ = 0, f_ext_ = 0, bump_f_ = 0;
   /// cos, sin of the electrical angle of each microstep in a cycle (4 microsteps entries).
   std::vector<double> micro_cos_, micro_sin_;
+  std::int64_t cycle_mask_ = -1;  ///< cycle - 1 when the cycle is a power of two, else -1
   /// The body of a step: s.sin_e, s.cos_e hold the electrical angle at the start.
   void integrate(MotorState& s, const SubstepCoefficients& k) const;
 };
@@ -201,14 +209,14 @@ class StepperAxisModel {
 // The integration step, inline: the simulator's hot path (docs/closedloop.md, section 1).
 inline void StepperAxisModel::advance(MotorState& s, const SubstepCoefficients& k) const {
   integrate(s, k);
-  // Rotate (sin, cos) of p theta by d = p (theta1 - theta0) = p h w1: Taylor polynomials of sin d and
-  // cos d to the 7th and 8th order (truncation d^9 / 9! < 1e-15 for d < 0.2 rad).
+  // Rotate (sin, cos) of p theta by d = p (theta1 - theta0) = p h w1: Taylor polynomials of
+  // sin d and cos d to the 5th and 6th order (truncation below d^7 / 5040 = 2.5e-9 for
+  // d < 0.2 rad; the simulator recomputes them exactly every 16 periods).
   const double d = p_ * k.h_s * s.omega_rad_s;
-  const double d2 = d * d;
-  constexpr double c6 = 1.0 / 6.0, c20 = 1.0 / 20.0, c42 = 1.0 / 42.0, c12 = 1.0 / 12.0,
-                   c30 = 1.0 / 30.0, c56 = 1.0 / 56.0;
-  const double sd = d * (1.0 - d2 * c6 * (1.0 - d2 * c20 * (1.0 - d2 * c42)));
-  const double cd = 1.0 - d2 * 0.5 * (1.0 - d2 * c12 * (1.0 - d2 * c30 * (1.0 - d2 * c56)));
+  const double d2 = d * d, d4 = d2 * d2;
+  constexpr double c6 = 1.0 / 6.0, c120 = 1.0 / 120.0, c24 = 1.0 / 24.0, c720 = 1.0 / 720.0;
+  const double sd = d * ((1.0 - d2 * c6) + d4 * c120);
+  const double cd = (1.0 - 0.5 * d2) + d4 * (c24 - d2 * c720);
   const double sn = s.sin_e * cd + s.cos_e * sd;
   const double cs = s.cos_e * cd - s.sin_e * sd;
   s.sin_e = sn;
@@ -219,15 +227,19 @@ inline void StepperAxisModel::integrate(MotorState& s, const SubstepCoefficients
   const double sn = s.sin_e, cs = s.cos_e;
   const double vmax = vmax_;
   const double R = r_ohm_;
-  // Back-EMF as a voltage drop e (L di/dt = v - R i - e), taken at the start of the step.
-  const double e_a = -kt_ * s.omega_rad_s * sn;
-  const double e_b = kt_ * s.omega_rad_s * cs;
+  // Back-EMF as a voltage drop e (L di/dt = v - R i - e), at the middle of the step's rotation
+  // (first order in d = p w h).
+  const double half = 0.5 * p_ * k.h_s * s.omega_rad_s;
+  const double e_a = -kt_ * s.omega_rad_s * (sn + half * cs);
+  const double e_b = kt_ * s.omega_rad_s * (cs - half * sn);
   // The chopper applies v = Kc (i_ref - i) + R i_ref (it holds the current at standstill
-  // exactly, as a hysteresis chopper does). Backward Euler of L di/dt = v - R i - e; if v
-  // exceeds the supply, the chopper saturates: L di/dt = +-V - R i - e, again backward Euler.
+  // exactly, as a hysteresis chopper does): L di/dt = v - R i - e, solved exactly over the
+  // step; where the mean v would exceed the supply, the chopper saturates: L di/dt = +-V - R i
+  // - e, again exactly.
   auto phase = [&](double i0, double ref, double e) {
     double i1 = k.ci0 * i0 + k.cref * ref - k.ce * e;
-    const double v = kc_ * (ref - i1) + R * ref;
+    const double i_mean = k.gi0 * i0 + k.gref * ref - k.ge * e;
+    const double v = kc_ * (ref - i_mean) + R * ref;
     if (v > vmax || v < -vmax) {
       const double vs = v > 0 ? vmax : -vmax;
       i1 = k.si0 * i0 + k.sv * (vs - e);

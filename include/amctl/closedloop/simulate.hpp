@@ -43,7 +43,7 @@ struct SimulationOptions {
   ControllerParameters gains;
   EncoderParameters encoder;
   GovernorParameters governor;
-  double substep_s = 20e-6;   ///< physics step h; control period / h must be whole
+  double substep_s = 50e-6;   ///< physics step h; control period / h must be whole
   double settle_s = 0.05;     ///< simulated past the end of the reference
   std::string csv_path;       ///< traces, "" = none
   double csv_rate_hz = 1000.0;
