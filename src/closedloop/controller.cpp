@@ -441,6 +441,30 @@ LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
   return out;
 }
 
+ControllerParameters fit_default_gains(ControllerKind kind, const ControllerParameters& p,
+                                      const StepperAxisModel& model, double design_load_angle_rad,
+                                      double& scale) {
+  auto ok = [&](const ControllerParameters& g) {
+    for (double angle : {0.0, design_load_angle_rad}) {
+      if (analyse_loop(kind, g, model, angle).spectral_radius >= 0.9995) return false;
+    }
+    return true;
+  };
+  ControllerParameters g = p;
+  scale = 1.0;
+  for (int i = 0; i < 40; ++i) {
+    g.kp = p.kp * scale;
+    g.ki_per_s = p.ki_per_s * scale;
+    g.ff_kp = p.ff_kp * scale;
+    g.ff_ki_per_s = p.ff_ki_per_s * scale;
+    g.alpha_per_s = p.alpha_per_s * scale;
+    if (ok(g)) return g;
+    scale *= 0.9;
+  }
+  scale = 0.0;
+  return p;
+}
+
 void require_stable_loop(ControllerKind kind, const ControllerParameters& p,
                          const StepperAxisModel& model, const std::string& axis_name,
                          double design_load_angle_rad) {

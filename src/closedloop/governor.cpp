@@ -123,6 +123,28 @@ MoveLimits CommandGovernor::limits(double peak_speed_mm_s, double accel_mm_s2) c
   return l;
 }
 
+MoveLimits CommandGovernor::with_measured_load(const MoveLimits& l, double lead_mm,
+                                               double current_a) const {
+  if (!l.feasible) return l;
+  const double r = m_.pulley_radius_m();
+  const double tau = r * m_.axis().belt.stiffness_n_per_m * std::abs(lead_mm) * 1e-3;
+  // The pull-out at the current commanded now (the move's figure is at the largest current
+  // the controller may run; the speed's limit on it stays).
+  const double po = std::min(l.pull_out_n_m, m_.motor().torque_constant_n_m_per_a() * current_a);
+  if (tau <= l.plan_torque_n_m && po >= l.pull_out_n_m) return l;
+  // The steady load is carried whatever the controller does (its lead is what balances it):
+  // only what the controller adds on top, the correction's acceleration and steps, shares
+  // the margin that is left, down to a tenth of the move's own.
+  MoveLimits out = l;
+  const double nominal = l.pull_out_n_m * sin_max_ - l.plan_torque_n_m;
+  const double margin = std::max(po * sin_max_ - std::max(tau, l.plan_torque_n_m), 0.1 * nominal);
+  if (margin >= nominal) return l;
+  const double j_axis = m_.inertia_kg_m2() + m_.axis().belt.mass_kg * r * r;
+  out.correction_accel_mm_s2 = 1e3 * r * margin / (2.0 * j_axis);
+  out.free_step_mm = l.free_step_mm * margin / nominal;
+  return out;
+}
+
 DegradeReason CommandGovernor::reason(const MoveLimits& l, double peak_speed_mm_s) const {
   if (l.feasible) return DegradeReason::none;
   return std::abs(peak_speed_mm_s) > l.max_command_speed_mm_s ? DegradeReason::speed

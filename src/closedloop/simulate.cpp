@@ -502,6 +502,12 @@ void add_notes(SimulationResult& r, bool governor) {
     return;
   }
   for (const AxisResult& a : r.axes) {
+    if (a.gain_scale < 1.0) {
+      r.notes.push_back(fmt::format(
+          "axis {}: the default {} gains scaled by {:.3f} (kp and ki) to keep its linearised loop "
+          "stable up to the governor's design load angle",
+          a.name, r.controller, a.gain_scale));
+    }
     if (a.degraded_moves > 0) {
       r.notes.push_back(fmt::format(
           "axis {}: degraded to open loop on {} of {} moves, the first at line {}: {}", a.name,
@@ -582,6 +588,7 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   if (a.drag_gain_per_s) o.gains.ff_drag_gain_per_s = *a.drag_gain_per_s;
   if (a.load_angle_deg) o.gains.ff_load_angle_deg = *a.load_angle_deg;
   o.encoder.corrupt_probability = a.corrupt_probability;
+  o.default_gains = !(a.kp || a.ki_per_s || a.kd_s || a.alpha_per_s);
 
   // The axes as they will be simulated: the scenario's or the machine's.
   ReversingStrokesScenario sc;
@@ -638,6 +645,7 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
       }
       require_encoder_rate(ax, vmax, o.gains.period_s, "--encoder-rate-hz");
     }
+    if (o.default_gains) continue;  // the defaults are fitted to each axis instead
     const StepperAxisModel model(ax.motor, ax.drive, ax.mechanics);
     ControllerParameters g = o.gains;
     g.latency_s = std::round(o.encoder.latency_s / g.period_s) * g.period_s;
@@ -747,11 +755,13 @@ Json axis_json(const AxisResult& a) {
   x["pull_out_torque_n_m"] = json_number(a.pull_out_torque_n_m);
   x["peak_current_a"] = json_number(a.peak_current_a);
   x["mean_current_a"] = json_number(a.mean_current_a);
+  x["gain_scale"] = json_number(a.gain_scale);
   x["governor_limited_periods"] = a.governor_limited_periods;
   x["moves_checked"] = a.moves;
   x["degraded_moves"] = a.degraded_moves;
   x["first_degraded_line"] = a.first_degraded_line;
   x["accel_lead_dropped_moves"] = a.accel_lead_dropped_moves;
+  x["load_limited_periods"] = a.load_limited_periods;
   x["commands_reached"] = a.commands_reached;
   x["commands_left"] = a.commands_left;
   x["motor"] = motor_json(a);

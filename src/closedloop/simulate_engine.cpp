@@ -134,12 +134,18 @@ ClosedLoopSimulator::ClosedLoopSimulator(std::vector<AxisSetup> axes,
   s.runs.reserve(axes.size());
   for (std::size_t i = 0; i < axes.size(); ++i) {
     StepperAxisModel model(axes[i].motor, axes[i].drive, axes[i].mechanics);
-    require_stable_loop(options.controller, gains, model, axes[i].name,
-                        options.governor.max_load_angle_deg * std::numbers::pi / 180.0);
+    const double design = options.governor.max_load_angle_deg * std::numbers::pi / 180.0;
+    ControllerParameters axis_gains = gains;
+    double scale = 1.0;
+    if (options.default_gains && is_feedback(options.controller)) {
+      axis_gains = fit_default_gains(options.controller, gains, model, design, scale);
+    }
+    require_stable_loop(options.controller, axis_gains, model, axes[i].name, design);
     EncoderParameters ep = options.encoder;
     ep.seed = options.encoder.seed + i;
     AxisRun run(axes[i], model, start_mm[i], ep);
-    run.controller = make_controller(options.controller, gains, run.model, start_mm[i]);
+    run.controller = make_controller(options.controller, axis_gains, run.model, start_mm[i]);
+    run.res.gain_scale = scale;
     if (is_feedback(options.controller) && options.governor.enabled) {
       // The largest current the controller runs: feedforward scales up to the drive's
       // maximum, the others stay at the run current.
@@ -291,8 +297,15 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       v = lim;
     } else if (r.governor) {
       const double lead = r.controller->lead_mm();
+      // The move's limits, narrowed by the load the motor is measured to carry now, for a
+      // controller that runs at a fixed current (one that scales its current to the load,
+      // feedforward, keeps the margin that way: the move's figures at its largest current).
+      const MoveLimits lim = current > 0.0 ? r.limits
+                                           : r.governor->with_measured_load(r.limits, r.command_mm - measured,
+                                                                            r.state.current_a);
+      if (lim.free_step_mm < r.limits.free_step_mm) ++r.res.load_limited_periods;
       const CommandLimiter::Out o = r.limiter.next(lead, target - next[i].pos_mm - lead,
-                                                   (next[i].pos_mm - now[i].pos_mm) / T, r.limits, T);
+                                                   (next[i].pos_mm - now[i].pos_mm) / T, lim, T);
       r.limited = o.feedback_limited;
       v = (next[i].pos_mm + o.correction_mm - r.command_mm) / T;
     }

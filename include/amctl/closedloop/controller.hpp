@@ -67,7 +67,7 @@ struct ControllerParameters {
   // feedforward
   double ff_kp = 3.0;             ///< [-]
   double ff_ki_per_s = 250.0;     ///< [1/s]
-  double ff_kd_s = 0.003;         ///< [s]
+  double ff_kd_s = 0.001;         ///< [s]
   /// Adaptation gain of the learned drag (a Coulomb-like load opposing motion that the model
   /// does not know), N of drag per (N of force error . s) [1/s]. 0: not learned.
   double ff_drag_gain_per_s = 20.0;
@@ -168,6 +168,12 @@ struct LoopAnalysis {
 /// detent, p (Kt I + 4 T_det).
 [[nodiscard]] LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
                                         const StepperAxisModel& model, double load_angle_rad = 0.0);
+/// The default gains fitted to an axis: kp and ki (and alpha) scaled down together by factors
+/// of 0.9 until the linearised loop is stable (spectral radius below 0.9995) at rest and at the
+/// design load angle; `scale` returns the factor (1: the defaults as they are; 0: none found).
+[[nodiscard]] ControllerParameters fit_default_gains(ControllerKind kind, const ControllerParameters& p,
+                                                     const StepperAxisModel& model,
+                                                     double design_load_angle_rad, double& scale);
 /// Throws amctl::Error naming the gains of `kind` when analyse_loop finds the loop unstable at
 /// rest or at the design load angle (the governor's max_load_angle_deg, in rad).
 void require_stable_loop(ControllerKind kind, const ControllerParameters& p,

@@ -72,6 +72,14 @@ class CommandGovernor {
   /// The limits on a move whose axis reaches |v| <= peak_speed and |a| <= accel.
   [[nodiscard]] MoveLimits limits(double peak_speed_mm_s, double accel_mm_s2) const;
   [[nodiscard]] DegradeReason reason(const MoveLimits& l, double peak_speed_mm_s) const;
+  /// The move's limits with the torque the motor is measured to carry now: r k |c - y| (the
+  /// command's lead over the encoder times the belt stiffness; it includes the rotor's lag, so
+  /// it errs high) where it exceeds the plan's. A load the model does not know shrinks the
+  /// correction's acceleration and steps with the margin it leaves (down to a tenth); the
+  /// steady lead that balances the load is kept (the load is carried whatever the command).
+  /// `current_a`: the current commanded now (the pull-out it gives).
+  [[nodiscard]] MoveLimits with_measured_load(const MoveLimits& l, double lead_over_encoder_mm,
+                                              double current_a) const;
   /// The torque the plan needs at speed v and acceleration a (the model above) [N m].
   [[nodiscard]] double plan_torque_n_m(double v_mm_s, double a_mm_s2) const;
   /// Time for the acceleration lead m dA / k to ramp in at A_c, times w_b / 2 (see above).

@@ -43,6 +43,9 @@ struct SimulationOptions {
   ControllerParameters gains;
   EncoderParameters encoder;
   GovernorParameters governor;
+  /// The gains are the defaults (not the user's): fitted to each axis (fit_default_gains) where
+  /// they would make its loop unstable, and said so in the notes; the user's are refused.
+  bool default_gains = true;
   double substep_s = 50e-6;   ///< physics step h; control period / h must be whole
   double settle_s = 0.05;     ///< simulated past the end of the reference
   std::string csv_path;       ///< traces, "" = none
@@ -78,6 +81,7 @@ struct AxisResult {
   double pull_out_torque_n_m = 0.0;    ///< static, Kt I at the run current
   double peak_current_a = 0.0;         ///< largest commanded current amplitude
   double mean_current_a = 0.0;         ///< mean commanded current amplitude (heating)
+  double gain_scale = 1.0;             ///< the default gains' factor on this axis (1: as documented)
   double max_path_error_mm = 0.0;      ///< distance from the command's segment on this axis
   double max_path_error_time_s = 0.0;
   double rms_path_error_mm = 0.0;
@@ -90,6 +94,9 @@ struct AxisResult {
   std::uint64_t first_degraded_line = 0;
   std::string first_degraded_reason;
   std::uint64_t accel_lead_dropped_moves = 0;
+  /// Periods whose correction limits the load the motor was measured to carry narrowed (a
+  /// load the model does not know).
+  std::uint64_t load_limited_periods = 0;
   std::uint64_t moves = 0;             ///< moves of this axis checked by the governor
   std::uint64_t commands_reached = 0;  ///< encoder-sequenced: commands of the sequence reached
   std::uint64_t commands_left = 0;     ///< encoder-sequenced: commands not reached at the end
