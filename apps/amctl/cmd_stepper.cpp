@@ -55,10 +55,11 @@ void run_simulate(const StepperArgs& a) {
   for (const closedloop::AxisResult& x : r.axes) {
     std::cout << fmt::format(
         "  {}: max error {:.4f} mm at {:.3f} s, rms {:.4f} mm; path error max {:.4f} / rms "
-        "{:.4f} mm; lost {} steps ({} full steps), max load angle {:.1f} deg, peak {:.0f} "
-        "steps/s, current {:.2f} A peak / {:.2f} A mean\n",
+        "{:.4f} mm; endpoint error max {:.4f} / rms {:.4f} mm; lost {} steps ({} full steps), "
+        "max load angle {:.1f} deg, peak {:.0f} steps/s, current {:.2f} A peak / {:.2f} A mean\n",
         x.name, x.max_tracking_error_mm, x.max_error_time_s, x.rms_tracking_error_mm,
-        x.max_path_error_mm, x.rms_path_error_mm, x.lost_steps, x.lost_full_steps,
+        x.max_path_error_mm, x.rms_path_error_mm, x.max_endpoint_error_mm,
+        x.rms_endpoint_error_mm, x.lost_steps, x.lost_full_steps,
         x.max_load_angle_deg, x.peak_step_rate_hz, x.peak_current_a, x.mean_current_a);
     if (r.controller != "open" && req.governor) {
       std::cout << fmt::format(
@@ -142,6 +143,7 @@ void register_stepper(CLI::App& app) {
   sim->add_option("--drag-gain", a->req.drag_gain_per_s, "feedforward: adaptation gain of the learned drag [1/s] (default 20; 0 = off)");
   sim->add_option("--load-angle-deg", a->req.load_angle_deg, "feedforward: load angle the current is sized for [deg] (default 40; 0 = run current only)");
   sim->add_option("--alpha", a->req.alpha_per_s, "encoder-sequenced / speed-tracking: the paper's alpha [1/s] (default 0.6)");
+  sim->add_option("--speed-change-mm-s", a->req.speed_change_mm_s, "encoder-sequenced / speed-tracking: the paper's D*, the largest change of the commanded speed per step event [mm/s] (default sqrt(2 max_accel s), s one microstep)");
   sim->add_option("--encoder-rate-hz", a->req.encoder_rate_hz, "encoder frame rate = control rate [Hz] (default 10000; a whole number of 20 us substeps, at most 50000)");
   sim->add_option("--encoder-resolution-um", a->req.encoder_resolution_um, "encoder count [um] (default the AS5311's 0.488; at most half a microstep)");
   sim->add_flag("--no-governor", a->no_governor, "let the controller's commands reach the motor unchecked (studies of the raw laws)");

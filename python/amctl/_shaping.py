@@ -123,7 +123,7 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
                      bump_n=None, end_load_n_per_mm=None, backlash_mm=None, run_current_a=None,
                      max_current_a=None, drag_gain=None, load_angle_deg=None,
                      model_mass_scale=None, model_stiffness_scale=None, encoder_rate_hz=None,
-                     encoder_resolution_um=None, governor=True):
+                     encoder_resolution_um=None, governor=True, speed_change_mm_s=None):
     """Stepper motors, drives, AS5311 encoders, a controller and its command governor simulated
     together (``amctl stepper simulate``, docs/closedloop.md) on a G-code file (``path``) or on
     ``scenario="reversing-strokes"`` (the closed-loop stepper paper's X and Y strokes at
@@ -138,8 +138,8 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
     ``max_load_angle_deg``, the governor's ``degraded_moves``, ``governor_limited_periods``,
     the ``motor``, ``drive`` and ``mechanics`` simulated, ... With ``csv`` the traces are
     written there. The other keywords are the command's flags of the same names (None: the
-    default): kp [-], ki [1/s], kd [s] override the pid/feedforward gains, alpha [1/s] the
-    paper's; the scenario's load (drag_n [N], drag_n_s_per_m [N s/m], bump_n [N],
+    default): kp [-], ki [1/s], kd [s] override the pid/feedforward gains, alpha [1/s] and
+    speed_change_mm_s (D* [mm/s]) the paper's; the scenario's load (drag_n [N], drag_n_s_per_m [N s/m], bump_n [N],
     end_load_n_per_mm), backlash_mm, run_current_a (RMS, as Klipper's run_current),
     max_current_a (peak, feedforward's boost limit); feedforward's drag_gain [1/s],
     load_angle_deg and the model error it runs with (model_mass_scale, model_stiffness_scale);
@@ -155,7 +155,7 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
                  run_current_a=run_current_a, max_current_a=max_current_a, drag_gain=drag_gain,
                  load_angle_deg=load_angle_deg, model_mass_scale=model_mass_scale,
                  model_stiffness_scale=model_stiffness_scale, encoder_rate_hz=encoder_rate_hz,
-                 encoder_resolution_um=encoder_resolution_um)
+                 encoder_resolution_um=encoder_resolution_um, speed_change_mm_s=speed_change_mm_s)
     overrides = {k: _args.number(x, k) for k, x in given.items() if x is not None}
     return _amctl._stepper_simulate(p, m, _args.text(controller, "controller"), sc, v,
                                     _args.boolean(load, "load"), out, overrides,

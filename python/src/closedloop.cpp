@@ -25,6 +25,7 @@ std::optional<double>* override_field(closedloop::SimulateRequest& r, const std:
   if (name == "ki") return &r.ki_per_s;
   if (name == "kd") return &r.kd_s;
   if (name == "alpha") return &r.alpha_per_s;
+  if (name == "speed_change_mm_s") return &r.speed_change_mm_s;
   if (name == "drag_n") return &r.drag_force_n;
   if (name == "drag_n_s_per_m") return &r.drag_n_s_per_m;
   if (name == "bump_n") return &r.bump_force_n;

@@ -539,6 +539,7 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   for (const auto& [flag, v] : given) {
     if (*v) require_non_negative(flag, **v);
   }
+  if (a.speed_change_mm_s) require_positive("--speed-change-mm-s", *a.speed_change_mm_s);
   if (a.run_current_a) require_positive("--run-current-a", *a.run_current_a);
   if (a.max_current_a) require_positive("--max-current-a", *a.max_current_a);
   if (a.model_mass_scale) require_positive("--model-mass-scale", *a.model_mass_scale);
@@ -585,6 +586,7 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
   if (a.ki_per_s) o.gains.ki_per_s = o.gains.ff_ki_per_s = *a.ki_per_s;
   if (a.kd_s) o.gains.kd_s = o.gains.ff_kd_s = *a.kd_s;
   if (a.alpha_per_s) o.gains.alpha_per_s = *a.alpha_per_s;
+  if (a.speed_change_mm_s) o.gains.max_speed_change_mm_s = *a.speed_change_mm_s;
   if (a.drag_gain_per_s) o.gains.ff_drag_gain_per_s = *a.drag_gain_per_s;
   if (a.load_angle_deg) o.gains.ff_load_angle_deg = *a.load_angle_deg;
   o.encoder.corrupt_probability = a.corrupt_probability;
@@ -744,6 +746,9 @@ Json axis_json(const AxisResult& a) {
   x["max_path_error_mm"] = json_number(a.max_path_error_mm);
   x["max_path_error_time_s"] = json_number(a.max_path_error_time_s);
   x["rms_path_error_mm"] = json_number(a.rms_path_error_mm);
+  x["max_endpoint_error_mm"] = json_number(a.max_endpoint_error_mm);
+  x["rms_endpoint_error_mm"] = json_number(a.rms_endpoint_error_mm);
+  x["endpoints"] = a.endpoints;
   x["lost_steps"] = a.lost_steps;
   x["lost_full_steps"] = a.lost_full_steps;
   x["slip_events"] = a.slip_events;

@@ -100,6 +100,9 @@ struct AxisRun {
   double last_v = 0.0;        // over the previous one
   bool limited = false;       // the governor held the last command short
   double measured_now = 0.0, err_now = 0.0, x_now = 0.0, path_now = 0.0;
+  // Endpoint errors: the move (or command count) last seen and its segment.
+  std::uint64_t endpoint_move = static_cast<std::uint64_t>(-1), reached_seen = 0, endpoints = 0;
+  double endpoint_from = 0.0, endpoint_to = 0.0, endpoint2 = 0.0;
   AxisResult res;
 };
 
@@ -203,6 +206,12 @@ double segment_distance(double x, double a, double b) {
   return x < lo ? lo - x : (x > hi ? x - hi : 0.0);
 }
 
+void add_endpoint(AxisRun& r, double e) {
+  r.endpoint2 += e * e;
+  ++r.endpoints;
+  r.res.max_endpoint_error_mm = std::max(r.res.max_endpoint_error_mm, e);
+}
+
 // The governor's verdict on a move starting now, counted.
 void enter_move(AxisRun& r, const RefSample& ref) {
   r.move = ref.move;
@@ -250,6 +259,23 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     if (path > r.res.max_path_error_mm) {
       r.res.max_path_error_mm = path;
       r.res.max_path_error_time_s = t;
+    }
+    // Endpoint error: where the axis is when a command of its sequence ends, against the point
+    // it commanded (time-referenced controllers: at the plan's end of the move; the sequenced
+    // law: when its position judgement moves on).
+    if (seg) {
+      const std::uint64_t reached = r.controller->commands_reached();
+      if (reached != r.reached_seen) {
+        r.reached_seen = reached;
+        add_endpoint(r, std::abs(x - seg->first));
+      }
+    } else if (now[i].move != r.endpoint_move) {
+      if (r.endpoint_move != static_cast<std::uint64_t>(-1) && r.endpoint_to != r.endpoint_from) {
+        add_endpoint(r, std::abs(x - r.endpoint_to));
+      }
+      r.endpoint_move = now[i].move;
+      r.endpoint_from = now[i].seg_from_mm;
+      r.endpoint_to = now[i].seg_to_mm;
     }
     // The ring holds latency_ticks + 1 periods: the slot after the one written now was
     // written latency_ticks periods ago.
@@ -395,6 +421,8 @@ SimulationResult ClosedLoopSimulator::finish() {
     const double n = static_cast<double>(r.samples);
     a.rms_tracking_error_mm = r.samples ? std::sqrt(r.err2 / n) : 0.0;
     a.rms_path_error_mm = r.samples ? std::sqrt(r.path2 / n) : 0.0;
+    a.rms_endpoint_error_mm = r.endpoints ? std::sqrt(r.endpoint2 / static_cast<double>(r.endpoints)) : 0.0;
+    a.endpoints = r.endpoints;
     a.mean_current_a = r.samples ? r.current_sum / n : 0.0;
     a.encoder_rejected_frames = r.encoder.rejected_frames();
     a.commands_reached = r.controller->commands_reached();

@@ -2,6 +2,7 @@
 // and the reversing-strokes scenario end to end (step counts by hand, no loss without load, the closed
 // loops against open loop).
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <string>
 
@@ -339,6 +340,48 @@ TEST(ReversingStrokes, RunsOnTheDefaultMachineAndSaysWhichDriveTrainItAssumed) {
   EXPECT_EQ(r.axes[0].motor_name, "17hs4401");
   ASSERT_FALSE(r.notes.empty());
   EXPECT_NE(r.notes[0].find("no [stepper_x]"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace amctl::closedloop
+
+namespace amctl::closedloop {
+namespace {
+
+TEST(MotorPresets, APrinterCfgNamesItsMotorThroughKlipperTmcAutotune) {
+  // [autotune_tmc stepper_x] motor: a preset; [autotune_tmc stepper_y] motor: a
+  // [motor_constants NAME] section (klipper_tmc_autotune's), and its voltage.
+  const std::string cfg =
+      "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\nfull_steps_per_rotation: 400\n"
+      "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\n"
+      "[stepper_z]\nrotation_distance: 8\nmicrosteps: 16\n"
+      "[extruder]\nrotation_distance: 33.5\nmicrosteps: 16\nnozzle_diameter: 0.4\n"
+      "filament_diameter: 1.75\n"
+      "[autotune_tmc stepper_x]\nmotor: ldo-42sth48-2004mah\n"
+      "[autotune_tmc stepper_y]\nmotor: mymotor\nvoltage: 48\n"
+      "[motor_constants mymotor]\nresistance: 1.1\ninductance: 0.0012\nholding_torque: 0.5\n"
+      "max_current: 2.2\nsteps_per_revolution: 200\n";
+  const std::string path = ::testing::TempDir() + "autotune_printer.cfg";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fputs(cfg.c_str(), f);
+    std::fclose(f);
+  }
+  const machine::Machine m = machine::load_machine(path);
+  EXPECT_EQ(m.steppers.at("x").motor, "ldo-42sth48-2004mah");
+  const machine::Stepper& y = m.steppers.at("y");
+  EXPECT_EQ(y.phase_resistance_ohm, 1.1);
+  EXPECT_EQ(y.phase_inductance_h, 0.0012);
+  EXPECT_EQ(y.holding_torque_n_m, 0.5);
+  EXPECT_EQ(y.rated_current_a, 2.2);
+  EXPECT_EQ(y.supply_voltage_v, 48.0);
+  const std::vector<AxisSetup> axes = machine_axes(m);
+  EXPECT_EQ(axes[0].motor_name, "ldo-42sth48-2004mah");
+  EXPECT_EQ(axes[1].motor_name, "the machine's own");
+  EXPECT_NEAR(axes[1].drive.current_amplitude_a, 2.2, 1e-12);  // its rated current
+  std::remove(path.c_str());
 }
 
 }  // namespace

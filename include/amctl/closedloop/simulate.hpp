@@ -85,6 +85,11 @@ struct AxisResult {
   double max_path_error_mm = 0.0;      ///< distance from the command's segment on this axis
   double max_path_error_time_s = 0.0;
   double rms_path_error_mm = 0.0;
+  /// Where the axis is when each command of its sequence ends, against the point commanded
+  /// (time-referenced controllers: at the plan's end of the move; encoder-sequenced: when its
+  /// position judgement moves on): max and rms over the commands that move this axis.
+  double max_endpoint_error_mm = 0.0, rms_endpoint_error_mm = 0.0;
+  std::uint64_t endpoints = 0;
   /// The governor: periods whose command it held short of the controller's, moves it
   /// degraded to open loop (the plan leaves no torque margin, or runs faster than the motor
   /// can be corrected at), the first such move's line and why, and moves whose acceleration
@@ -226,6 +231,8 @@ struct SimulateRequest {
   /// kp and ki/kd apply to pid and best, alpha to seed003, drag_gain and load_angle to best;
   /// the load, backlash and currents to the scenario (run_current RMS, max_current peak).
   std::optional<double> kp, ki_per_s, kd_s, alpha_per_s;
+  /// The paper's D*, the largest change of the commanded speed per step event [mm/s] (> 0).
+  std::optional<double> speed_change_mm_s;
   std::optional<double> drag_force_n, bump_force_n, end_load_n_per_mm, drag_n_s_per_m;
   std::optional<double> backlash_mm, run_current_a, max_current_a;
   std::optional<double> drag_gain_per_s, load_angle_deg;
