@@ -270,6 +270,7 @@ class Feedforward final : public Controller {
         drag_gain_(p.ff_drag_gain_per_s), flip_mm_s_(p.ff_flip_speed_mm_s), m_(believed_model(p, m)) {
     const double deg = p.ff_load_angle_deg;
     sin_angle_ = (deg > 0.0 && deg < 90.0) ? std::sin(deg * std::numbers::pi / 180.0) : 0.0;
+    if (sin_angle_ > 0.0) inv_kt_sin_ = 1.0 / (m_.motor().torque_constant_n_m_per_a() * sin_angle_);
     current_ = m.drive().current_amplitude_a;
   }
 
@@ -312,10 +313,9 @@ class Feedforward final : public Controller {
       // side of more current; it rises as soon as a load holds the head back, before any
       // integral has learned it. Never below the run current, never above the drive's maximum
       // (the motor's rating unless the drive says less).
-      const double kt = m_.motor().torque_constant_n_m_per_a();
       const double f_lead = k * (in.command_mm - in.measured_mm) * 1e-3;
       const double tau_need = std::max(std::abs(tau), r * std::abs(f_lead));
-      current_ = std::clamp(tau_need / (kt * sin_angle_), m_.drive().current_amplitude_a,
+      current_ = std::clamp(tau_need * inv_kt_sin_, m_.drive().current_amplitude_a,
                             m_.max_current_a());
     }
     if (!same || current_ != current_at_) {
@@ -350,7 +350,7 @@ class Feedforward final : public Controller {
   }
   Pid pid_;
   double period_, drag_gain_, flip_mm_s_, sin_angle_ = 0.0;
-  double drag_n_ = 0.0, current_ = 0.0, lead_ = 0.0;
+  double drag_n_ = 0.0, current_ = 0.0, lead_ = 0.0, inv_kt_sin_ = 0.0;
   // The last model evaluation and what it was made at (NaN: none yet).
   double acc_ = std::numeric_limits<double>::quiet_NaN(), vel_ = 0.0, drag_at_ = 0.0,
          current_at_ = 0.0, f_ = 0.0, tau_ = 0.0, w_ = 0.0;

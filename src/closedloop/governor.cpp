@@ -37,6 +37,8 @@ CommandGovernor::CommandGovernor(const StepperAxisModel& model, const GovernorPa
   wb_ = std::sqrt(ax.belt.stiffness_n_per_m / ax.belt.mass_kg);
   v_step_max_ = p_.step_rate_fraction * m_.drive().max_step_rate_hz * m_.step_distance_mm();
   v_cruise_max_ = std::min(v_step_max_, torque_speed_limit_mm_s());
+  wr_ = std::sqrt(m_.motor().pole_pairs() * m_.motor().torque_constant_n_m_per_a() * current_a_ /
+                  m_.inertia_kg_m2());
 }
 
 double CommandGovernor::torque_speed_limit_mm_s() const {
@@ -81,7 +83,7 @@ double CommandGovernor::belt_phase(double accel_change_mm_s2, double correction_
   return 0.5 * wb_ * t_ramp;
 }
 
-MoveLimits CommandGovernor::limits(double peak_speed_mm_s, double accel_mm_s2) const {
+MoveLimits CommandGovernor::limits(double peak_speed_mm_s, double accel_mm_s2, double jump_mm_s) const {
   MoveLimits l;
   const double r = m_.pulley_radius_m();
   const double p = m_.motor().pole_pairs();
@@ -95,7 +97,9 @@ MoveLimits CommandGovernor::limits(double peak_speed_mm_s, double accel_mm_s2) c
   // The correction's acceleration moves the rotor and, through the belt, the carriage: the
   // whole axis's inertia (J + m r^2, the belt taken as rigid: the conservative bound).
   const double j_axis = j + m_.axis().belt.mass_kg * r * r;
-  if (margin > 0.0 && std::abs(peak_speed_mm_s) <= l.max_command_speed_mm_s) {
+  const double d_plan0 = std::asin(std::min(1.0, l.plan_torque_n_m / std::max(l.pull_out_n_m, 1e-12)));
+  const double jump_ok = wr_ * 1e3 * (r / p) * std::max(0.0, std::asin(sin_max_) - d_plan0) / 4.0;
+  if (margin > 0.0 && std::abs(peak_speed_mm_s) <= l.max_command_speed_mm_s && jump_mm_s <= jump_ok) {
     l.feasible = true;
     l.correction_accel_mm_s2 = 1e3 * r * margin / (2.0 * j_axis);
     const double d_plan = std::asin(std::min(1.0, l.plan_torque_n_m / l.pull_out_n_m));
@@ -110,14 +114,13 @@ MoveLimits CommandGovernor::limits(double peak_speed_mm_s, double accel_mm_s2) c
     // (a reversal from +a to -a).
     l.accel_lead = belt_phase(2.0 * accel_mm_s2, l.correction_accel_mm_s2) <= p_.belt_phase_limit;
   } else {
-    // Degraded: the correction goes back to 0 with whatever torque is left below pull-out,
-    // then stays there (open loop's command).
+    // Degraded: the correction goes back to 0 within the same budgets a feasible move has
+    // (what the design angle leaves); with none left it is held where it is (a constant offset
+    // asks nothing of the rotor) and the command moves as open loop's does.
     l.feasible = false;
     l.accel_lead = false;
-    const double left = l.pull_out_n_m - l.plan_torque_n_m;
-    l.correction_accel_mm_s2 = left > 0.0 ? 1e3 * r * left / (2.0 * j_axis) : 0.0;
-    const double d_plan = std::asin(std::min(1.0, l.plan_torque_n_m / std::max(l.pull_out_n_m, 1e-12)));
-    l.free_step_mm = 1e3 * (r / p) * std::max(0.0, 0.5 * std::numbers::pi - d_plan) / 4.0;
+    l.correction_accel_mm_s2 = margin > 0.0 ? 1e3 * r * margin / (2.0 * j_axis) : 0.0;
+    l.free_step_mm = margin > 0.0 ? 1e3 * (r / p) * std::max(0.0, std::asin(sin_max_) - d_plan0) / 4.0 : 0.0;
     l.max_feedback_mm = 0.0;
   }
   return l;
@@ -145,8 +148,12 @@ MoveLimits CommandGovernor::with_measured_load(const MoveLimits& l, double lead_
   return out;
 }
 
-DegradeReason CommandGovernor::reason(const MoveLimits& l, double peak_speed_mm_s) const {
+DegradeReason CommandGovernor::reason(const MoveLimits& l, double peak_speed_mm_s, double jump_mm_s) const {
   if (l.feasible) return DegradeReason::none;
+  if (l.pull_out_n_m * sin_max_ > l.plan_torque_n_m &&
+      std::abs(peak_speed_mm_s) <= l.max_command_speed_mm_s && jump_mm_s > 0.0) {
+    return DegradeReason::jump;
+  }
   return std::abs(peak_speed_mm_s) > l.max_command_speed_mm_s ? DegradeReason::speed
                                                                : DegradeReason::torque;
 }
@@ -166,10 +173,15 @@ CommandLimiter::Out CommandLimiter::next(double lead_mm, double feedback_mm,
   const double e = lead_w - smooth_;
   // The fastest rate from which steps of A T per period still stop within |e|: moving n A T,
   // then (n - 1) A T, ... covers A T^2 n (n + 1) / 2 <= |e|.
+  // (For |e| <= A T^2 the bound is at least |e| / T: no square root needed.)
   double want = e / T;
   const double at = a * T;
-  const double brake = at > 0.0 ? 0.5 * at * (std::sqrt(1.0 + 8.0 * std::abs(e) / (at * T)) - 1.0) : 0.0;
-  if (std::abs(want) > brake) want = std::copysign(brake, e);
+  if (std::abs(e) > at * T) {
+    const double brake = 0.5 * at * (std::sqrt(1.0 + 8.0 * std::abs(e) / (at * T)) - 1.0);
+    if (std::abs(want) > brake) want = std::copysign(brake, e);
+  } else if (at <= 0.0) {
+    want = 0.0;
+  }
   rate_ = std::clamp(std::clamp(want, rate_ - at, rate_ + at), lo, hi);
   smooth_ += rate_ * T;
   const double lead = smooth_ + std::clamp(lead_w - smooth_, -l.free_step_mm, l.free_step_mm);

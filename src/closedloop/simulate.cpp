@@ -215,6 +215,14 @@ class AxisSampler {
             start += row[k] * mv.start_mm[k];
           }
           m.move = id;
+          // The step of this axis's speed at the junction with the previous move (a planner
+          // bounds it; a plan that jumps asks the impossible of the motor).
+          if (loc.move_index > 0) {
+            const plan::PlannedMove& pv = cur.move(loc.move_index - 1);
+            double cp = 0.0;
+            for (int k = 0; k < 4; ++k) cp += row[k] * pv.axes_r[k];
+            m.move_jump_mm_s = std::abs(c * mv.start_v_mm_s - cp * pv.end_v_mm_s);
+          }
           m.move_speed_mm_s = std::abs(c) * mv.cruise_v_mm_s;
           m.move_accel_mm_s2 = std::abs(c) * mv.accel_mm_s2;
           m.seg_from_mm = start;
@@ -226,6 +234,7 @@ class AxisSampler {
       r.move = m.move;
       r.move_speed_mm_s = m.move_speed_mm_s;
       r.move_accel_mm_s2 = m.move_accel_mm_s2;
+      r.move_jump_mm_s = m.move_jump_mm_s;
       r.seg_from_mm = m.seg_from_mm;
       r.seg_to_mm = m.seg_to_mm;
       r.line = m.line;
@@ -767,6 +776,7 @@ Json axis_json(const AxisResult& a) {
   x["first_degraded_line"] = a.first_degraded_line;
   x["accel_lead_dropped_moves"] = a.accel_lead_dropped_moves;
   x["load_limited_periods"] = a.load_limited_periods;
+  x["slips_inferred"] = a.slips_inferred;
   x["commands_reached"] = a.commands_reached;
   x["commands_left"] = a.commands_left;
   x["motor"] = motor_json(a);

@@ -71,6 +71,7 @@ const char* reason_text(DegradeReason r) {
   switch (r) {
     case DegradeReason::torque: return "the plan leaves the motor no torque margin";
     case DegradeReason::speed: return "the plan runs faster than the motor can be corrected at";
+    case DegradeReason::jump: return "the plan's speed jumps at the move's start by more than the rotor absorbs";
     case DegradeReason::none: break;
   }
   return "";
@@ -99,6 +100,12 @@ struct AxisRun {
   double period_v = 0.0;      // command speed over the present period [mm/s]
   double last_v = 0.0;        // over the previous one
   bool limited = false;       // the governor held the last command short
+  bool sequenced = false;     // the controller follows its own command sequence
+  // The slip guard: the largest lead of the command over the encoder without a slip, one
+  // electrical cycle of travel, the loss taken out of the controller's view and its recovery.
+  double hold_lead_mm = 0.0, cycle_mm = 0.0, latency_s = 0.0, recover_mm_s = 1.0;
+  double slip_offset = 0.0;
+  std::uint64_t slip_degraded_move = static_cast<std::uint64_t>(-1);
   double measured_now = 0.0, err_now = 0.0, x_now = 0.0, path_now = 0.0;
   // Endpoint errors: the move (or command count) last seen and its segment.
   std::uint64_t endpoint_move = static_cast<std::uint64_t>(-1), reached_seen = 0, endpoints = 0;
@@ -159,6 +166,15 @@ ClosedLoopSimulator::ClosedLoopSimulator(std::vector<AxisSetup> axes,
       run.limits = run.governor->limits(0.0, 0.0);
     }
     run.coeffs = run.model.substep(options.substep_s);
+    run.sequenced = run.controller->sequenced();
+    {
+      const double r_m = run.model.pulley_radius_m(), p = run.model.motor().pole_pairs();
+      const double po = run.model.pull_out_torque_at_n_m(0.0, run.model.max_current_a());
+      run.cycle_mm = 1e3 * r_m * 2.0 * std::numbers::pi / p;
+      run.hold_lead_mm = 1e3 * (po / r_m) / axes[i].mechanics.belt.stiffness_n_per_m +
+                         0.5 * run.cycle_mm + 0.5 * axes[i].mechanics.backlash_mm + 0.02;
+      run.latency_s = gains.latency_s + options.gains.period_s;
+    }
     run.command_mm = static_cast<double>(run.state.microstep) * run.model.step_distance_mm();
     run.limiter.reset(run.command_mm - start_mm[i]);
     run.x_hist.assign(static_cast<std::size_t>(s.latency_ticks) + 1, start_mm[i]);
@@ -215,7 +231,7 @@ void add_endpoint(AxisRun& r, double e) {
 // The governor's verdict on a move starting now, counted.
 void enter_move(AxisRun& r, const RefSample& ref) {
   r.move = ref.move;
-  r.limits = r.governor->limits(ref.move_speed_mm_s, ref.move_accel_mm_s2);
+  r.limits = r.governor->limits(ref.move_speed_mm_s, ref.move_accel_mm_s2, ref.move_jump_mm_s);
   if (ref.move == 0 || (ref.move_speed_mm_s == 0.0 && ref.move_accel_mm_s2 == 0.0)) return;
   ++r.res.moves;
   if (!r.limits.feasible) {
@@ -224,7 +240,8 @@ void enter_move(AxisRun& r, const RefSample& ref) {
       r.res.first_degraded_reason = fmt::format(
           "{} (needs {:.3f} N m at {:.0f} mm/s and {:.0f} mm/s^2; pull-out {:.3f} N m, design "
           "angle {:.0f} deg)",
-          reason_text(r.governor->reason(r.limits, ref.move_speed_mm_s)), r.limits.plan_torque_n_m,
+          reason_text(r.governor->reason(r.limits, ref.move_speed_mm_s, ref.move_jump_mm_s)),
+          r.limits.plan_torque_n_m,
           ref.move_speed_mm_s, ref.move_accel_mm_s2, r.limits.pull_out_n_m,
           r.governor->parameters().max_load_angle_deg);
     }
@@ -252,7 +269,7 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     }
     r.res.final_error_mm = err;
     // Path error: the distance from the segment of the command under way on this axis.
-    const auto seg = r.controller->active_segment();
+    const auto seg = r.sequenced ? r.controller->active_segment() : std::nullopt;
     const double path = seg ? segment_distance(x, seg->first, seg->second)
                             : segment_distance(x, now[i].seg_from_mm, now[i].seg_to_mm);
     r.path2 += path * path;
@@ -289,8 +306,28 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     r.hist_at = (r.hist_at + 1) % ring;
     // Open loop reads no encoder (only its trace shows one).
     const double measured = (s.feedback || s.csv) ? r.encoder.read(r.x_hist[r.hist_at]) : r.x_hist[r.hist_at];
-    const bool sequenced = r.controller->sequenced();
+    const bool sequenced = r.sequenced;
     if (r.governor && !sequenced && now[i].move != r.move) enter_move(r, now[i]);
+    // The slip guard: a lead of the command over the encoder larger than the belt and the rotor
+    // can hold (the belt stretched at the pull-out force, the rotor at 180 deg, the backlash,
+    // the latency's motion) means the rotor has slipped a whole electrical cycle. The loss is
+    // taken into the controller's view of the encoder (as open loop would keep it) and given
+    // back at most `recover_mm_s`; the move is degraded (the correction returns to 0), so a
+    // slip never sets the feedback against the motor.
+    if (r.governor && !sequenced) {
+      const double lead = r.command_mm - (measured + r.slip_offset);
+      if (std::abs(lead) > r.hold_lead_mm + std::abs(now[i].vel_mm_s) * r.latency_s) {
+        const double cycles = std::round(lead / r.cycle_mm);
+        r.slip_offset += (cycles != 0.0 ? cycles : std::copysign(1.0, lead)) * r.cycle_mm;
+        ++r.res.slips_inferred;
+        r.slip_degraded_move = now[i].move;
+        r.limits.feasible = false;
+        r.limits.accel_lead = false;
+        r.limits.max_feedback_mm = 0.0;
+      }
+      const double back = r.recover_mm_s * T;
+      r.slip_offset = std::clamp(0.0, r.slip_offset - back, r.slip_offset + back);
+    }
     ControlInput in;
     in.t_s = t;
     in.ref_mm = now[i].pos_mm;
@@ -300,7 +337,7 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     in.next_vel_mm_s = next[i].vel_mm_s;
     in.next_acc_mm_s2 = next[i].acc_mm_s2;
     in.measured_ref_mm = r.ref_hist[r.hist_at];
-    in.measured_mm = measured;
+    in.measured_mm = measured + r.slip_offset;
     in.command_mm = r.command_mm;
     in.command_speed_mm_s = r.period_v;
     in.steps_since_last = r.steps_last;

@@ -28,9 +28,10 @@
 //     residual ringing |1 - sinc(x) e^{-ix}|, x = w_b t_r / 2, of open loop's, below 1 only
 //     while x < 1.166; the acceleration lead is used on a move only when x <= 0.8 (residual
 //     <= 0.75).
-// A move whose plan leaves no margin (M <= 0) or that runs faster than V_c is *degraded*: the
-// controller's lead and feedback are brought back to 0 with what torque is left below pull-out
-// (held where none is), so the motor sees open loop's command.
+// A move whose plan leaves no margin (M <= 0), runs faster than V_c or starts with a step of
+// the axis's speed the rotor cannot absorb (a lag step dv / w_r beyond a quarter of the angle
+// margin) is *degraded*: the controller's lead and feedback are brought back to 0 within the
+// same budgets (held where there is no margin), so the motor sees open loop's command.
 #include <cstdint>
 #include <string>
 
@@ -61,7 +62,7 @@ struct MoveLimits {
 };
 
 /// Why a move was degraded (for reports).
-enum class DegradeReason { none, torque, speed };
+enum class DegradeReason { none, torque, speed, jump };
 
 class CommandGovernor {
  public:
@@ -69,9 +70,11 @@ class CommandGovernor {
   /// the rail friction; not the loads). `current_a` the largest current the controller runs.
   CommandGovernor(const StepperAxisModel& model, const GovernorParameters& p, double current_a);
 
-  /// The limits on a move whose axis reaches |v| <= peak_speed and |a| <= accel.
-  [[nodiscard]] MoveLimits limits(double peak_speed_mm_s, double accel_mm_s2) const;
-  [[nodiscard]] DegradeReason reason(const MoveLimits& l, double peak_speed_mm_s) const;
+  /// The limits on a move whose axis reaches |v| <= peak_speed and |a| <= accel, its speed
+  /// stepping by `jump` where it starts (a step the rotor takes as a lag jump / w_r: beyond
+  /// w_r (r / p) (d_max - d_plan) / 4 the move is degraded).
+  [[nodiscard]] MoveLimits limits(double peak_speed_mm_s, double accel_mm_s2, double jump_mm_s = 0.0) const;
+  [[nodiscard]] DegradeReason reason(const MoveLimits& l, double peak_speed_mm_s, double jump_mm_s = 0.0) const;
   /// The move's limits with the torque the motor is measured to carry now: r k |c - y| (the
   /// command's lead over the encoder times the belt stiffness; it includes the rotor's lag, so
   /// it errs high) where it exceeds the plan's. A load the model does not know shrinks the
@@ -97,6 +100,7 @@ class CommandGovernor {
   StepperAxisModel m_;
   GovernorParameters p_;
   double current_a_ = 0.0, sin_max_ = 0.0, wb_ = 0.0, v_step_max_ = 0.0, v_cruise_max_ = 0.0;
+  double wr_ = 0.0;  ///< the rotor's natural frequency on its magnetic spring [rad/s]
   [[nodiscard]] double torque_speed_limit_mm_s() const;
 };
 

@@ -59,6 +59,7 @@ struct RefSample {
   std::uint64_t move = 0;              ///< changes when a new move starts (0: none, holding)
   double move_speed_mm_s = 0.0;        ///< the move's peak speed along this axis
   double move_accel_mm_s2 = 0.0;       ///< the move's acceleration along this axis
+  double move_jump_mm_s = 0.0;         ///< the step of this axis's speed where the move starts
   double seg_from_mm = 0.0, seg_to_mm = 0.0;  ///< the move's start and end on this axis
   std::uint64_t line = 0;              ///< its G-code line
 };
@@ -102,6 +103,10 @@ struct AxisResult {
   /// Periods whose correction limits the load the motor was measured to carry narrowed (a
   /// load the model does not know).
   std::uint64_t load_limited_periods = 0;
+  /// Slips the governor inferred from the encoder (a lead over it no belt and rotor can hold):
+  /// each degraded the move and took the lost cycle out of the controller's view, given back
+  /// at 1 mm/s.
+  std::uint64_t slips_inferred = 0;
   std::uint64_t moves = 0;             ///< moves of this axis checked by the governor
   std::uint64_t commands_reached = 0;  ///< encoder-sequenced: commands of the sequence reached
   std::uint64_t commands_left = 0;     ///< encoder-sequenced: commands not reached at the end
