@@ -514,8 +514,8 @@ void add_notes(SimulationResult& r, bool governor) {
     if (a.gain_scale < 1.0) {
       r.notes.push_back(fmt::format(
           "axis {}: the default {} gains scaled by {:.3f} (kp and ki) to keep its linearised loop "
-          "stable up to the governor's design load angle",
-          a.name, r.controller, a.gain_scale));
+          "stable with a gain margin of {:.0f} up to the governor's design load angle",
+          a.name, r.controller, a.gain_scale, kGainMargin));
     }
     if (a.degraded_moves > 0) {
       r.notes.push_back(fmt::format(
