@@ -226,7 +226,7 @@ class Pid {
 };
 
 // tanh, exactly +-1 beyond |x| = 20 (where it rounds to +-1 in double precision anyway).
-double smooth_sign(double x) { return x > 20.0 ? 1.0 : (x < -20.0 ? -1.0 : std::tanh(x)); }
+double smooth_sign(double x) { return fast_tanh(x); }
 
 bool integrating(const ControlInput& in) {
   return !in.limited && (in.limits == nullptr || in.limits->feasible);
@@ -346,7 +346,7 @@ class Feedforward final : public Controller {
     const double d = std::asin(std::clamp(tau / po, -0.95, 0.95));
     const double r = m_.pulley_radius_m();
     return 1e3 * (f / ax.belt.stiffness_n_per_m + r * d / m_.motor().pole_pairs()) +
-           0.5 * ax.backlash_mm * std::tanh(f / 0.5);
+           (ax.backlash_mm == 0.0 ? 0.0 : 0.5 * ax.backlash_mm * fast_tanh(f / 0.5));
   }
   Pid pid_;
   double period_, drag_gain_, flip_mm_s_, sin_angle_ = 0.0;

@@ -522,6 +522,12 @@ void add_notes(SimulationResult& r, bool governor) {
           "axis {}: degraded to open loop on {} of {} moves, the first at line {}: {}", a.name,
           a.degraded_moves, a.moves, a.first_degraded_line, a.first_degraded_reason));
     }
+    if (a.fall_back_time_s >= 0.0) {
+      r.notes.push_back(fmt::format(
+          "axis {}: slipped at {:.3f} s on a move the governor found feasible: the machine is not "
+          "the one its analysis assumed; open loop's command from there to the end",
+          a.name, a.fall_back_time_s));
+    }
     if (a.commands_left > 0) {
       r.notes.push_back(fmt::format("axis {}: {} commands of its sequence not reached when the "
                                     "simulation stopped",
@@ -777,6 +783,7 @@ Json axis_json(const AxisResult& a) {
   x["accel_lead_dropped_moves"] = a.accel_lead_dropped_moves;
   x["load_limited_periods"] = a.load_limited_periods;
   x["slips_inferred"] = a.slips_inferred;
+  if (a.fall_back_time_s >= 0.0) x["fall_back_time_s"] = json_number(a.fall_back_time_s);
   x["commands_reached"] = a.commands_reached;
   x["commands_left"] = a.commands_left;
   x["motor"] = motor_json(a);

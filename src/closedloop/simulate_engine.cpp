@@ -106,6 +106,10 @@ struct AxisRun {
   double hold_lead_mm = 0.0, cycle_mm = 0.0, latency_s = 0.0, recover_mm_s = 1.0;
   double slip_offset = 0.0;
   std::uint64_t slip_degraded_move = static_cast<std::uint64_t>(-1);
+  // A slip on a move the governor found feasible: the machine is not the one the analysis
+  // assumed (a load, a motor or a dynamic it does not know); from then on every move is
+  // degraded, the axis runs open loop's command for the rest of the print.
+  bool fall_back = false;
   double measured_now = 0.0, err_now = 0.0, x_now = 0.0, path_now = 0.0;
   // Endpoint errors: the move (or command count) last seen and its segment.
   std::uint64_t endpoint_move = static_cast<std::uint64_t>(-1), reached_seen = 0, endpoints = 0;
@@ -232,6 +236,7 @@ void add_endpoint(AxisRun& r, double e) {
 void enter_move(AxisRun& r, const RefSample& ref) {
   r.move = ref.move;
   r.limits = r.governor->limits(ref.move_speed_mm_s, ref.move_accel_mm_s2, ref.move_jump_mm_s);
+
   if (ref.move == 0 || (ref.move_speed_mm_s == 0.0 && ref.move_accel_mm_s2 == 0.0)) return;
   ++r.res.moves;
   if (!r.limits.feasible) {
@@ -247,6 +252,16 @@ void enter_move(AxisRun& r, const RefSample& ref) {
     }
   } else if (!r.limits.accel_lead && ref.move_accel_mm_s2 > 0.0) {
     ++r.res.accel_lead_dropped_moves;
+  }
+}
+
+// enter_move, then the fall-back: after a slip on a feasible move every move runs degraded.
+void enter_move_checked(AxisRun& r, const RefSample& ref) {
+  enter_move(r, ref);
+  if (r.fall_back) {
+    r.limits.feasible = false;
+    r.limits.accel_lead = false;
+    r.limits.max_feedback_mm = 0.0;
   }
 }
 
@@ -307,7 +322,7 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     // Open loop reads no encoder (only its trace shows one).
     const double measured = (s.feedback || s.csv) ? r.encoder.read(r.x_hist[r.hist_at]) : r.x_hist[r.hist_at];
     const bool sequenced = r.sequenced;
-    if (r.governor && !sequenced && now[i].move != r.move) enter_move(r, now[i]);
+    if (r.governor && !sequenced && now[i].move != r.move) enter_move_checked(r, now[i]);
     // The slip guard: a lead of the command over the encoder larger than the belt and the rotor
     // can hold (the belt stretched at the pull-out force, the rotor at 180 deg, the backlash,
     // the latency's motion) means the rotor has slipped a whole electrical cycle. The loss is
@@ -320,6 +335,10 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
         const double cycles = std::round(lead / r.cycle_mm);
         r.slip_offset += (cycles != 0.0 ? cycles : std::copysign(1.0, lead)) * r.cycle_mm;
         ++r.res.slips_inferred;
+        if (r.limits.feasible && !r.fall_back) {
+          r.fall_back = true;
+          r.res.fall_back_time_s = t;
+        }
         r.slip_degraded_move = now[i].move;
         r.limits.feasible = false;
         r.limits.accel_lead = false;

@@ -107,6 +107,9 @@ struct AxisResult {
   /// each degraded the move and took the lost cycle out of the controller's view, given back
   /// at 1 mm/s.
   std::uint64_t slips_inferred = 0;
+  /// When the axis fell back to open loop's command for the rest of the run (a slip on a move
+  /// the governor found feasible); negative: never.
+  double fall_back_time_s = -1.0;
   std::uint64_t moves = 0;             ///< moves of this axis checked by the governor
   std::uint64_t commands_reached = 0;  ///< encoder-sequenced: commands of the sequence reached
   std::uint64_t commands_left = 0;     ///< encoder-sequenced: commands not reached at the end
