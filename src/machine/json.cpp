@@ -119,6 +119,7 @@ Json to_json(const Machine& m) {
         if (const auto* v = b.text(name, false); v && !v->empty()) steppers[name][std::string(b.key)] = *v;
       }
     }
+    if (!s.motor.empty()) steppers[name]["motor"] = s.motor;
     // Motor, driver and drive-train keys (step-level physics), only when set.
     const std::pair<const char*, const std::optional<double>*> motor[] = {
         {"run_current", &s.run_current_a},       {"supply_voltage", &s.supply_voltage_v},

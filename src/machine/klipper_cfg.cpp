@@ -24,6 +24,7 @@
 #include "amctl/machine/effective.hpp"
 #include "amctl/kinematics/klipper_config.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/machine/motor_presets.hpp"
 #include "schema.hpp"
 
 namespace amctl::machine {
@@ -285,6 +286,11 @@ Stepper read_stepper(const Section& s, bool radians = false) {
     gearing = detail::parse_gear_ratio(g->text, g->where, fmt::format("[{}] gear_ratio", s.name()));
   }
   st.rotation_distance_mm = rotation / gearing;
+  // amctl's motor preset key (step-level physics; Klipper itself has no such option).
+  if (const CfgValue* v = s.raw("motor")) {
+    st.motor = std::string(trim(v->text));
+    detail::check_motor_preset(st.motor, v->where, fmt::format("[{}] motor", s.name()));
+  }
   return st;
 }
 
@@ -433,6 +439,41 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     const auto it = m.steppers.find(name);
     if (it == m.steppers.end()) continue;
     it->second.run_current_a = Section(&s, s.name, file_loc).get_float("run_current", {.above = 0.0});
+  }
+  // klipper_tmc_autotune's [autotune_tmc stepper_x]: `motor` names the motor (an amctl preset,
+  // or a [motor_constants NAME] section: resistance, inductance, holding_torque, max_current,
+  // steps_per_revolution) and `voltage` the driver's supply. Step-level physics only.
+  for (CfgSection& s : doc.sections) {
+    if (s.name.rfind("autotune_tmc ", 0) != 0) continue;
+    const std::string target(trim(std::string_view(s.name).substr(13)));
+    const auto it = m.steppers.find(target.rfind("stepper_", 0) == 0 ? target.substr(8) : "");
+    if (it == m.steppers.end()) continue;
+    const Section at(&s, s.name, file_loc);
+    Stepper& st = it->second;
+    if (auto v = at.get_float("voltage", {.above = 0.0})) st.supply_voltage_v = v;
+    const CfgValue* mv = at.raw("motor");
+    if (mv == nullptr) continue;
+    const std::string name(trim(mv->text));
+    if (find_motor_preset(name) != nullptr) {
+      st.motor = name;
+      continue;
+    }
+    CfgSection* mc = doc.find("motor_constants " + name);
+    if (mc == nullptr) {
+      detail::check_motor_preset(name, mv->where, fmt::format("[{}] motor", s.name));  // throws
+    }
+    const Section c(mc, mc->name, file_loc);
+    st.phase_resistance_ohm = c.require_float("resistance", {.above = 0.0});
+    st.phase_inductance_h = c.require_float("inductance", {.above = 0.0});
+    st.holding_torque_n_m = c.require_float("holding_torque", {.above = 0.0});
+    st.rated_current_a = c.require_float("max_current", {.above = 0.0});
+    if (auto steps = c.get_int("steps_per_revolution", {.minval = 1});
+        steps && *steps != st.full_steps_per_rotation) {
+      throw Error(c.raw("steps_per_revolution")->where,
+                  fmt::format("[{}] steps_per_revolution: {} full steps, but [stepper_{}] "
+                              "full_steps_per_rotation is {}",
+                              mc->name, *steps, it->first, st.full_steps_per_rotation));
+    }
   }
   // exclude_object.py is loaded by its section only; without it EXCLUDE_OBJECT* are unknown.
   m.exclude_object = doc.find("exclude_object") != nullptr;

@@ -1,6 +1,7 @@
 #include "schema.hpp"
 
 #include "kinematics_keys.hpp"
+#include "amctl/machine/motor_presets.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -251,6 +252,11 @@ const std::vector<StepperKeyDef>& stepper_table() {
        "Lost motion between motor and carriage at a reversal of the belt force (pulley teeth, "
        "a loose set screw; Marlin's BACKLASH_DISTANCE_MM). Step-level physics only.",
        nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.backlash_mm; }},
+      {"motor", Kind::text, Bound::finite, "",
+       "The motor by preset name: 17hs4401, ldo-42sth48-2504ac, ldo-42sth48-2004mah (0.9 deg), "
+       "ldo-42sth40-1004a (docs/machine.md, motor presets); the numeric motor keys override its "
+       "values. Step-level physics only.",
+       nullptr, nullptr, nullptr, [](Stepper& s) -> std::string& { return s.motor; }},
   };
   return keys;
 }
@@ -455,6 +461,13 @@ double parse_gear_ratio(std::string_view text, const SourceLocation& where,
   }
   if (pairs == 0) number("");  // throws
   return result;
+}
+
+void check_motor_preset(std::string_view name, const SourceLocation& where, std::string_view label) {
+  if (machine::find_motor_preset(name) != nullptr) return;
+  throw Error(where, fmt::format("{}: unknown motor '{}', expected one of {} (or leave it out and "
+                                 "give the motor's datasheet keys)",
+                                 label, name, machine::motor_preset_names()));
 }
 
 }  // namespace amctl::machine::detail

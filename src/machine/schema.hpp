@@ -95,6 +95,10 @@ bool within(Bound b, double v);
 void check_bound(Bound b, double v, const SourceLocation& where, std::string_view label,
                  std::string_view unit);
 
+/// Throws amctl::Error at `where` naming `label` unless `name` is a motor preset
+/// (amctl/machine/motor_presets.hpp).
+void check_motor_preset(std::string_view name, const SourceLocation& where, std::string_view label);
+
 /// Levenshtein distance, case-insensitive.
 std::size_t edit_distance(std::string_view a, std::string_view b);
 /// The closest candidate if it is close enough to be a plausible typo.

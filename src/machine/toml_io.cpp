@@ -182,6 +182,7 @@ void assign_stepper(Stepper& s, double& gearing, const StepperKeyDef& d, const t
         throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
       d.text(s) = *v.value<std::string>();
+      if (d.key == "motor") detail::check_motor_preset(d.text(s), where, label);
       return;
     case Kind::gear_ratio:
       if (v.is_string()) {

@@ -56,6 +56,9 @@ struct Stepper {
   std::optional<double> run_current_a, supply_voltage_v, holding_torque_n_m, rated_current_a,
       phase_resistance_ohm, phase_inductance_h, rotor_inertia_kg_m2, detent_torque_n_m,
       backlash_mm;
+  /// The motor by preset name (amctl/machine/motor_presets.hpp, e.g. "ldo-42sth48-2004mah");
+  /// the numeric keys above override single values of it. Empty: the default preset.
+  std::string motor;
   [[nodiscard]] double steps_per_mm() const {
     return microsteps * full_steps_per_rotation / rotation_distance_mm;
   }
