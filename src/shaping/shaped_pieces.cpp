@@ -197,11 +197,21 @@ void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
   }
 }
 
-void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) const {
+void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) {
   constexpr int N = kAxisPieceCoeffs;
   const double h = half_smooth_s_;
   const std::size_t iL = taps_[tap_behind_].index, iM = taps_[tap_now_].index,
                     iR = taps_[tap_ahead_].index;
+  SmoothCache& cache = smooth_cache_;
+  if (cache.valid && cache.iL == iL && cache.iM == iM && cache.iR == iR) {
+    // The same polynomial in t: re-expanded about the new start.
+    taylor_shift(cache.c.data(), cache.degree, u0 - cache.u0, out);
+    for (int k = cache.degree + 1; k < N; ++k) out[k] = 0.0;
+    degree = cache.degree;
+    cache.u0 = u0;
+    std::copy(out, out + N, cache.c.begin());
+    return;
+  }
   bool moving = false;
   for (std::size_t j = iL; j <= iR; ++j) moving = moving || source(j).e_degree > 0;
   for (int k = 0; k < N; ++k) out[k] = 0.0;
@@ -263,6 +273,13 @@ void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) c
   const double inv = 1.0 / (h * h);
   for (int k = 0; k < N; ++k) out[k] *= inv;
   degree = std::min(degree, N - 1);
+  cache.valid = true;
+  cache.iL = iL;
+  cache.iM = iM;
+  cache.iR = iR;
+  cache.u0 = u0;
+  cache.degree = degree;
+  std::copy(out, out + N, cache.c.begin());
 }
 
 }  // namespace amctl::shaping

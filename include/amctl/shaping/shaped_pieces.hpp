@@ -83,13 +83,22 @@ class ShapedPieceStream {
   void append_rest(double t0, double t1);
   void generate(std::vector<AxisPiece>& out, bool final);
   /// Pressure advance's extruder over the piece starting at u0 (coefficients in tau).
-  void smoothed_extruder(double u0, double* out, int& degree) const;
+  void smoothed_extruder(double u0, double* out, int& degree);
   [[nodiscard]] const Source& source(std::size_t index) const { return sources_[index - base_]; }
 
   std::vector<Tap> taps_;
   PressureAdvance pa_;
   double half_smooth_s_ = 0.0;   ///< h; 0 without pressure advance
   std::size_t tap_behind_ = 0, tap_now_ = 0, tap_ahead_ = 0;  ///< taps reading t - h, t, t + h
+  /// The last smoothed extruder piece: while the sources under the kernel are the same, the
+  /// next piece is the same polynomial re-expanded at its start.
+  struct SmoothCache {
+    bool valid = false;
+    std::size_t iL = 0, iM = 0, iR = 0;
+    double u0 = 0.0;
+    int degree = 0;
+    std::array<double, kAxisPieceCoeffs> c{};
+  } smooth_cache_;
   double max_delay_s_ = 0.0;
   double min_delay_s_ = 0.0;
   std::deque<Source> sources_;
