@@ -42,6 +42,22 @@ void run_steps(const StepsArgs& a) {
   }
   std::cout << fmt::format("amctl steps: {} ({} moves, {:.3f} s, machine {}, {})\n", r.file,
                            r.moves, r.print_time_s, r.machine_name, r.kinematics);
+  // What shaped the steps, only when something did (docs/steppers.md section 8).
+  const machine::InputShaper& is = r.input_shaper;
+  if (is.active() || r.pressure_advance_s > 0.0) {
+    std::string line = "  steps of the shaped motion:";
+    const auto axis = [&](const char* name, const std::string& type, double f, double zeta) {
+      if (f > 0.0) line += fmt::format(" {} {} {:g} Hz (damping ratio {:g}),", name, type, f, zeta);
+    };
+    axis("X", is.shaper_type_x, is.shaper_freq_x_hz, is.damping_ratio_x);
+    axis("Y", is.shaper_type_y, is.shaper_freq_y_hz, is.damping_ratio_y);
+    if (r.pressure_advance_s > 0.0) {
+      line += fmt::format(" extruder with pressure advance {:g} s (smooth time {:g} s),",
+                          r.pressure_advance_s, r.pressure_advance_smooth_time_s);
+    }
+    line.back() = '\n';
+    std::cout << line;
+  }
   for (std::size_t i = 0; i < r.motors.size(); ++i) {
     const steppers::StepperStats& s = r.stats[i];
     std::cout << fmt::format("  {:<12} {:>12} steps  step {:.6g} {}", r.motors[i].name, s.steps,

@@ -91,6 +91,11 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   r.machine_name = m.name;
   r.kinematics = std::string(kinematics::name_of(m.kinematics));
   r.csv_path = csv_path;
+  if (m.input_shaper.active()) r.input_shaper = m.input_shaper;
+  if (pa.active()) {
+    r.pressure_advance_s = pa.advance_s;
+    r.pressure_advance_smooth_time_s = pa.smooth_time_s;
+  }
   r.print_time_s = summary.end_time_s;
   r.moves = moves;
   r.motors = motors;
@@ -136,9 +141,25 @@ Json to_json(const StepsReport& r) {
           std::isfinite(f.sustained_time_s) ? json_number(f.sustained_time_s) : Json(nullptr);
     }
   }
+  const auto axis_shaper = [&](const std::string& type, double freq, double zeta) {
+    if (!(freq > 0.0)) return Json(nullptr);
+    return Json{{"type", type}, {"freq_hz", json_number(freq)}, {"damping_ratio", json_number(zeta)}};
+  };
+  const machine::InputShaper& is = r.input_shaper;
+  const Json shaper = is.active() ? Json{{"x", axis_shaper(is.shaper_type_x, is.shaper_freq_x_hz,
+                                                          is.damping_ratio_x)},
+                                         {"y", axis_shaper(is.shaper_type_y, is.shaper_freq_y_hz,
+                                                          is.damping_ratio_y)}}
+                                  : Json(nullptr);
+  const Json advance = r.pressure_advance_s > 0.0
+                           ? Json{{"advance_s", json_number(r.pressure_advance_s)},
+                                  {"smooth_time_s", json_number(r.pressure_advance_smooth_time_s)}}
+                           : Json(nullptr);
   return Json{{"file", r.file},
               {"machine", r.machine_name},
               {"step_filter", to_string(r.step_filter)},
+              {"input_shaper", shaper},
+              {"pressure_advance", advance},
               {"kinematics", r.kinematics},
               {"csv", r.csv_path.empty() ? Json(nullptr) : Json(r.csv_path)},
               {"print_time_s", json_number(r.print_time_s)},

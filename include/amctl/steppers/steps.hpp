@@ -189,6 +189,11 @@ struct StepsReport {
   std::vector<StepRateFigures> rates;
   double sustained_window_s = kSustainedWindowS;
   std::uint64_t csv_bytes = 0;  ///< bytes of the CSV written (0 without one)
+  /// What shaped the steps (docs/steppers.md section 8): the printer's [input_shaper] when it
+  /// shapes an axis, and pressure advance when it is above 0 (0 otherwise).
+  machine::InputShaper input_shaper;
+  double pressure_advance_s = 0.0;
+  double pressure_advance_smooth_time_s = 0.0;
   [[nodiscard]] std::uint64_t total_steps() const;
 };
 
@@ -209,7 +214,8 @@ inline constexpr double kStepsCsvRowBytesBesidesName = 21.7;
                                               StepFilter filter = StepFilter::none,
                                               const LargeCsvCallback& on_large_csv = {});
 
-/// JSON form: step_filter, steppers[] with name, step_distance_mm, steps, steps_positive,
+/// JSON form: step_filter, input_shaper (null, or x and y each null or {type, freq_hz,
+/// damping_ratio}), pressure_advance (null, or {advance_s, smooth_time_s}), steppers[] with name, step_distance_mm, steps, steps_positive,
 /// steps_negative, peak_step_rate_steps_s, peak_time_s, min_interval_s (null when fewer than
 /// two steps), filtered_pairs.
 [[nodiscard]] Json to_json(const StepsReport& r);
