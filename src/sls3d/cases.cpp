@@ -250,7 +250,7 @@ double gauss_kronrod(const std::function<double(double)>& f, double a, double b,
   }
   k *= h;
   gsum *= h;
-  if (depth > 40 || std::abs(k - gsum) <= tol) return k;
+  if (depth > 30 || std::abs(k - gsum) <= tol) return k;
   return gauss_kronrod(f, a, c, 0.5 * tol, depth + 1) + gauss_kronrod(f, c, b, 0.5 * tol, depth + 1);
 }
 
@@ -267,18 +267,27 @@ double eagar_tsai_rise(const Material& m, double power_w, double beam_radius_m, 
     return depth / (2.0 * std::numbers::pi * (s2 + 2.0 * a * t)) *
            std::exp(-(x * x + y_m * y_m) / (2.0 * s2 + 4.0 * a * t));
   };
-  // The integrand dies out once v^2 u^2/(4 a) and |x|/sqrt(a t) are large: integrate piecewise
-  // over a geometric grid of u up to where it is negligible.
+  // The integrand dies out once v^2 u^2/(4 a) and |x|/sqrt(a t) are large: integrate over
+  // geometric pieces of u until a piece adds nothing. A first pass with a plain 15-point rule
+  // gives the magnitude that sets the adaptive pass's absolute tolerance.
   const double u_scale = std::sqrt(s2 / a) + std::sqrt(std::abs(xi_m) / v) + std::sqrt(4.0 * a) / v;
-  double total = 0, lo = 0, hi = 1e-3 * u_scale;
-  const double peak_guess = pre * f(std::sqrt(s2 / a)) * u_scale + 1e-300;
-  for (int i = 0; i < 200; ++i) {
-    const double part = gauss_kronrod(f, lo, hi, 1e-13 * peak_guess / pre, 0);
-    total += part;
-    if (hi > 4.0 * u_scale && std::abs(part) < 1e-15 * std::abs(total)) break;
-    lo = hi;
-    hi *= 1.5;
+  std::vector<std::pair<double, double>> pieces;
+  double magnitude = 0;
+  {
+    double lo = 0, hi = 1e-4 * u_scale;
+    for (int i = 0; i < 400; ++i) {
+      pieces.push_back({lo, hi});
+      const double part = gauss_kronrod(f, lo, hi, std::numeric_limits<double>::infinity(), 0);
+      magnitude += std::abs(part);
+      if (hi > 8.0 * u_scale && std::abs(part) < 1e-17 * magnitude) break;
+      lo = hi;
+      hi *= 1.25;
+    }
   }
+  if (magnitude == 0) return 0.0;
+  const double tol = 1e-13 * magnitude / double(pieces.size());
+  double total = 0;
+  for (const auto& [lo, hi] : pieces) total += gauss_kronrod(f, lo, hi, tol, 0);
   return pre * total;
 }
 
@@ -346,8 +355,10 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
   const double ahead = 4.0 * w + 8.0 * l, side = 4.0 * w + 14.0 * l;
   const double travel = 8.0 * w + 24.0 * l;
   r.travel_m = travel;
+  // Coarse cells twice as wide as tall, a few across the domain; octree levels down to
+  // h_fine = W / cells_per_radius in the plane (h_fine / 2 vertically) around the beam.
   const double h_fine = w / o.cells_per_radius;
-  const int levels = std::clamp(int(std::ceil(std::log2(std::max(side, 2.0 * w) / 2.0 / h_fine))), 1, 6);
+  const int levels = std::clamp(int(std::ceil(std::log2(side / 2.0 / h_fine))), 1, 7);
   const double h0 = h_fine * std::pow(2.0, levels);
   PlantSpec p;
   p.mesh.footprint = MeshSpec::Footprint::rectangle;
@@ -356,15 +367,19 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
   p.mesh.y0_m = 0.0;
   p.mesh.y1_m = side;
   p.mesh.coarse_cell_m = h0;
-  // Coarse slices four times thinner than wide at the top, growing to cubes.
-  std::vector<double> z{0.0};
-  double dz = h0 / 4.0;
-  while (z.back() > -side) {
-    z.push_back(z.back() - dz);
-    dz = std::min(h0, dz * 1.5);
+  // Vertically the field near the beam varies over the penetration depth sqrt(a W / v) =
+  // W / sqrt(2 Pe): the coarse slices near the top are `aspect` times thinner than wide so
+  // that the finest cells are about a quarter of it, growing to cubes below.
+  const double penetration = std::sqrt(a * w / v);
+  const int aspect = std::clamp(1 << int(std::ceil(std::log2(std::max(1.0, 4.0 * h_fine / penetration)))), 2, 8);
+  p.mesh.base_slices_m = {0.0};
+  double dz = h0 / aspect;
+  while (p.mesh.base_slices_m.back() > -side) {
+    p.mesh.base_slices_m.push_back(p.mesh.base_slices_m.back() - dz);
+    if (p.mesh.base_slices_m.size() > 2) dz = std::min(h0, 2.0 * dz);
   }
-  std::reverse(z.begin(), z.end());
-  p.mesh.base_slices_m = z;
+  std::reverse(p.mesh.base_slices_m.begin(), p.mesh.base_slices_m.end());
+  const double h_z = h_fine / aspect;
   p.powder = o.material;
   p.sintered = o.material;
   p.initial_temp_c = 0.0;
@@ -373,19 +388,20 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
   auto plant = make_plant(p);
   const double dt = w / (o.steps_per_radius * v);
   const int steps = int(std::ceil(travel / (v * dt)));
-  // Refinement: level `levels` within 2.5 W of the beam and ahead of it for the next steps,
-  // one level less for each doubling of the distance.
-  const int remesh_every = std::max(1, o.steps_per_radius / 2);
+  // Refinement: level `levels` within 2 W of the beam (and ahead of it for the steps until
+  // the next remesh) and 4 cells deep; each coarser level twice as wide and deep, and
+  // reaching further back along the wake.
+  const int remesh_every = o.steps_per_radius;
   auto zones_at = [&](double xb) {
     std::vector<RefineZone> zones;
     for (int k = 0; k < levels; ++k) {
+      const double grow = std::pow(2.0, k);
       RefineZone zn;
-      const double rad = 2.5 * w * std::pow(2.0, k);
-      zn.x0_m = xb - rad - (k > 0 ? 4.0 * l * std::pow(2.0, k) : 0.0);
+      zn.radius_m = 2.0 * w * grow;
+      zn.x0_m = xb - 3.0 * l * grow;
       zn.x1_m = xb + (remesh_every + 1) * v * dt;
       zn.y0_m = zn.y1_m = 0.0;
-      zn.radius_m = rad;
-      zn.depth_m = 1.5 * w * std::pow(2.0, k) + 2.0 * std::sqrt(a * w / v);
+      zn.depth_m = 4.0 * h_z * grow + (k + 1 == levels ? side : 0.0);
       zn.level = levels - k;
       zones.push_back(zn);
     }

@@ -49,7 +49,10 @@
 #include <sc.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -164,6 +167,9 @@ class FePlant final : public Plant {
  private:
   void make_mesh();
   void setup_dofs();
+  // Per deposited, locally owned cell: what the assembly needs that depends on the mesh only
+  // (rebuilt by setup_dofs, which every change of mesh or of the deposited domain calls).
+  void build_cell_cache();
   [[nodiscard]] Law law(const Cell& cell) const;
   [[nodiscard]] bool is_active(const Cell& cell) const { return cell->active_fe_index() == kActive; }
   [[nodiscard]] bool is_top_face(const Cell& cell, unsigned f) const;
@@ -174,8 +180,8 @@ class FePlant final : public Plant {
   struct Sums {
     double enthalpy = 0, loss = 0, radiation = 0, convection = 0;
   };
-  // out += local [M H(T) + tau (K T + L(T))]; with `matrix` also J = M H'(T) + tau (K + L').
-  Sums assemble(const Vec& t_ghost, double tau, Vec& out, bool matrix);
+  // v_h = M H(T) (lumped), v_k = K T + L(T); with `matrix` also J = M H'(T) + tau (K + L').
+  Sums assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v_k, bool matrix);
   // out = integral of (laser flux + U) phi_i over the top surface; returns (laser, flux) totals.
   std::pair<double, double> assemble_inputs(const StepInput& in, Vec& out);
   // Updates the consolidation states from T; returns (cells changed, enthalpy change).
@@ -197,10 +203,34 @@ class FePlant final : public Plant {
   Vec t_;  // ghosted temperature
   std::vector<double> state_;  // per active cell index
   std::unique_ptr<GridTools::Cache<dim>> cache_;
+  struct CellData {
+    Cell cell;
+    std::array<types::global_dof_index, 8> dofs;
+    std::array<double, 64> k_unit;  // int grad phi_i . grad phi_j (conductivity 1)
+    std::array<double, 8> volume;   // Gauss-Lobatto weight of each node (lumped mass / rho c)
+    std::array<double, 8> top;      // the same of the top face (0 for the other nodes)
+    bool has_top = false;
+  };
+  std::vector<CellData> cells_;
   double top_z_ = 0.0;
   int layers_ = 0;
   int step_count_ = 0;
   double solve_seconds_ = 0.0;
+  std::uint64_t matrix_version_ = 0;
+  std::unique_ptr<TrilinosWrappers::PreconditionAMG> amg_;
+  types::global_dof_index amg_dofs_ = 0;
+  int amg_age_ = 0, amg_iterations_ = -1, last_iterations_ = 0;
+  // Seconds by phase, printed to stderr at the end when AMCTL_SLS3D_PROFILE is set.
+  mutable double t_assemble_ = 0, t_linear_ = 0, t_remesh_ = 0, t_setup_ = 0, t_inputs_ = 0, t_other_ = 0;
+
+ public:
+  ~FePlant() override {
+    if (std::getenv("AMCTL_SLS3D_PROFILE") && Utilities::MPI::this_mpi_process(comm_) == 0)
+      std::fprintf(stderr,
+                   "sls3d profile: assemble %.3f s, linear %.3f s, inputs %.3f s, remesh %.3f s (setup %.3f s), "
+                   "other %.3f s\n",
+                   t_assemble_, t_linear_, t_inputs_, t_remesh_, t_setup_, t_other_);
+  }
 };
 
 FePlant::FePlant(const PlantSpec& spec)
@@ -249,6 +279,7 @@ void FePlant::make_mesh() {
 }
 
 void FePlant::setup_dofs() {
+  Timer timer;
   dof_.distribute_dofs(fes_);
   owned_ = dof_.locally_owned_dofs();
   DoFTools::extract_locally_relevant_dofs(dof_, relevant_);
@@ -259,9 +290,52 @@ void FePlant::setup_dofs() {
   DynamicSparsityPattern dsp(relevant_);
   DoFTools::make_sparsity_pattern(dof_, dsp, cons_, false);
   SparsityTools::distribute_sparsity_pattern(dsp, owned_, comm_, relevant_);
+  amg_.reset();
   jac_.reinit(owned_, owned_, dsp, comm_);
   t_.reinit(owned_, relevant_, comm_);
   cache_ = std::make_unique<GridTools::Cache<dim>>(tria_, mapping_);
+  build_cell_cache();
+  t_setup_ += timer.wall_time();
+}
+
+void FePlant::build_cell_cache() {
+  const FiniteElement<dim>& fe = fes_[kActive];
+  const unsigned n = fe.n_dofs_per_cell();
+  AMCTL_CHECK(n == 8, "sls3d engine: Q1 hexahedra");
+  QGaussLobatto<dim> q_lump(2);
+  QGauss<dim> q_stiff(2);
+  QGaussLobatto<dim - 1> q_face(2);
+  FEValues<dim> fv_lump(mapping_, fe, q_lump, update_values | update_JxW_values);
+  FEValues<dim> fv_stiff(mapping_, fe, q_stiff, update_gradients | update_JxW_values);
+  FEFaceValues<dim> fv_face(mapping_, fe, q_face, update_values | update_JxW_values);
+  std::vector<types::global_dof_index> idx(n);
+  cells_.clear();
+  for (const auto& cell : dof_.active_cell_iterators()) {
+    if (!cell->is_locally_owned() || !is_active(cell)) continue;
+    CellData d;
+    d.cell = cell;
+    cell->get_dof_indices(idx);
+    std::copy(idx.begin(), idx.end(), d.dofs.begin());
+    d.k_unit.fill(0.0);
+    d.volume.fill(0.0);
+    d.top.fill(0.0);
+    fv_lump.reinit(cell);
+    for (unsigned q = 0; q < q_lump.size(); ++q)
+      for (unsigned i = 0; i < n; ++i) d.volume[i] += fv_lump.shape_value(i, q) * fv_lump.JxW(q);
+    fv_stiff.reinit(cell);
+    for (unsigned q = 0; q < q_stiff.size(); ++q)
+      for (unsigned i = 0; i < n; ++i)
+        for (unsigned j = 0; j < n; ++j)
+          d.k_unit[i * 8 + j] += fv_stiff.shape_grad(i, q) * fv_stiff.shape_grad(j, q) * fv_stiff.JxW(q);
+    for (unsigned f = 0; f < GeometryInfo<dim>::faces_per_cell; ++f) {
+      if (!is_top_face(cell, f)) continue;
+      d.has_top = true;
+      fv_face.reinit(cell, f);
+      for (unsigned q = 0; q < q_face.size(); ++q)
+        for (unsigned i = 0; i < n; ++i) d.top[i] += fv_face.shape_value(i, q) * fv_face.JxW(q);
+    }
+    cells_.push_back(d);
+  }
 }
 
 Law FePlant::law(const Cell& cell) const {
@@ -302,93 +376,66 @@ double FePlant::loss_slope(double t) const {
   return l.convection_w_m2k + 4.0 * l.emissivity * kStefanBoltzmann * a * a * a;
 }
 
-FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& out, bool matrix) {
-  const FiniteElement<dim>& fe = fes_[kActive];
-  const unsigned n = fe.n_dofs_per_cell();
-  QGaussLobatto<dim> q_lump(2);
-  QGauss<dim> q_stiff(2);
-  QGaussLobatto<dim - 1> q_face(2);
-  FEValues<dim> fv_lump(mapping_, fe, q_lump, update_values | update_JxW_values);
-  FEValues<dim> fv_stiff(mapping_, fe, q_stiff, update_gradients | update_JxW_values);
-  FEFaceValues<dim> fv_face(mapping_, fe, q_face, update_values | update_JxW_values);
+FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v_k, bool matrix) {
+  Timer timer;
+  constexpr unsigned n = 8;
   const bool losses = spec_.losses.emissivity > 0 || spec_.losses.convection_w_m2k > 0;
+  const SurfaceLosses& sl = spec_.losses;
   FullMatrix<double> cm(n, n);
-  Vector<double> cr(n), tl(n);
+  Vector<double> ch(n), ck(n);
+  std::array<double, n> tl{};
   std::vector<types::global_dof_index> idx(n);
   Sums sums;
+  v_h = 0;
+  v_k = 0;
   if (matrix) jac_ = 0;
-  for (const auto& cell : dof_.active_cell_iterators()) {
-    if (!cell->is_locally_owned() || !is_active(cell)) continue;
-    const Law lw = law(cell);
-    cell->get_dof_indices(idx);
-    for (unsigned i = 0; i < n; ++i) tl[i] = t_ghost[idx[i]];
-    cm = 0;
-    cr = 0;
-    fv_lump.reinit(cell);
-    for (unsigned q = 0; q < q_lump.size(); ++q) {
-      double tq = 0;
-      for (unsigned j = 0; j < n; ++j) tq += fv_lump.shape_value(j, q) * tl[j];
-      const double jxw = fv_lump.JxW(q);
-      const double h = lw.enthalpy(tq);
-      sums.enthalpy += h * jxw;
-      const double c = matrix ? lw.capacity(tq) : 0.0;
+  for (const CellData& d : cells_) {
+    const Law lw = law(d.cell);
+    for (unsigned i = 0; i < n; ++i) {
+      idx[i] = d.dofs[i];
+      tl[i] = t_ghost[idx[i]];
+    }
+    // Lumped enthalpy: at the nodes, weighted by the nodes' volumes.
+    for (unsigned i = 0; i < n; ++i) {
+      const double h = lw.enthalpy(tl[i]);
+      sums.enthalpy += h * d.volume[i];
+      ch[i] = h * d.volume[i];
+    }
+    for (unsigned i = 0; i < n; ++i) {
+      double sum = 0;
+      for (unsigned j = 0; j < n; ++j) sum += d.k_unit[i * 8 + j] * tl[j];
+      ck[i] = lw.k * sum;
+    }
+    if (matrix) {
+      for (unsigned i = 0; i < n; ++i)
+        for (unsigned j = 0; j < n; ++j) cm(i, j) = tau * lw.k * d.k_unit[i * 8 + j];
+      for (unsigned i = 0; i < n; ++i) cm(i, i) += lw.capacity(tl[i]) * d.volume[i];
+    }
+    if (losses && d.has_top) {
       for (unsigned i = 0; i < n; ++i) {
-        const double phi_i = fv_lump.shape_value(i, q);
-        if (phi_i == 0.0) continue;
-        cr[i] += h * phi_i * jxw;
-        if (matrix)
-          for (unsigned j = 0; j < n; ++j) cm(i, j) += c * phi_i * fv_lump.shape_value(j, q) * jxw;
+        if (d.top[i] == 0.0) continue;
+        const double loss = loss_flux(tl[i]);
+        sums.loss += loss * d.top[i];
+        sums.convection += sl.convection_w_m2k * (tl[i] - sl.gas_temp_c) * d.top[i];
+        ck[i] += loss * d.top[i];
+        if (matrix) cm(i, i) += tau * loss_slope(tl[i]) * d.top[i];
       }
     }
-    if (tau != 0.0) {
-      fv_stiff.reinit(cell);
-      for (unsigned q = 0; q < q_stiff.size(); ++q) {
-        Tensor<1, dim> grad;
-        for (unsigned j = 0; j < n; ++j) grad += fv_stiff.shape_grad(j, q) * tl[j];
-        const double w = tau * lw.k * fv_stiff.JxW(q);
-        for (unsigned i = 0; i < n; ++i) {
-          const Tensor<1, dim> gi = fv_stiff.shape_grad(i, q);
-          cr[i] += w * (gi * grad);
-          if (matrix)
-            for (unsigned j = 0; j < n; ++j) cm(i, j) += w * (gi * fv_stiff.shape_grad(j, q));
-        }
-      }
-    }
-    if (losses) {
-      for (unsigned f = 0; f < GeometryInfo<dim>::faces_per_cell; ++f) {
-        if (!is_top_face(cell, f)) continue;
-        fv_face.reinit(cell, f);
-        for (unsigned q = 0; q < q_face.size(); ++q) {
-          double tq = 0;
-          for (unsigned j = 0; j < n; ++j) tq += fv_face.shape_value(j, q) * tl[j];
-          const double jxw = fv_face.JxW(q);
-          const double loss = loss_flux(tq);
-          sums.loss += loss * jxw;
-          const SurfaceLosses& sl = spec_.losses;
-          sums.convection += sl.convection_w_m2k * (tq - sl.gas_temp_c) * jxw;
-          const double slope = loss_slope(tq);
-          for (unsigned i = 0; i < n; ++i) {
-            const double phi_i = fv_face.shape_value(i, q);
-            if (phi_i == 0.0) continue;
-            cr[i] += tau * loss * phi_i * jxw;
-            if (matrix)
-              for (unsigned j = 0; j < n; ++j)
-                cm(i, j) += tau * slope * phi_i * fv_face.shape_value(j, q) * jxw;
-          }
-        }
-      }
-    }
-    if (matrix)
-      cons_.distribute_local_to_global(cm, cr, idx, jac_, out);
-    else
-      cons_.distribute_local_to_global(cr, idx, out);
+    if (matrix) cons_.distribute_local_to_global(cm, idx, jac_);
+    cons_.distribute_local_to_global(ch, idx, v_h);
+    cons_.distribute_local_to_global(ck, idx, v_k);
   }
-  out.compress(VectorOperation::add);
-  if (matrix) jac_.compress(VectorOperation::add);
+  v_h.compress(VectorOperation::add);
+  v_k.compress(VectorOperation::add);
+  if (matrix) {
+    jac_.compress(VectorOperation::add);
+    ++matrix_version_;
+  }
   sums.enthalpy = Utilities::MPI::sum(sums.enthalpy, comm_);
   sums.loss = Utilities::MPI::sum(sums.loss, comm_);
   sums.convection = Utilities::MPI::sum(sums.convection, comm_);
   sums.radiation = sums.loss - sums.convection;
+  t_assemble_ += timer.wall_time();
   return sums;
 }
 
@@ -514,22 +561,10 @@ std::pair<double, double> FePlant::assemble_inputs(const StepInput& in, Vec& out
 }
 
 double FePlant::energy_of(const Vec& t_ghost) const {
-  const FiniteElement<dim>& fe = fes_[kActive];
-  const unsigned n = fe.n_dofs_per_cell();
-  QGaussLobatto<dim> q_lump(2);
-  FEValues<dim> fv(mapping_, fe, q_lump, update_values | update_JxW_values);
-  std::vector<types::global_dof_index> idx(n);
   double e = 0;
-  for (const auto& cell : dof_.active_cell_iterators()) {
-    if (!cell->is_locally_owned() || !is_active(cell)) continue;
-    const Law lw = law(cell);
-    cell->get_dof_indices(idx);
-    fv.reinit(cell);
-    for (unsigned q = 0; q < q_lump.size(); ++q) {
-      double tq = 0;
-      for (unsigned j = 0; j < n; ++j) tq += fv.shape_value(j, q) * t_ghost[idx[j]];
-      e += lw.enthalpy(tq) * fv.JxW(q);
-    }
+  for (const CellData& d : cells_) {
+    const Law lw = law(d.cell);
+    for (unsigned i = 0; i < 8; ++i) e += lw.enthalpy(t_ghost[d.dofs[i]]) * d.volume[i];
   }
   return Utilities::MPI::sum(e, comm_);
 }
@@ -538,34 +573,24 @@ double FePlant::enthalpy_j() const { return energy_of(t_); }
 
 std::pair<int, double> FePlant::update_states() {
   if (!spec_.melting.enabled) return {0, 0.0};
-  const FiniteElement<dim>& fe = fes_[kActive];
-  const unsigned n = fe.n_dofs_per_cell();
-  QGaussLobatto<dim> q_lump(2);
-  FEValues<dim> fv(mapping_, fe, q_lump, update_values | update_JxW_values);
-  std::vector<types::global_dof_index> idx(n);
   int changed = 0;
   double de = 0;
-  for (const auto& cell : dof_.active_cell_iterators()) {
-    if (!cell->is_locally_owned() || !is_active(cell)) continue;
-    Law lw = law(cell);
-    cell->get_dof_indices(idx);
-    fv.reinit(cell);
-    std::vector<double> tq(q_lump.size());
+  for (const CellData& d : cells_) {
+    Law lw = law(d.cell);
+    std::array<double, 8> tn{};
     double fmin = 1.0;
-    for (unsigned q = 0; q < q_lump.size(); ++q) {
-      tq[q] = 0;
-      for (unsigned j = 0; j < n; ++j) tq[q] += fv.shape_value(j, q) * t_[idx[j]];
-      fmin = std::min(fmin, lw.fraction(tq[q]));
+    for (unsigned i = 0; i < 8; ++i) {
+      tn[i] = t_[d.dofs[i]];
+      fmin = std::min(fmin, lw.fraction(tn[i]));
     }
     // Raising s to the smallest melt fraction of the cell keeps max(s, f) unchanged at every
     // node: only rho c and k change (docs/sls3d.md, "Consolidation").
     if (fmin > lw.s + 1e-12) {
-      double before = 0;
-      for (unsigned q = 0; q < q_lump.size(); ++q) before += lw.enthalpy(tq[q]) * fv.JxW(q);
-      state_[cell->active_cell_index()] = fmin;
-      lw = law(cell);
-      double after = 0;
-      for (unsigned q = 0; q < q_lump.size(); ++q) after += lw.enthalpy(tq[q]) * fv.JxW(q);
+      double before = 0, after = 0;
+      for (unsigned i = 0; i < 8; ++i) before += lw.enthalpy(tn[i]) * d.volume[i];
+      state_[d.cell->active_cell_index()] = fmin;
+      lw = law(d.cell);
+      for (unsigned i = 0; i < 8; ++i) after += lw.enthalpy(tn[i]) * d.volume[i];
       de += after - before;
       ++changed;
     }
@@ -585,17 +610,27 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
     x = 0;
     return;
   }
+  Timer timer;
   SolverControl control(spec_.solver.max_linear_iterations, spec_.solver.linear_rel_tol * bnorm);
   SolverCG<Vec> cg(control);
   try {
     switch (spec_.solver.preconditioner) {
       case SolverSettings::Preconditioner::amg: {
-        TrilinosWrappers::PreconditionAMG amg;
-        TrilinosWrappers::PreconditionAMG::AdditionalData data;
-        data.elliptic = true;
-        data.smoother_sweeps = 2;
-        amg.initialize(jac_, data);
-        cg.solve(jac_, x, b, amg);
+        // The hierarchy is rebuilt when the mesh or the matrix's scaling changed, every 25
+        // matrices, or when CG needs clearly more iterations than just after a rebuild.
+        if (!amg_ || amg_dofs_ != dof_.n_dofs() || amg_age_ >= 25 ||
+            last_iterations_ > 2 * amg_iterations_ + 4) {
+          amg_ = std::make_unique<TrilinosWrappers::PreconditionAMG>();
+          TrilinosWrappers::PreconditionAMG::AdditionalData data;
+          data.elliptic = true;
+          data.smoother_sweeps = 2;
+          amg_->initialize(jac_, data);
+          amg_dofs_ = dof_.n_dofs();
+          amg_age_ = 0;
+          amg_iterations_ = -1;
+        }
+        cg.solve(jac_, x, b, *amg_);
+        ++amg_age_;
         break;
       }
       case SolverSettings::Preconditioner::jacobi: {
@@ -619,7 +654,10 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
     fail(os.str());
   }
   iterations += int(control.last_step());
+  last_iterations_ = int(control.last_step());
+  if (amg_iterations_ < 0) amg_iterations_ = last_iterations_;
   cons_.distribute(x);
+  t_linear_ += timer.wall_time();
 }
 
 StepReport FePlant::step(const StepInput& in) {
@@ -627,30 +665,33 @@ StepReport FePlant::step(const StepInput& in) {
   ++step_count_;
   StepReport r;
   const double dt = in.dt_s, theta = in.theta > 0 ? in.theta : spec_.theta;
-  Vec b(owned_, comm_), inputs(owned_, comm_);
-  // Old part: M H(T^n) - (1 - theta) dt (K T^n + L(T^n)) + dt (S + U).
-  const Sums old = assemble(t_, -(1.0 - theta) * dt, b, false);
+  Vec b(owned_, comm_), inputs(owned_, comm_), vh(owned_, comm_), vk(owned_, comm_);
+  Vec delta(owned_, comm_), res(owned_, comm_), trial(owned_, comm_), base(owned_, comm_);
+  Vec t_try(owned_, relevant_, comm_);
+  // At T^n: v_h, v_k and the Jacobian. b = M H(T^n) - (1 - theta) dt (K T^n + L^n) + dt (S + U).
+  const Sums old = assemble(t_, theta * dt, vh, vk, true);
+  Timer input_timer;
   const auto [laser_rate, flux_rate] = assemble_inputs(in, inputs);
-  b.add(dt, inputs);
+  t_inputs_ += input_timer.wall_time();
+  b = vh;
+  b.add(-(1.0 - theta) * dt, vk, dt, inputs);
   r.laser_j = laser_rate * dt;
   r.top_flux_j = flux_rate * dt;
   for (const LaserPass& p : in.passes) r.laser_nominal_j += p.power_w * (p.t1_s - p.t0_s);
-
-  Vec delta(owned_, comm_), res(owned_, comm_);
-  Vec t_try(owned_, relevant_, comm_);
-  auto residual = [&](const Vec& tg, bool matrix, Sums& s) {
-    res = 0;
-    s = assemble(tg, theta * dt, res, matrix);
-    res -= b;
+  // R(T) = M H(T) + theta dt (K T + L(T)) - b.
+  auto form_residual = [&] {
+    res = vh;
+    res.add(theta * dt, vk, -1.0, b);
     return res.l2_norm();
   };
   const double floor = 1e-13 * std::max(1.0, std::abs(old.enthalpy)) /
                        std::sqrt(std::max<double>(1.0, double(dof_.n_dofs())));
-  Sums now{};
-  double norm = residual(t_, true, now);
+  Sums now = old;
+  double norm = form_residual();
   r.residual_initial = norm;
   const double target = std::max(spec_.solver.newton_rel_tol * norm, floor);
   int it = 0;
+  bool have_matrix = true;
   while (norm > target) {
     if (it >= spec_.solver.max_newton_iterations) {
       std::ostringstream os;
@@ -659,19 +700,22 @@ StepReport FePlant::step(const StepInput& in) {
          << " J)";
       fail(os.str());
     }
+    if (!have_matrix) {
+      now = assemble(t_, theta * dt, vh, vk, true);
+      norm = form_residual();
+    }
     res *= -1.0;
     delta = 0;
     solve_linear(delta, res, r.linear_iterations, "Newton update");
     // Backtracking on |R|: the latent heat makes H' jump at the melting range.
     double lambda = 1.0, next = 0;
-    Vec base(owned_, comm_);
     base = t_;
     for (int k = 0; k < 8; ++k) {
-      Vec trial(owned_, comm_);
       trial = base;
       trial.add(lambda, delta);
       t_try = trial;
-      next = residual(t_try, true, now);
+      now = assemble(t_try, 0.0, vh, vk, false);
+      next = form_residual();
       if (std::isfinite(next) && (next < norm || k == 7)) break;
       lambda *= 0.5;
     }
@@ -682,6 +726,7 @@ StepReport FePlant::step(const StepInput& in) {
     }
     t_ = t_try;
     norm = next;
+    have_matrix = false;
     ++it;
   }
   r.newton_iterations = it;
@@ -726,6 +771,7 @@ LayerReport FePlant::add_layer(double fresh_temp_c) {
       cell->set_active_fe_index(kActive);
       state_[cell->active_cell_index()] = 0.0;
     }
+  top_z_ = z1;
   setup_dofs();
   // Lumped capacities of each node from the old and the new cells.
   const FiniteElement<dim>& fe = fes_[kActive];
@@ -764,7 +810,6 @@ LayerReport FePlant::add_layer(double fresh_temp_c) {
   t.compress(VectorOperation::insert);
   cons_.distribute(t);
   t_ = t;
-  top_z_ = z1;
   ++layers_;
   LayerReport r;
   r.layer = layers_;
@@ -775,6 +820,7 @@ LayerReport FePlant::add_layer(double fresh_temp_c) {
 }
 
 RemeshReport FePlant::remesh(const std::vector<RefineZone>& zones) {
+  Timer timer;
   RemeshReport r;
   const double e_before = enthalpy_j();
   const int max_target = [&] {
@@ -807,10 +853,12 @@ RemeshReport FePlant::remesh(const std::vector<RefineZone>& zones) {
         }
         if (touches) target = std::max(target, z.level);
       }
+      // Refine towards the target in every pass; coarsen one level in the first only (the
+      // 2:1 balance may keep a cell finer than its target, and asking again would loop).
       if (cell->level() < target) {
         cell->set_refine_flag();
         ++flagged;
-      } else if (cell->level() > target) {
+      } else if (pass == 0 && cell->level() > target) {
         cell->set_coarsen_flag();
         ++flagged;
       }
@@ -835,6 +883,7 @@ RemeshReport FePlant::remesh(const std::vector<RefineZone>& zones) {
     ++r.passes;
   }
   r.enthalpy_change_j = r.changed ? enthalpy_j() - e_before : 0.0;
+  t_remesh_ += timer.wall_time();
   return r;
 }
 
