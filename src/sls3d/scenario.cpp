@@ -72,7 +72,16 @@ std::vector<RefineZone> part_zones(const ScenarioConfig& c) {
   };
   annulus(c.part_inner_radius_m - c.edge_band_m, c.part_outer_radius_m + c.edge_band_m, c.part_level);
   for (double r : {c.part_inner_radius_m, c.part_outer_radius_m})
-    annulus(r - c.edge_band_m, r + c.edge_band_m, c.edge_level);
+    z.push_back(RefineZone{RefineZone::Shape::annulus, 0, 0, 0, 0, 0, std::max(0.0, r - c.edge_band_m),
+                           r + c.edge_band_m, 0.5 * c.refine_depth_m, c.edge_level});
+  // Where the controller measures.
+  RefineZone m;
+  m.x0_m = m.x1_m = c.measurement.x_m;
+  m.y0_m = m.y1_m = c.measurement.y_m;
+  m.radius_m = c.measurement.kind == TopWeight::Kind::spot ? 1.5 * c.measurement.radius_m : 0.0;
+  m.depth_m = c.refine_depth_m;
+  m.level = c.part_level;
+  if (c.measurement.kind == TopWeight::Kind::spot) z.push_back(m);
   return z;
 }
 

@@ -67,12 +67,12 @@ struct ScenarioConfig {
   double dt_s = 0.1;
   double theta = 1.0;
   double coarse_cell_m = 5e-3;
-  int cells_per_layer = 2;
+  int cells_per_layer = 1;
   int edge_level = 2;          ///< refinement at the part's edges
-  double edge_band_m = 1.5e-3;  ///< half-width of the refined band around each edge
-  int part_level = 1;          ///< refinement over the part's cross-section
-  int laser_level = 2;         ///< around the beam (fine scale)
-  double refine_depth_m = 1e-3;  ///< refinement reaches this far below the top
+  double edge_band_m = 5e-4;   ///< half-width of the refined band around each edge
+  int part_level = 1;          ///< refinement over the part's cross-section and the pyrometer spot
+  int laser_level = 3;         ///< around the beam (fine scale)
+  double refine_depth_m = 5e-4;  ///< refinement reaches this far below the top
   SolverSettings solver{};
   // [output]
   double end_time_s = 28.1;

@@ -80,7 +80,7 @@ struct SolverSettings {
   Preconditioner preconditioner = Preconditioner::amg;
   double linear_rel_tol = 1e-11;  ///< CG stops at |r| <= tol |b|
   int max_linear_iterations = 2000;
-  double newton_rel_tol = 1e-9;   ///< Newton stops at |R| <= tol |R_0| (or the absolute floor)
+  double newton_rel_tol = 1e-8;   ///< Newton stops at |R| <= tol |R_0| (or see engine.cpp)
   int max_newton_iterations = 25;
 };
 
