@@ -26,12 +26,14 @@ struct ReportArgs {
   double rate_hz = 1000.0;
   bool json = false;
   bool lenient = false;
+  std::string file_limits = "keep";
 };
 
 void run_report(const ReportArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
   report::ReportOptions o;
   o.strict = !a.lenient;
+  o.file_limits = file_limits_policy(a.file_limits);
   o.sample_rate_hz = a.rate_hz;
   if (a.zeta && !a.f_hz) throw Error("--damping-ratio needs --natural-frequency-hz");
   if (a.f_hz) o.belt = report::BeltModelOptions{*a.f_hz, a.zeta.value_or(0.1)};
@@ -58,6 +60,7 @@ void register_report(CLI::App& app) {
       "report", "Write one self-contained HTML page about a print: time, speed, layers, toolpath");
   sub->add_option("file", a->file, "G-code file ('-' reads standard input)")->required();
   add_machine_options(*sub, a->machine);
+  add_file_limits_option(*sub, a->file_limits);
   sub->add_option("-o,--output", a->output, "HTML file (written whole or not at all; default report.html)");
   sub->add_option("--natural-frequency-hz", a->f_hz,
                   "belt natural frequency of X and Y [Hz]: simulate and colour the toolpath by contour error");

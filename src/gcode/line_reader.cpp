@@ -25,7 +25,14 @@ LineReader::LineReader(const std::string& path, std::size_t buffer_bytes) : name
 }
 
 LineReader::LineReader(std::string_view text, std::string name)
-    : name_(std::move(name)), memory_(text) {}
+    : name_(std::move(name)), in_memory_(true), memory_(text) {}
+
+LineReader::LineReader(std::unique_ptr<ByteSource> source, std::string name,
+                       std::size_t buffer_bytes)
+    : name_(std::move(name)), source_(std::move(source)) {
+  AMCTL_CHECK(source_ != nullptr, "LineReader needs a byte source");
+  buf_.resize(buffer_bytes < 4096 ? 4096 : buffer_bytes);
+}
 
 LineReader::~LineReader() {
   if (owns_file_ && file_ != nullptr) std::fclose(file_);
@@ -43,6 +50,15 @@ bool LineReader::refill() {
                 fmt::format("line is longer than {} bytes: expected G-code text lines",
                             buf_.size()));
   }
+  if (source_) {
+    const std::size_t got = source_->read(buf_.data() + end_, buf_.size() - end_);
+    if (got == 0) {
+      eof_ = true;
+      return false;
+    }
+    end_ += got;
+    return true;
+  }
   std::size_t got = std::fread(buf_.data() + end_, 1, buf_.size() - end_, file_);
   if (got == 0) {
     if (std::ferror(file_)) {
@@ -57,7 +73,7 @@ bool LineReader::refill() {
 }
 
 bool LineReader::next_slow(std::string_view& line) {
-  if (file_ == nullptr) {
+  if (in_memory_) {
     if (memory_.empty()) return false;
     std::size_t nl = memory_.find('\n');
     std::string_view l = memory_.substr(0, nl);
@@ -67,6 +83,7 @@ bool LineReader::next_slow(std::string_view& line) {
     } else {
       memory_.remove_prefix(nl + 1);
     }
+    line_start_ = bytes_;
     bytes_ += l.size() + 1;
     if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
     ++line_no_;
@@ -79,6 +96,7 @@ bool LineReader::next_slow(std::string_view& line) {
     if (hit != nullptr) {
       std::size_t nl = static_cast<std::size_t>(static_cast<const char*>(hit) - data);
       std::string_view l(data + begin_, nl - begin_);
+      line_start_ = bytes_;
       bytes_ += nl + 1 - begin_;
       begin_ = nl + 1;
       if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
@@ -89,6 +107,7 @@ bool LineReader::next_slow(std::string_view& line) {
     if (!refill()) {
       if (begin_ == end_) return false;
       std::string_view l(buf_.data() + begin_, end_ - begin_);
+      line_start_ = bytes_;
       bytes_ += end_ - begin_;
       begin_ = end_;
       no_final_newline_ = true;

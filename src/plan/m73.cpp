@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/gcode/parser.hpp"
 #include "amctl/plan/estimate.hpp"
@@ -28,6 +29,14 @@ std::size_t write_m73(const std::string& input_path, const std::string& output_p
     throw Error(SourceLocation{output_path, 0, 0},
                 "the M73 output must be a different file from the input");
   }
+  for (const char* binary : {".bgcode", ".3mf", ".gz"}) {
+    if (output_path.ends_with(binary)) {
+      throw Error(SourceLocation{output_path, 0, 0},
+                  fmt::format("found an output name ending in {}, expected one for G-code text "
+                              "(.gcode): the M73 lines are written into text, whatever the input",
+                              binary));
+    }
+  }
   const std::string tmp = output_path + ".amctl-tmp";
   std::FILE* out = std::fopen(tmp.c_str(), "wb");
   if (out == nullptr) {
@@ -37,7 +46,8 @@ std::size_t write_m73(const std::string& input_path, const std::string& output_p
   std::size_t written = 0;
   const double total = report.total_time_s;
   try {
-    gcode::LineReader reader(input_path);
+    const auto reader_ptr = formats::open_gcode_reader(input_path);
+    gcode::LineReader& reader = *reader_ptr;
     std::string_view line;
     std::size_t next = 0;
     const auto& cps = report.checkpoints;

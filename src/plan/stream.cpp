@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 
 namespace amctl::plan {
@@ -148,7 +149,7 @@ void PlanSource::Impl::close() {
 
 PlanSource::PlanSource(const std::string& path, const machine::Machine& machine,
                        SourceOptions options)
-    : impl_(std::make_unique<Impl>(std::make_unique<gcode::LineReader>(path), machine, options)) {}
+    : impl_(std::make_unique<Impl>(formats::open_gcode_reader(path), machine, options)) {}
 
 PlanSource::PlanSource(std::string_view text, std::string name, const machine::Machine& machine,
                        SourceOptions options)
@@ -163,10 +164,18 @@ bool PlanSource::next(PlanBatch& batch) {
   try {
     impl_->fill(batch);
   } catch (const Error& e) {
-    // Errors raised below the interpreter (planner, limits) know the line but not the file.
-    if (e.where().file.empty() && e.where().line != 0) {
-      throw Error(SourceLocation{impl_->reader->name(), e.where().line, e.where().column},
-                  e.detail());
+    // Errors raised below the interpreter (planner, limits) know the line but not the file;
+    // a line decoded from a container (binary G-code, a 3MF plate) also says where it was.
+    const bool no_file = e.where().file.empty() && e.where().line != 0;
+    const bool this_file = e.where().file == impl_->reader->name() && e.where().line != 0;
+    if (no_file || this_file) {
+      const std::string origin = e.where().line == impl_->reader->line_number()
+                                     ? impl_->reader->origin_of_line()
+                                     : std::string();
+      if (no_file || !origin.empty()) {
+        throw Error(SourceLocation{impl_->reader->name(), e.where().line, e.where().column},
+                    origin.empty() ? e.detail() : e.detail() + " (in " + origin + ")");
+      }
     }
     throw;
   }

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/process/atomic_file.hpp"
 
@@ -347,7 +348,8 @@ void GcodeScaler::move(const gcode::Command& cmd, std::string_view line, std::ui
 }
 
 GcodeExtent gcode_extrusion_extent(const std::string& path) {
-  gcode::LineReader reader(path);
+  const auto reader_ptr = formats::open_gcode_reader(path);
+  gcode::LineReader& reader = *reader_ptr;
   GcodeScaler scan(ScaleMap{}, GcodeScaleOptions{}, path);
   std::string sink;
   std::string_view line;
@@ -362,7 +364,8 @@ GcodeExtent gcode_extrusion_extent(const std::string& path) {
 
 GcodeScaleReport scale_gcode_file(const std::string& input, const std::string& output,
                                   const ScaleMap& map, const GcodeScaleOptions& options) {
-  gcode::LineReader reader(input);
+  const auto reader_ptr = formats::open_gcode_reader(input);
+  gcode::LineReader& reader = *reader_ptr;
   AtomicFileWriter writer(output);
   GcodeScaler scaler(map, options, input);
   constexpr std::size_t kFlushBytes = 1u << 20;
