@@ -142,7 +142,7 @@ struct StepReport {
   double radiation_j = 0.0;
   double convection_j = 0.0;
   double balance_error_j = 0.0;      ///< enthalpy change - (laser + flux - losses)
-  double balance_rel_error = 0.0;    ///< |error| / (|dH| + |laser| + |flux| + losses)
+  double balance_rel_error = 0.0;    ///< |error| / max(|dH| + |laser| + |flux| + losses, 1e-12 |H|)
   int cells_consolidated = 0;        ///< cells whose state rose after the step
   double densification_j = 0.0;      ///< enthalpy change of that state update (see docs)
   double max_temp_c = 0.0;           ///< largest nodal temperature after the step

@@ -711,7 +711,8 @@ StepReport FePlant::step(const StepInput& in) {
     res.add(theta * dt, vk, -1.0, b);
     return res.l2_norm();
   };
-  const double floor = 1e-13 * std::max(1.0, std::abs(old.enthalpy)) /
+  // Rounding level of the residual (relative to the stored enthalpy, whatever the domain's size).
+  const double floor = 1e-13 * std::abs(old.enthalpy) /
                        std::sqrt(std::max<double>(1.0, double(dof_.n_dofs())));
   Sums now = old;
   double norm = form_residual();
@@ -778,8 +779,11 @@ StepReport FePlant::step(const StepInput& in) {
   r.convection_j = dt * (theta * now.convection + (1 - theta) * old.convection);
   const double losses = r.radiation_j + r.convection_j;
   r.balance_error_j = r.enthalpy_change_j - (r.laser_j + r.top_flux_j - losses);
-  const double scale = std::abs(r.enthalpy_change_j) + std::abs(r.laser_j) +
-                       std::abs(r.top_flux_j) + std::abs(losses);
+  // Relative to the energy that moved in the step; when next to nothing moves (a flux through
+  // zero), to the rounding of the stored enthalpy (the balance cannot be closer than that).
+  const double scale = std::max(std::abs(r.enthalpy_change_j) + std::abs(r.laser_j) +
+                                    std::abs(r.top_flux_j) + std::abs(losses),
+                                1e-12 * std::abs(old.enthalpy));
   r.balance_rel_error = scale > 0 ? std::abs(r.balance_error_j) / scale : 0.0;
   const auto [changed, de] = update_states();
   r.cells_consolidated = changed;
