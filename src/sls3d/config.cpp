@@ -38,7 +38,8 @@ class Section {
       if (keys_.count(std::string(k.str()))) continue;
       std::string list;
       for (const auto& key : keys_) list += (list.empty() ? "" : ", ") + key;
-      throw Error(place(path, v.source()), "unknown key '" + std::string(k.str()) + "' in [" +
+      // At the key (toml++ records where each key was written).
+      throw Error(place(path, k.source().begin ? k.source() : v.source()), "unknown key '" + std::string(k.str()) + "' in [" +
                                                name_ + "], expected one of " + list);
     }
   }
@@ -253,9 +254,14 @@ void ScenarioConfig::validate() const {
     const double n = std::round(t / dt_s);
     return std::abs(n * dt_s - t) <= 1e-9 * std::max(1.0, t);
   };
-  if (!on_grid(end_time_s))
-    throw Error(at("output.end_time_s"), "output.end_time_s: found " + g(end_time_s) +
-                                             " s, expected a whole number of time steps of " + g(dt_s) + " s");
+  if (!on_grid(end_time_s)) {
+    // Blame the key the file set (the step when the end time is the default).
+    if (where.count("output.end_time_s") || !where.count("numerics.dt_s"))
+      throw Error(at("output.end_time_s"), "output.end_time_s: found " + g(end_time_s) +
+                                               " s, expected a whole number of time steps of " + g(dt_s) + " s");
+    throw Error(at("numerics.dt_s"), "numerics.dt_s: found " + g(dt_s) + " s, expected a step that divides the run's " +
+                                         g(end_time_s) + " s (output.end_time_s)");
+  }
   for (double t : snapshot_times_s)
     if (!(t >= 0 && t <= end_time_s) || !on_grid(t))
       throw Error(at("output.snapshot_times_s"),
