@@ -203,7 +203,7 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
         track_mesh();
       }
       while (next_snap < snap_times.size() && on_step(snap_times[next_snap], n)) {
-        take_snapshot(t);
+        take_snapshot(snap_times[next_snap]);  // the requested instant (n dt up to rounding)
         ++next_snap;
       }
       if (n == steps) break;
