@@ -26,7 +26,7 @@ constexpr int kOpenFlags = RTLD_NOW | RTLD_LOCAL;
 // links exports stub MPI_Init, MPI_Comm_rank, MPI_Finalize and MPI_Wtime: every rank would
 // be rank 0). That is why `amctl thermal sls3d` runs in its own executable, amctl-sls3d,
 // which does not link IPOPT. Returns the offending library, or "".
-std::string shadowing_mpi_library() {
+[[maybe_unused]] std::string shadowing_mpi_library() {
   for (const char* name : {"MPI_Init", "MPI_Comm_rank", "MPI_Finalize"}) {
     void* sym = dlsym(RTLD_DEFAULT, name);
     if (!sym) continue;
