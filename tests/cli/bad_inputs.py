@@ -93,6 +93,9 @@ CONFIGURATION_H = ("#pragma once\n#define DEFAULT_AXIS_STEPS_PER_UNIT   { 80, 80
 CUBE_STL = "solid t\n" + ("facet normal 0 0 -1\n outer loop\n  vertex 0 0 0\n  vertex 0 1 0\n"
                           "  vertex 1 0 0\n endloop\nendfacet\n") + "endsolid t\n"
 
+SLS3D_ARGS = ["thermal", "sls3d", "--config", "s.toml", "--vtu-dir", "vtu", "--report", "out.html", "--csv", "out.csv"]
+SLS3D_OUTPUTS = ["vtu", "out.html", "out.csv"]
+
 
 def case(name, args, files, where, outputs=()):
     return {"name": name, "args": args, "files": files, "where": where, "outputs": outputs}
@@ -310,6 +313,19 @@ CASES = [
          {"s.toml": "[material]\ndensity_kg_m3 = 930\n[bogus]\nx = 1\n"}, "s.toml:3:1", ["out.csv"]),
     case("sls_negative_density", ["thermal", "sls", "--config", "s.toml", "--csv", "out.csv"],
          {"s.toml": "[material]\ndensity_kg_m3 = -930\n"}, "s.toml:2:17", ["out.csv"]),
+    # ---- the 3D powder bed (amctl thermal sls3d) ----
+    case("sls3d_negative_conductivity", SLS3D_ARGS,
+         {"s.toml": "[powder]\nconductivity_w_mk = -0.1\n"}, "s.toml:2:21", SLS3D_OUTPUTS),
+    case("sls3d_part_outside_the_disc", SLS3D_ARGS,
+         {"s.toml": "[part]\ninner_radius_mm = 50.0\nouter_radius_mm = 120.0\n"}, "s.toml:3:19", SLS3D_OUTPUTS),
+    case("sls3d_laser_never_reaches_the_part", SLS3D_ARGS,
+         {"s.toml": "[laser]\nfield_radius_mm = 30.0\n"}, "s.toml:2:19", SLS3D_OUTPUTS),
+    case("sls3d_time_step_off_the_schedule", SLS3D_ARGS,
+         {"s.toml": "[numerics]\ndt_s = 0.7\n"}, "s.toml:2:8", SLS3D_OUTPUTS),
+    case("sls3d_nan_density", SLS3D_ARGS,
+         {"s.toml": "[sintered]\ndensity_kg_m3 = nan\n"}, "s.toml:2:17", SLS3D_OUTPUTS),
+    case("sls3d_unknown_key", SLS3D_ARGS,
+         {"s.toml": "[laser]\npower_watts = 30\n"}, "s.toml:2:1", SLS3D_OUTPUTS),
     # ---- binary G-code (read by content, whatever the name) ----
     case("bgcode_corrupt_crc", ["estimate", "f.bgcode"],
          {"f.bgcode": latin1(bgcode_damaged_byte(GOOD_GCODE)[0])}, "f.bgcode"),
