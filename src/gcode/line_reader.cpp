@@ -1,103 +1,60 @@
 #include "amctl/gcode/line_reader.hpp"
 
-#include <cerrno>
-#include <cstring>
-
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
 
 namespace amctl::gcode {
+namespace {
 
-LineReader::LineReader(const std::string& path, std::size_t buffer_bytes) : name_(path) {
-  if (path == "-") {
-    file_ = stdin;
-    name_ = "<stdin>";
-  } else {
-    file_ = std::fopen(path.c_str(), "rb");
-    if (file_ == nullptr) {
-      throw Error(SourceLocation{path, 0, 0},
-                  fmt::format("cannot open G-code file: {}", std::strerror(errno)));
-    }
-    owns_file_ = true;
-  }
-  buf_.resize(buffer_bytes < 4096 ? 4096 : buffer_bytes);
+std::unique_ptr<ByteSource> unsupported(ByteSource& raw, std::string_view format, std::string_view hint) {
+  throw Error(SourceLocation{raw.name(), 0, 0},
+              fmt::format("is {}, which amctl does not read yet; expected plain G-code text ({})", format, hint));
 }
 
-LineReader::LineReader(std::string_view text, std::string name)
-    : name_(std::move(name)), memory_(text) {}
-
-LineReader::~LineReader() {
-  if (owns_file_ && file_ != nullptr) std::fclose(file_);
-}
-
-bool LineReader::refill() {
-  if (eof_) return false;
-  if (begin_ > 0) {
-    std::memmove(buf_.data(), buf_.data() + begin_, end_ - begin_);
-    end_ -= begin_;
-    begin_ = 0;
+bool ends_with(std::string_view s, std::string_view suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (std::size_t i = 0; i < suffix.size(); ++i) {
+    const char a = s[s.size() - suffix.size() + i];
+    if ((a >= 'A' && a <= 'Z' ? a - 'A' + 'a' : a) != suffix[i]) return false;
   }
-  if (end_ == buf_.size()) {
-    throw Error(SourceLocation{name_, line_no_ + 1, 0},
-                fmt::format("line is longer than {} bytes: expected G-code text lines",
-                            buf_.size()));
-  }
-  std::size_t got = std::fread(buf_.data() + end_, 1, buf_.size() - end_, file_);
-  if (got == 0) {
-    if (std::ferror(file_)) {
-      throw Error(SourceLocation{name_, line_no_ + 1, 0},
-                  fmt::format("read error: {}", std::strerror(errno)));
-    }
-    eof_ = true;
-    return false;
-  }
-  end_ += got;
   return true;
 }
 
-bool LineReader::next_slow(std::string_view& line) {
-  if (file_ == nullptr) {
-    if (memory_.empty()) return false;
-    std::size_t nl = memory_.find('\n');
-    std::string_view l = memory_.substr(0, nl);
-    if (nl == std::string_view::npos) {
-      memory_ = {};
-      no_final_newline_ = true;
-    } else {
-      memory_.remove_prefix(nl + 1);
-    }
-    bytes_ += l.size() + 1;
-    if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
-    ++line_no_;
-    line = l;
-    return true;
-  }
-  for (;;) {
-    const char* data = buf_.data();
-    const void* hit = std::memchr(data + begin_, '\n', end_ - begin_);
-    if (hit != nullptr) {
-      std::size_t nl = static_cast<std::size_t>(static_cast<const char*>(hit) - data);
-      std::string_view l(data + begin_, nl - begin_);
-      bytes_ += nl + 1 - begin_;
-      begin_ = nl + 1;
-      if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
-      ++line_no_;
-      line = l;
-      return true;
-    }
-    if (!refill()) {
-      if (begin_ == end_) return false;
-      std::string_view l(buf_.data() + begin_, end_ - begin_);
-      bytes_ += end_ - begin_;
-      begin_ = end_;
-      no_final_newline_ = true;
-      if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
-      ++line_no_;
-      line = l;
-      return true;
-    }
-  }
+}  // namespace
+
+const std::vector<Decoder>& gcode_decoders() {
+  static const std::vector<Decoder> decoders{
+      Decoder{"binary G-code",
+              [](std::string_view first, std::string_view) { return first.substr(0, 4) == "GCDE"; },
+              [](ByteSource& raw) {
+                return unsupported(raw, "binary G-code (.bgcode)",
+                                   "export with binary G-code switched off, or convert it with PrusaSlicer's "
+                                   "bgcode tool");
+              }},
+      Decoder{"3MF archive",
+              [](std::string_view first, std::string_view path) {
+                return first.substr(0, 4) == std::string_view("PK\x03\x04", 4) &&
+                       (ends_with(path, ".3mf") || ends_with(path, ".gcode.3mf"));
+              },
+              [](ByteSource& raw) {
+                return unsupported(raw, "a .gcode.3mf archive", "export the plate's G-code as a .gcode file");
+              }},
+  };
+  return decoders;
 }
+
+InputOptions gcode_input_options(bool rewindable) {
+  InputOptions o;
+  o.what = "G-code file";
+  o.rewindable = rewindable;
+  return o;
+}
+
+LineReader::LineReader(const std::string& path, std::size_t buffer_bytes)
+    : amctl::LineReader(open_decoded(path, gcode_input_options(), gcode_decoders()), buffer_bytes) {}
+
+LineReader::LineReader(InputFile& file, std::size_t buffer_bytes)
+    : amctl::LineReader(decode(file, gcode_decoders()), buffer_bytes) {}
 
 }  // namespace amctl::gcode

@@ -22,6 +22,8 @@
 
 #include "amctl/core/config_section.hpp"
 #include "amctl/machine/effective.hpp"
+#include "amctl/core/input.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/machine/loader.hpp"
 #include "schema.hpp"
 
@@ -62,11 +64,14 @@ struct CfgDoc {
 };
 
 std::string read_file(const fs::path& path, const SourceLocation& where) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(where, fmt::format("cannot open config file '{}'", path.string()));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  InputOptions o;
+  o.what = "config file";
+  o.max_bytes = kMaxMachineFileBytes;
+  try {
+    return read_whole_input(path.string(), std::move(o));
+  } catch (const Error& e) {
+    throw Error(where, fmt::format("include: {}", e.what()));
+  }
 }
 
 bool has_glob_magic(std::string_view s) { return s.find_first_of("*?[") != std::string_view::npos; }
@@ -232,6 +237,8 @@ struct Limits {
   std::optional<double> maxval = std::nullopt;
   std::optional<double> above = std::nullopt;
   std::optional<double> below = std::nullopt;
+  /// amctl's physical range of the quantity (core/quantity.hpp), for a value other than 0.
+  std::optional<PhysicalRange> physical = std::nullopt;
 };
 
 class Section {
@@ -340,6 +347,10 @@ class Section {
     if (lim.maxval && x > *lim.maxval) throw fail("at most", *lim.maxval);
     if (lim.above && x <= *lim.above) throw fail("above", *lim.above);
     if (lim.below && x >= *lim.below) throw fail("below", *lim.below);
+    if (lim.physical && x != 0.0 && !in_range(*lim.physical, x)) {
+      throw Error(where, fmt::format("[{}] {}: must be {}, got {}", name_, key, describe(*lim.physical),
+                                     detail::format_number(x)));
+    }
   }
 
   CfgSection* s_;
@@ -555,11 +566,11 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       }
     }
   }
-  m.max_velocity_mm_s = printer.require_float("max_velocity", {.above = 0.0});
-  m.max_accel_mm_s2 = printer.require_float("max_accel", {.above = 0.0});
+  m.max_velocity_mm_s = printer.require_float("max_velocity", {.above = 0.0, .physical = kSpeedRange});
+  m.max_accel_mm_s2 = printer.require_float("max_accel", {.above = 0.0, .physical = kAccelRange});
   if (auto mcr = printer.get_float("minimum_cruise_ratio", {.minval = 0.0, .below = 1.0})) {
     m.minimum_cruise_ratio = *mcr;
-  } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0})) {
+  } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0, .physical = kAccelRange})) {
     // Older Klipper (before 2023-12): minimum_cruise_ratio = 1 - min(1, a2d / max_accel).
     m.minimum_cruise_ratio =
         minimum_cruise_ratio_from_accel_to_decel(*a2d, m.max_accel_mm_s2);
@@ -567,24 +578,27 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     m.minimum_cruise_ratio = 0.5;
   }
   m.square_corner_velocity_mm_s =
-      printer.get_float("square_corner_velocity", 5.0, {.minval = 0.0});
+      printer.get_float("square_corner_velocity", 5.0, {.minval = 0.0, .physical = kSpeedRange});
   // 0 = "same as max_velocity / max_accel", Klipper's default; an explicit value is kept so a
   // later --set printer.max_velocity does not move it.
   m.max_z_velocity_mm_s =
-      printer.get_float("max_z_velocity", {.maxval = m.max_velocity_mm_s, .above = 0.0})
+      printer.get_float("max_z_velocity", {.maxval = m.max_velocity_mm_s, .above = 0.0, .physical = kSpeedRange})
           .value_or(0.0);
   m.max_z_accel_mm_s2 =
-      printer.get_float("max_z_accel", {.maxval = m.max_accel_mm_s2, .above = 0.0}).value_or(0.0);
+      printer.get_float("max_z_accel", {.maxval = m.max_accel_mm_s2, .above = 0.0, .physical = kAccelRange})
+          .value_or(0.0);
 
   if (CfgSection* es = doc.find("extruder")) {
     const Section ex(es, "extruder", file_loc);
     Extruder& e = m.extruder;
-    e.nozzle_diameter_mm = ex.require_float("nozzle_diameter", {.above = 0.0});
+    e.nozzle_diameter_mm = ex.require_float("nozzle_diameter", {.above = 0.0, .physical = kLengthRange});
     e.filament_diameter_mm =
         ex.require_float("filament_diameter", {.minval = e.nozzle_diameter_mm});
     e.max_extrude_cross_section_mm2 = ex.get_float("max_extrude_cross_section", {.above = 0.0});
-    e.max_extrude_only_velocity_mm_s = ex.get_float("max_extrude_only_velocity", {.above = 0.0});
-    e.max_extrude_only_accel_mm_s2 = ex.get_float("max_extrude_only_accel", {.above = 0.0});
+    e.max_extrude_only_velocity_mm_s =
+        ex.get_float("max_extrude_only_velocity", {.above = 0.0, .physical = kSpeedRange});
+    e.max_extrude_only_accel_mm_s2 =
+        ex.get_float("max_extrude_only_accel", {.above = 0.0, .physical = kAccelRange});
     e.max_extrude_only_distance_mm =
         ex.get_float("max_extrude_only_distance", 50.0, {.minval = 0.0});
     e.instantaneous_corner_velocity_mm_s =

@@ -146,9 +146,26 @@ void PlanSource::Impl::close() {
   summary.final_limits = planner.limits();
 }
 
-PlanSource::PlanSource(const std::string& path, const machine::Machine& machine,
-                       SourceOptions options)
-    : impl_(std::make_unique<Impl>(std::make_unique<gcode::LineReader>(path), machine, options)) {}
+namespace {
+
+std::unique_ptr<gcode::LineReader> open_reader(const GcodeInput& input) {
+  InputFile* f = input.file();
+  if (f == nullptr) return std::make_unique<gcode::LineReader>(input.path());
+  if (f->position() != 0) f->rewind();
+  return std::make_unique<gcode::LineReader>(*f);
+}
+
+}  // namespace
+
+RewindableGcode::RewindableGcode(const GcodeInput& input) : file_(input.file()) {
+  if (file_ == nullptr) {
+    owned_ = std::make_unique<InputFile>(input.path(), gcode::gcode_input_options(true));
+    file_ = owned_.get();
+  }
+}
+
+PlanSource::PlanSource(const GcodeInput& input, const machine::Machine& machine, SourceOptions options)
+    : impl_(std::make_unique<Impl>(open_reader(input), machine, options)) {}
 
 PlanSource::PlanSource(std::string_view text, std::string name, const machine::Machine& machine,
                        SourceOptions options)

@@ -177,7 +177,7 @@ DurationEstimator planner_duration_estimator(const machine::Machine& base,
   auto texts = std::make_shared<std::map<std::string, std::string>>();
   for (const auto& t : timings) {
     if (texts->count(t.gcode_path)) continue;
-    std::string g = read_file_bytes(t.gcode_path);
+    std::string g = read_file_bytes(t.gcode_path, "G-code file", 1ull << 30);
     (*texts)[t.gcode_path] = keep_file_limits ? std::move(g) : strip_limit_commands(g);
   }
   return [base, names, timings, texts](const std::vector<double>& p) {

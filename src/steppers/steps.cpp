@@ -673,22 +673,13 @@ void StepSink::consume(const plan::PlanBatch& batch) {
 // ---------------------------------------------------------------------------------------
 // CSV
 
-StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names)
-    : path_(std::move(path)), tmp_(path_ + ".part"), names_(std::move(names)) {
-  file_ = std::fopen(tmp_.c_str(), "wb");
-  if (file_ == nullptr) throw Error(fmt::format("cannot write CSV file '{}'", path_));
+StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names, OutputOptions options)
+    : out_(std::move(path), std::move(options)), names_(std::move(names)) {
   buf_ = "stepper,time_s,direction\n";
 }
 
-StepsCsvFile::~StepsCsvFile() {
-  if (file_ != nullptr) std::fclose(file_);
-  if (!committed_) std::remove(tmp_.c_str());
-}
-
 void StepsCsvFile::flush() {
-  if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), file_) != buf_.size()) {
-    throw Error(fmt::format("cannot write CSV file '{}' (disk full?)", path_));
-  }
+  out_.write(buf_);
   buf_.clear();
 }
 
@@ -704,12 +695,7 @@ void StepsCsvFile::write(std::span<const Step> steps) {
 
 void StepsCsvFile::commit() {
   flush();
-  const bool ok = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!ok || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-    throw Error(fmt::format("cannot write CSV file '{}'", path_));
-  }
-  committed_ = true;
+  out_.commit();
 }
 
 // ---------------------------------------------------------------------------------------
@@ -736,7 +722,7 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   for (const StepperChannel& c : channels) names.push_back(c.name);
   plan::PlanSource source(gcode_path, m);
   std::unique_ptr<StepsCsvFile> csv;
-  if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names);
+  if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names, OutputOptions{"--csv", {gcode_path}, {}});
   std::uint64_t moves = 0;
   StepDirFilter sds(channels.size());
   std::vector<Step> passed;
