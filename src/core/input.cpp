@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>
@@ -15,6 +16,10 @@
 
 namespace amctl {
 namespace {
+
+// The one piece of process state of the reader: standard input is a resource of the process,
+// readable once (a second InputFile of "-" would silently read nothing).
+std::atomic<bool> g_stdin_taken{false};
 
 /// A ByteSource that reads another one it does not own.
 class Borrowed final : public ByteSource {
@@ -60,6 +65,12 @@ InputFile::InputFile(const std::string& path, InputOptions options)
   const SourceLocation at{path_, 0, 0};
   if (path_.empty()) throw Error(fmt::format("an empty path, expected {} or '-'", a_(options_.what)));
   if (path_ == "-") {
+    // Standard input can be read once: a second reader would find it used up and read
+    // nothing (two inputs given as "-", a machine and a G-code file).
+    if (g_stdin_taken.exchange(true)) {
+      throw Error(fmt::format("'-': standard input is read already by another input of this run; expected "
+                              "at most one input from '-'"));
+    }
     fd_ = STDIN_FILENO;
     name_ = "<stdin>";
   } else {
