@@ -41,10 +41,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (file.format == rs::RecordFormat::klipper_psd) {
     const auto& p = file.psd;
     const std::size_t n = p.freq_hz.size();
-    require(p.psd_x.size() == n && p.psd_y.size() == n && p.psd_z.size() == n &&
-            p.psd_xyz.size() == n);
+    // A several-record PSD file (freq,NAME1,NAME2,...) holds psd_xyz only, per record.
+    const bool sets = !p.name.empty();
+    const std::size_t per_axis = sets ? 0 : n;
+    require(p.psd_x.size() == per_axis && p.psd_y.size() == per_axis &&
+            p.psd_z.size() == per_axis && p.psd_xyz.size() == n);
     require(all_finite(p.freq_hz) && all_finite(p.psd_x) && all_finite(p.psd_y) &&
             all_finite(p.psd_z) && all_finite(p.psd_xyz));
+    require(sets || file.more_psd.empty());
+    for (const auto& t : file.more_psd) {
+      require(t.freq_hz == p.freq_hz && t.psd_xyz.size() == n && t.psd_x.empty());
+      require(t.normalized == p.normalized && all_finite(t.psd_xyz));
+    }
   } else {
     const auto& r = file.record;
     const std::size_t n = r.time_s.size();
@@ -65,7 +73,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     opt.axis = axis;
     try {
       const rs::CalibrationReport rep = rs::calibrate(file, "fuzz.csv", opt);
-      require(std::isfinite(rep.peak_axis_hz) && std::isfinite(rep.peak_xyz_hz));
+      // No per-axis PSD (a several-record file): no axis peak, NaN (null in the JSON).
+      require(std::isfinite(rep.peak_axis_hz) == !rep.psd.psd_x.empty() && std::isfinite(rep.peak_xyz_hz));
+      require(rep.sources.size() == 1 + file.more_psd.size());
       (void)rs::to_json(rep);
     } catch (const amctl::Error&) {
     }

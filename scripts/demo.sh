@@ -16,6 +16,11 @@ done
 echo
 echo "== what-if: the Voron with square_corner_velocity 0 (the thesis' full stop at every corner)"
 "$amctl" estimate "$gcode" --machine configs/klipper-voron-v0.cfg --set printer.square_corner_velocity=0 --brief
+echo
+echo "== what-if: max_accel 1000 mm/s^2; the file's own M204 lines win unless capped (--file-limits)"
+"$amctl" estimate "$gcode" --machine configs/klipper-voron-v0.cfg --set printer.max_accel=1000 --brief
+"$amctl" estimate "$gcode" --machine configs/klipper-voron-v0.cfg --set printer.max_accel=1000 \
+  --file-limits cap --brief
 if [[ -f "$build/python/amctl/__init__.py" ]]; then
   echo
   echo "== the same from Python (docs/python.md)"

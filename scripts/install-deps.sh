@@ -8,6 +8,7 @@ pkgs=(
   libeigen3-dev coinor-libipopt-dev libfftw3-dev
   libcli11-dev libfmt-dev libtomlplusplus-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  zlib1g-dev libzip-dev  # binary G-code (DEFLATE), sliced 3MF archives (src/formats)
   pybind11-dev python3-dev python3-numpy python3-scipy python3-distributed python3-pandas python3-pytest
   chromium  # the report page's test: headless screenshot (tests/report/page_screenshot_test.sh)
 )

@@ -41,6 +41,7 @@ struct CompensateArgs {
   std::string csv;
   std::string gcode;
   bool json = false;
+  bool ignore_machine_limits = false;
 };
 
 void run_compensate(const CompensateArgs& a) {
@@ -89,6 +90,7 @@ void run_compensate(const CompensateArgs& a) {
       throw Error(fmt::format("--max-base-accel-mm-s2: must be > 0, got {}", *a.max_base_accel_mm_s2));
     o.max_base_accel_mm_s2 = *a.max_base_accel_mm_s2;
   }
+  o.judge_machine_accel = !a.ignore_machine_limits;
   o.effort_weight_s2 = a.effort_weight_s2;
   o.max_solver_iterations = a.max_iterations;
   if (a.window_s && !(*a.window_s > 0.0))
@@ -140,11 +142,14 @@ void run_compensate(const CompensateArgs& a) {
       "{}: {} over {:.4f} s of motion, {} samples at {} Hz -> {}\n"
       "  status {}{}{}\n"
       "  max tracking error {:.6g} mm (uncompensated {:.6g} mm), max contour error {:.6g} mm\n"
-      "  peak command accel {:.6g} mm/s^2, lead-in {:.4f} s, tail {:.4f} s\n"
+      "  peak command accel {:.6g} mm/s^2{}, lead-in {:.4f} s, tail {:.4f} s\n"
       "  compute {:.4f} s, {:.1f}x real time\n",
       a.file, r.method, r.motion_time_s, r.t_s.empty() ? r.samples : r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
       r.message.empty() ? "" : ": ", r.message, r.max_tracking_error_mm,
       r.uncompensated_max_tracking_error_mm, r.max_contour_error_mm, r.peak_command_accel_mm_s2,
+      std::isfinite(r.machine_accel_limit_mm_s2)
+          ? fmt::format(" (the machine's {} {:g})", r.machine_accel_limit_key, r.machine_accel_limit_mm_s2)
+          : std::string(),
       r.lead_in_s, r.tail_s, r.compute_time_s, r.real_time_factor);
 }
 
@@ -184,6 +189,9 @@ void register_compensate(CLI::App& app) {
   sub->add_option("--gcode", a->gcode,
                   "also write the command as dense G-code (one G1 per sample, Z and E from the plan) for "
                   "firmware without shaping");
+  sub->add_flag("--ignore-machine-limits", a->ignore_machine_limits,
+                "do not judge the command against the machine's acceleration limit (printer.max_accel; "
+                "Marlin: marlin.max_accel X/Y), which is the default without --max-base-accel-mm-s2");
   sub->add_flag("--json", a->json, "Print a JSON summary");
   sub->callback([a] { run_compensate(*a); });
 }

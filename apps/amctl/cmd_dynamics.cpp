@@ -220,6 +220,8 @@ void do_sweep(bool json_out, double scv) {
     std::cout << dy::to_json(rows, scv).dump(2) << "\n";
     return;
   }
+  std::cout << "the feedforward study's corner (Tables 3.2 and 3.3 of the UFLA thesis), square corner "
+               "velocity " << scv << " mm/s with look-ahead\n";
   std::cout << fmt::format("{:<12} {:<10} {:>9} {:>8} {:>10} {:>10} {:>10} {:>10} {:>9}\n", "case",
                            "junction", "time_s", "samples", "max_err", "rms_err", "overshoot",
                            "residual", "junc_v");
@@ -274,7 +276,8 @@ void register_dynamics(CLI::App& app) {
 
   auto sj = std::make_shared<bool>(false);
   auto scv = std::make_shared<double>(5.0);
-  CLI::App* sw = app.add_subcommand("sweep", "Seed 000 tables 3.2/3.3: base case and variations, look-ahead vs zero junction speed");
+  CLI::App* sw = app.add_subcommand("sweep", "The feedforward study's corner cases (Tables 3.2 and 3.3 of the UFLA thesis): base case and "
+                                    "variations, look-ahead vs zero junction speed");
   sw->add_option("--square-corner-velocity", *scv, "junction model of the look-ahead runs [mm/s] (default 5)");
   sw->add_flag("--json", *sj, "print one JSON object");
   sw->callback([sj, scv] { do_sweep(*sj, *scv); });

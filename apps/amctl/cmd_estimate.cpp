@@ -1,6 +1,8 @@
 // `amctl estimate`: the main job. G-code in, firmware-grade print time out.
 #include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <iomanip>
@@ -13,6 +15,7 @@
 #include "amctl/core/input.hpp"
 #include "amctl/core/output.hpp"
 #include "amctl/gcode/line_reader.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
 #include "amctl/plan/report_json.hpp"
@@ -33,7 +36,8 @@ std::string hms(double s) {
 }
 
 struct EstimateArgs {
-  std::string file;
+  std::vector<std::string> files;  ///< as given (files, directories, "-")
+  std::string file;                ///< the one file of a single-file run
   MachineOptions machine;
   bool json = false;
   bool lenient = false;
@@ -44,6 +48,7 @@ struct EstimateArgs {
   std::string mode = "planner";  ///< or "empirical" (seed 004 estimator, cmd_process.cpp)
   std::string params;            ///< empirical parameters (JSON)
   bool compare_profiles = false; ///< trapezoid, bezier5 and scurve7 side by side
+  std::string file_limits = "keep";  ///< keep | ignore | cap
 };
 
 void print_human(const plan::EstimateReport& r, const machine::Machine& m, double compute_s,
@@ -75,6 +80,10 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
     }
   }
   if (r.range_error) o << "  warning: " << plan::describe_range_error(*r.range_error) << "\n";
+  const std::vector<std::string> limits = plan::describe_file_limits(r.diagnostics.file_limits);
+  for (std::size_t i = 0; i < limits.size(); ++i) {
+    o << (i == 0 ? "  file limits      " : "                   ") << limits[i] << "\n";
+  }
   if (!r.excluded_objects.empty()) {
     std::string names;
     for (const auto& x : r.excluded_objects) names += (names.empty() ? "" : ", ") + x.name;
@@ -177,6 +186,7 @@ void run_estimate(const EstimateArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
   plan::EstimateOptions opt;
   opt.strict = !a.lenient;
+  opt.planner.file_limits = file_limits_policy(a.file_limits);
   if (!a.m73_out.empty()) {
     require_positive_flag("--m73-interval", a.m73_interval_s);
     opt.checkpoint_interval_s = a.m73_interval_s;
@@ -201,6 +211,11 @@ void run_estimate(const EstimateArgs& a) {
     std::cerr << fmt::format("amctl: warning: {}:{}: the file does not end with a newline; it may be truncated\n",
                              r.file, r.lines);
   }
+  if (r.moves == 0) {
+    std::cerr << fmt::format("amctl: warning: {}: no moves (an empty file, or only comments and "
+                             "settings): nothing to time\n",
+                             r.file);
+  }
   if (r.skipped_lines > 0) {
     std::cerr << fmt::format("amctl: warning: {}: {} malformed lines skipped (--lenient)\n", r.file, r.skipped_lines);
   }
@@ -213,6 +228,17 @@ void run_estimate(const EstimateArgs& a) {
       std::cout << fmt::format("  slicer {:+.1f} %",
                                (*r.slicer_estimate_s - r.total_time_s) / r.total_time_s * 100.0);
     }
+    const plan::FileLimitsReport& fl = r.diagnostics.file_limits;
+    if (fl.commands > 0) {
+      std::string what;
+      for (const auto& c : fl.by_command) {
+        if (c.firmware_acts) what += fmt::format("{}{} {}", what.empty() ? "" : ", ", c.lines, c.command);
+      }
+      const char* verb = fl.policy == plan::FileLimits::keep     ? "kept"
+                         : fl.policy == plan::FileLimits::ignore ? "ignored"
+                                                                 : "capped";
+      std::cout << fmt::format("  file limits {} ({})", verb, what);
+    }
     std::cout << "\n";
   } else if (a.json) {
     auto j = plan::to_json(r, m, compute_s);
@@ -224,14 +250,69 @@ void run_estimate(const EstimateArgs& a) {
   }
 }
 
+/// Several files (or a directory, or a 3MF of several plates): one row each, the fleet's
+/// table; a file that fails is a row with its error, and the exit code is then 2.
+void run_estimate_many(const EstimateArgs& a, const std::vector<std::string>& files) {
+  auto one_file_only = [](const char* flag) {
+    throw Error(SourceLocation{flag, 0, 0},
+                "found several G-code files, expected one with this flag (run them one by one)");
+  };
+  if (!a.m73_out.empty()) one_file_only("--write-m73");
+  if (a.compare_profiles) one_file_only("--compare-profiles");
+  if (a.mode != "planner") one_file_only("--mode");
+  if (a.all_layers) one_file_only("--layers");
+  const machine::Machine m = resolve_machine(a.machine);
+  plan::EstimateOptions opt;
+  opt.strict = !a.lenient;
+  opt.planner.file_limits = file_limits_policy(a.file_limits);
+  const std::vector<plan::EstimateRow> rows = plan::estimate_files(files, m, opt);
+  std::size_t failed = 0;
+  for (const auto& r : rows) failed += r.report ? 0 : 1;
+  if (a.json) {
+    std::cout << std::setw(2) << plan::to_json(rows, m) << "\n";
+  } else {
+    std::size_t name_w = 4;
+    for (const auto& r : rows) name_w = std::max(name_w, r.file.size());
+    auto& o = std::cout;
+    o << fmt::format("amctl estimate: {} files on {} ({}, {})\n", rows.size(), m.name,
+                     machine::to_string(m.firmware), machine::to_string(m.kinematics));
+    o << fmt::format("  {:<{}}  {:>12}  {:>10}  {:>9}  {}\n", "file", name_w, "print time", "seconds",
+                     "moves", "slicer's own");
+    double total = 0.0;
+    for (const auto& r : rows) {
+      if (!r.report) {
+        o << fmt::format("  {:<{}}  error: {}\n", r.file, name_w, r.error);
+        continue;
+      }
+      const plan::EstimateReport& e = *r.report;
+      total += e.total_time_s;
+      std::string slicer;
+      if (e.slicer_estimate_s && e.total_time_s > 0) {
+        slicer = fmt::format("{:+.1f} %", (*e.slicer_estimate_s - e.total_time_s) / e.total_time_s * 100.0);
+      }
+      o << fmt::format("  {:<{}}  {:>12}  {:>10.1f}  {:>9}  {}\n", r.file, name_w,
+                       r.no_moves() ? "no moves" : hms(e.total_time_s), e.total_time_s, e.moves, slicer);
+    }
+    o << fmt::format("  {:<{}}  {:>12}  {:>10.1f}\n", "total", name_w, hms(total), total);
+  }
+  if (failed > 0) {
+    throw Error(fmt::format("{} of {} files failed (their rows say why)", failed, rows.size()));
+  }
+}
+
 }  // namespace
 
 void register_estimate(CLI::App& app) {
   auto args = std::make_shared<EstimateArgs>();
   CLI::App* sub = app.add_subcommand(
       "estimate", "Plan every move as the firmware does and report the print time");
-  sub->add_option("file", args->file, "G-code file ('-' reads standard input)")->required();
+  sub->add_option("file", args->files,
+                  "G-code file: text, binary G-code (.bgcode), a sliced 3MF (.gcode.3mf) or .gz, "
+                  "told by content ('-' reads standard input). Several files, a directory or a "
+                  "3MF of several plates: one row each")
+      ->required();
   add_machine_options(*sub, args->machine);
+  add_file_limits_option(*sub, args->file_limits);
   sub->add_flag("--json", args->json, "Print one JSON object on stdout");
   sub->add_flag("--lenient", args->lenient, "Skip malformed lines (counted) instead of stopping");
   sub->add_flag("--layers", args->all_layers, "List every layer's start and duration");
@@ -241,15 +322,25 @@ void register_estimate(CLI::App& app) {
   sub->add_option("--m73-interval", args->m73_interval_s, "Seconds of print time between M73 lines")
       ->default_val(60.0);
   sub->add_option("--mode", args->mode,
-                  "planner (default) or empirical: the seed-004 average-speed model")
+                  "planner (default) or empirical: the average-speed model of the UTFPR process-planning "
+                  "study (FDM 2000 speeds unless --params)")
       ->check(CLI::IsMember({"planner", "empirical"}));
   sub->add_flag("--compare-profiles", args->compare_profiles,
                 "Plan the file with trapezoid, bezier5 and scurve7 (jerk: printer.max_jerk) and print "
                 "print time, peak acceleration and peak jerk side by side");
   sub->add_option("--params", args->params,
                   "Empirical parameters (JSON from `calibrate-time --mode empirical --save`); "
-                  "default: the seed's FDM 2000 speeds");
+                  "default: the study's Stratasys FDM 2000 speeds, uncalibrated for your printer");
   sub->callback([args] {
+    const std::vector<std::string> files = formats::expand_gcode_inputs(args->files);
+    std::error_code ec;
+    const bool several = files.size() != 1 || args->files.size() != 1 ||
+                         std::filesystem::is_directory(args->files.front(), ec);
+    if (several) {
+      run_estimate_many(*args, files);
+      return;
+    }
+    args->file = files.front();
     if (args->mode == "empirical") {
       run_empirical_estimate(args->file, args->params, args->json);
       return;

@@ -15,6 +15,7 @@
 #include "amctl/plan/select_stage.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/plan/moves_csv.hpp"
+#include "amctl/plan/report_json.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
 
@@ -29,6 +30,7 @@ struct PlanArgs {
   bool lenient = false;
   std::optional<double> t_begin, t_end;
   std::optional<int> layer_begin, layer_end;
+  std::string file_limits = "keep";
 };
 
 void run_plan(const PlanArgs& a) {
@@ -57,6 +59,7 @@ void run_plan(const PlanArgs& a) {
   so.strict = !a.lenient;
   const std::string output = a.output.empty() ? "-" : a.output;
   plan::MovesCsvFile csv(output, OutputOptions{"-o/--output", {a.file}, {}});
+  so.planner.file_limits = file_limits_policy(a.file_limits);
   plan::PlanSource source(a.file, m, so);
   plan::Sink* sinks[] = {&csv};
   plan::run_pipeline(source, stages, sinks);
@@ -69,13 +72,17 @@ void run_plan(const PlanArgs& a) {
     for (const auto& name : source.summary().feature_names) features.push_back(name);
     std::cout << Json{{"file", a.file}, {"machine", m.name}, {"output", a.output},
                       {"moves", rows}, {"total_time_s", total_s},
-                      {"feature_names", features}}
+                      {"feature_names", features},
+                      {"file_limits", plan::to_json(source.summary().diagnostics.file_limits)}}
                      .dump(2)
               << "\n";
     return;
   }
   std::cout << fmt::format("{}: {} moves written to {} (the whole print takes {:.3f} s)\n", a.file,
                            rows, a.output, total_s);
+  for (const std::string& l : plan::describe_file_limits(source.summary().diagnostics.file_limits)) {
+    std::cout << "  file limits: " << l << "\n";
+  }
 }
 
 }  // namespace
@@ -86,6 +93,7 @@ void register_plan(CLI::App& app) {
       "plan", "Write every planned move (times, speeds, phases) as CSV, one row per move");
   sub->add_option("file", a->file, "G-code file ('-' reads standard input)")->required();
   add_machine_options(*sub, a->machine);
+  add_file_limits_option(*sub, a->file_limits);
   sub->add_option("-o,--output", a->output,
                   "CSV file (written whole or not at all); default: standard output");
   sub->add_flag("--json", a->json, "Print a JSON summary (needs -o)");

@@ -62,7 +62,7 @@ void register_shrink_fit(CLI::App& shrink) {
   cmd->add_option("file", o->file, "CSV with header nominal_mm,measured_mm[,axis,...]")->required();
   cmd->add_flag("--json", o->json, "print one JSON object");
   cmd->add_flag("--average", o->average,
-                "fit the mean error at each nominal value (the seed's procedure) instead of "
+                "fit the mean error at each nominal value (the process-planning study's procedure) instead of "
                 "every repeated measurement");
   cmd->add_option("--ranges", o->ranges,
                   "number of ranges with breakpoints found from the data (1, 2, ... or auto)");
@@ -113,7 +113,7 @@ void register_shrink_fit(CLI::App& shrink) {
 
 void register_shrink_slicing(CLI::App& shrink) {
   auto* cmd = shrink.add_subcommand(
-      "slicing", "Slicing, dimensional and total error of layered heights (seed Table 2)");
+      "slicing", "Slicing, dimensional and total error of layered heights (Table 2 of the UTFPR process-planning study)");
   struct Opts {
     pr::SlicingStudyRequest q;
     std::string factors;
@@ -127,7 +127,7 @@ void register_shrink_slicing(CLI::App& shrink) {
   cmd->add_option("--observed-slicing-column", o->q.observed_slicing_column,
                   "column with observed slicing errors (mm): fit the slice-plane position");
   cmd->add_option("--factors", o->factors, "Z compensation, e.g. z=0.9902:10:1.0032");
-  cmd->add_option("--scaling", o->scaling, "dimension (seed), position (continuous map) or none")
+  cmd->add_option("--scaling", o->scaling, "dimension (the study's per-dimension factors), position (continuous map) or none")
       ->check(CLI::IsMember({"dimension", "position", "none"}));
   cmd->add_option("--layer-mm", o->q.layer_mm, "layer thickness");
   cmd->add_option("--first-layer-mm", o->q.first_layer_mm, "first layer thickness (default: layer)");
@@ -222,7 +222,7 @@ void register_calibrate_time(CLI::App& app) {
       "calibrate-time",
       "Fit machine limits (planner) or empirical speeds to measured print durations");
   struct Opts {
-    std::string file, mode = "planner", fit, save, params;
+    std::string file, mode = "planner", fit, save, params, file_limits = "keep";
     std::vector<std::string> fix;
     MachineOptions machine;
     bool keep_limits = false, absolute = false, json = false, separate_contour = false;
@@ -236,9 +236,10 @@ void register_calibrate_time(CLI::App& app) {
   cmd->add_option("--fit", o->fit,
                   "limits to fit, comma separated: accel, scv, jd, jerk, max_velocity "
                   "(default: accel, the junction limit of the machine, max_velocity)");
+  CLI::Option* file_limits = add_file_limits_option(*cmd, o->file_limits);
   cmd->add_flag("--keep-file-limits", o->keep_limits,
-                "honour M201/M203/M204/M205/SET_VELOCITY_LIMIT in the files (they would "
-                "override the limits being fitted)");
+                "the same as --file-limits keep (the default): honour the files' own limits, "
+                "which override the limits being fitted while they last");
   cmd->add_flag("--absolute", o->absolute, "minimise residuals in seconds, not relative ones");
   cmd->add_option("--params", o->params, "empirical mode: starting parameters (JSON)");
   cmd->add_option("--fix", o->fix, "empirical mode: hold a parameter, e.g. wipe_s or wipe_s=0.5");
@@ -246,7 +247,7 @@ void register_calibrate_time(CLI::App& app) {
                 "empirical mode: fit a contour speed instead of using the raster speed");
   cmd->add_option("--save", o->save, "write the calibrated machine (TOML) or parameters (JSON)");
   cmd->add_flag("--json", o->json, "print one JSON object");
-  cmd->callback([o] {
+  cmd->callback([o, file_limits] {
     // The output first: a path that cannot be written (or is an input) fails before the fit.
     if (!o->save.empty()) check_output(o->save, OutputOptions{"--save", {o->file, o->params}, {}});
     pr::TimeCalibration c;
@@ -258,7 +259,11 @@ void register_calibrate_time(CLI::App& app) {
       q.machine = resolve_machine(o->machine);
       std::stringstream ss(o->fit);
       for (std::string tok; std::getline(ss, tok, ',');) q.limits.push_back(tok);
-      q.keep_file_limits = o->keep_limits;
+      if (o->keep_limits && file_limits->count() > 0 && o->file_limits != "keep") {
+        throw Error(fmt::format("--keep-file-limits: conflicts with --file-limits {}, expected one "
+                                "of the two", o->file_limits));
+      }
+      q.file_limits = file_limits_policy(o->file_limits);
       q.absolute = o->absolute;
       c = pr::calibrate_planner_time(q);
     }

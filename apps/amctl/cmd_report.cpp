@@ -27,6 +27,7 @@ struct ReportArgs {
   double rate_hz = 1000.0;
   bool json = false;
   bool lenient = false;
+  std::string file_limits = "keep";
 };
 
 void run_report(const ReportArgs& a) {
@@ -34,6 +35,7 @@ void run_report(const ReportArgs& a) {
   report::ReportOptions o;
   o.strict = !a.lenient;
   require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
+  o.file_limits = file_limits_policy(a.file_limits);
   o.sample_rate_hz = a.rate_hz;
   if (a.zeta && !a.f_hz) throw Error("--damping-ratio needs --natural-frequency-hz");
   if (a.f_hz) require_range_flag("--natural-frequency-hz", kFrequencyRange, *a.f_hz);
@@ -64,6 +66,7 @@ void register_report(CLI::App& app) {
       "report", "Write one self-contained HTML page about a print: time, speed, layers, toolpath");
   sub->add_option("file", a->file, "G-code file ('-' reads standard input)")->required();
   add_machine_options(*sub, a->machine);
+  add_file_limits_option(*sub, a->file_limits);
   sub->add_option("-o,--output", a->output, "HTML file (written whole or not at all; default report.html)");
   sub->add_option("--natural-frequency-hz", a->f_hz,
                   "belt natural frequency of X and Y [Hz]: simulate and colour the toolpath by contour error");

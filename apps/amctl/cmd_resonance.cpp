@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -24,7 +25,7 @@ namespace amctl::cli {
 namespace {
 
 struct CalibrateArgs {
-  std::string file;
+  std::vector<std::string> files;
   std::string axis;
   std::string csv;
   std::string sweep;
@@ -57,13 +58,16 @@ struct TestGcodeArgs {
   std::string style = "klipper";
   std::optional<double> freq_start, freq_end, accel_per_hz, accel, hz_per_sec;
   std::string point;
+  bool no_home = false;
 };
 
 void run_test_gcode(const TestGcodeArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
-  resonance::TestGcodeOptions o = resonance::default_test_options(
-      a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper);
-  o.axis = a.axis.front();
+  // The machine's own: [resonance_tester] (probe points, chip, frequencies) or the middle of its
+  // position limits; the flags below override.
+  resonance::TestGcodeOptions o = resonance::machine_test_options(
+      a.style == "marlin" ? resonance::TestStyle::marlin : resonance::TestStyle::klipper, a.axis.front(), m);
+  o.home = !a.no_home;
   if (a.style == "marlin" && a.accel_per_hz) throw Error("--accel-per-hz applies to --style klipper; use --accel-mm-s2");
   if (a.style != "marlin" && a.accel) throw Error("--accel-mm-s2 applies to --style marlin; use --accel-per-hz");
   if (a.freq_start) o.freq_start_hz = *a.freq_start;
@@ -93,6 +97,9 @@ void run_test_gcode(const TestGcodeArgs& a) {
     }
     for (int i = 0; i < 3; ++i) o.point_mm[i] = v[i];
     o.point_given = true;
+    o.probe_points.clear();
+    o.point_source = "--point";
+    o.probe_point_locations.clear();
   }
   const std::string text = resonance::test_gcode(o, m);  // whole text first: all or nothing
   write_output(a.output.empty() ? "-" : a.output, text, OutputOptions{"-o/--output", {}, {}});
@@ -112,9 +119,13 @@ void register_resonance(CLI::App& app) {
   CLI::App* cal = res->add_subcommand(
       "calibrate", "Klipper's input-shaper calibration (Welch PSD, shaper fit, recommendation) of "
                    "a Klipper raw CSV, a corpus CSV or a Klipper PSD CSV");
-  cal->add_option("FILE", a->file, "Accelerometer CSV or PSD CSV")->required();
-  cal->add_option("--axis", a->axis, "The axis the record excited: x or y")
-      ->required()
+  cal->add_option("FILE", a->files,
+                  "Accelerometer CSV or PSD CSV ('-' reads standard input); several files join "
+                  "one fit, as calibrate_shaper.py A.csv B.csv")
+      ->required();
+  cal->add_option("--axis", a->axis,
+                  "The axis the record excited: x or y (reports that axis's peak; needed by "
+                  "--sweep; the fit, as Klipper's, uses x+y+z)")
       ->check(CLI::IsMember({"x", "y"}));
   cal->add_option("--sweep", a->sweep,
                   "The commanded sweep F0,F1,RATE,ACCEL (Hz, Hz, Hz/s, mm/s^2): adds the "
@@ -140,8 +151,16 @@ void register_resonance(CLI::App& app) {
       throw Error("--json: standard output would hold the CSV too, expected --csv/--response-csv in files");
     }
     resonance::CalibrateOptions o;
-    o.axis = a->axis.front();
+    o.axis = a->axis.empty() ? '\0' : a->axis.front();
     if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
+    if (o.sweep && o.axis == 0) {
+      throw Error(SourceLocation{"--axis", 0, 0},
+                  "found --sweep without --axis, expected the axis the sweep excited (x or y)");
+    }
+    if (a->files.size() > 1 && (!a->csv.empty() || !a->response_csv.empty())) {
+      throw Error(SourceLocation{a->csv.empty() ? "--response-csv" : "--csv", 0, 0},
+                  "found several files, expected one with this flag");
+    }
     if (a->modes) {
       if (!o.sweep) throw Error("--modes needs --sweep (the modes are fitted to the sweep's response)");
       if (*a->modes < 1 || *a->modes > resonance::kMaxModes) {
@@ -154,10 +173,12 @@ void register_resonance(CLI::App& app) {
     const tuning::RecommendOptions ro = recommend_options(a->max_smoothing_mm);
     // A record is held whole (the analysis reads it several times): said before reading it
     // when it is large, refused when the machine cannot hold it.
-    if (const auto size = resonance::estimate_record_size(a->file)) {
+    for (const std::string& file : a->files) {
+      const auto size = resonance::estimate_record_size(file);
+      if (!size) continue;
       const std::uint64_t avail = available_memory_bytes();
       if (avail != 0 && size->memory_bytes > avail) {
-        throw Error(SourceLocation{a->file, 0, 0},
+        throw Error(SourceLocation{file, 0, 0},
                     fmt::format("about {} samples would take about {} of memory, more than the {} available; "
                                 "expected a shorter record",
                                 size->samples, memory_text(size->memory_bytes), memory_text(avail)));
@@ -165,10 +186,10 @@ void register_resonance(CLI::App& app) {
       if (size->samples > 1000000) {
         std::cerr << fmt::format("amctl: note: {}: about {} samples; reading and analysing them takes about {} "
                                  "of memory\n",
-                                 a->file, size->samples, memory_text(size->memory_bytes));
+                                 file, size->samples, memory_text(size->memory_bytes));
       }
     }
-    const resonance::CalibrationReport r = resonance::calibrate_file(a->file, o);
+    const resonance::CalibrationReport r = resonance::calibrate_files(a->files, o);
     std::optional<tuning::Recommendation> rec;
     if (a->recommend) {
       const machine::Machine m = resolve_machine(a->machine);
@@ -176,9 +197,9 @@ void register_resonance(CLI::App& app) {
       rec = tuning::recommend({fit.natural_frequency_hz, fit.damping_ratio}, m, ro, r.klipper.recommended);
     }
     require_distinct_outputs(a->csv, "--csv", a->response_csv, "--response-csv");
-    if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv, OutputOptions{"--csv", {a->file}, {}});
+    if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv, OutputOptions{"--csv", a->files, {}});
     if (!a->response_csv.empty()) {
-      resonance::write_response_csv(r, a->response_csv, OutputOptions{"--response-csv", {a->file}, {}});
+      resonance::write_response_csv(r, a->response_csv, OutputOptions{"--response-csv", a->files, {}});
     }
     if (a->csv == "-" || a->response_csv == "-") return;  // standard output holds the CSV
     if (a->json) {
@@ -220,19 +241,25 @@ void register_resonance(CLI::App& app) {
 
   auto t = std::make_shared<TestGcodeArgs>();
   CLI::App* tg = res->add_subcommand(
-      "test-gcode", "Resonance-test G-code: Klipper's TEST_RESONANCES move pattern or a Marlin-style "
-                    "sweep, as plain G-code");
+      "test-gcode", "A whole resonance-test program: homing, Klipper's TEST_RESONANCES move pattern (or a "
+                    "Marlin-style sweep) at each test point, recorded by the accelerometer commands");
   add_machine_options(*tg, t->machine);
   tg->add_option("--axis", t->axis, "The axis to excite: x or y")->required()->check(CLI::IsMember({"x", "y"}));
   tg->add_option("-o,--output", t->output, "Write the G-code to this file (atomically; default: standard output)");
   tg->add_option("--style", t->style, "klipper (accel per Hz, Klipper's defaults) or marlin (constant accel)")
       ->check(CLI::IsMember({"klipper", "marlin"}));
-  tg->add_option("--freq-start", t->freq_start, "Start frequency [Hz] (default 5)");
-  tg->add_option("--freq-end", t->freq_end, "End frequency [Hz] (default: klipper 135, marlin 80)");
-  tg->add_option("--accel-per-hz", t->accel_per_hz, "klipper style: acceleration per Hz [mm/s^2/Hz] (default 60)");
+  tg->add_option("--freq-start", t->freq_start, "Start frequency [Hz] (default: [resonance_tester] min_freq, else 5)");
+  tg->add_option("--freq-end", t->freq_end,
+                 "End frequency [Hz] (default: [resonance_tester] max_freq, else klipper 135, marlin 80)");
+  tg->add_option("--accel-per-hz", t->accel_per_hz,
+                 "klipper style: acceleration per Hz [mm/s^2/Hz] (default: [resonance_tester] accel_per_hz, else 60)");
   tg->add_option("--accel-mm-s2", t->accel, "marlin style: acceleration amplitude [mm/s^2] (default 4000)");
-  tg->add_option("--hz-per-sec", t->hz_per_sec, "Sweep rate [Hz/s] (default: klipper 1, marlin 4)");
-  tg->add_option("--point", t->point, "Test point X,Y,Z [mm] (default 100,100,20)");
+  tg->add_option("--hz-per-sec", t->hz_per_sec,
+                 "Sweep rate [Hz/s] (default: [resonance_tester] hz_per_sec, else klipper 1, marlin 4)");
+  tg->add_option("--point", t->point,
+                 "Test point X,Y,Z [mm] (default: the machine's [resonance_tester] probe_points, else the "
+                 "middle of its X/Y position limits 20 mm up, else 100,100,20)");
+  tg->add_flag("--no-home", t->no_home, "Leave out the G28 at the start (the printer is homed already)");
   tg->callback([t] { run_test_gcode(*t); });
 }
 

@@ -73,7 +73,7 @@ void run_margins(MarginArgs a) {
 
 struct SlsArgs {
   std::string config;
-  std::string csv = "sls_trace.csv";
+  std::string csv;  ///< "" (default): no trace file; the run writes nothing unless asked
   bool json_out = false;
   std::optional<int> layers;
   std::string anti_windup;
@@ -200,7 +200,7 @@ void register_thermal(CLI::App& app) {
 
   auto margins = std::make_shared<MarginArgs>();
   auto* sm = th->add_subcommand(
-      "sls-margins", "Additive-uncertainty margins of a PI on the SLS powder bed (seed 002)");
+      "sls-margins", "Additive-uncertainty margins of a PI on the SLS powder bed (the SLS temperature-control paper, 2018)");
   thermal::MarginStudyOptions& ms = margins->study;
   sm->add_option("--kp", ms.kp_w_m2k, "PI gain kp, W/(m^2 K)")->capture_default_str();
   sm->add_option("--ti", ms.ti_s, "PI integral time Ti, s")->capture_default_str();
@@ -224,7 +224,7 @@ void register_thermal(CLI::App& app) {
   auto* sc =
       th->add_subcommand("sls", "Closed-loop SLS powder-bed build (growing 1D heat equation)");
   sc->add_option("--config", sls->config, "TOML configuration (default: built-in PA12 values)");
-  sc->add_option("--csv", sls->csv, "trace CSV path ('' for none)")->capture_default_str();
+  sc->add_option("--csv", sls->csv, "write the trace (time, temperatures, heat flux) to this CSV (default: none)");
   sc->add_option("--layers", sls->layers, "override the number of layer additions");
   sc->add_option("--anti-windup", sls->anti_windup,
                  "override: none | clamp_integral | back_calculation | conditional_integration");
@@ -253,6 +253,11 @@ void register_thermal(CLI::App& app) {
     hc->add_option("--fan-loss-w-k", plant.fan_extra_loss_w_k,
                    "plant extra loss at 100 % fan, W/K");
     hc->add_option("--sensor-tau-s", plant.sensor_time_constant_s, "plant sensor time constant, s");
+    hc->add_option("--sensor-delay-s", plant.sensor_delay_s,
+                   "plant transport delay from the block to the reading, s");
+    hc->add_option("--core-capacity-j-k", plant.core_capacity_j_k,
+                   "plant heater-core heat capacity, J/K (0: no core node)");
+    hc->add_option("--core-to-block-w-k", plant.core_to_block_w_k, "plant heater core to block conductance, W/K");
     hc->add_flag("--json", ha->json_out, "print one JSON object");
     hc->callback([ha] { run_heater(*ha); });
   }

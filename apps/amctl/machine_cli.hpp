@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 
 namespace amctl::cli {
 
@@ -20,5 +21,11 @@ void add_machine_options(CLI::App& cmd, MachineOptions& options);
 
 /// load_machine(spec, overrides): the validated machine, or amctl::Error.
 machine::Machine resolve_machine(const MachineOptions& options);
+
+/// Adds `--file-limits keep|ignore|cap` (what to do with the file's own M201/M203/M204/M205/
+/// M566/SET_VELOCITY_LIMIT; default keep, as the firmware does) to `cmd`; returns the option.
+CLI::Option* add_file_limits_option(CLI::App& cmd, std::string& value);
+/// The policy named by the option's value ("keep", "ignore", "cap").
+plan::FileLimits file_limits_policy(const std::string& value);
 
 }  // namespace amctl::cli

@@ -15,17 +15,21 @@ the parameter.
 
 from ._errors import Error, InternalError
 from ._amctl import AxisModel, Machine, MOVE_DTYPE, __version__
-from ._planning import estimate, iter_plan, plan
+from ._planning import estimate, gcode_inputs, iter_plan, plan
 from ._dynamics import simulate
 from ._thermal import bed, hotend, sls_build, sls_margins
 from ._process import estimate_empirical, shrink_fit
 from ._shaping import (compare, compensate, report, resonance_calibrate, shaper_show, steps,
                        stepper_simulate, stepper_sweep)
+from ._jobs import (calibrate_time, compare_profiles, resonance_recommend, resonance_test_gcode,
+                    shrink_apply, shrink_slicing, sweep, write_m73)
 
 __all__ = [
     "Error", "InternalError", "Machine", "AxisModel", "MOVE_DTYPE",
-    "estimate", "plan", "iter_plan", "simulate",
+    "estimate", "plan", "iter_plan", "simulate", "gcode_inputs",
     "sls_margins", "sls_build", "hotend", "bed",
     "shrink_fit", "estimate_empirical",
     "shaper_show", "resonance_calibrate", "report", "steps", "stepper_simulate", "stepper_sweep", "compensate", "compare",
+    "write_m73", "compare_profiles", "calibrate_time", "shrink_slicing", "shrink_apply",
+    "resonance_recommend", "resonance_test_gcode", "sweep",
 ]

@@ -1,12 +1,15 @@
 """Print time and planned moves: amctl estimate and amctl plan (docs/planner.md)."""
 
+import os
+
 import numpy as np
 
 from . import _amctl
 from . import _args
 
 
-def estimate(path, machine=None, set=None, *, lenient=False, mode="planner", params=None):
+def estimate(path, machine=None, set=None, *, lenient=False, mode="planner", params=None,
+             file_limits="keep"):
     """Plans every move as the firmware does and reports the print time.
 
     The same dict as ``amctl estimate FILE --json`` (``plan::estimate_file`` +
@@ -25,6 +28,11 @@ def estimate(path, machine=None, set=None, *, lenient=False, mode="planner", par
         mode:    "planner" (default) or "empirical": the seed-004 average-speed model, the
                  dict of ``amctl estimate --mode empirical --json`` (see estimate_empirical).
         params:  empirical mode only: parameter file (JSON), None for the seed's values.
+        file_limits: the file's own limits commands (M204, SET_VELOCITY_LIMIT, M201, M203,
+                 M205, M566), as ``--file-limits``: "keep" (default, as the firmware does:
+                 they override the machine's), "ignore" (the machine's limits alone) or "cap"
+                 (applied, never above the machine's). The dict's ``file_limits`` says what
+                 the file set and what was done with it.
 
     The GIL is released while the file is planned. Raises amctl.Error (with file, line,
     column) for malformed G-code or a bad machine.
@@ -38,7 +46,7 @@ def estimate(path, machine=None, set=None, *, lenient=False, mode="planner", par
     if mode != "planner":
         raise _amctl_error(f"mode must be 'planner' or 'empirical', got '{mode}'")
     m = _args.machine(machine, set)
-    return _amctl._estimate(p, m, not lenient)
+    return _amctl._estimate(p, m, not lenient, _args.text(file_limits, "file_limits"))
 
 
 def _amctl_error(message):
@@ -47,7 +55,7 @@ def _amctl_error(message):
 
 
 def iter_plan(path, machine=None, set=None, *, batch_moves=4096, lenient=False,
-              t_begin=None, t_end=None, layer_begin=None, layer_end=None):
+              t_begin=None, t_end=None, layer_begin=None, layer_end=None, file_limits="keep"):
     """Yields the planned moves batch by batch, each a numpy structured array of MOVE_DTYPE.
 
     Memory stays bounded on a whole print: one batch of about ``batch_moves`` moves (the
@@ -64,7 +72,7 @@ def iter_plan(path, machine=None, set=None, *, batch_moves=4096, lenient=False,
     The doubles are the planner's own, bit for bit (the CSV reads back to the same values).
 
     Args:
-        path, machine, set, lenient: as estimate().
+        path, machine, set, lenient, file_limits: as estimate().
         batch_moves: moves asked for per batch (>= 1); the plan does not depend on it.
         t_begin, t_end: keep moves overlapping this print-time range [s] (``--t-begin``...).
         layer_begin, layer_end: keep moves of these layers (inclusive).
@@ -77,7 +85,8 @@ def iter_plan(path, machine=None, set=None, *, batch_moves=4096, lenient=False,
     reader = _amctl._PlanReader(
         p, m, not _args.boolean(lenient, "lenient"), n,
         _args.optional_number(t_begin, "t_begin", "s"), _args.optional_number(t_end, "t_end", "s"),
-        _args.optional_integer(layer_begin, "layer_begin"), _args.optional_integer(layer_end, "layer_end"))
+        _args.optional_integer(layer_begin, "layer_begin"), _args.optional_integer(layer_end, "layer_end"),
+        _args.text(file_limits, "file_limits"))
     return _batches(reader)
 
 
@@ -90,7 +99,7 @@ def _batches(reader):
 
 
 def plan(path, machine=None, set=None, *, lenient=False, t_begin=None, t_end=None,
-         layer_begin=None, layer_end=None, batch_moves=65536):
+         layer_begin=None, layer_end=None, batch_moves=65536, file_limits="keep"):
     """Every planned move as one numpy structured array (MOVE_DTYPE; see iter_plan).
 
     The same rows and values as ``amctl plan FILE`` (one row per move, in plan order). The
@@ -100,9 +109,23 @@ def plan(path, machine=None, set=None, *, lenient=False, t_begin=None, t_end=Non
     """
     batches = list(iter_plan(path, machine, set, batch_moves=batch_moves, lenient=lenient,
                              t_begin=t_begin, t_end=t_end, layer_begin=layer_begin,
-                             layer_end=layer_end))
+                             layer_end=layer_end, file_limits=file_limits))
     if not batches:
         return np.zeros(0, dtype=_amctl.MOVE_DTYPE)
     if len(batches) == 1:
         return batches[0]
     return np.concatenate(batches)
+
+
+def gcode_inputs(inputs):
+    """The G-code inputs that ``inputs`` name, in order (``formats::expand_gcode_inputs``, as
+    ``amctl estimate A B DIR ...`` expands them): a file as it is, a directory's G-code files
+    (not recursive: .gcode, .gco, .g, .bgcode, .gcode.3mf, .gcode.gz; sorted), and a 3MF with
+    several plates as one path per plate ("print.gcode.3mf/Metadata/plate_2.gcode", which
+    ``estimate`` reads). A path that does not exist is kept (reading it raises).
+
+    Raises amctl.Error for a directory without G-code.
+    """
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    return _amctl._gcode_inputs([_args.path(p, "inputs") for p in inputs])

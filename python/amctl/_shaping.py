@@ -1,6 +1,7 @@
 """Input shapers and resonance calibration (docs/shaping.md, docs/resonance.md)."""
 
 import numbers
+import os
 
 from . import _amctl
 from . import _args
@@ -49,13 +50,18 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
 
     Args:
         path: Klipper raw accelerometer CSV (#time,accel_x,accel_y,accel_z), Klipper PSD CSV
-              (freq,psd_x,psd_y,psd_z,psd_xyz) or the corpus CSV (#time_s,accel_x_mm_s2,...).
-        axis: 'x' or 'y', the axis the record excited.
+              (freq,psd_x,psd_y,psd_z,psd_xyz, also the older calibration_data_*.csv with a
+              column per shaper and the several-record freq,NAME1,NAME2,...) or the corpus CSV
+              (#time_s,accel_x_mm_s2,...); or a list of them, joined in one fit as
+              ``calibrate_shaper.py A.csv B.csv`` joins them (``sources`` lists them).
+        axis: 'x' or 'y', the axis the record excited; None as calibrate_shaper.py (no axis
+              peak; the fit uses x+y+z either way). A sweep needs it.
         sweep: the commanded sine sweep, (f0_hz, f1_hz, rate_hz_s, accel_mm_s2) or the
               command line's "F0,F1,RATE,ACCEL".
     """
-    p = _args.path(path, "path")
-    a = _args.text(axis, "axis")
+    paths = [path] if isinstance(path, (str, os.PathLike)) else list(path)
+    p = [_args.path(x, "path") for x in paths]
+    a = "" if axis is None else _args.text(axis, "axis")
     s = ""
     if sweep is not None:
         if isinstance(sweep, str):
@@ -70,7 +76,7 @@ def resonance_calibrate(path, axis="x", *, sweep=None):
 
 def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=None,
            damping_ratio=0.1, sample_rate_hz=1000.0, lenient=False, accel=None, accel_axis="x",
-           thermal=None):
+           thermal=None, file_limits="keep"):
     """Writes the self-contained HTML report of a print (``amctl report``, docs/report.md) and
     returns the dict of ``amctl report --json``: ``output`` (the page's path), ``bytes``,
     ``moves``, ``layers``, ``toolpath_points``, ``speed_buckets``, ``simulated``, ...
@@ -87,6 +93,8 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
             resonance section (Klipper's calibration, the PSD and the shaper curves).
         thermal: "hotend" or "bed": adds the heater loop section (temperature, set point and
             effort of the tuned PID and the MPC).
+        file_limits: the file's own limits: "keep" (default), "ignore" or "cap", as
+            amctl.estimate.
     """
     p = _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -97,7 +105,8 @@ def report(path, machine=None, set=None, *, output=None, natural_frequency_hz=No
     acc = "" if accel is None else _args.path(accel, "accel")
     ax = _args.text(accel_axis, "accel_axis")
     th = "" if thermal is None else _args.text(thermal, "thermal")
-    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th)
+    return _amctl._report(p, m, out, f, z, r, not _args.boolean(lenient, "lenient"), acc, ax, th,
+                          _args.text(file_limits, "file_limits"))
 
 
 def steps(path, machine=None, set=None, *, csv=None, step_filter="none"):
@@ -172,7 +181,7 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                model_x=None, model_y=None, sample_rate_hz=1000.0, lead_in_s=None, tail_s=None,
                knot_spacing_s=None, degree=3, window_s=None, overlap_s=None,
                max_base_accel_mm_s2=None, effort_weight_s2=1e-9, max_iterations=500, csv=None,
-               gcode=None):
+               gcode=None, ignore_machine_limits=False):
     """Feedforward compensation of the belt model (``amctl compensate``, docs/compensation.md).
 
     Returns the dict of ``amctl compensate --json`` (``max_tracking_error_mm``,
@@ -195,6 +204,10 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
         window_s, overlap_s [s]: LPFBF's and collocation's window and overlap (None: automatic).
         max_base_accel_mm_s2 [mm/s^2]: bound on the command's acceleration; collocation
             enforces it, the other methods report ``status: "base_accel_limit_exceeded"``.
+            Without it the command is judged against the machine's own acceleration limit
+            (Klipper ``printer.max_accel``, Marlin ``marlin.max_accel`` X/Y): ``status:
+            "machine_accel_limit_exceeded"`` and ``machine_accel_limit`` {key, mm_s2, ratio};
+            ``ignore_machine_limits=True`` (``--ignore-machine-limits``) skips that.
         effort_weight_s2 [s^2], max_iterations: collocation's effort term and IPOPT's limit.
             When collocation finds no command (``status`` "infeasible" or "solver_failed",
             ``message`` says why) the trace is empty and no CSV is written.
@@ -229,7 +242,8 @@ def compensate(path, machine=None, set=None, *, method="invert", natural_frequen
                               _args.number(effort_weight_s2, "effort_weight_s2", "s^2"),
                               _args.integer(max_iterations, "max_iterations"),
                               "" if csv is None else _args.path(csv, "csv"),
-                              "" if gcode is None else _args.path(gcode, "gcode"))
+                              "" if gcode is None else _args.path(gcode, "gcode"),
+                              _args.boolean(ignore_machine_limits, "ignore_machine_limits"))
 
 
 def compare(path, machine=None, set=None, *, natural_frequency_hz, damping_ratio=0.1,

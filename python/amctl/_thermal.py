@@ -65,13 +65,16 @@ def sls_build(config=None, *, layers=None, anti_windup=None, trace=True):
 
 
 def _heater(bed, target_c, noise_k, cycles, rule, power_w, capacity_j_k, loss_w_k, fan_loss_w_k,
-            sensor_tau_s):
+            sensor_tau_s, sensor_delay_s=None, core_capacity_j_k=None, core_to_block_w_k=None):
     return _amctl._heater(
         bed, _args.optional_number(target_c, "target_c", "C"), _args.optional_number(noise_k, "noise_k", "K"),
         _args.optional_integer(cycles, "cycles"), _args.optional_text(rule, "rule"),
         _args.optional_number(power_w, "power_w", "W"), _args.optional_number(capacity_j_k, "capacity_j_k", "J/K"),
         _args.optional_number(loss_w_k, "loss_w_k", "W/K"), _args.optional_number(fan_loss_w_k, "fan_loss_w_k", "W/K"),
-        _args.optional_number(sensor_tau_s, "sensor_tau_s", "s"))
+        _args.optional_number(sensor_tau_s, "sensor_tau_s", "s"),
+        _args.optional_number(sensor_delay_s, "sensor_delay_s", "s"),
+        _args.optional_number(core_capacity_j_k, "core_capacity_j_k", "J/K"),
+        _args.optional_number(core_to_block_w_k, "core_to_block_w_k", "W/K"))
 
 
 _HEATER_DOC = """
@@ -90,29 +93,32 @@ _HEATER_DOC = """
         cycles: autotune cycles (M303 C, >= 3).
         rule: 'classic_zn', 'some_overshoot' or 'no_overshoot'.
         power_w [W], capacity_j_k [J/K], loss_w_k [W/K] (fan off), fan_loss_w_k [W/K] (extra
-        at 100 % fan), sensor_tau_s [s]: the simulated plant.
+        at 100 % fan), sensor_tau_s [s], sensor_delay_s [s] (transport delay to the reading),
+        core_capacity_j_k [J/K] (0: no heater-core node), core_to_block_w_k [W/K]: the
+        simulated plant (``--power-w`` ... ``--core-to-block-w-k``).
     """
 
 
 def hotend(*, target_c=None, noise_k=None, cycles=None, rule=None, power_w=None,
            capacity_j_k=None, loss_w_k=None, fan_loss_w_k=None, sensor_tau_s=None, target=None,
-           noise=None):
+           noise=None, sensor_delay_s=None, core_capacity_j_k=None, core_to_block_w_k=None):
     target_c = _args.alias(target_c, "target_c", target, "target", None)
     noise_k = _args.alias(noise_k, "noise_k", noise, "noise", None)
     return _heater(False, target_c, noise_k, cycles, rule, power_w, capacity_j_k, loss_w_k,
-                   fan_loss_w_k, sensor_tau_s)
+                   fan_loss_w_k, sensor_tau_s, sensor_delay_s, core_capacity_j_k, core_to_block_w_k)
 
 
 def bed(*, target_c=None, noise_k=None, cycles=None, rule=None, power_w=None,
         capacity_j_k=None, loss_w_k=None, fan_loss_w_k=None, sensor_tau_s=None, target=None,
-        noise=None):
+        noise=None, sensor_delay_s=None, core_capacity_j_k=None, core_to_block_w_k=None):
     target_c = _args.alias(target_c, "target_c", target, "target", None)
     noise_k = _args.alias(noise_k, "noise_k", noise, "noise", None)
     return _heater(True, target_c, noise_k, cycles, rule, power_w, capacity_j_k, loss_w_k,
-                   fan_loss_w_k, sensor_tau_s)
+                   fan_loss_w_k, sensor_tau_s, sensor_delay_s, core_capacity_j_k, core_to_block_w_k)
 
 
-hotend.__doc__ = ("Hotend loop (a 40 W hotend at 210 C, classic Ziegler-Nichols)."
+hotend.__doc__ = ("Hotend loop (an E3D V6 with a 40 W cartridge, Prusa-Firmware's thermal model of it,"
+                  " at 210 C, classic Ziegler-Nichols)."
                   + _HEATER_DOC.format(cmd="hotend", what="hotend"))
 bed.__doc__ = ("Heated-bed loop (a 220 W bed at 60 C, the no-overshoot rule)."
                + _HEATER_DOC.format(cmd="bed", what="bed"))

@@ -1,8 +1,8 @@
 """Fleet runs: every G-code file of a queue on every printer, on a Dask cluster.
 
     python3 -m amctl.fleet DIR_OR_GLOB [...] --machine M [--machine M2 ...]
-        [--set section.key=value ...] [--workers N] [--scheduler ADDRESS] [--batch K]
-        [--json | --csv OUT]
+        [--set section.key=value ...] [--file-limits keep|ignore|cap] [--workers N]
+        [--scheduler ADDRESS] [--batch K] [--json | --csv OUT]
 
 Each (file, machine) pair is one ``amctl.estimate`` (the same numbers as ``amctl estimate
 --json``); pairs are grouped ``--batch`` at a time into Dask tasks. Without ``--scheduler`` a
@@ -37,31 +37,32 @@ import time
 ROW_KEYS = (
     "file", "machine", "set", "total_time_s", "motion_time_s", "dwell_time_s",
     "travel_time_s", "extrude_time_s", "filament_mm", "moves", "layers",
-    "slicer_estimate_s", "compute_time_s", "error",
+    "slicer_estimate_s", "compute_time_s", "error", "note",
 )
 
-GCODE_SUFFIXES = (".gcode", ".gco", ".g", ".GCODE", ".GCO", ".G")
+#: Names a directory's G-code files end with (any case), as amctl.gcode_inputs reads them.
+GCODE_SUFFIXES = (".gcode", ".gco", ".g", ".bgcode", ".gcode.3mf", ".gcode.gz")
 
 
 def expand_inputs(inputs):
     """Files named by ``inputs``: a file as is, a directory's G-code files (not recursive:
-    ``*.gcode``, ``*.gco``, ``*.g``), a glob pattern's matches. Sorted, without duplicates.
+    text, binary G-code, sliced 3MF, gzip; see GCODE_SUFFIXES), a glob pattern's matches, and
+    a 3MF of several plates as its plates (amctl.gcode_inputs). Sorted, without duplicates.
     Raises amctl.Error when an input matches nothing."""
     from ._errors import Error
+    from ._planning import gcode_inputs
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     out = []
     for item in inputs:
         item = os.fspath(item)
-        if os.path.isdir(item):
-            found = [os.path.join(item, n) for n in os.listdir(item) if n.endswith(GCODE_SUFFIXES)]
-        elif os.path.exists(item):
+        if os.path.exists(item):
             found = [item]
         else:
             found = [f for f in glob.glob(item) if os.path.isfile(f)]
         if not found:
             raise Error(f"{item}: no G-code file there (a file, a directory or a glob pattern)")
-        out.extend(found)
+        out.extend(gcode_inputs(found))
     return sorted(set(out))
 
 
@@ -78,19 +79,23 @@ def _row(file, machine, overrides, report=None, error=None):
             # JSON has no Infinity or NaN (amctl writes them as null): never pass one on.
             row[key] = None if isinstance(value, float) and not math.isfinite(value) else value
         row["layers"] = len(report.get("layers", []))
+        if report.get("moves") == 0:
+            row["note"] = "no moves"  # an empty file, or only comments: not a print of 0 s
     row["error"] = error
     return row
 
 
-def estimate_jobs(jobs):
+def estimate_jobs(jobs, file_limits="keep"):
     """Runs on a worker: ``jobs`` is a list of (file, machine, overrides); returns one row per
-    job. Never raises for a bad job: the error is in the row."""
+    job. Never raises for a bad job: the error is in the row. ``file_limits`` as
+    amctl.estimate."""
     import amctl
     rows = []
     for file, machine, overrides in jobs:
         try:
             rows.append(_row(file, machine, overrides,
-                             report=amctl.estimate(file, machine=machine, set=overrides or None)))
+                             report=amctl.estimate(file, machine=machine, set=overrides or None,
+                                                   file_limits=file_limits)))
         except amctl.Error as e:
             rows.append(_row(file, machine, overrides, error=str(e)))
         except Exception as e:  # noqa: BLE001 - one bad job is one error row
@@ -154,11 +159,12 @@ def _check_workers(client):
 
 
 def run(files, machines, *, overrides=None, workers=None, scheduler=None, client=None,
-        batch=1, progress=False):
+        batch=1, progress=False, file_limits="keep"):
     """Estimates every file on every machine; returns the rows (dicts with ROW_KEYS) in input
     order.
 
-    files:     list of paths (see expand_inputs for directories and patterns).
+    files:     list of paths; a directory stands for its G-code files and a 3MF of several
+               plates for its plates, in place (amctl.gcode_inputs); patterns: expand_inputs.
     machines:  list of machine specs (preset, .toml, printer.cfg) or amctl.Machine objects.
     overrides: one {"section.key": value} dict applied to every machine, or a list of such
                dicts, one per run of the grid (sweep uses it); None for none.
@@ -169,9 +175,14 @@ def run(files, machines, *, overrides=None, workers=None, scheduler=None, client
     batch:     (file, machine) runs per Dask task (> 1 amortises the per-task overhead of
                small files).
     progress:  draw a progress bar on stderr.
+    file_limits: the files' own limits commands: "keep" (default, as the firmware does),
+               "ignore" or "cap" (as ``amctl estimate --file-limits``).
     """
     from ._errors import Error
-    files = [os.fspath(f) for f in files]
+    if file_limits not in ("keep", "ignore", "cap"):
+        raise Error(f"file_limits: found {file_limits!r}, expected one of keep, ignore, cap")
+    from ._planning import gcode_inputs
+    files = gcode_inputs([os.fspath(f) for f in files]) if files else []
     if isinstance(machines, (str, os.PathLike)) or not hasattr(machines, "__iter__"):
         machines = [machines]
     machines = list(machines)
@@ -188,7 +199,7 @@ def run(files, machines, *, overrides=None, workers=None, scheduler=None, client
     if client is None and scheduler is None and workers == 0:
         rows = []
         for chunk in _chunks(jobs, batch):
-            rows.extend(estimate_jobs(chunk))
+            rows.extend(estimate_jobs(chunk, file_limits))
             bar.advance(len(chunk))
         return rows
 
@@ -214,7 +225,7 @@ def run(files, machines, *, overrides=None, workers=None, scheduler=None, client
             raise Error(f"no Dask worker came up within 60 s ({type(e).__name__})") from None
         _check_workers(client)
         chunks = list(_chunks(jobs, batch))
-        futures = client.map(estimate_jobs, chunks, pure=False)
+        futures = client.map(estimate_jobs, chunks, file_limits=file_limits, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         results = [None] * len(chunks)
         for fut in as_completed(futures):
@@ -229,7 +240,7 @@ def run(files, machines, *, overrides=None, workers=None, scheduler=None, client
 
 
 def sweep(files, machine, grid, *, workers=None, scheduler=None, client=None, batch=1,
-          progress=False):
+          progress=False, file_limits="keep"):
     """A parameter grid over a queue, as a pandas DataFrame: one row per (grid point, file),
     with a column per grid key (the value used), the estimate's figures and ``error``.
 
@@ -249,7 +260,7 @@ def sweep(files, machine, grid, *, workers=None, scheduler=None, client=None, ba
     if not points:
         raise Error("sweep: the grid is empty")
     rows = run(files, [machine], overrides=points, workers=workers, scheduler=scheduler,
-               client=client, batch=batch, progress=progress)
+               client=client, batch=batch, progress=progress, file_limits=file_limits)
     table = []
     for row in rows:
         flat = {k: row["set"].get(k) for k in keys}
@@ -298,6 +309,9 @@ def main(argv=None):
     p.add_argument("--machine", "-m", action="append", default=None,
                    help="preset, machine .toml or Klipper printer.cfg (repeatable; default: default)")
     p.add_argument("--set", action="append", default=None, help="section.key=value for every machine")
+    p.add_argument("--file-limits", choices=("keep", "ignore", "cap"), default="keep",
+                   help="the files' own limits (M204, SET_VELOCITY_LIMIT, ...): keep (default, as "
+                        "the firmware does), ignore, or cap at the machine's")
     p.add_argument("--workers", type=int, default=None,
                    help="local cluster workers (default: one per core; 0: no Dask)")
     p.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
@@ -314,7 +328,7 @@ def main(argv=None):
         files = expand_inputs(a.inputs)
         rows = run(files, a.machine or ["default"], overrides=_parse_set(a.set) or None,
                    workers=a.workers, scheduler=a.scheduler, batch=a.batch,
-                   progress=a.progress or sys.stderr.isatty())
+                   progress=a.progress or sys.stderr.isatty(), file_limits=a.file_limits)
     except Error as e:
         print(f"amctl.fleet: error: {e}", file=sys.stderr)
         return 2
@@ -334,6 +348,8 @@ def main(argv=None):
         mach_w = max(len(r["machine"]) for r in rows)
         for r in rows:
             figure = _hms(r["total_time_s"]) if r["error"] is None else f"error: {r['error']}"
+            if r["error"] is None and r["note"]:
+                figure = r["note"]
             print(f"{os.path.basename(r['file']):<{name_w}}  {r['machine']:<{mach_w}}  {figure}")
     failed = sum(1 for r in rows if r["error"] is not None)
     if failed:

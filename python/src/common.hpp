@@ -9,6 +9,7 @@
 
 #include "amctl/core/json.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 
 namespace amctl::py_bind {
 
@@ -34,10 +35,14 @@ template <class T>
                         owned->data(), base);
 }
 
+/// file_limits= "keep", "ignore" or "cap" (amctl::Error otherwise), as `--file-limits`.
+[[nodiscard]] plan::FileLimits file_limits_arg(const std::string& value);
+
 void register_plan(py::module_& m);
 void register_simulate(py::module_& m);
 void register_studies(py::module_& m);
 void register_shaping(py::module_& m);
 void register_closedloop(py::module_& m);
+void register_jobs(py::module_& m);
 
 }  // namespace amctl::py_bind

@@ -1,3 +1,4 @@
+#include "amctl/core/error.hpp"
 #include "common.hpp"
 
 namespace amctl::py_bind {
@@ -25,6 +26,11 @@ py::object to_python(const Json& j) {
     case Json::value_t::discarded: break;
   }
   return py::none();
+}
+
+plan::FileLimits file_limits_arg(const std::string& value) {
+  if (const auto f = plan::parse_file_limits(value)) return *f;
+  throw Error("file_limits: found '" + value + "', expected one of keep, ignore, cap");
 }
 
 }  // namespace amctl::py_bind

@@ -10,6 +10,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/core/output.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
@@ -130,10 +131,12 @@ py::object to_dict(const MachineValue& v) {
 
 py::tuple tuple4(const std::array<double, 4>& a) { return py::make_tuple(a[0], a[1], a[2], a[3]); }
 
-py::object estimate(const std::string& path, const MachineValue& mv, bool strict) {
+py::object estimate(const std::string& path, const MachineValue& mv, bool strict,
+                    const std::string& file_limits) {
   const mc::Machine& m = mv.m;
   plan::EstimateOptions opt;
   opt.strict = strict;
+  opt.planner.file_limits = file_limits_arg(file_limits);
   Json j;
   {
     py::gil_scoped_release nogil;
@@ -249,6 +252,7 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
       .def_property_readonly("effective", [](const MachineValue& v) { const mc::Machine& x = v.m; return to_python(mc::to_json(x)["effective"]); }, "the limits Klipper derives, as a dict");
 
   m.def("_estimate", &estimate, py::arg("path"), py::arg("machine"), py::arg("strict"),
+        py::arg("file_limits") = "keep",
         "amctl estimate --json (plan::estimate_file + plan::to_json); see amctl.estimate.");
   m.def(
       "_write_output",
@@ -266,10 +270,14 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
       },
       py::arg("path"), py::arg("flag") = "",
       "The checks of _write_output without writing (amctl.Error when the path cannot be written).");
+  m.def("_gcode_inputs",
+        [](const std::vector<std::string>& inputs) { return amctl::formats::expand_gcode_inputs(inputs); },
+        py::arg("inputs"), "formats::expand_gcode_inputs; see amctl.gcode_inputs.");
 
   register_plan(m);
   register_simulate(m);
   register_studies(m);
   register_shaping(m);
   register_closedloop(m);
+  register_jobs(m);
 }

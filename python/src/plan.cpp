@@ -82,10 +82,11 @@ void put_object(char* row, std::size_t offset, const py::object& v) {
 class PlanReader {
  public:
   PlanReader(const std::string& path, const machine::Machine& m, bool strict, std::size_t batch_moves,
-             const plan::SelectOptions& select, bool use_select) {
+             const plan::SelectOptions& select, bool use_select, plan::FileLimits file_limits) {
     if (batch_moves == 0) throw Error("batch_moves must be >= 1, got 0");
     plan::SourceOptions so;
     so.strict = strict;
+    so.planner.file_limits = file_limits;
     so.batch_moves = batch_moves;
     if (use_select) select_ = std::make_unique<plan::SelectStage>(select);
     py::gil_scoped_release nogil;
@@ -184,17 +185,20 @@ void register_plan(py::module_& m) {
   py::class_<PlanReader>(m, "_PlanReader")
       .def(py::init([](const std::string& path, const MachineValue& mach_value, bool strict, std::size_t batch_moves,
                        std::optional<double> t_begin, std::optional<double> t_end,
-                       std::optional<std::int32_t> layer_begin, std::optional<std::int32_t> layer_end) {
+                       std::optional<std::int32_t> layer_begin, std::optional<std::int32_t> layer_end,
+                       const std::string& file_limits) {
              plan::SelectOptions sel;
              if (t_begin) sel.t_begin_s = *t_begin;
              if (t_end) sel.t_end_s = *t_end;
              if (layer_begin) sel.layer_begin = *layer_begin;
              if (layer_end) sel.layer_end = *layer_end;
              const bool use = t_begin || t_end || layer_begin || layer_end;
-             return std::make_unique<PlanReader>(path, mach_value.m, strict, batch_moves, sel, use);
+             return std::make_unique<PlanReader>(path, mach_value.m, strict, batch_moves, sel, use,
+                                                 file_limits_arg(file_limits));
            }),
            py::arg("path"), py::arg("machine"), py::arg("strict"), py::arg("batch_moves"),
-           py::arg("t_begin"), py::arg("t_end"), py::arg("layer_begin"), py::arg("layer_end"))
+           py::arg("t_begin"), py::arg("t_end"), py::arg("layer_begin"), py::arg("layer_end"),
+           py::arg("file_limits") = "keep")
       .def("next", &PlanReader::next, "The next batch of moves (MOVE_DTYPE array), or None at the end.")
       .def("summary", &PlanReader::summary, "What the source knows: file, end_time_s, lines, feature_names.");
 }

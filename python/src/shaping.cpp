@@ -38,18 +38,18 @@ py::object shaper_show(const std::string& type, double freq_hz, double damping_r
   return to_python(j);
 }
 
-py::object resonance_calibrate(const std::string& path, const std::string& axis,
+py::object resonance_calibrate(const std::vector<std::string>& paths, const std::string& axis,
                                const std::string& sweep) {
   resonance::CalibrateOptions o;
-  if (axis != "x" && axis != "y" && axis != "X" && axis != "Y") {
-    throw Error("axis must be 'x' or 'y', got '" + axis + "'");
+  if (axis != "x" && axis != "y" && axis != "X" && axis != "Y" && !axis.empty()) {
+    throw Error("axis must be 'x', 'y' or None, got '" + axis + "'");
   }
-  o.axis = static_cast<char>(axis[0] | 0x20);
+  o.axis = axis.empty() ? '\0' : static_cast<char>(axis[0] | 0x20);
   if (!sweep.empty()) o.sweep = resonance::parse_sweep(sweep);
   Json j;
   {
     py::gil_scoped_release nogil;
-    j = resonance::to_json(resonance::calibrate_file(path, o));
+    j = resonance::to_json(resonance::calibrate_files(paths, o));
   }
   return to_python(j);
 }
@@ -57,8 +57,10 @@ py::object resonance_calibrate(const std::string& path, const std::string& axis,
 py::object write_report(const std::string& path, const MachineValue& mv, const std::string& output,
                         std::optional<double> natural_frequency_hz, double damping_ratio,
                         double sample_rate_hz, bool strict, const std::string& accel,
-                        const std::string& accel_axis, const std::string& thermal) {
+                        const std::string& accel_axis, const std::string& thermal,
+                        const std::string& file_limits) {
   report::ReportOptions o;
+  o.file_limits = file_limits_arg(file_limits);
   o.thermal = thermal;
   o.accel_path = accel;
   if (accel_axis != "x" && accel_axis != "y") {
@@ -93,8 +95,9 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
                       double sample_rate_hz, double lead_in_s, double tail_s, double knot_spacing_s,
                       int degree, double window_s, double overlap_s, double max_base_accel_mm_s2,
                       double effort_weight_s2, int max_iterations, const std::string& csv,
-                      const std::string& gcode) {
+                      const std::string& gcode, bool ignore_machine_limits) {
   compensation::CompensationOptions o;
+  o.judge_machine_accel = !ignore_machine_limits;
   o.method = compensation::parse_method(method);
   o.model_x = model_x;
   o.model_y = model_y;
@@ -180,17 +183,19 @@ void register_shaping(py::module_& m) {
         py::arg("sample_rate_hz"), py::arg("lead_in_s"), py::arg("tail_s"), py::arg("knot_spacing_s"),
         py::arg("degree"), py::arg("window_s"), py::arg("overlap_s"), py::arg("max_base_accel_mm_s2"),
         py::arg("effort_weight_s2"), py::arg("max_iterations"), py::arg("csv"), py::arg("gcode"),
+        py::arg("ignore_machine_limits") = false,
         "amctl compensate --json (compensation::compensate_file + to_json) plus the command as "
         "arrays; see amctl.compensate.");
   m.def("_steps", &steps, py::arg("path"), py::arg("machine"), py::arg("csv"), py::arg("step_filter"),
         "amctl steps --json (steppers::generate_steps_file + to_json); see amctl.steps.");
   m.def("_report", &write_report, py::arg("path"), py::arg("machine"), py::arg("output"),
         py::arg("natural_frequency_hz"), py::arg("damping_ratio"), py::arg("sample_rate_hz"),
-        py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"), "amctl report --json (report::write_report + to_json); see amctl.report.");
+        py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"),
+        py::arg("file_limits") = "keep", "amctl report --json (report::write_report + to_json); see amctl.report.");
   m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
         py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
         "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");
-  m.def("_resonance_calibrate", &resonance_calibrate, py::arg("path"), py::arg("axis"), py::arg("sweep"),
+  m.def("_resonance_calibrate", &resonance_calibrate, py::arg("paths"), py::arg("axis"), py::arg("sweep"),
         "amctl resonance calibrate --json (resonance::calibrate_file + to_json); see "
         "amctl.resonance_calibrate.");
 }

@@ -106,7 +106,9 @@ py::object sls_build(const std::string& config, int layers, const std::string& a
 py::object heater(bool bed, std::optional<double> target_c, std::optional<double> noise_k,
                   std::optional<int> cycles, const std::string& rule, std::optional<double> power_w,
                   std::optional<double> capacity_j_k, std::optional<double> loss_w_k,
-                  std::optional<double> fan_loss_w_k, std::optional<double> sensor_tau_s) {
+                  std::optional<double> fan_loss_w_k, std::optional<double> sensor_tau_s,
+                  std::optional<double> sensor_delay_s, std::optional<double> core_capacity_j_k,
+                  std::optional<double> core_to_block_w_k) {
   th::HeaterStudyOptions o = bed ? th::HeaterStudyOptions::bed_defaults() : th::HeaterStudyOptions::hotend();
   if (target_c) o.target_c = *target_c;
   if (noise_k) o.sensor_noise_k = *noise_k;
@@ -121,6 +123,9 @@ py::object heater(bool bed, std::optional<double> target_c, std::optional<double
   if (loss_w_k) o.plant.loss_w_k = *loss_w_k;
   if (fan_loss_w_k) o.plant.fan_extra_loss_w_k = *fan_loss_w_k;
   if (sensor_tau_s) o.plant.sensor_time_constant_s = *sensor_tau_s;
+  if (sensor_delay_s) o.plant.sensor_delay_s = *sensor_delay_s;
+  if (core_capacity_j_k) o.plant.core_capacity_j_k = *core_capacity_j_k;
+  if (core_to_block_w_k) o.plant.core_to_block_w_k = *core_to_block_w_k;
   std::optional<th::HeaterStudy> s;
   {
     py::gil_scoped_release nogil;
@@ -175,7 +180,8 @@ void register_studies(py::module_& m) {
         "thermal::run_sls_build + to_json (`amctl thermal sls --json`), per-layer table and trace.");
   m.def("_heater", &heater, py::arg("bed"), py::arg("target_c"), py::arg("noise_k"), py::arg("cycles"),
         py::arg("rule"), py::arg("power_w"), py::arg("capacity_j_k"), py::arg("loss_w_k"),
-        py::arg("fan_loss_w_k"), py::arg("sensor_tau_s"),
+        py::arg("fan_loss_w_k"), py::arg("sensor_tau_s"), py::arg("sensor_delay_s") = py::none(),
+        py::arg("core_capacity_j_k") = py::none(), py::arg("core_to_block_w_k") = py::none(),
         "thermal::run_heater_study + to_json (`amctl thermal hotend|bed --json`) with the traces.");
   m.def("_shrink_fit", &shrink_fit, py::arg("csv_path"), py::arg("axis"), py::arg("average"), py::arg("ranges"),
         py::arg("breaks_mm"), py::arg("min_points"), py::arg("confidence"),

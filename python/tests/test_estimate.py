@@ -140,3 +140,38 @@ def test_the_gil_is_released_while_planning(source_dir, tmp_path):
     t.join()
     inside = [s for s in stamps if t0 < s < t1]
     assert len(inside) >= 2, (len(inside), t1 - t0)
+
+
+def _rest_to_rest(d, v, a):
+    return d / v + v / a if d * a >= v * v else 2 * math.sqrt(d / a)
+
+
+@pytest.mark.parametrize("policy,accels", [
+    ("keep", (1000, 3000, 500)),    # the file's M204 S win, as in Klipper
+    ("ignore", (1000, 1000, 1000)),  # the machine's 1000 throughout
+    ("cap", (1000, 1000, 500)),      # 3000 lowered to 1000, 500 kept
+])
+def test_file_limits_keep_ignore_cap_are_closed_forms(gcode, policy, accels):
+    g = gcode("G1 X100 F6000\nM204 S3000\nG1 X0\nM204 S500\nG1 X100\n")
+    machine = dict(SIMPLE, **{"printer.max_accel": 1000})
+    r = amctl.estimate(g, set=machine, file_limits=policy)
+    assert r["total_time_s"] == pytest.approx(sum(_rest_to_rest(100, 100, a) for a in accels), abs=1e-12)
+    f = r["file_limits"]
+    assert f["policy"] == policy and f["commands"] == 2
+    assert f["by_command"] == [{"command": "M204", "lines": 2, "first_line": 2, "firmware_acts": True}]
+    assert f["values"][0]["values"] == [500.0, 3000.0]
+    # the plan carries the same times, move by move
+    moves = amctl.plan(g, set=machine, file_limits=policy)
+    assert list(moves["accel_mm_s2"]) == [float(a) for a in accels]
+
+
+def test_file_limits_python_equals_cli(cli, source_dir):
+    path = str(source_dir / "examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode")
+    spec = str(source_dir / "configs/klipper-voron-v0.cfg")
+    want = cli.json("estimate", path, "--machine", spec, "--set", "printer.max_accel=1000",
+                    "--file-limits", "cap", "--json")
+    got = amctl.estimate(path, machine=spec, set={"printer.max_accel": 1000}, file_limits="cap")
+    assert _without_compute_time(got) == _without_compute_time(want)
+    assert got["file_limits"]["capped"] == got["file_limits"]["commands"] == 852
+    with pytest.raises(amctl.Error, match="file_limits"):
+        amctl.estimate(path, file_limits="sometimes")

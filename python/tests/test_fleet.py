@@ -98,3 +98,47 @@ def test_bad_arguments_raise_amctl_error():
         fleet.run(["x.gcode"], ["voron24"], workers=0, batch=0)
     with pytest.raises(amctl.Error):
         fleet.expand_inputs(["/nonexistent/*.gcode"])
+
+
+def test_directories_plates_and_empty_files(tmp_path, source_dir):
+    # A directory stands for its G-code files, in any format, for fleet.run as for the command
+    # line; a 3MF of two plates is two rows; an empty file is a row that says "no moves".
+    import shutil
+    import zipfile
+    d = tmp_path / "queue"
+    d.mkdir()
+    square = source_dir / FILES[0]
+    shutil.copy(square, d / "a.gcode")
+    (d / "empty.gcode").write_text("")
+    (d / "notes.txt").write_text("not G-code")
+    with zipfile.ZipFile(d / "two.gcode.3mf", "w", zipfile.ZIP_DEFLATED) as z:
+        z.write(square, "Metadata/plate_1.gcode")
+        z.write(source_dir / FILES[1], "Metadata/plate_2.gcode")
+    expected = [str(d / "a.gcode"), str(d / "empty.gcode"),
+                str(d / "two.gcode.3mf") + "/Metadata/plate_1.gcode",
+                str(d / "two.gcode.3mf") + "/Metadata/plate_2.gcode"]
+    assert amctl.gcode_inputs([d]) == expected
+    rows = fleet.run([d], ["voron24"], workers=0)
+    assert [r["file"] for r in rows] == expected
+    assert all(r["error"] is None for r in rows)
+    assert rows[1]["total_time_s"] == 0 and rows[1]["note"] == "no moves"
+    assert rows[0]["note"] is None
+    # Each plate's numbers are its G-code's.
+    assert rows[2]["total_time_s"] == rows[0]["total_time_s"]
+    assert rows[3]["total_time_s"] == amctl.estimate(source_dir / FILES[1], machine="voron24")["total_time_s"]
+    assert fleet.expand_inputs([str(d)]) == sorted(expected)
+    (tmp_path / "nothing").mkdir()
+    with pytest.raises(amctl.Error, match="directory without G-code"):
+        amctl.gcode_inputs([tmp_path / "nothing"])
+def test_file_limits_reach_every_run(tmp_path):
+    # M204 S4000 in the file on a 1000 mm/s^2 machine: kept (0.125 s) or capped (0.2 s),
+    # the closed forms of test_sweep_grid_matches_closed_forms.
+    g = tmp_path / "line.gcode"
+    g.write_text("M204 S4000\nG1 X10 F6000\n")
+    sets = {"printer.max_accel": 1000, "printer.minimum_cruise_ratio": 0}
+    keep = fleet.run([str(g)], ["default"], overrides=sets, workers=0)
+    cap = fleet.run([str(g)], ["default"], overrides=sets, workers=0, file_limits="cap")
+    assert math.isclose(keep[0]["total_time_s"], 0.125, rel_tol=1e-12)
+    assert math.isclose(cap[0]["total_time_s"], 0.2, rel_tol=1e-12)
+    with pytest.raises(amctl.Error):
+        fleet.run([str(g)], ["default"], workers=0, file_limits="never")

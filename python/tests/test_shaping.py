@@ -52,6 +52,11 @@ def test_resonance_calibration_equals_the_cli(cli, source_dir, tmp_path):
         amctl.resonance_calibrate(str(psd), axis="z")
     with pytest.raises(TypeError):
         amctl.resonance_calibrate(str(psd), sweep=(5, 80, 1))
+    # Several records in one fit, and no axis, as calibrate_shaper.py A B.
+    both = amctl.resonance_calibrate([psd, psd], axis=None)
+    assert both == cli.json("resonance", "calibrate", str(psd), str(psd), "--json")
+    assert both["sources"] == [str(psd), str(psd)] and both["axis"] is None
+    assert both["klipper"]["recommended"] == r["klipper"]["recommended"]  # the same record twice
 
 
 def test_report_equals_the_cli_and_writes_one_self_contained_page(cli, source_dir, tmp_path):
@@ -132,6 +137,14 @@ def test_compensate_equals_the_cli_and_tracks_the_path(cli, source_dir, tmp_path
     err = np.hypot(t["x_sim_mm"] - t["x_des_mm"], t["y_sim_mm"] - t["y_des_mm"]).max()
     assert err == pytest.approx(r["max_tracking_error_mm"], rel=1e-9)
     assert (tmp_path / "py.csv").read_text() == (tmp_path / "cli.csv").read_text()
+    # Judged against the seed printer's own max_accel (5000 mm/s^2): the command needs more.
+    limit = r["machine_accel_limit"]
+    assert limit["key"] == "printer.max_accel" and limit["mm_s2"] == 5000.0
+    assert limit["ratio"] == pytest.approx(r["peak_command_accel_mm_s2"] / 5000.0, rel=1e-12)
+    assert r["status"] == "machine_accel_limit_exceeded" and "5000" in r["message"]
+    free = amctl.compensate(g, machine=cfg, method="fbf", natural_frequency_hz=f, damping_ratio=0.5,
+                            ignore_machine_limits=True)
+    assert free["status"] == "ok" and "machine_accel_limit" not in free
     with pytest.raises(amctl.Error, match="method"):
         amctl.compensate(g, machine=cfg, method="magic", natural_frequency_hz=f)
 

@@ -225,7 +225,7 @@ ComparisonResult compare_file(const plan::GcodeInput& input, const machine::Mach
   // Every run plans the file again: one rewindable input (standard input and a FIFO are read
   // once; the later runs read the reader's copy).
   plan::RewindableGcode rewindable(input);
-  const plan::GcodeInput path(rewindable.file());
+  const plan::GcodeInput path = rewindable;
   ComparisonResult result;
   result.file = input.path();
   result.natural_frequency_hz = options.natural_frequency_hz;

@@ -355,13 +355,36 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   return r;
 }
 
+namespace detail {
+
+void judge_machine_accel(CompensationResult& r, const machine::Machine& m, const CompensationOptions& o) {
+  if (!o.judge_machine_accel || std::isfinite(o.max_base_accel_mm_s2)) return;
+  const bool klipper = m.firmware == machine::Firmware::klipper;
+  r.machine_accel_limit_mm_s2 =
+      klipper ? m.max_accel_mm_s2 : std::min(m.max_axis_accel_mm_s2[0], m.max_axis_accel_mm_s2[1]);
+  r.machine_accel_limit_key = klipper ? "printer.max_accel" : "marlin.max_accel";
+  if (r.status != "ok" || r.peak_command_accel_mm_s2 <= r.machine_accel_limit_mm_s2) return;
+  r.status = "machine_accel_limit_exceeded";
+  r.message = fmt::format(
+      "the command's peak acceleration {:.6g} mm/s^2 is {:.3g} times the machine's {} ({:g} mm/s^2): the "
+      "firmware would not follow it; raise the limit if the motors can (--set {}=...), bound the "
+      "command (--method collocation --max-base-accel-mm-s2 {:g}), or --ignore-machine-limits{}{}",
+      r.peak_command_accel_mm_s2, r.peak_command_accel_mm_s2 / r.machine_accel_limit_mm_s2,
+      r.machine_accel_limit_key, r.machine_accel_limit_mm_s2, klipper ? "printer.max_accel" : "marlin.max_accel",
+      r.machine_accel_limit_mm_s2, r.message.empty() ? "" : "; ", r.message);
+}
+
+}  // namespace detail
+
 CompensationResult compensate_file(const plan::GcodeInput& path, const machine::Machine& machine,
                                    const CompensationOptions& options) {
   plan::PlanSource source(path, machine);
   plan::CollectSink collect;
   std::vector<plan::Sink*> sinks{&collect};
   plan::run_pipeline(source, sinks);
-  return compensate(collect.moves, options);
+  CompensationResult r = compensate(collect.moves, options);
+  detail::judge_machine_accel(r, machine, options);
+  return r;
 }
 
 Json to_json(const CompensationResult& r) {
@@ -397,6 +420,11 @@ Json to_json(const CompensationResult& r) {
     j["effort_weight_s2"] = json_number(r.effort_weight_s2);
   }
   if (std::isfinite(r.max_base_accel_mm_s2)) j["max_base_accel_mm_s2"] = json_number(r.max_base_accel_mm_s2);
+  if (std::isfinite(r.machine_accel_limit_mm_s2)) {
+    j["machine_accel_limit"] = Json{{"key", r.machine_accel_limit_key},
+                                    {"mm_s2", json_number(r.machine_accel_limit_mm_s2)},
+                                    {"ratio", json_number(r.peak_command_accel_mm_s2 / r.machine_accel_limit_mm_s2)}};
+  }
   if (r.method == "lpfbf") {
     j["knot_spacing_s"] = json_number(r.knot_spacing_s);
     j["degree"] = r.degree;

@@ -30,6 +30,9 @@ std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves);
 double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y);
 /// Throws amctl::Error for bad options (naming them).
 void validate_options(const CompensationOptions& o);
+/// CompensationOptions::judge_machine_accel: the machine's acceleration limit into `r` and,
+/// when an "ok" command's peak is above it, status machine_accel_limit_exceeded.
+void judge_machine_accel(CompensationResult& r, const machine::Machine& m, const CompensationOptions& o);
 /// The automatic tail: 5 time constants of the slowest mode of model and plant, in [0.05, 1] s.
 double auto_tail_s(const CompensationOptions& o);
 /// The slowest decay rate over the modes [1/s]: z w, or w (z - sqrt(z^2 - 1)) for an

@@ -259,6 +259,7 @@ CompensationResult compensate_file_streaming(const plan::GcodeInput& path, const
   CompensationResult r = sink.finish_all(detail::auto_tail_s(options));
   r.compute_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock0).count();
   r.real_time_factor = r.compute_time_s > 0.0 ? r.motion_time_s / r.compute_time_s : 0.0;
+  detail::judge_machine_accel(r, machine, options);
   return r;
 }
 

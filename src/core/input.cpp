@@ -27,6 +27,7 @@ class Borrowed final : public ByteSource {
   explicit Borrowed(ByteSource& s) : s_(s) {}
   std::size_t read(char* dst, std::size_t n) override { return s_.read(dst, n); }
   [[nodiscard]] const std::string& name() const override { return s_.name(); }
+  [[nodiscard]] std::string origin(std::uint64_t offset) const override { return s_.origin(offset); }
 
  private:
   ByteSource& s_;
@@ -231,7 +232,10 @@ class OwnedDecoded final : public ByteSource {
   OwnedDecoded(const std::string& path, InputOptions options, const std::vector<Decoder>& decoders)
       : file_(path, std::move(options)), decoded_(decode(file_, decoders)) {}
   std::size_t read(char* dst, std::size_t n) override { return decoded_->read(dst, n); }
-  [[nodiscard]] const std::string& name() const override { return decoded_->name(); }
+  [[nodiscard]] const std::string& name() const override {
+    return decoded_->name().empty() ? file_.name() : decoded_->name();
+  }
+  [[nodiscard]] std::string origin(std::uint64_t offset) const override { return decoded_->origin(offset); }
 
  private:
   InputFile file_;
@@ -255,11 +259,21 @@ std::unique_ptr<ByteSource> decode(InputFile& file, const std::vector<Decoder>& 
   return std::make_unique<Borrowed>(file);
 }
 
+const std::string& ByteSource::name() const {
+  static const std::string none;
+  return none;
+}
+
 // ---------------------------------------------------------------------------------------
 // LineReader
 
 LineReader::LineReader(std::unique_ptr<ByteSource> source, std::size_t buffer_bytes)
     : name_(source->name()), owned_(std::move(source)), source_(owned_.get()) {
+  buf_.resize(buffer_bytes < 4096 ? 4096 : buffer_bytes);
+}
+
+LineReader::LineReader(std::unique_ptr<ByteSource> source, std::string name, std::size_t buffer_bytes)
+    : name_(std::move(name)), owned_(std::move(source)), source_(owned_.get()) {
   buf_.resize(buffer_bytes < 4096 ? 4096 : buffer_bytes);
 }
 
@@ -332,6 +346,7 @@ bool LineReader::next_slow(std::string_view& line) {
     } else {
       begin_ += len + term;
     }
+    line_start_ = bytes_;
     bytes_ += len + term;
     ++line_no_;
     return true;

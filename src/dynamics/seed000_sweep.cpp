@@ -99,7 +99,11 @@ Json to_json(const std::vector<Seed000Row>& rows, double scv) {
                    {"final_residual_vibration_mm", r.final_residual_vibration_mm},
                    {"compute_time_s", r.compute_time_s}});
   }
-  return Json{{"seed", "000"}, {"square_corner_velocity_mm_s", scv}, {"cases", arr}};
+  // "seed": the key of earlier versions, kept for scripts that read it.
+  return Json{{"study", "feedforward study (Tables 3.2 and 3.3 of the UFLA thesis)"},
+              {"seed", "000"},
+              {"square_corner_velocity_mm_s", scv},
+              {"cases", arr}};
 }
 
 }  // namespace amctl::dynamics

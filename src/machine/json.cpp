@@ -1,4 +1,5 @@
 #include "amctl/machine/json.hpp"
+#include <algorithm>
 
 #include <cmath>
 
@@ -160,15 +161,33 @@ Json to_json(const Machine& m) {
                   {"max_z", g.max_z_mm},
                   {"cone_start_z", g.limit_z_mm}};
   }
-  j["effective"] = {
-      {"max_z_velocity", effective_max_z_velocity_mm_s(m)},
-      {"max_z_accel", effective_max_z_accel_mm_s2(m)},
-      {"max_extrude_only_velocity", effective_max_extrude_only_velocity_mm_s(m)},
-      {"max_extrude_only_accel", effective_max_extrude_only_accel_mm_s2(m)},
-      {"max_extrude_cross_section", effective_max_extrude_cross_section_mm2(m)},
-      {"junction_deviation_at_max_accel",
-       klipper_junction_deviation_mm(m.square_corner_velocity_mm_s, m.max_accel_mm_s2)},
-  };
+  if (m.firmware == Firmware::klipper) {
+    j["effective"] = {
+        {"limits_of", "klipper"},
+        {"max_z_velocity", effective_max_z_velocity_mm_s(m)},
+        {"max_z_accel", effective_max_z_accel_mm_s2(m)},
+        {"max_extrude_only_velocity", effective_max_extrude_only_velocity_mm_s(m)},
+        {"max_extrude_only_accel", effective_max_extrude_only_accel_mm_s2(m)},
+        {"max_extrude_cross_section", effective_max_extrude_cross_section_mm2(m)},
+        {"junction_deviation_at_max_accel",
+         klipper_junction_deviation_mm(m.square_corner_velocity_mm_s, m.max_accel_mm_s2)},
+    };
+  } else {
+    // Marlin and RepRapFirmware plan with their own limits: per-axis feed rates and
+    // accelerations (M203/M201), the retract acceleration for extrude-only moves (M204 R, within
+    // the E axis' M201), and the junction policy's own parameter; they do not check the
+    // extrusion cross-section. The same keys, the firmware's values (null where none applies).
+    j["effective"] = {
+        {"limits_of", std::string(to_string(m.firmware))},
+        {"max_z_velocity", m.max_feedrate_mm_s[2]},
+        {"max_z_accel", m.max_axis_accel_mm_s2[2]},
+        {"max_extrude_only_velocity", m.max_feedrate_mm_s[3]},
+        {"max_extrude_only_accel", std::min(m.retract_accel_mm_s2, m.max_axis_accel_mm_s2[3])},
+        {"max_extrude_cross_section", nullptr},
+        {"junction_deviation_at_max_accel",
+         m.junction == JunctionPolicy::junction_deviation ? Json(m.junction_deviation_mm) : Json(nullptr)},
+    };
+  }
   return j;
 }
 

@@ -9,6 +9,7 @@
 
 #include "amctl/core/input.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/machine/marlin.hpp"
 #include "schema.hpp"
 
 namespace amctl::machine {
@@ -38,14 +39,55 @@ bool looks_like_klipper(std::string_view text) {
   return printer;
 }
 
+/// A machine .toml file: as parse_machine_toml, but a file without a single setting (empty,
+/// or only comments such as a C header's #define lines) is an error, not the default machine.
+Machine parse_toml_file(const std::string& text, const std::string& spec) {
+  bool empty = false;
+  try {
+    empty = toml::parse(text, spec).empty();
+  } catch (const toml::parse_error&) {
+    // parse_machine_toml reports it with its place
+  }
+  if (empty) {
+    throw Error(SourceLocation{spec, 0, 0},
+                "found no setting (the file is empty or only comments), expected a machine "
+                "description: at least a [printer] section (docs/machine.md), a Klipper "
+                "printer.cfg, Marlin's M503 output or its Configuration.h");
+  }
+  return parse_machine_toml(text, spec);
+}
+
+/// Configuration.h, with Configuration_adv.h from the same directory when there is one.
+Machine load_marlin_configuration(const fs::path& path, const std::string& text,
+                                  const std::string& spec) {
+  std::string adv_text, adv_name;
+  if (path.filename() == "Configuration.h") {
+    const fs::path adv = path.parent_path() / "Configuration_adv.h";
+    std::error_code ec;
+    if (fs::is_regular_file(adv, ec)) {
+      std::ifstream in(adv, std::ios::binary);
+      std::ostringstream ss;
+      ss << in.rdbuf();
+      adv_text = ss.str();
+      adv_name = (fs::path(spec).parent_path() / "Configuration_adv.h").string();
+    }
+  }
+  return parse_marlin_configuration(text, spec, adv_text, adv_name);
+}
+
 Machine load_file(const fs::path& path, const std::string& spec) {
   InputOptions o;
   o.what = "machine file (.toml or Klipper printer.cfg)";
   o.max_bytes = kMaxMachineFileBytes;
   const std::string text = read_whole_input(spec, std::move(o));
   const std::string ext = lowercase(path.extension().string());
-  if (ext == ".toml") return parse_machine_toml(text, spec);
+  if (ext == ".toml") return parse_toml_file(text, spec);
   if (ext == ".cfg" || ext == ".conf" || ext == ".ini") return parse_klipper_cfg(text, spec);
+  // Marlin's own files, recognised by what they hold (docs/machine.md, "Marlin printers").
+  if (looks_like_m503(text)) return parse_marlin_m503(text, spec);
+  if (ext == ".h" || looks_like_marlin_configuration(text)) {
+    return load_marlin_configuration(path, text, spec);
+  }
   // No telling extension: TOML if it parses as TOML, else a Klipper config.
   bool is_toml = true;
   try {
@@ -53,7 +95,7 @@ Machine load_file(const fs::path& path, const std::string& spec) {
   } catch (const toml::parse_error&) {
     is_toml = false;
   }
-  if (is_toml || !looks_like_klipper(text)) return parse_machine_toml(text, spec);
+  if (is_toml || !looks_like_klipper(text)) return parse_toml_file(text, spec);
   return parse_klipper_cfg(text, spec);
 }
 

@@ -466,6 +466,14 @@ std::string to_toml(const Machine& machine) {
     // [dual_carriage] only for an IDEX.
     if (section == "dual_carriage" && m.dual_carriage == DualCarriage{}) continue;
     out += fmt::format("\n[{}]\n", section);
+    const bool klipper = m.firmware == Firmware::klipper;
+    if (section == "printer" && !klipper) {
+      out += fmt::format(
+          "# firmware = {0}: its limits are the [marlin] section's (M201/M203/M204/M205); the\n"
+          "# Klipper toolhead keys here (max_velocity, max_accel, square_corner_velocity,\n"
+          "# minimum_cruise_ratio, max_z_velocity, max_z_accel) are not read for {0}\n",
+          to_string(m.firmware));
+    }
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;
       const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
@@ -480,7 +488,9 @@ std::string to_toml(const Machine& machine) {
           } else if (d.section != "marlin" && d.section != "delta" &&
                      d.section != "dual_carriage" &&
                      d.key != "max_angular_velocity") {  // unset soft endstops, delta, IDEX, polar-only: nothing written
-            out += fmt::format("# {} is unset: Klipper's derived default applies\n", d.key);
+            out += klipper ? fmt::format("# {} is unset: Klipper's derived default applies\n", d.key)
+                           : fmt::format("# {} is unset (a Klipper key, not read for {})\n", d.key,
+                                         to_string(m.firmware));
           }
           break;
         case Kind::integer:

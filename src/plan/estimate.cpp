@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/machine/delta.hpp"
 #include "amctl/machine/linkage.hpp"
 
@@ -366,6 +368,25 @@ double time_without_exclusion(PlanSource& source, const machine::Machine& machin
   Sink* sinks[] = {&sink};
   run_pipeline(source, sinks);
   return sink.report().total_time_s;
+}
+
+std::vector<EstimateRow> estimate_files(const std::vector<std::string>& inputs,
+                                        const machine::Machine& machine,
+                                        const EstimateOptions& options) {
+  std::vector<EstimateRow> rows;
+  for (const std::string& file : formats::expand_gcode_inputs(inputs)) {
+    EstimateRow row;
+    row.file = file;
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      row.report = estimate_file(file, machine, options);
+    } catch (const Error& e) {
+      row.error = e.what();
+    }
+    row.compute_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    rows.push_back(std::move(row));
+  }
+  return rows;
 }
 
 EstimateReport estimate_file(const GcodeInput& input, const machine::Machine& machine,

@@ -9,6 +9,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/core/output.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/gcode/parser.hpp"
 #include "amctl/plan/estimate.hpp"
@@ -26,17 +27,25 @@ bool is_m73(std::string_view line) {
 
 std::size_t write_m73(const GcodeInput& input, const std::string& output_path,
                       const EstimateReport& report) {
+  for (const char* binary : {".bgcode", ".3mf", ".gz"}) {
+    if (output_path.ends_with(binary)) {
+      throw Error(SourceLocation{output_path, 0, 0},
+                  fmt::format("found an output name ending in {}, expected one for G-code text "
+                              "(.gcode): the M73 lines are written into text, whatever the input",
+                              binary));
+    }
+  }
   OutputOptions oo{"--write-m73", {input.path()}, {}};
   if (input.file() != nullptr && input.file()->identity()) oo.input_ids.push_back(*input.file()->identity());
   OutputFile out(output_path, oo);
   std::size_t written = 0;
   const double total = report.total_time_s;
-  std::optional<gcode::LineReader> own;
+  std::unique_ptr<gcode::LineReader> own;
   if (input.file() != nullptr) {
     if (input.file()->position() != 0) input.file()->rewind();
-    own.emplace(*input.file());
+    own = formats::open_gcode_reader(*input.file());
   } else {
-    own.emplace(input.path());
+    own = formats::open_gcode_reader(input.path());
   }
   gcode::LineReader& reader = *own;
   std::string eol = "\n";

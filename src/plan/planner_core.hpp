@@ -21,6 +21,14 @@
 
 namespace amctl::plan::detail {
 
+/// Adds a limits command to the report (file_limits.cpp); `acts`: the modelled firmware acts
+/// on it; `reprap`: M203 is in mm/min (RepRapFirmware).
+void tally_file_limits(const gcode::LimitsCommand& c, bool acts, bool reprap, FileLimitsReport& report);
+/// FileLimits::cap: lowers every speed, acceleration, jerk and junction limit of `lim` above
+/// the machine's to the machine's (minimum_cruise_ratio: raises it to the machine's). True
+/// when a value changed.
+bool cap_limits(Planner::Limits& lim, const Planner::Limits& machine);
+
 class PlannerCore {
  public:
   PlannerCore(const machine::Machine& machine, PlanSink& sink, PlannerOptions options);
@@ -120,6 +128,9 @@ class PlannerCore {
   // Last: large and read little per move (a few scalars), so the hot state above stays
   // compact whatever the machine description holds.
   machine::Machine machine_;
+  /// The machine's own limits (lim_ before any G-code changed it): the ceiling of
+  /// FileLimits::cap.
+  Planner::Limits machine_lim_{};
   machine::DeltaGeometry delta_geometry_{};
   machine::DeltesianGeometry deltesian_geometry_{};
   machine::RotaryDeltaGeometry rotary_geometry_{};

@@ -140,6 +140,8 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   max_cross_section_mm2_ = ex.max_extrude_cross_section_mm2.value_or(4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm);
   max_extrude_ratio_ = max_cross_section_mm2_ / filament_area_mm2_;
   update_derived_limits();
+  machine_lim_ = lim_;
+  diag_.file_limits.policy = opt_.file_limits;
 }
 
 void PlannerCore::update_derived_limits() {
@@ -152,7 +154,24 @@ void PlannerCore::update_derived_limits() {
 }
 
 void PlannerCore::on_limits(const gcode::LimitsCommand& c) {
-  apply_limits(c);
+  // Klipper acts on M204 and SET_VELOCITY_LIMIT only; Marlin and RepRapFirmware on the M-codes.
+  const bool klipper = machine_.firmware == Firmware::klipper;
+  const bool svl = c.source == gcode::LimitsCommand::Source::set_velocity_limit;
+  const bool acts = klipper ? (svl || c.source == gcode::LimitsCommand::Source::m204) : !svl;
+  tally_file_limits(c, acts, machine_.firmware == Firmware::reprap, diag_.file_limits);
+  if (!acts) return;
+  switch (opt_.file_limits) {
+    case FileLimits::keep:
+      apply_limits(c);
+      break;
+    case FileLimits::ignore:
+      ++diag_.file_limits.ignored;
+      return;
+    case FileLimits::cap:
+      apply_limits(c);
+      if (cap_limits(lim_, machine_lim_)) ++diag_.file_limits.capped;
+      break;
+  }
   update_derived_limits();
 }
 

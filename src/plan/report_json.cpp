@@ -109,9 +109,31 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
                   {"extrude_only_moves", r.diagnostics.extrude_only_moves},
                   {"zero_length_moves", r.diagnostics.zero_length_moves},
                   {"forced_flushes", r.diagnostics.forced_flushes}};
+  j["file_limits"] = to_json(r.diagnostics.file_limits);
   j["skipped_lines"] = r.skipped_lines;
   j["compute_time_s"] = compute_s;
   return j;
+}
+
+Json to_json(const FileLimitsReport& f) {
+  Json cmds = Json::array();
+  for (const auto& c : f.by_command) {
+    cmds.push_back({{"command", c.command}, {"lines", c.lines}, {"first_line", c.first_line},
+                    {"firmware_acts", c.firmware_acts}});
+  }
+  Json values = Json::array();
+  for (const auto& v : f.values) {
+    values.push_back({{"command", v.command}, {"parameter", v.parameter}, {"unit", v.unit},
+                      {"count", v.count}, {"first_line", v.first_line}, {"min", v.min},
+                      {"max", v.max}, {"values", v.values}, {"more_values", v.more_values}});
+  }
+  return {{"policy", std::string(to_string(f.policy))},
+          {"commands", f.commands},
+          {"other_firmware_commands", f.other_firmware_commands},
+          {"capped", f.capped},
+          {"ignored", f.ignored},
+          {"by_command", std::move(cmds)},
+          {"values", std::move(values)}};
 }
 
 std::vector<ProfileRun> compare_profiles(const GcodeInput& input, const machine::Machine& machine,
@@ -161,6 +183,20 @@ Json to_json(const std::vector<ProfileRun>& runs, const std::string& file,
   }
   j["profiles"] = arr;
   return j;
+}
+
+Json to_json(const std::vector<EstimateRow>& rows, const machine::Machine& machine) {
+  Json files = Json::array();
+  for (const EstimateRow& r : rows) {
+    if (r.report) {
+      Json j = to_json(*r.report, machine, r.compute_time_s);
+      j["no_moves"] = r.no_moves();
+      files.push_back(std::move(j));
+    } else {
+      files.push_back(Json{{"file", r.file}, {"error", r.error}});
+    }
+  }
+  return Json{{"machine", machine.name}, {"files", std::move(files)}};
 }
 
 }  // namespace amctl::plan

@@ -1,8 +1,12 @@
 #include "amctl/plan/stream.hpp"
 
+#include <cerrno>
 #include <utility>
 
+#include <sys/stat.h>
+
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 
 namespace amctl::plan {
@@ -150,14 +154,18 @@ namespace {
 
 std::unique_ptr<gcode::LineReader> open_reader(const GcodeInput& input) {
   InputFile* f = input.file();
-  if (f == nullptr) return std::make_unique<gcode::LineReader>(input.path());
+  if (f == nullptr) return formats::open_gcode_reader(input.path());
   if (f->position() != 0) f->rewind();
-  return std::make_unique<gcode::LineReader>(*f);
+  return formats::open_gcode_reader(*f);
 }
 
 }  // namespace
 
-RewindableGcode::RewindableGcode(const GcodeInput& input) : file_(input.file()) {
+RewindableGcode::RewindableGcode(const GcodeInput& input) : path_(input.path()), file_(input.file()) {
+  struct stat st {};
+  if (file_ == nullptr && path_ != "-" && ::stat(path_.c_str(), &st) != 0 && errno == ENOTDIR) {
+    return;  // a member of an archive (or an error the reader names when it opens the path)
+  }
   if (file_ == nullptr) {
     owned_ = std::make_unique<InputFile>(input.path(), gcode::gcode_input_options(true));
     file_ = owned_.get();
@@ -180,10 +188,18 @@ bool PlanSource::next(PlanBatch& batch) {
   try {
     impl_->fill(batch);
   } catch (const Error& e) {
-    // Errors raised below the interpreter (planner, limits) know the line but not the file.
-    if (e.where().file.empty() && e.where().line != 0) {
-      throw Error(SourceLocation{impl_->reader->name(), e.where().line, e.where().column},
-                  e.detail());
+    // Errors raised below the interpreter (planner, limits) know the line but not the file;
+    // a line decoded from a container (binary G-code, a 3MF plate) also says where it was.
+    const bool no_file = e.where().file.empty() && e.where().line != 0;
+    const bool this_file = e.where().file == impl_->reader->name() && e.where().line != 0;
+    if (no_file || this_file) {
+      const std::string origin = e.where().line == impl_->reader->line_number()
+                                     ? impl_->reader->origin_of_line()
+                                     : std::string();
+      if (no_file || !origin.empty()) {
+        throw Error(SourceLocation{impl_->reader->name(), e.where().line, e.where().column},
+                    origin.empty() ? e.detail() : e.detail() + " (in " + origin + ")");
+      }
     }
     throw;
   }

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/events.hpp"
 #include "amctl/gcode/interpreter.hpp"
 #include "amctl/gcode/line_reader.hpp"
@@ -173,8 +174,8 @@ GcodeTimeScan scan_gcode_for_time(std::string_view text, const std::string& name
 }
 
 GcodeTimeScan scan_gcode_file_for_time(const std::string& path, const ScanOptions& o) {
-  gcode::LineReader reader(path);
-  return run_scan(reader, o);
+  const auto reader = formats::open_gcode_reader(path);
+  return run_scan(*reader, o);
 }
 
 void EmpiricalTimeModel::validate() const {

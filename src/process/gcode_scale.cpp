@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/core/output.hpp"
 
@@ -354,7 +355,8 @@ GcodeExtent gcode_extrusion_extent(const std::string& path) {
 GcodeExtent gcode_extrusion_extent(InputFile& input) {
   if (input.position() != 0) input.rewind();
   const std::string& path = input.name();
-  gcode::LineReader reader(input);
+  const auto reader_ptr = formats::open_gcode_reader(input);
+  gcode::LineReader& reader = *reader_ptr;
   GcodeScaler scan(ScaleMap{}, GcodeScaleOptions{}, path);
   std::string sink;
   std::string_view line;
@@ -379,7 +381,8 @@ GcodeScaleReport scale_gcode_file(InputFile& input, const std::string& output, c
   if (input.identity()) oo.input_ids.push_back(*input.identity());
   OutputFile writer(output, oo);  // first: an output that is the input fails before reading
   if (input.position() != 0) input.rewind();
-  gcode::LineReader reader(input);
+  const auto reader_ptr = formats::open_gcode_reader(input);
+  gcode::LineReader& reader = *reader_ptr;
   GcodeScaler scaler(map, options, input.name());
   constexpr std::size_t kFlushBytes = 1u << 20;
   std::string buf;

@@ -171,16 +171,17 @@ std::vector<CalibrationParameter> limit_parameters(const machine::Machine& m,
 DurationEstimator planner_duration_estimator(const machine::Machine& base,
                                              const std::vector<std::string>& names,
                                              const std::vector<PrintTiming>& timings,
-                                             bool keep_file_limits) {
+                                             plan::FileLimits file_limits) {
   for (const auto& n : names) (void)get_limit(base, n);
   // Load each distinct file once.
   auto texts = std::make_shared<std::map<std::string, std::string>>();
   for (const auto& t : timings) {
     if (texts->count(t.gcode_path)) continue;
-    std::string g = read_file_bytes(t.gcode_path, "G-code file", 1ull << 30);
-    (*texts)[t.gcode_path] = keep_file_limits ? std::move(g) : strip_limit_commands(g);
+    (*texts)[t.gcode_path] = read_file_bytes(t.gcode_path, "G-code file", 1ull << 30);
   }
-  return [base, names, timings, texts](const std::vector<double>& p) {
+  plan::EstimateOptions options;
+  options.planner.file_limits = file_limits;
+  return [base, names, timings, texts, options](const std::vector<double>& p) {
     machine::Machine m = base;
     for (std::size_t i = 0; i < names.size(); ++i) set_limit(m, names[i], p[i]);
     std::map<std::string, plan::EstimateReport> reports;
@@ -189,7 +190,7 @@ DurationEstimator planner_duration_estimator(const machine::Machine& base,
       auto it = reports.find(t.gcode_path);
       if (it == reports.end()) {
         it = reports.emplace(t.gcode_path,
-                             plan::estimate_text(texts->at(t.gcode_path), t.gcode_path, m)).first;
+                             plan::estimate_text(texts->at(t.gcode_path), t.gcode_path, m, options)).first;
       }
       const auto& r = it->second;
       if (!t.layer) {

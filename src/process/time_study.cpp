@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
 #include "amctl/process/csv.hpp"
 #include "amctl/process/json_file.hpp"
 
@@ -112,6 +114,15 @@ EmpiricalEstimate estimate_empirical(const std::string& gcode_path, const std::s
   e.params = read_empirical_params(params_path);
   e.scan = scan_gcode_file_for_time(gcode_path, e.params.scan);
   e.total_time_s = e.params.model.estimate_s(e.scan.total);
+  e.params_file = params_path;
+  if (params_path.empty()) {
+    e.caveat = fmt::format(
+        "uncalibrated: no --params, so these are the average head speeds measured on a Stratasys FDM "
+        "2000 in the UTFPR process-planning study (rasters {:.2f} mm/s), not this printer's; calibrate "
+        "on a few timed prints (amctl calibrate-time TIMES.csv --mode empirical --save P.json) and pass "
+        "--params P.json, or use the planner (the default mode)",
+        e.params.model.raster_speed_mm_s);
+  }
   return e;
 }
 
@@ -130,6 +141,8 @@ Json empirical_estimate_json(const EmpiricalEstimate& e) {
                       {"time_terms_s", terms}};
   return {{"file", e.file},
           {"mode", "empirical"},
+          {"params_file", e.params_file.empty() ? Json(nullptr) : Json(e.params_file)},
+          {"caveat", e.caveat.empty() ? Json(nullptr) : Json(e.caveat)},
           {"total_time_s", e.total_time_s},
           {"model", empirical_params_json(m, e.params.scan)},
           {"features", features},
@@ -143,9 +156,9 @@ std::string empirical_estimate_text(const EmpiricalEstimate& e) {
   const double t = e.total_time_s;
   const auto& f = e.scan.total;
   return fmt::format("{}: empirical {:.1f} s ({:.2f} min); raster {:.0f} mm, links {:.0f} mm, "
-                     "contour {:.0f} mm, travel {:.0f} mm, {} layers\n",
+                     "contour {:.0f} mm, travel {:.0f} mm, {} layers\n{}",
                      e.file, t, t / 60, f.raster_mm, f.link_mm, f.contour_mm, f.travel_mm,
-                     e.scan.layers.size());
+                     e.scan.layers.size(), e.caveat.empty() ? "" : "  caveat: " + e.caveat + "\n");
 }
 
 TimeCalibration calibrate_empirical_time(const EmpiricalCalibrationRequest& q) {
@@ -198,12 +211,24 @@ TimeCalibration calibrate_planner_time(const PlannerCalibrationRequest& q) {
   for (const auto& t : c.timings) c.measured_s.push_back(t.duration_s);
   const auto names = q.limits.empty() ? default_limits_for(q.machine) : q.limits;
   c.start = limit_parameters(q.machine, names);
-  const auto est = planner_duration_estimator(q.machine, names, c.timings, q.keep_file_limits);
+  const auto est = planner_duration_estimator(q.machine, names, c.timings, q.file_limits);
   CalibrationOptions co;
   co.relative = !q.absolute;
   c.planner = calibrate_durations(est, c.measured_s, c.start, co);
   c.calibrated = q.machine;
   for (std::size_t i = 0; i < names.size(); ++i) set_limit(c.calibrated, names[i], c.planner->values[i]);
+  // What the files' own limits commands were (they override the fitted limits under keep).
+  c.file_limits = q.file_limits;
+  std::set<std::string> seen;
+  plan::EstimateOptions eo;
+  eo.planner.file_limits = q.file_limits;
+  for (const auto& t : c.timings) {
+    if (!seen.insert(t.gcode_path).second) continue;
+    const auto n = plan::estimate_file(t.gcode_path, c.calibrated, eo).diagnostics.file_limits.commands;
+    c.file_limit_commands += n;
+    if (n > 0) ++c.files_setting_limits;
+  }
+  c.files = seen.size();
   return c;
 }
 
@@ -241,6 +266,10 @@ Json time_calibration_json(const TimeCalibration& c) {
                                {"identifiable", static_cast<bool>(r.identifiable[i])}});
   }
   j["correlation"] = r.correlation;
+  j["file_limits"] = {{"policy", std::string(plan::to_string(c.file_limits))},
+                      {"commands", c.file_limit_commands},
+                      {"files_setting_limits", c.files_setting_limits},
+                      {"files", c.files}};
   for (std::size_t i = 0; i < c.timings.size(); ++i) {
     j["samples"].push_back({{"gcode", c.timings[i].gcode_path},
                             {"layer", layer_json(c.timings[i].layer)},
@@ -277,6 +306,24 @@ std::string time_calibration_text(const TimeCalibration& c) {
     s += fmt::format("  {:<13} {:10.4g}  +- {:<9.3g} 95% CI [{:.4g}, {:.4g}]{}\n", r.names[i],
                      r.values[i], r.std_errors[i], r.ci_lo[i], r.ci_hi[i],
                      r.identifiable[i] ? "" : "  (no effect on these prints: not fitted)");
+  }
+  if (c.file_limit_commands > 0) {
+    switch (c.file_limits) {
+      case plan::FileLimits::keep:
+        s += fmt::format("  the files set limits of their own ({} commands in {} of {} files): kept, "
+                         "as the firmware does, they override the fitted limits while they last "
+                         "(--file-limits cap or ignore to fit the machine's ceiling)\n",
+                         c.file_limit_commands, c.files_setting_limits, c.files);
+        break;
+      case plan::FileLimits::ignore:
+        s += fmt::format("  the files' own limits ({} commands in {} of {} files) ignored "
+                         "(--file-limits ignore)\n", c.file_limit_commands, c.files_setting_limits, c.files);
+        break;
+      case plan::FileLimits::cap:
+        s += fmt::format("  the files' own limits ({} commands in {} of {} files) capped at the "
+                         "fitted ones (--file-limits cap)\n", c.file_limit_commands, c.files_setting_limits, c.files);
+        break;
+    }
   }
   for (std::size_t i = 0; i < c.timings.size(); ++i) {
     const auto& t = c.timings[i];

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <fmt/format.h>
@@ -52,10 +53,11 @@ std::int64_t round_to(double v, double unit) {
 }
 
 Json speed_json(const SpeedLodSink& lod) {
-  Json vmin = Json::array(), vmax = Json::array(), feat = Json::array();
+  Json vmin = Json::array(), vmax = Json::array(), vmean = Json::array(), feat = Json::array();
   for (const SpeedBucket& b : lod.buckets()) {
     vmin.push_back(round_to(b.min_speed_mm_s, 0.1));
     vmax.push_back(round_to(b.max_speed_mm_s, 0.1));
+    vmean.push_back(round_to(b.distance_mm / lod.bucket_s(), 0.1));
     feat.push_back(b.dominant_feature());
   }
   return Json{{"bucket_s", lod.bucket_s()},
@@ -64,8 +66,23 @@ Json speed_json(const SpeedLodSink& lod) {
               {"unit", "0.1 mm/s"},
               {"min_speed", std::move(vmin)},
               {"max_speed", std::move(vmax)},
+              {"mean_speed", std::move(vmean)},
               {"feature", std::move(feat)}};
 }
+
+/// The print's own heater targets: the first non-zero target of each heater (M104/M109 for
+/// the hotend, M140/M190 for the bed), for the heater section's study.
+class HeaterTargets final : public plan::Sink {
+ public:
+  void consume(const plan::PlanBatch& batch) override {
+    for (const plan::PlanEvent& e : batch.events) {
+      if (e.kind != plan::PlanEvent::Kind::heater || !(e.heater.target_c > 0.0)) continue;
+      auto& slot = e.heater.kind == gcode::HeaterCommand::Kind::bed ? bed_c : hotend_c;
+      if (!slot) slot = e.heater.target_c;
+    }
+  }
+  std::optional<double> hotend_c, bed_c;
+};
 
 Json toolpath_json(const ToolpathSink& tp, bool with_error) {
   Json layers = Json::array();
@@ -151,14 +168,20 @@ Json accel_json(const ReportOptions& options) {
 /// The heater section: the study of `amctl thermal hotend|bed` (its JSON) and, per controller,
 /// the trace decimated to at most 1500 points (every k-th step; the scenario's 0.1 s steps
 /// would be 3600 points a run).
-Json thermal_json(const std::string& which) {
+Json thermal_json(const std::string& which, std::optional<double> print_target_c) {
   if (which != "hotend" && which != "bed") {
     throw Error(fmt::format("thermal section must be 'hotend' or 'bed', got '{}'", which));
   }
-  const thermal::HeaterStudy s = thermal::run_heater_study(
-      which == "bed" ? thermal::HeaterStudyOptions::bed_defaults() : thermal::HeaterStudyOptions::hotend());
+  thermal::HeaterStudyOptions o =
+      which == "bed" ? thermal::HeaterStudyOptions::bed_defaults() : thermal::HeaterStudyOptions::hotend();
+  const double study_default_c = o.target_c;
+  if (print_target_c) o.target_c = *print_target_c;
+  const thermal::HeaterStudy s = thermal::run_heater_study(o);
   Json t = thermal::to_json(s);
   t["heater"] = which;
+  t["target_from"] = print_target_c ? "the print (its first " + which + " temperature)"
+                                    : fmt::format("the study's default ({:g} C): the print sets no {} temperature",
+                                                  study_default_c, which);
   t["target_c"] = s.scenario.target_c;
   t["fan_on_at_s"] = s.scenario.fan_on_at_s;
   t["flow_start_s"] = s.scenario.flow_start_s;
@@ -182,11 +205,16 @@ Json report_data(const std::string& path, const machine::Machine& machine,
   const auto t0 = std::chrono::steady_clock::now();
   plan::SourceOptions so;
   so.strict = options.strict;
+  so.planner.file_limits = options.file_limits;
   plan::PlanSource source(path, machine, so);
   plan::EstimateSink estimate(machine);
   SpeedLodSink lod(options.speed_buckets);
+  std::optional<SpeedLodSink> fine;
+  if (options.fine_speed_buckets > options.speed_buckets) fine.emplace(options.fine_speed_buckets);
   ToolpathSink toolpath(options.toolpath);
-  std::vector<plan::Sink*> sinks{&estimate, &lod, &toolpath};
+  HeaterTargets targets;
+  std::vector<plan::Sink*> sinks{&estimate, &lod, &toolpath, &targets};
+  if (fine) sinks.push_back(&*fine);
 
   std::unique_ptr<OptionalSimulation> sim;
   std::optional<dynamics::AxisModel> model;
@@ -214,6 +242,9 @@ Json report_data(const std::string& path, const machine::Machine& machine,
   d["estimate"] = plan::to_json(estimate.report(), machine, compute_s);
   d["feature_names"] = summary.feature_names;
   d["speed"] = speed_json(lod);
+  // Finer buckets for zoomed views, only where they add detail (a print shorter than the
+  // coarse level's finest width gains nothing).
+  d["speed_fine"] = fine && fine->bucket_s() < lod.bucket_s() ? speed_json(*fine) : Json(nullptr);
   const bool simulated = sim && sim->ran();
   d["toolpath"] = toolpath_json(toolpath, simulated);
   d["no_moves"] = estimate.report().moves == 0;
@@ -227,7 +258,9 @@ Json report_data(const std::string& path, const machine::Machine& machine,
     d["quality"] = nullptr;
   }
   d["accel"] = options.accel_path.empty() ? Json(nullptr) : accel_json(options);
-  d["thermal"] = options.thermal.empty() ? Json(nullptr) : thermal_json(options.thermal);
+  d["thermal"] = options.thermal.empty()
+                     ? Json(nullptr)
+                     : thermal_json(options.thermal, options.thermal == "bed" ? targets.bed_c : targets.hotend_c);
   return d;
 }
 

@@ -152,14 +152,19 @@ if (unk.length) {
 } else $("unknown").append(el("p", {class: "sub"}, "No unknown commands."));
 
 // ---------------------------------------------------------------- speed over time
+// Two levels of detail: the whole print in a few thousand buckets, and (for long prints) a
+// finer level used once the view is short enough that the coarse buckets are wider than a
+// pixel. Each bucket: the min-max band of the speed and its mean (distance / width).
 const S = D.speed, NB = S.max_speed.length, BW = S.bucket_s, TEND = Math.max(S.end_time_s, NB * BW * 1e-9);
+const SF = D.speed_fine || null;
 let vTop = 10; for (let k = 0; k < NB; k++) vTop = Math.max(vTop, S.max_speed[k] / 10);
+function levelFor(span, pw) { return SF && span / BW < pw ? SF : S; }
 vTop = Math.ceil(vTop / niceStep(vTop, 5)) * niceStep(vTop, 5);
 const view = {t0: 0, t1: Math.max(TEND, 1e-3)};
 // An address ending in #t=A-B opens the speed plot on print times A..B [s] (a view to share).
 const hashView = /^#t=([0-9.]+)-([0-9.]+)$/.exec(window.location.hash);
 if (hashView && Number(hashView[2]) > Number(hashView[1])) { view.t0 = Number(hashView[1]); view.t1 = Number(hashView[2]); }
-const minSpan = Math.max(BW * 16, 1e-3);
+const minSpan = Math.max((SF ? SF.bucket_s : BW) * 16, 1e-3);
 function clampView() {
   let span = Math.min(Math.max(view.t1 - view.t0, minSpan), Math.max(TEND, minSpan));
   let t0 = Math.max(0, Math.min(view.t0, Math.max(TEND, minSpan) - span));
@@ -184,35 +189,42 @@ function drawSpeed() {
   const vs = niceStep(vTop, 5);
   for (let v = 0; v <= vTop + 1e-9; v += vs) { const y = Math.round(yOf(v)) + 0.5; g.beginPath(); g.moveTo(PAD.l, y); g.lineTo(PAD.l + pw, y); g.stroke(); g.fillText(v.toFixed(0), PAD.l - 4, y + 4); }
   g.save(); g.translate(11, PAD.t + ph / 2); g.rotate(-Math.PI / 2); g.textAlign = "center"; g.fillText("speed [mm/s]", 0, 0); g.restore();
-  // min/max band, one pixel column at a time, from the buckets under it
-  if (NB > 0) {
+  // The min-max band (light) and the mean speed (a dark line) of the buckets under each pixel
+  // column: at whole-print zoom a column holds seconds of print, whose band spans standing
+  // still to top speed, while the mean shows how fast the print actually went.
+  const Lv = levelFor(view.t1 - view.t0, pw), nb = Lv.max_speed.length, bw = Lv.bucket_s;
+  if (nb > 0) {
+    g.beginPath(); let started = false;
     for (let px = 0; px < pw; px++) {
       const ta = view.t0 + px / pw * (view.t1 - view.t0), tb = view.t0 + (px + 1) / pw * (view.t1 - view.t0);
-      let ka = Math.floor(ta / BW), kb = Math.ceil(tb / BW) - 1; if (kb < ka) kb = ka;
-      if (ka >= NB || ta >= TEND) break;
-      kb = Math.min(kb, NB - 1);
-      let lo = Infinity, hi = -Infinity, best = -1, bestHi = -1;
-      for (let k = ka; k <= kb; k++) { lo = Math.min(lo, S.min_speed[k]); hi = Math.max(hi, S.max_speed[k]); if (S.max_speed[k] > bestHi) { bestHi = S.max_speed[k]; best = S.feature[k]; } }
-      const ya = yOf(hi / 10), yb = yOf(lo / 10);
-      g.fillStyle = "#1f77b4"; g.fillRect(PAD.l + px, ya - 1, 1, Math.max(2, yb - ya + 1));
-      g.fillStyle = fcolor(S.feature[ka] >= 0 ? S.feature[ka] : best); g.fillRect(PAD.l + px, PAD.t + ph + 2, 1, 9);
+      let ka = Math.floor(ta / bw), kb = Math.ceil(tb / bw) - 1; if (kb < ka) kb = ka;
+      if (ka >= nb || ta >= TEND) break;
+      kb = Math.min(kb, nb - 1);
+      let lo = Infinity, hi = -Infinity, best = -1, bestHi = -1, sum = 0;
+      for (let k = ka; k <= kb; k++) { lo = Math.min(lo, Lv.min_speed[k]); hi = Math.max(hi, Lv.max_speed[k]); sum += Lv.mean_speed[k]; if (Lv.max_speed[k] > bestHi) { bestHi = Lv.max_speed[k]; best = Lv.feature[k]; } }
+      const ya = yOf(hi / 10), yb = yOf(lo / 10), ym = yOf(sum / (kb - ka + 1) / 10);
+      g.fillStyle = "#a9c8e4"; g.fillRect(PAD.l + px, ya - 1, 1, Math.max(2, yb - ya + 1));
+      if (!started) { g.moveTo(PAD.l + px + 0.5, ym); started = true; } else g.lineTo(PAD.l + px + 0.5, ym);
+      g.fillStyle = fcolor(Lv.feature[ka] >= 0 ? Lv.feature[ka] : best); g.fillRect(PAD.l + px, PAD.t + ph + 2, 1, 9);
     }
+    g.strokeStyle = "#0b4f8a"; g.lineWidth = 1.5; g.stroke(); g.lineWidth = 1;
   }
   g.strokeStyle = "#8a93a0"; g.strokeRect(PAD.l + 0.5, PAD.t + 0.5, pw, ph);
   // time axis
   g.textAlign = "center"; g.fillStyle = "#5d6675";
   const span = view.t1 - view.t0, ts = niceTimeStep(span, Math.max(2, pw / 110));
   for (let t = Math.ceil(view.t0 / ts) * ts; t <= view.t1 + 1e-9; t += ts) { const x = xOf(t); g.fillRect(x, PAD.t + ph + 12, 1, 4); g.fillText(fmtClock(t, ts), x, PAD.t + ph + 27); }
-  g.fillText("print time (h:mm:ss); strip: the feature printed", PAD.l + pw / 2, h - 3);
-  $("zinfo").textContent = fmtClock(view.t0, span) + " \u2013 " + fmtClock(view.t1, span) + " (" + fmtTime(span) + " shown; " + NB + " buckets of " + fmtTime(BW) + ")";
+  g.fillText("print time (h:mm:ss); band: min-max speed, line: mean speed; strip: the feature printed", PAD.l + pw / 2, h - 3);
+  $("zinfo").textContent = fmtClock(view.t0, span) + " \u2013 " + fmtClock(view.t1, span) + " (" + fmtTime(span) + " shown; buckets of " + fmtTime(bw) + (Lv === SF ? ", the finer level" : "") + ")";
 }
 // What is under the pointer: the bucket's time, speeds, feature and layer.
 function readout(clientX) {
-  const t = timeAtX(clientX), k = Math.floor(t / BW);
-  if (!(k >= 0 && k < NB) || t > TEND) { $("sread").textContent = "\u00a0"; return; }
+  const r = spc.getBoundingClientRect(), Lv = levelFor(view.t1 - view.t0, r.width - PAD.l - PAD.r);
+  const t = timeAtX(clientX), k = Math.floor(t / Lv.bucket_s);
+  if (!(k >= 0 && k < Lv.max_speed.length) || t > TEND) { $("sread").textContent = "\u00a0"; return; }
   const li = E.layers.findIndex((l) => t >= l.start_s && t < l.start_s + l.time_s);
-  $("sread").textContent = "at " + fmtClock(t, 1) + ": " + (S.min_speed[k] / 10).toFixed(1) + "\u2013" + (S.max_speed[k] / 10).toFixed(1) + " mm/s, " +
-    (S.feature[k] >= 0 ? fname(S.feature[k]) : "standing still") + (li >= 0 ? ", layer " + E.layers[li].layer : "");
+  $("sread").textContent = "at " + fmtClock(t, 1) + ": " + (Lv.min_speed[k] / 10).toFixed(1) + "\u2013" + (Lv.max_speed[k] / 10).toFixed(1) + " mm/s, mean " + (Lv.mean_speed[k] / 10).toFixed(1) + " mm/s, " +
+    (Lv.feature[k] >= 0 ? fname(Lv.feature[k]) : "standing still") + (li >= 0 ? ", layer " + E.layers[li].layer : "");
 }
 clampView();
 function zoomAt(t, f) { const a = view.t0, b = view.t1; view.t0 = t - (t - a) * f; view.t1 = t + (b - t) * f; clampView(); drawSpeed(); }
@@ -260,6 +272,7 @@ function drawLayers() {
   const ls = Math.max(1, niceStep(L.length, Math.max(2, pw / 60)));
   for (let i = 0; i < L.length; i += ls) g.fillText(String(L[i].layer), P.l + (i + 0.5) * bw, P.t + ph + 14);
   g.fillText("layer (click a bar to show its toolpath)", P.l + pw / 2, h - 2);
+  if (!L.length) { g.font = "14px system-ui, sans-serif"; g.fillText("no layers: the file marks no layer changes and prints nothing", P.l + pw / 2, P.t + ph / 2); }
   if (L.length) { let s = 0; L.forEach((l, i) => { if (l.time_s > L[s].time_s) s = i; }); $("layerinfo").textContent = "slowest layer " + L[s].layer + ": " + fmtTime(L[s].time_s) + "; selected layer " + L[selLayer].layer + ": " + fmtTime(L[selLayer].time_s); }
 }
 $("layers").addEventListener("click", (e) => { const r = $("layers").getBoundingClientRect(); const i = Math.floor((e.clientX - r.left - 46) / ((r.width - 54) / Math.max(1, E.layers.length))); if (i >= 0 && i < E.layers.length) selectLayerNumber(E.layers[i].layer); });
@@ -282,12 +295,14 @@ const upper = layersTP.some((L) => L.meta.layer >= 1);
 layersTP.forEach((L) => { const k = L.meta.kind, inFrame = !upper || L.meta.layer >= 1; for (let i = 1; i < k.length; i++) if (k[i] >= 0) {
   if (inFrame) for (const j of [i - 1, i]) { bb[0] = Math.min(bb[0], L.x[j]); bb[1] = Math.min(bb[1], L.y[j]); bb[2] = Math.max(bb[2], L.x[j]); bb[3] = Math.max(bb[3], L.y[j]); }
   vMaxTP = Math.max(vMaxTP, L.meta.speed[i]); if (L.meta.error_um) eMaxTP = Math.max(eMaxTP, L.meta.error_um[i]); } });
+const extrudes = isFinite(bb[0]);
+if (!extrudes) layersTP.forEach((L) => { for (let i = 0; i < L.x.length; i++) { bb[0] = Math.min(bb[0], L.x[i]); bb[1] = Math.min(bb[1], L.y[i]); bb[2] = Math.max(bb[2], L.x[i]); bb[3] = Math.max(bb[3], L.y[i]); } });
 if (isFinite(bb[0])) { const mx = 0.08 * Math.max(bb[2] - bb[0], bb[3] - bb[1], 1); bb = [bb[0] - mx, bb[1] - mx, bb[2] + mx, bb[3] + mx]; }
-if (!isFinite(bb[0])) layersTP.forEach((L) => { for (let i = 0; i < L.x.length; i++) { bb[0] = Math.min(bb[0], L.x[i]); bb[1] = Math.min(bb[1], L.y[i]); bb[2] = Math.max(bb[2], L.x[i]); bb[3] = Math.max(bb[3], L.y[i]); } });
 if (Q) { const o = el("option", {value: "error"}, "colour: contour error"); $("cmode").append(o); $("cmode").value = "error"; }
 const qLayer = new Map(); if (Q) (Q.layers || []).forEach((l) => qLayer.set(l.layer, l));
 const slider = $("lslider"); slider.max = String(Math.max(0, layersTP.length - 1));
 let cur = Math.floor(layersTP.length / 2); slider.value = String(cur);
+if (layersTP[cur] && layersTP[cur].meta.layer < 0 && layersTP.length > 1) { cur = 1; slider.value = "1"; }
 function selectLayerNumber(n) { const i = layersTP.findIndex((L) => L.meta.layer === n); if (i >= 0) { cur = i; slider.value = String(i); drawToolpath(); } }
 function drawToolpath() {
   const cv = $("toolpath"); const {g, w, h} = prep(cv, Math.round(Math.min(560, Math.max(260, cv.clientWidth * 0.8))));
@@ -300,8 +315,8 @@ function drawToolpath() {
   g.strokeStyle = "#e1e4ea"; g.strokeRect(X(bb[0]) - 4.5, Y(bb[3]) - 4.5, s * sx + 9, s * sy + 9);
   g.save(); g.beginPath(); g.rect(X(bb[0]) - 4, Y(bb[3]) - 4, s * sx + 8, s * sy + 8); g.clip();
   g.lineCap = "round"; g.lineJoin = "round";
-  // travel first, thin and grey
-  g.strokeStyle = "#b8bec8"; g.lineWidth = 0.6; g.beginPath();
+  // travel first, thin and grey (darker and wider when the file has nothing else)
+  g.strokeStyle = extrudes ? "#b8bec8" : "#6b7480"; g.lineWidth = extrudes ? 0.6 : 1.4; g.beginPath();
   for (let i = 1; i < m.kind.length; i++) if (m.kind[i] === -1) { g.moveTo(X(L.x[i - 1]), Y(L.y[i - 1])); g.lineTo(X(L.x[i]), Y(L.y[i])); }
   g.stroke();
   g.lineWidth = Math.max(1.2, Math.min(3, 0.45 * s));
@@ -314,10 +329,17 @@ function drawToolpath() {
   }
   g.restore();
   $("grad").style.background = gradCss;
-  $("gmin").textContent = byErr ? "0 \u00b5m" : "0 mm/s";
-  $("gmax").textContent = byErr ? (top / 1000).toFixed(3) + " mm contour error" : top.toFixed(0) + " mm/s";
+  $("gmin").textContent = !extrudes ? "" : byErr ? "0 \u00b5m" : "0 mm/s";
+  $("gmax").textContent = !extrudes ? "no extrusion: travel only" : byErr ? (top / 1000).toFixed(3) + " mm contour error" : top.toFixed(0) + " mm/s";
+  $("grad").style.visibility = extrudes ? "visible" : "hidden";
   const lt = E.layers.find((l) => l.layer === m.layer);
-  let info = "layer " + m.layer + " (" + (cur + 1) + " of " + layersTP.length + "), z " + m.z_mm.toFixed(2) + " mm, " + m.moves + " XY moves drawn as " + m.kind.length + " points";
+  // Layer numbers as the summary counts them: the moves before the first layer (start G-code,
+  // purge line) are shown apart, not as one more layer.
+  const numbered = layersTP.filter((x) => x.meta.layer >= 0).length;
+  let info = (m.layer < 0 ? (numbered ? "before the first layer (start G-code, purge line)" : "every move (the file marks no layers)")
+                          : "layer " + m.layer + " (" + (layersTP.filter((x) => x.meta.layer >= 0 && x.meta.layer <= m.layer).length) + " of " + numbered + ")") +
+             ", z " + m.z_mm.toFixed(2) + " mm, " + m.moves + " XY moves drawn as " + m.kind.length + " points";
+  if (!extrudes) info += "; no extrusion in the file: travel moves only";
   if (lt) info += ", " + fmtTime(lt.time_s);
   if (m.tolerance_mm > TP.tolerance_mm) info += "; thinned to " + m.tolerance_mm.toFixed(2) + " mm to stay under the cap";
   if (m.truncated) info += "; cut short at the point cap";
@@ -341,7 +363,7 @@ if (Q) {
   (Q.features || []).forEach((f) => { const r = el("tr"); r.append(el("td", null, String(f.feature)), el("td", null, (f.max_contour_error_mm * 1000).toFixed(1)), el("td", null, (f.rms_contour_error_mm * 1000).toFixed(1))); t.append(r); });
   $("qtable").append(t);
 }
-$("footer").textContent = "Speed: " + NB + " buckets (min and max per bucket); toolpath: " + TP.points + " points from " + TP.moves + " XY moves, decimated at " + TP.tolerance_mm + " mm. Computed in " + E.compute_time_s.toFixed(3) + " s.";
+$("footer").textContent = "Speed: " + NB + " buckets of " + fmtTime(BW) + (SF ? " and, zoomed in, " + SF.max_speed.length + " of " + fmtTime(SF.bucket_s) : "") + " (min, max and mean per bucket); toolpath: " + TP.points + " points from " + TP.moves + " XY moves, decimated at " + TP.tolerance_mm + " mm. Computed in " + E.compute_time_s.toFixed(3) + " s.";
 
 // The accelerometer section (D.accel, from resonance::calibrate_file): the normalised PSD of
 // each axis and their sum (left scale), every shaper Klipper fitted as the fraction of
@@ -398,6 +420,7 @@ const TH = D.thermal;
 if (TH) {
   $("thermal-section").hidden = false;
   $("thtitle").textContent = "Heater loop (" + TH.heater + ", set point " + TH.target_c + " \u00b0C; fan at " + TH.fan_on_at_s + " s, flow from " + TH.flow_start_s + " s)";
+  if (TH.target_from) $("thtable").append(el("p", {class: "sub"}, "Set point: " + TH.target_from + "."));
   const t = el("table"); const hr = el("tr");
   ["controller", "heat-up [s]", "overshoot [K]", "fan step max dev. [K]", "flow ripple [K]", "energy [kJ]"].forEach((x) => hr.append(el("th", null, x))); t.append(hr);
   (TH.runs || []).forEach((r) => { const tr = el("tr"); tr.append(el("td", null, r.controller), el("td", null, Number(r.heat_up_time_s).toFixed(1)), el("td", null, Number(r.overshoot_k).toFixed(2)), el("td", null, Number(r.fan_max_dev_k).toFixed(2)), el("td", null, Number(r.flow_ripple_k).toFixed(2)), el("td", null, (Number(r.energy_j) / 1000).toFixed(1))); t.append(tr); });

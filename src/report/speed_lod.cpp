@@ -55,6 +55,7 @@ void SpeedLodSink::grow_to(double t_s) {
         d.max_speed_mm_s = std::max(d.max_speed_mm_s, s.max_speed_mm_s);
       }
       d.covered_s += s.covered_s;
+      d.distance_mm += s.distance_mm;
       for (const auto& [f, t] : s.feature_time_s) {
         auto it = std::find_if(d.feature_time_s.begin(), d.feature_time_s.end(),
                                [f = f](const auto& p) { return p.first == f; });
@@ -72,8 +73,10 @@ void SpeedLodSink::grow_to(double t_s) {
   if (buckets_.size() < need) buckets_.resize(std::min(need, max_buckets_));
 }
 
-void SpeedLodSink::touch(std::size_t k, float vmin, float vmax, double dt_s, std::uint16_t feature) {
+void SpeedLodSink::touch(std::size_t k, float vmin, float vmax, double dt_s, double distance_mm,
+                         std::uint16_t feature) {
   SpeedBucket& b = buckets_[k];
+  b.distance_mm += distance_mm;
   if (b.empty()) {
     b.min_speed_mm_s = vmin;
     b.max_speed_mm_s = vmax;
@@ -103,7 +106,7 @@ void SpeedLodSink::add_span(double t0_s, double t1_s, double v0_mm_s, double v1_
   k = std::min(k, k_end);
   if (k == k_end) {
     touch(k, static_cast<float>(std::min(v0_mm_s, v1_mm_s)), static_cast<float>(std::max(v0_mm_s, v1_mm_s)),
-          t1_s - t0_s, feature);
+          t1_s - t0_s, 0.5 * (v0_mm_s + v1_mm_s) * (t1_s - t0_s), feature);
     return;
   }
   const double phase_start_s = t0_s;
@@ -112,7 +115,8 @@ void SpeedLodSink::add_span(double t0_s, double t1_s, double v0_mm_s, double v1_
   for (; k <= k_end; ++k) {
     const double b_s = std::min(t1_s, static_cast<double>(k + 1) * w);
     const double vb = k == k_end ? v1_mm_s : speed_in_phase(m, phase, b_s - phase_start_s);
-    touch(k, static_cast<float>(std::min(va, vb)), static_cast<float>(std::max(va, vb)), b_s - a_s, feature);
+    touch(k, static_cast<float>(std::min(va, vb)), static_cast<float>(std::max(va, vb)), b_s - a_s,
+          0.5 * (va + vb) * (b_s - a_s), feature);
     a_s = b_s;
     va = vb;
   }

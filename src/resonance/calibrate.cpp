@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -94,8 +95,8 @@ double shaper_response(const shaping::Shaper& s, double inv_d, double zeta, doub
 }
 
 /// The remaining vibrations pessimised over the test damping ratios.
-double shaper_vibrations(const shaping::Shaper& s, const FitPsd& psd,
-                         const std::vector<double>& test_damping_ratios) {
+double shaper_vibrations_one(const shaping::Shaper& s, const FitPsd& psd,
+                             const std::vector<double>& test_damping_ratios) {
   const double inv_d = 1.0 / s.amplitude_sum();
   const bool non_negative =
       std::all_of(s.amplitudes.begin(), s.amplitudes.end(), [](double a) { return a >= 0; });
@@ -119,8 +120,16 @@ double shaper_vibrations(const shaping::Shaper& s, const FitPsd& psd,
   return worst;
 }
 
+/// ... and over every record (Klipper: the worst of all, as it keeps the records apart).
+double shaper_vibrations(const shaping::Shaper& s, const std::vector<FitPsd>& psds,
+                         const std::vector<double>& test_damping_ratios) {
+  double worst = 0.0;
+  for (const FitPsd& psd : psds) worst = std::max(worst, shaper_vibrations_one(s, psd, test_damping_ratios));
+  return worst;
+}
+
 /// fit_shaper: returns the selected fit first, then every tested frequency (highest first).
-std::vector<ShaperFit> fit_shaper(const std::string& name, const FitPsd& psd,
+std::vector<ShaperFit> fit_shaper(const std::string& name, const std::vector<FitPsd>& psd,
                                   const KlipperOptions& o) {
   const double freq_end = kKlipperMaxShaperFreqHz;
   const double freq_start = std::min(klipper_min_freq_hz(name), freq_end - 1e-7);
@@ -178,8 +187,16 @@ double peak_freq(const PsdTable& t, const std::vector<double>& v, double max_fre
 }  // namespace
 
 KlipperCalibration klipper_calibrate(const PsdTable& normalized_psd, const KlipperOptions& o) {
-  if (!normalized_psd.normalized) {
-    throw Error("klipper_calibrate: the PSD is not normalised (normalize_to_frequencies first)");
+  return klipper_calibrate(std::vector<PsdTable>{normalized_psd}, o);
+}
+
+KlipperCalibration klipper_calibrate(const std::vector<PsdTable>& normalized_psds,
+                                     const KlipperOptions& o) {
+  if (normalized_psds.empty()) throw Error("klipper_calibrate: no PSD");
+  for (const PsdTable& t : normalized_psds) {
+    if (!t.normalized) {
+      throw Error("klipper_calibrate: the PSD is not normalised (normalize_to_frequencies first)");
+    }
   }
   require_positive("scv_mm_s", o.scv_mm_s);
   shaping::require_damping_ratio("damping_ratio", o.damping_ratio);
@@ -189,7 +206,10 @@ KlipperCalibration klipper_calibrate(const PsdTable& normalized_psd, const Klipp
   require_positive("max_freq_hz", o.max_freq_hz);
 
   // fit_shaper: max_freq = max(max_freq, highest test frequency) = max(max_freq, ~149.8).
-  const FitPsd psd = prepare(normalized_psd, std::max(o.max_freq_hz, kKlipperMaxShaperFreqHz - kKlipperShaperFreqStepHz));
+  std::vector<FitPsd> psd;
+  for (const PsdTable& t : normalized_psds) {
+    psd.push_back(prepare(t, std::max(o.max_freq_hz, kKlipperMaxShaperFreqHz - kKlipperShaperFreqStepHz)));
+  }
   KlipperCalibration out;
   std::optional<ShaperFit> best;
   for (const std::string& name : o.shapers) {
@@ -223,11 +243,36 @@ KlipperCalibration klipper_calibrate(const PsdTable& normalized_psd, const Klipp
   return out;
 }
 
+namespace {
+
+void check_axis(char axis) {
+  if (axis != 'x' && axis != 'y' && axis != 0) {
+    throw Error(fmt::format("axis must be x or y, got '{}'", axis));
+  }
+}
+
+/// The normalised PSDs a file adds to a fit: its record's, or each of its PSD columns.
+std::vector<PsdTable> fit_tables(const AccelFile& file, const CalibrationReport& r) {
+  std::vector<PsdTable> out{r.psd};
+  for (PsdTable t : file.more_psd) {
+    normalize_to_frequencies(t);
+    out.push_back(std::move(t));
+  }
+  return out;
+}
+
+std::vector<std::string> table_names(const AccelFile& file, const std::string& source) {
+  if (file.more_psd.empty()) return {source};
+  std::vector<std::string> out{file.psd.name};
+  for (const PsdTable& t : file.more_psd) out.push_back(t.name);
+  return out;
+}
+
+}  // namespace
+
 CalibrationReport calibrate(const AccelFile& file, const std::string& source,
                             const CalibrateOptions& options) {
-  if (options.axis != 'x' && options.axis != 'y') {
-    throw Error(fmt::format("axis must be x or y, got '{}'", options.axis));
-  }
+  check_axis(options.axis);
   CalibrationReport r;
   r.source = source;
   r.format = file.format;
@@ -263,18 +308,87 @@ CalibrationReport calibrate(const AccelFile& file, const std::string& source,
     r.identification = identify_sweep(file.record, options.axis, *options.sweep, options.modes);
   }
   normalize_to_frequencies(r.psd);
-  r.klipper = klipper_calibrate(r.psd, options.klipper);
+  r.sources = table_names(file, source);
+  r.klipper = klipper_calibrate(fit_tables(file, r), options.klipper);
   const double fmax = options.klipper.max_freq_hz;
-  r.peak_axis_hz = peak_freq(r.psd, options.axis == 'x' ? r.psd.psd_x : r.psd.psd_y, fmax);
+  const std::vector<double>& axis_psd = options.axis == 'x' ? r.psd.psd_x : r.psd.psd_y;
+  r.peak_axis_hz = options.axis != 0 && !axis_psd.empty() ? peak_freq(r.psd, axis_psd, fmax)
+                                                           : std::numeric_limits<double>::quiet_NaN();
   r.peak_xyz_hz = peak_freq(r.psd, r.psd.psd_xyz, fmax);
+  if (options.sweep || file.format == RecordFormat::corpus) {
+    ExcitationCaveat c;
+    const std::string rule =
+        "Klipper's rule is tuned on Klipper's own test, pulses of accel_per_hz * f (60 mm/s^2 per Hz), "
+        "whose excitation grows as f^2 in the PSD";
+    if (options.sweep) {
+      c.excitation = "constant_amplitude_sweep";
+      c.why = fmt::format(
+          "{}; this record is a constant-amplitude sweep ({:g} mm/s^2, {:g} to {:g} Hz), flat in f, "
+          "so against Klipper's test it weights the low frequencies up by 1/f^2 (16 times at a quarter "
+          "of a frequency), where the measured acceleration is mostly the commanded motion itself: the "
+          "rule then favours low shaper frequencies",
+          rule, options.sweep->accel_mm_s2, options.sweep->f0_hz, options.sweep->f1_hz);
+      if (r.welch) {
+        // The excitation ratio (accel_per_hz f / A)^2 up to a constant, which the rule ignores.
+        PsdTable w = r.welch->table;
+        for (std::size_t i = 0; i < w.freq_hz.size(); ++i) {
+          const double f2 = w.freq_hz[i] * w.freq_hz[i];
+          w.psd_x[i] *= f2;
+          w.psd_y[i] *= f2;
+          w.psd_z[i] *= f2;
+          w.psd_xyz[i] *= f2;
+        }
+        w.normalized = false;
+        normalize_to_frequencies(w);
+        c.reweighted = klipper_calibrate(w, options.klipper);
+      }
+    } else {
+      c.excitation = "unknown";
+      c.why = fmt::format(
+          "{}; this record is not in Klipper's format ({}), so how it was excited is not known: if it "
+          "was a constant-amplitude sweep the rule is biased toward low shaper frequencies. Give the "
+          "sweep (--sweep F0,F1,RATE,ACCEL): the frequency response divides the excitation out "
+          "(modal fit), the rule is rerun on the PSD reweighted to Klipper's excitation, and "
+          "--recommend picks the shaper by simulating the fitted model",
+          rule, to_string(file.format));
+    }
+    r.caveat = std::move(c);
+  }
   return r;
 }
 
 CalibrationReport calibrate_file(const std::string& path, const CalibrateOptions& options) {
-  if (options.axis != 'x' && options.axis != 'y') {
-    throw Error(fmt::format("axis must be x or y, got '{}'", options.axis));
+  check_axis(options.axis);
+  return calibrate(read_accel_file(path), path == "-" ? "<stdin>" : path, options);
+}
+
+CalibrationReport calibrate_files(const std::vector<std::string>& paths,
+                                  const CalibrateOptions& options) {
+  if (paths.empty()) throw Error("resonance calibrate: no file");
+  if (paths.size() == 1) return calibrate_file(paths.front(), options);
+  if (options.sweep) {
+    throw Error("--sweep takes one record: found several files, expected one (the sweep is "
+                "fitted to one record's response)");
   }
-  return calibrate(read_accel_file(path), path, options);
+  check_axis(options.axis);
+  std::size_t stdin_uses = 0;
+  for (const std::string& p : paths) stdin_uses += p == "-" ? 1 : 0;
+  if (stdin_uses > 1) throw Error("found '-' (standard input) twice, expected it once");
+  // The first file makes the report; every file's tables join the fit.
+  const AccelFile first = read_accel_file(paths.front());
+  CalibrationReport r = calibrate(first, paths.front() == "-" ? "<stdin>" : paths.front(), options);
+  std::vector<PsdTable> tables = fit_tables(first, r);
+  for (std::size_t i = 1; i < paths.size(); ++i) {
+    const AccelFile f = read_accel_file(paths[i]);
+    PsdTable t = f.format == RecordFormat::klipper_psd ? f.psd : klipper_psd(f.record).table;
+    normalize_to_frequencies(t);
+    CalibrationReport one;
+    one.psd = t;
+    for (PsdTable& x : fit_tables(f, one)) tables.push_back(std::move(x));
+    for (std::string& n : table_names(f, paths[i] == "-" ? "<stdin>" : paths[i])) r.sources.push_back(std::move(n));
+  }
+  r.klipper = klipper_calibrate(tables, options.klipper);
+  return r;
 }
 
 namespace {
@@ -300,8 +414,9 @@ Json fit_json(const ShaperFit& f) {
 Json to_json(const CalibrationReport& r) {
   Json j;
   j["source"] = r.source;
+  j["sources"] = r.sources.empty() ? Json::array({r.source}) : Json(r.sources);
   j["format"] = std::string(to_string(r.format));
-  j["axis"] = std::string(1, r.axis);
+  j["axis"] = r.axis != 0 ? Json(std::string(1, r.axis)) : Json(nullptr);
   if (r.quality) {
     const RecordQuality& q = *r.quality;
     j["sample_rate_hz"] = json_number(q.sample_rate_hz);
@@ -345,6 +460,14 @@ Json to_json(const CalibrationReport& r) {
   for (const ShaperFit& f : r.klipper.shapers) shapers.push_back(fit_json(f));
   k["shapers"] = shapers;
   j["klipper"] = k;
+  if (r.caveat) {
+    Json c{{"excitation", r.caveat->excitation}, {"why", r.caveat->why}};
+    c["klipper_rule_on_reweighted_psd"] =
+        r.caveat->reweighted ? Json{{"name", r.caveat->reweighted->recommended.name},
+                                    {"freq_hz", json_number(r.caveat->reweighted->recommended.freq_hz)}}
+                             : Json(nullptr);
+    j["excitation_caveat"] = std::move(c);
+  }
   if (r.identification) {
     const SweepIdentification& id = *r.identification;
     const ModalFit& m = id.model;
@@ -385,8 +508,15 @@ Json to_json(const CalibrationReport& r) {
 }
 
 std::string to_text(const CalibrationReport& r) {
-  std::string s = fmt::format("resonance calibration of {} ({}, axis {})\n", r.source,
-                              to_string(r.format), r.axis);
+  std::string s = r.axis != 0 ? fmt::format("resonance calibration of {} ({}, axis {})\n", r.source,
+                                            to_string(r.format), r.axis)
+                              : fmt::format("resonance calibration of {} ({})\n", r.source,
+                                            to_string(r.format));
+  if (r.sources.size() > 1) {
+    s += fmt::format("  records          {}: {} (the fit takes the worst of them at each "
+                     "frequency, as calibrate_shaper.py with several files)\n",
+                     r.sources.size(), fmt::join(r.sources, ", "));
+  }
   if (r.quality) {
     const RecordQuality& q = *r.quality;
     s += fmt::format("  samples          {} over {:.3f} s\n", q.samples, q.duration_s);
@@ -401,8 +531,12 @@ std::string to_text(const CalibrationReport& r) {
     s += fmt::format("  Welch PSD        {} segments of {} samples\n", r.welch->segments,
                      r.welch->segment_samples);
   }
-  s += fmt::format("  PSD peak         {:.1f} Hz on {}, {:.1f} Hz on x+y+z\n", r.peak_axis_hz,
-                   r.axis, r.peak_xyz_hz);
+  if (std::isfinite(r.peak_axis_hz)) {
+    s += fmt::format("  PSD peak         {:.1f} Hz on {}, {:.1f} Hz on x+y+z\n", r.peak_axis_hz,
+                     r.axis, r.peak_xyz_hz);
+  } else {
+    s += fmt::format("  PSD peak         {:.1f} Hz on x+y+z\n", r.peak_xyz_hz);
+  }
   s += "\n  shaper      freq [Hz]  vibrations  smoothing [mm]  max accel [mm/s^2]\n";
   for (const ShaperFit& f : r.klipper.shapers) {
     s += fmt::format("  {:<10} {:>10.1f} {:>10.1f}% {:>15.3f} {:>19.0f}\n", f.name, f.freq_hz,
@@ -428,6 +562,38 @@ std::string to_text(const CalibrationReport& r) {
                          e.natural_frequency_hz, e.natural_frequency_std_hz, e.damping_ratio,
                          e.damping_ratio_std, e.gain, e.gain_std, e.peak_gain);
       }
+    }
+  }
+  if (r.caveat) {
+    s += r.caveat->reweighted ? "\n  caveat: Klipper's rule is biased on this record.\n"
+                              : "\n  caveat: Klipper's rule may be biased on this record.\n";
+    // Wrapped at ~92 columns for the terminal.
+    std::string line = "   ";
+    std::size_t pos = 0;
+    const std::string& why = r.caveat->why;
+    while (pos < why.size()) {
+      std::size_t end = why.find(' ', pos);
+      if (end == std::string::npos) end = why.size();
+      const std::string word = why.substr(pos, end - pos);
+      if (line.size() + 1 + word.size() > 92) {
+        s += line + "\n";
+        line = "   ";
+      }
+      line += " " + word;
+      pos = end + 1;
+    }
+    s += line + ".\n";
+    if (r.caveat->reweighted) {
+      const ShaperFit& k = r.klipper.recommended;
+      const ShaperFit& w = r.caveat->reweighted->recommended;
+      s += fmt::format("    Klipper's rule on this record: {} at {:.1f} Hz (PSD peak {:.1f} Hz); on its PSD "
+                       "reweighted to Klipper's\n    excitation (x f^2): {} at {:.1f} Hz",
+                       k.name, k.freq_hz, r.peak_xyz_hz, w.name, w.freq_hz);
+      if (r.identification) {
+        s += fmt::format("; the modal fit: f_n {:.1f} Hz, damping ratio {:.3f}",
+                         r.identification->model.natural_frequency_hz, r.identification->model.damping_ratio);
+      }
+      s += ".\n    --recommend (with --machine) picks the shaper by simulating the fitted model on a print.\n";
     }
   }
   return s;

@@ -1,10 +1,13 @@
 #include "amctl/resonance/record.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <iterator>
 
 #include <fmt/format.h>
@@ -45,6 +48,43 @@ std::vector<std::string_view> split(std::string_view line) {
     out.push_back(trim(line.substr(start, comma - start)));
     start = comma + 1;
   }
+}
+
+/// A header line split as CSV: a field may be quoted ("a,b.csv"), "" inside quotes is one ".
+std::vector<std::string> split_quoted(std::string_view line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        out.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        out.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.emplace_back();
+    } else {
+      out.back() += c;
+    }
+  }
+  for (std::string& f : out) f = std::string(trim(f));
+  return out;
+}
+
+/// "zv(41.6)": a shaper column of an older calibration_data CSV.
+bool shaper_column(std::string_view c) {
+  const std::size_t open = c.find('(');
+  if (open == 0 || open == std::string_view::npos || c.back() != ')') return false;
+  double v = 0;
+  const std::string_view num = c.substr(open + 1, c.size() - open - 2);
+  const auto [p, ec] = std::from_chars(num.data(), num.data() + num.size(), v);
+  return ec == std::errc() && p == num.data() + num.size();
 }
 
 std::string shorten(std::string_view s) {
@@ -210,20 +250,15 @@ class RecordParser {
       } else if (hash && columns_are(trimmed, kCorpusColumns)) {
         out.format = RecordFormat::corpus;
         names.assign(kCorpusColumns.begin(), kCorpusColumns.end());
-      } else if (!hash && trimmed.size() >= 5 &&
-                 columns_are(std::vector<std::string_view>(trimmed.begin(), trimmed.begin() + 5),
-                             kPsdColumns) &&
-                 (trimmed.size() == 5 || trimmed[5] == "shapers:")) {
-        out.format = RecordFormat::klipper_psd;
-        out.psd.normalized = trimmed.size() > 5;
-        names.assign(kPsdColumns.begin(), kPsdColumns.end());
+      } else if (!hash && !trimmed.empty() && trimmed[0] == "freq" && trimmed.size() >= 2) {
+        read_psd_header(line);
       } else if (hash && line.find(',') == std::string_view::npos) {
         return;  // a comment before the header; a '#' line with commas is a header
       } else {
         throw Error(SourceLocation{source_, line_no, 0},
                     fmt::format("header '{}', expected {}", shorten(line), kExpectedHeaders));
       }
-      ncols = names.size();
+      if (out.format != RecordFormat::klipper_psd || sets == 0) ncols = names.size();
       have_header = true;
       return;
     }
@@ -231,25 +266,34 @@ class RecordParser {
 
     const std::vector<std::string_view> fields = split(line);
     const bool psd = out.format == RecordFormat::klipper_psd;
-    // A `,shapers:` PSD file has an empty column and one value per shaper after psd_xyz.
+    // After the PSD columns a normalised file has an empty column and one value per shaper
+    // (an older file: one value per shaper, without the empty column).
     if (fields.size() < ncols || (!psd && fields.size() > ncols) ||
         (psd && !out.psd.normalized && fields.size() > ncols)) {
       std::string want;
       for (std::size_t i = 0; i < names.size(); ++i) want += (i ? "," : "") + std::string(names[i]);
+      for (const std::string& n : set_names) want += "," + n;
       throw Error(SourceLocation{source_, line_no, 0},
                   fmt::format("{} column{}, expected {} ({})", fields.size(),
                               fields.size() == 1 ? "" : "s", ncols, want));
     }
+    if (sets > 0) {  // a several-record PSD file: freq and one psd_xyz per record
+      std::vector<double> v(ncols);
+      for (std::size_t i = 0; i < ncols; ++i) {
+        v[i] = parse_number(fields[i], i == 0 ? std::string_view("freq") : std::string_view(set_names[i - 1]), i,
+                            source_, line_no);
+      }
+      check_increasing(v[0], true);
+      for (std::size_t k = 0; k < sets; ++k) {
+        PsdTable& t = k == 0 ? out.psd : out.more_psd[k - 1];
+        t.freq_hz.push_back(v[0]);
+        t.psd_xyz.push_back(v[k + 1]);
+      }
+      return;
+    }
     std::array<double, 5> v{};
     for (std::size_t i = 0; i < ncols; ++i) v[i] = parse_number(fields[i], names[i], i, source_, line_no);
-    if (last_data_line != 0 && !(v[0] > prev_t)) {
-      throw Error(SourceLocation{source_, line_no, 0},
-                  fmt::format("{} {} is not after {} on line {}, expected {} to increase",
-                              names[0], v[0], prev_t, prev_line, psd ? "frequency" : "time"));
-    }
-    prev_t = v[0];
-    prev_line = line_no;
-    last_data_line = line_no;
+    check_increasing(v[0], psd);
     if (psd) {
       out.psd.freq_hz.push_back(v[0]);
       out.psd.psd_x.push_back(v[1]);
@@ -264,8 +308,71 @@ class RecordParser {
     }
     }
 
+  void check_increasing(double first, bool psd) {
+    if (last_data_line != 0 && !(first > prev_t)) {
+      throw Error(SourceLocation{source_, line_no, 0},
+                  fmt::format("{} {} is not after {} on line {}, expected {} to increase",
+                              psd ? "freq" : names[0], first, prev_t, prev_line,
+                              psd ? "frequency" : "time"));
+    }
+    prev_t = first;
+    prev_line = line_no;
+    last_data_line = line_no;
+  }
+
+  /// "freq,psd_x,psd_y,psd_z,psd_xyz[,shapers:,...]", the older "...,psd_xyz,zv(41.6),...", or
+  /// "freq,NAME1,NAME2,...[,shapers:,...]" (one record per column).
+  void read_psd_header(std::string_view line) {
+    const std::vector<std::string> cols = split_quoted(line);
+    out.format = RecordFormat::klipper_psd;
+    const bool per_axis = cols.size() >= 5 && cols[1] == "psd_x" && cols[2] == "psd_y" &&
+                          cols[3] == "psd_z" && cols[4] == "psd_xyz";
+    if (per_axis) {
+      const bool shapers = cols.size() > 5 && cols[5] == "shapers:";
+      bool older = cols.size() > 5;
+      for (std::size_t i = 5; i < cols.size(); ++i) older = older && shaper_column(cols[i]);
+      if (cols.size() > 5 && !shapers && !older) {
+        throw Error(SourceLocation{source_, line_no, 0},
+                    fmt::format("column 6 is '{}', expected 'shapers:', a shaper column such as "
+                                "'mzv(25.6)' or nothing after psd_xyz",
+                                shorten(cols[5])));
+      }
+      out.psd.normalized = shapers || older;
+      names.assign(kPsdColumns.begin(), kPsdColumns.end());
+      return;
+    }
+    // One column per record up to "shapers:".
+    for (std::size_t i = 1; i < cols.size() && cols[i] != "shapers:"; ++i) {
+      if (cols[i].empty() || cols[i].starts_with("psd_")) {
+        throw Error(SourceLocation{source_, line_no, 0},
+                    fmt::format("header '{}', expected {} or freq and one column per record",
+                                shorten(line), kExpectedHeaders));
+      }
+      set_names.push_back(cols[i]);
+    }
+    if (set_names.empty()) {
+      throw Error(SourceLocation{source_, line_no, 0},
+                  fmt::format("header '{}', expected {} or freq and one column per record",
+                              shorten(line), kExpectedHeaders));
+    }
+    const bool normalized = std::find(cols.begin(), cols.end(), "shapers:") != cols.end();
+    sets = set_names.size();
+    ncols = sets + 1;
+    out.psd.normalized = normalized;
+    out.psd.name = set_names[0];
+    for (std::size_t k = 1; k < sets; ++k) {
+      PsdTable t;
+      t.normalized = normalized;
+      t.name = set_names[k];
+      out.more_psd.push_back(std::move(t));
+    }
+    names.assign(1, "freq");
+  }
+
   std::string source_;
   AccelFile out;
+  std::size_t sets = 0;                // records of a several-record PSD file
+  std::vector<std::string> set_names;  // their names
   std::uint64_t line_no = 0;
   bool any_text = false;
   bool have_header = false;
@@ -315,6 +422,9 @@ AccelFile read_accel_file(const std::string& path) {
 
 std::optional<RecordSizeEstimate> estimate_record_size(const std::string& path) {
   if (path == "-") return std::nullopt;
+  // Only a regular file is measured: a pipe opened and closed here would lose its writer.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
   InputFile in(path, InputOptions{"accelerometer CSV", false, 0});
   if (!in.size() || *in.size() == 0) return std::nullopt;
   // The first 64 KiB tell the bytes per row (the header and comments included: a slight

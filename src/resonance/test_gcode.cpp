@@ -4,10 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <optional>
+#include <string>
 #include <utility>
 
 #include <fmt/format.h>
 
+#include "amctl/core/config_section.hpp"
 #include "amctl/core/error.hpp"
 
 namespace amctl::resonance {
@@ -94,6 +97,151 @@ double test_duration_s(const TestGcodeOptions& o) {
   return (f_n - o.freq_start_hz) / o.hz_per_sec;
 }
 
+namespace {
+
+double config_number(const ConfigSection& sec, const char* key, double fallback, double lo, double hi) {
+  const ConfigValue* v = sec.find(key);
+  if (!v) return fallback;
+  std::size_t used = 0;
+  double x = 0.0;
+  try {
+    x = std::stod(v->text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != v->text.size() || !std::isfinite(x)) {
+    throw Error(v->where, fmt::format("[{}] {}: found '{}', expected a number", sec.name, key, v->text));
+  }
+  if (x < lo || x > hi) {
+    throw Error(v->where, fmt::format("[{}] {}: found {}, expected a number in [{:g}, {:g}] (Klipper's range)",
+                                      sec.name, key, x, lo, hi));
+  }
+  return x;
+}
+
+// Klipper's getlists(seps=(',', '\n'), parser=float, count=3): one "x, y, z" per line.
+std::vector<std::array<double, 3>> probe_points_of(const ConfigSection& sec, const ConfigValue& v,
+                                                   std::vector<SourceLocation>& where_out) {
+  std::vector<std::array<double, 3>> out;
+  // The value's text is trimmed as a whole: an empty first line ("probe_points:" alone) has a
+  // file line but no piece, so the pieces are the last ones of v.lines.
+  const std::size_t pieces = static_cast<std::size_t>(std::count(v.text.begin(), v.text.end(), '\n')) + 1;
+  std::size_t line_index = v.lines.size() > pieces ? v.lines.size() - pieces : 0, pos = 0;
+  while (pos <= v.text.size()) {
+    std::size_t eol = v.text.find('\n', pos);
+    if (eol == std::string::npos) eol = v.text.size();
+    const std::string line = v.text.substr(pos, eol - pos);
+    SourceLocation where = v.where;
+    if (line_index < v.lines.size()) where.line = v.lines[line_index];
+    if (line.find_first_not_of(" \t") != std::string::npos) {
+      std::array<double, 3> p{};
+      std::size_t start = 0;
+      for (int i = 0; i < 3; ++i) {
+        const std::size_t comma = line.find(',', start);
+        if ((i < 2) != (comma != std::string::npos)) {
+          throw Error(where, fmt::format("[{}] probe_points: found '{}', expected X, Y, Z", sec.name, line));
+        }
+        std::string field = line.substr(start, i < 2 ? comma - start : std::string::npos);
+        field.erase(0, field.find_first_not_of(" \t"));
+        field.erase(field.find_last_not_of(" \t") + 1);
+        std::size_t used = 0;
+        try {
+          p[static_cast<std::size_t>(i)] = std::stod(field, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (field.empty() || used != field.size() || !std::isfinite(p[static_cast<std::size_t>(i)])) {
+          throw Error(where, fmt::format("[{}] probe_points: found '{}' in '{}', expected a number",
+                                         sec.name, field, line));
+        }
+        start = comma + 1;
+      }
+      out.push_back(p);
+      // On the option's own line: the value's column; a continuation line: the line (its
+      // indentation is not kept).
+      SourceLocation at = where;
+      at.column = 0;
+      where_out.push_back(line_index == 0 && v.lines.size() <= pieces ? v.where : at);
+    }
+    ++line_index;
+    pos = eol + 1;
+  }
+  if (out.empty()) throw Error(v.where, fmt::format("[{}] probe_points: empty, expected X, Y, Z lines", sec.name));
+  return out;
+}
+
+std::optional<std::pair<double, double>> axis_range(const machine::Machine& m, int axis) {
+  const std::string name(1, "xyz"[axis]);
+  const auto it = m.steppers.find(name);
+  if (it != m.steppers.end() && it->second.position_min_mm && it->second.position_max_mm) {
+    return std::make_pair(*it->second.position_min_mm, *it->second.position_max_mm);
+  }
+  const auto& lo = m.soft_min_position_mm[static_cast<std::size_t>(axis)];
+  const auto& hi = m.soft_max_position_mm[static_cast<std::size_t>(axis)];
+  if (lo && hi) return std::make_pair(*lo, *hi);
+  return std::nullopt;
+}
+
+std::string where_of(const ConfigValue& v) { return v.where.to_string(); }
+
+}  // namespace
+
+TestGcodeOptions machine_test_options(TestStyle style, char axis, const machine::Machine& m) {
+  TestGcodeOptions o = default_test_options(style);
+  o.axis = axis;
+  const ConfigSection* rt = nullptr;
+  for (const ConfigSection& sec : m.klipper_config) {
+    if (sec.name == "resonance_tester") rt = &sec;
+  }
+  if (rt) {
+    if (style == TestStyle::klipper) {
+      // resonance_tester.py VibrationPulseTestGenerator: the same defaults and ranges.
+      o.freq_start_hz = config_number(*rt, "min_freq", o.freq_start_hz, 1.0, 300.0);
+      o.freq_end_hz = config_number(*rt, "max_freq", o.freq_end_hz, o.freq_start_hz, 300.0);
+      o.accel_per_hz = config_number(*rt, "accel_per_hz", o.accel_per_hz, 1e-9, 1e9);
+      o.hz_per_sec = config_number(*rt, "hz_per_sec", o.hz_per_sec, 0.1, 2.0);
+      o.parameter_source = fmt::format("[resonance_tester] of {} (Klipper's defaults where it is silent)",
+                                       rt->where.file);
+    }
+    o.move_speed_mm_s = config_number(*rt, "move_speed", o.move_speed_mm_s, 1e-9, 1e9);
+    const ConfigValue* chip = nullptr;
+    if (const ConfigValue* cx = rt->find("accel_chip_x")) {
+      chip = axis == 'x' ? cx : rt->find("accel_chip_y");
+    } else {
+      chip = rt->find("accel_chip");
+    }
+    if (chip) o.accel_chip = chip->text;
+    if (const ConfigValue* pp = rt->find("probe_points")) {
+      o.probe_points = probe_points_of(*rt, *pp, o.probe_point_locations);
+      for (int i = 0; i < 3; ++i) o.point_mm[i] = o.probe_points.front()[static_cast<std::size_t>(i)];
+      o.point_given = true;
+      o.point_source = fmt::format("[resonance_tester] probe_points, {}", where_of(*pp));
+
+      return o;
+    }
+  }
+  const auto rx = axis_range(m, 0), ry = axis_range(m, 1), rz = axis_range(m, 2);
+  if (rx && ry) {
+    o.point_mm[0] = 0.5 * (rx->first + rx->second);
+    o.point_mm[1] = 0.5 * (ry->first + ry->second);
+    o.point_mm[2] = rz ? std::min(20.0, 0.5 * (std::max(rz->first, 0.0) + rz->second)) : 20.0;
+    o.point_given = true;
+    o.point_source = "the middle of the machine's X and Y position limits, 20 mm up; no [resonance_tester] probe_points";
+  }
+  return o;
+}
+
+TestExcursion test_excursion(const TestGcodeOptions& o) {
+  TestExcursion e;
+  double pos = 0.0;
+  for (const TestHalfPeriod& h : test_half_periods(o)) {
+    pos += h.direction * h.distance_mm();
+    e.min_mm = std::min(e.min_mm, pos);
+    e.max_mm = std::max(e.max_mm, pos);
+  }
+  return e;
+}
+
 std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
   const std::vector<TestHalfPeriod> halves = test_half_periods(o);
   const bool klipper = o.style == TestStyle::klipper;
@@ -105,6 +253,30 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
   }
   const char axis = static_cast<char>(o.axis - 'a' + 'A');
   const int ai = o.axis == 'x' ? 0 : 1;
+  std::vector<std::array<double, 3>> points = o.probe_points;
+  if (points.empty()) points.push_back({o.point_mm[0], o.point_mm[1], o.point_mm[2]});
+  // Every point and every stroke around it inside the machine's position limits.
+  const TestExcursion ex = test_excursion(o);
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const auto& p = points[k];
+    for (int a = 0; a < 3; ++a) {
+      const auto r = axis_range(m, a);
+      if (!r) continue;
+      const double lo = p[static_cast<std::size_t>(a)] + (a == ai ? ex.min_mm : 0.0);
+      const double hi = p[static_cast<std::size_t>(a)] + (a == ai ? ex.max_mm : 0.0);
+      if (lo < r->first - 1e-9 || hi > r->second + 1e-9) {
+        const std::string what = fmt::format(
+            "found test point {:g},{:g},{:g}, whose test moves {} from {:.4f} to {:.4f} mm, expected one "
+            "within the machine's position limits {:g} to {:g} mm",
+            p[0], p[1], p[2], static_cast<char>('X' + a), lo, hi, r->first, r->second);
+        if (k < o.probe_point_locations.size()) {
+          throw Error(o.probe_point_locations[k], "[resonance_tester] probe_points: " + what);
+        }
+        throw Error((o.point_source == "--point" ? "--point: " : "test point: ") + what);
+      }
+    }
+  }
+  const machine::Firmware fw = m.firmware;
   std::string s;
   append(s, "; amctl resonance test-gcode: {} style, axis {}\n", klipper ? "klipper" : "marlin", o.axis);
   if (klipper) {
@@ -117,14 +289,45 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
       o.freq_end_hz, o.hz_per_sec, halves.size(), test_duration_s(o));
   append(s, "; peak acceleration {:.1f} mm/s^2, peak velocity {:.3f} mm/s, longest stroke {:.4f} mm\n", max_a,
       max_v, max_d);
-  append(s, "; test point X{:g} Y{:g} Z{:g}{}\n", o.point_mm[0], o.point_mm[1], o.point_mm[2],
-      o.point_given ? "" : " (default: the machine's position limits are not known)");
-  // The commands follow the machine's firmware; the pattern follows the style.
-  const machine::Firmware fw = m.firmware;
-  append(s, "; machine {} ({} commands); disable input shaping before running this file\n", m.name,
+  if (!o.parameter_source.empty()) append(s, "; test parameters from {}\n", o.parameter_source);
+  if (points.size() == 1) {
+    append(s, "; test point X{:g} Y{:g} Z{:g}{}\n", points[0][0], points[0][1], points[0][2],
+           !o.point_source.empty() ? " (" + o.point_source + ")"
+           : o.point_given         ? std::string()
+                                   : std::string(" (default: the machine's position limits are not known)"));
+  } else {
+    append(s, "; {} test points, one record each ({}):", points.size(), o.point_source);
+    for (const auto& p : points) append(s, " X{:g} Y{:g} Z{:g};", p[0], p[1], p[2]);
+    s.back() = '\n';
+  }
+  append(s, "; {} moves from {:.4f} to {:.4f} mm around each point\n", axis, ex.min_mm, ex.max_mm);
+  append(s, "; machine {} ({} commands)\n", m.name,
          fw == machine::Firmware::klipper ? "Klipper" : fw == machine::Firmware::marlin ? "Marlin" : "RepRapFirmware");
-  // The dwell brings the toolhead to rest at the point: the first half period starts at rest.
-  append(s, "G90\nG1 X{:.4f} Y{:.4f} Z{:.4f} F3000\nG4 P500\n", o.point_mm[0], o.point_mm[1], o.point_mm[2]);
+  // Klipper: ACCELEROMETER_MEASURE takes the chip's name (the section's last word; plain
+  // [adxl345] also answers without CHIP) and writes /tmp/<type>-<name>-<NAME>.csv, or
+  // /tmp/<type>-<NAME>.csv when the section has no name of its own (adxl345.py).
+  const std::string chip_section = o.accel_chip.empty() ? std::string("adxl345") : o.accel_chip;
+  const std::string chip_type = chip_section.substr(0, chip_section.find(' '));
+  const std::string chip_name = chip_section.substr(chip_section.find_last_of(' ') + 1);
+  if (fw == machine::Firmware::klipper) {
+    append(s, "; accelerometer [{}]{}: each test is recorded to /tmp/{}-resonances_{}_N.csv (N = the point's number)\n",
+           chip_section, o.accel_chip.empty() ? " (Klipper's default; set [resonance_tester] accel_chip)" : "",
+           chip_type == chip_name ? chip_type : chip_type + "-" + chip_name, o.axis);
+  } else {
+    append(s, "; {} has no accelerometer command: start your recorder at each 'record' comment\n",
+           fw == machine::Firmware::marlin ? "Marlin" : "RepRapFirmware");
+  }
+  if (o.home) append(s, "G28\n");
+  append(s, "G90\n");
+  const machine::InputShaper& is = m.input_shaper;
+  if (is.active()) {
+    if (fw == machine::Firmware::klipper) {
+      // TEST_RESONANCES disables [input_shaper] for the test and enables it again after.
+      append(s, "SET_INPUT_SHAPER SHAPER_FREQ_X=0 SHAPER_FREQ_Y=0\n");
+    } else if (fw == machine::Firmware::marlin) {
+      append(s, "M593 F0\n");
+    }
+  }
   const double need_a = std::max(m.max_axis_accel_mm_s2[ai], std::ceil(max_a));
   const double need_v = std::max(m.max_feedrate_mm_s[ai], std::ceil(max_v));
   switch (fw) {
@@ -142,15 +345,32 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
       append(s, "M201 {}{:.0f}\nM203 {}{:.0f}\nM566 X0 Y0\n", axis, need_a, axis, need_v * 60.0);
       break;
   }
-  double pos = o.point_mm[ai];
-  for (const TestHalfPeriod& h : halves) {
-    switch (fw) {
-      case machine::Firmware::klipper: append(s, "SET_VELOCITY_LIMIT ACCEL={:.3f}\n", h.accel_mm_s2); break;
-      case machine::Firmware::marlin: append(s, "M204 S{:.3f}\n", h.accel_mm_s2); break;
-      case machine::Firmware::reprap: append(s, "M204 P{0:.3f} T{0:.3f}\n", h.accel_mm_s2); break;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const auto& p = points[k];
+    // As TEST_RESONANCES: move to the point, wait for the moves, dwell 0.5 s, record.
+    append(s, "G1 X{:.4f} Y{:.4f} Z{:.4f} F{:g}\nM400\nG4 P500\n", p[0], p[1], p[2], o.move_speed_mm_s * 60.0);
+    const std::string record = fmt::format("resonances_{}_{}", o.axis, k + 1);
+    if (fw == machine::Firmware::klipper) {
+      append(s, "ACCELEROMETER_MEASURE CHIP={} NAME={}\n", chip_name, record);
+    } else {
+      append(s, "; record {}: start\n", record);
     }
-    pos += h.direction * h.distance_mm();
-    append(s, "G1 {}{:.6f} F{:.4f}\n", axis, pos, ceil4(h.peak_velocity_mm_s() * 60.0));
+    double pos = p[static_cast<std::size_t>(ai)];
+    for (const TestHalfPeriod& h : halves) {
+      switch (fw) {
+        case machine::Firmware::klipper: append(s, "SET_VELOCITY_LIMIT ACCEL={:.3f}\n", h.accel_mm_s2); break;
+        case machine::Firmware::marlin: append(s, "M204 S{:.3f}\n", h.accel_mm_s2); break;
+        case machine::Firmware::reprap: append(s, "M204 P{0:.3f} T{0:.3f}\n", h.accel_mm_s2); break;
+      }
+      pos += h.direction * h.distance_mm();
+      append(s, "G1 {}{:.6f} F{:.4f}\n", axis, pos, ceil4(h.peak_velocity_mm_s() * 60.0));
+    }
+    append(s, "M400\n");
+    if (fw == machine::Firmware::klipper) {
+      append(s, "ACCELEROMETER_MEASURE CHIP={} NAME={}\n", chip_name, record);
+    } else {
+      append(s, "; record {}: stop\n", record);
+    }
   }
   append(s, "; restore the machine's limits\n");
   switch (fw) {
@@ -169,6 +389,14 @@ std::string test_gcode(const TestGcodeOptions& o, const machine::Machine& m) {
              axis, m.max_feedrate_mm_s[ai] * 60.0, m.print_accel_mm_s2, m.travel_accel_mm_s2,
              m.jerk_mm_s[0] * 60.0, m.jerk_mm_s[1] * 60.0);
       break;
+  }
+  if (is.active()) {
+    if (fw == machine::Firmware::klipper) {
+      append(s, "SET_INPUT_SHAPER SHAPER_FREQ_X={:g} SHAPER_FREQ_Y={:g}\n", is.shaper_freq_x_hz, is.shaper_freq_y_hz);
+    } else if (fw == machine::Firmware::marlin) {
+      if (is.shaper_freq_x_hz > 0) append(s, "M593 X F{:g} D{:g}\n", is.shaper_freq_x_hz, is.damping_ratio_x);
+      if (is.shaper_freq_y_hz > 0) append(s, "M593 Y F{:g} D{:g}\n", is.shaper_freq_y_hz, is.damping_ratio_y);
+    }
   }
   return s;
 }

@@ -29,6 +29,7 @@ void HeaterPlantParams::validate() const {
   require_non_negative("fan_extra_loss_w_k", fan_extra_loss_w_k);
   require_non_negative("filament_j_mm3k", filament_j_mm3k);
   require_positive("sensor_time_constant_s", sensor_time_constant_s);
+  require_non_negative("sensor_delay_s", sensor_delay_s);
   require_non_negative("sensor_noise_k", sensor_noise_k);
 }
 
@@ -44,6 +45,7 @@ HeaterPlantParams HeaterPlantParams::bed() {
   p.fan_extra_loss_w_k = 0.3;
   p.filament_j_mm3k = 0.0;
   p.sensor_time_constant_s = 8.0;  // thermistor under kapton in a pocket
+  p.sensor_delay_s = 0.0;
   return p;
 }
 
@@ -51,6 +53,7 @@ HeaterPlant::HeaterPlant(const HeaterPlantParams& p) : p_(p) {
   p_.validate();
   x_[0] = x_[1] = x_[2] = p_.ambient_c;
   rng_ = 0x9E3779B97F4A7C15ull ^ p_.noise_seed;
+  if (p_.sensor_delay_s > 0.0) history_.emplace_back(0.0, x_[2]);
 }
 
 void HeaterPlant::deriv(const double* x, double duty, double fan, double flow, double* dx) const {
@@ -91,10 +94,32 @@ void HeaterPlant::step(double dt, double duty, double fan, double flow) {
     for (int j = 0; j < 3; ++j) x_[j] += h / 6.0 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
   }
   if (p_.core_capacity_j_k <= 0) x_[0] = x_[1];
+  t_s_ += dt;
+  if (p_.sensor_delay_s > 0.0) {
+    history_.emplace_back(t_s_, x_[2]);
+    // Keep one sample at or before t - delay for the interpolation.
+    while (history_.size() > 2 && history_[1].first <= t_s_ - p_.sensor_delay_s) history_.pop_front();
+  }
+}
+
+double HeaterPlant::delayed_sensor_c() const {
+  if (p_.sensor_delay_s <= 0.0) return x_[2];
+  const double t = t_s_ - p_.sensor_delay_s;
+  // Within the first delay the sensor still reads its start.
+  if (t <= history_.front().first) return history_.front().second;
+  for (std::size_t i = 1; i < history_.size(); ++i) {
+    if (history_[i].first >= t) {
+      const auto& a = history_[i - 1];
+      const auto& b = history_[i];
+      return a.second + (b.second - a.second) * (t - a.first) / (b.first - a.first);
+    }
+  }
+  return history_.back().second;
 }
 
 double HeaterPlant::measured_c() {
-  if (p_.sensor_noise_k <= 0.0) return x_[2];
+  const double reading = delayed_sensor_c();
+  if (p_.sensor_noise_k <= 0.0) return reading;
   // Deterministic Gaussian noise: splitmix64 uniforms and Box-Muller.
   auto next = [this] {
     std::uint64_t z = (rng_ += 0x9E3779B97F4A7C15ull);
@@ -105,7 +130,7 @@ double HeaterPlant::measured_c() {
   };
   const double u1 = next(), u2 = next();
   const double g = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-  return x_[2] + p_.sensor_noise_k * g;
+  return reading + p_.sensor_noise_k * g;
 }
 
 // ---------------------------------------------------------------------------------------- PID

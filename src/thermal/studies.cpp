@@ -265,7 +265,9 @@ Json to_json(const HeaterStudy& s) {
       {"block_capacity_j_k", json_number(pp.block_capacity_j_k + pp.core_capacity_j_k)},
       {"sensor_responsiveness_1_s", json_number(1.0 / pp.sensor_time_constant_s)},
       {"loss_w_k", json_number(pp.loss_w_k)},
-      {"loss_full_fan_w_k", json_number(pp.loss_w_k + pp.fan_extra_loss_w_k)}};
+      {"loss_full_fan_w_k", json_number(pp.loss_w_k + pp.fan_extra_loss_w_k)},
+      {"heater_power_w", json_number(pp.heater_power_w)},
+      {"sensor_delay_s", json_number(pp.sensor_delay_s)}};
   Json rs = Json::array();
   for (const auto& r : s.runs)
     rs.push_back({{"controller", r.controller},

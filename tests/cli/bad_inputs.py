@@ -16,9 +16,15 @@ usage: bad_inputs.py AMCTL [-k SUBSTRING]
 """
 import os
 import re
+import struct
 import subprocess
 import sys
 import tempfile
+import zlib
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reference"))
+import bgcode_writer  # noqa: E402  (binary G-code written from the specification)
+import make_3mf  # noqa: E402  (sliced 3MF archives written with zipfile)
 
 GOOD_GCODE = "G28\nG90\nM82\nG1 X10 Y10 F6000\nG1 X20 E1\nG1 Y20 E2\n"
 GOOD_TOML = '[printer]\nname = "t"\nmax_velocity = 300\nmax_accel = 3000\n'
@@ -32,6 +38,60 @@ RAW_HEADER = "#time,accel_x,accel_y,accel_z\n"
 RAW_ROWS = "".join(f"{i / 1000:.3f},{(i % 5) - 2},{(i % 3) - 1},9800\n" for i in range(2000))
 CUBE_FACET = ("facet normal 0 0 -1\n outer loop\n  vertex 0 0 0\n  vertex 0 1 0\n"
               "  vertex 1 0 0\n endloop\nendfacet\n")
+
+
+def latin1(data):
+    return data.decode("latin-1")
+
+
+def bgcode(text, compression="deflate", encoding="text"):
+    return bgcode_writer.write_bgcode(text, compression, encoding)[0]
+
+
+def first_gcode_block(data):
+    """(offset, header bytes, parameter bytes, stored bytes) of the first G-code block."""
+    at = 10
+    while True:
+        btype, comp, size = struct.unpack_from("<HHI", data, at)
+        header = 8 if comp == 0 else 12
+        stored = size if comp == 0 else struct.unpack_from("<I", data, at + 8)[0]
+        params = 6 if btype == 5 else 2
+        if btype == 1:
+            return at, header, params, stored
+        at += header + params + stored + 4
+
+
+def bgcode_damaged_byte(text):
+    b = bytearray(bgcode(text))
+    at, header, params, stored = first_gcode_block(b)
+    b[at + header + params + stored // 2] ^= 0x20
+    return bytes(b), at
+
+
+def bgcode_first_block_type(text, btype):
+    b = bytearray(bgcode(text))
+    struct.pack_into("<H", b, 10, btype)
+    return bytes(b)
+
+
+def bgcode_cut(text):
+    b = bgcode(text)
+    at, header, params, stored = first_gcode_block(b)
+    return b[:at + header + params + stored // 2]
+
+
+GZIP_HALF = zlib.compressobj(6, zlib.DEFLATED, 31)
+GZIP_HALF = (GZIP_HALF.compress(("G1 X10 Y10 F6000\n" * 2000).encode()) + GZIP_HALF.flush())
+GZIP_HALF = GZIP_HALF[:len(GZIP_HALF) // 2]
+M503 = ("echo:  M92 X80.00 Y80.00 Z400.00 E93.00\necho:  M203 X500.00 Y500.00 Z5.00 E25.00\n"
+        "echo:  M201 X500.00 Y500.00 Z100.00 E5000.00\necho:  M204 P500.00 R500.00 T500.00\n"
+        "echo:  M205 B20000.00 S0.00 T0.00 J0.08\n")
+CONFIGURATION_H = ("#pragma once\n#define DEFAULT_AXIS_STEPS_PER_UNIT   { 80, 80, 400, 93 }\n"
+                   "#define DEFAULT_MAX_FEEDRATE          { 500, 500, 5, 25 }\n"
+                   "#define DEFAULT_MAX_ACCELERATION      { 500, 500, 100, 5000 }\n"
+                   "#define DEFAULT_ACCELERATION          500\n")
+CUBE_STL = "solid t\n" + ("facet normal 0 0 -1\n outer loop\n  vertex 0 0 0\n  vertex 0 1 0\n"
+                          "  vertex 1 0 0\n endloop\nendfacet\n") + "endsolid t\n"
 
 
 def case(name, args, files, where, outputs=(), dirs=(), links=None):
@@ -152,8 +212,8 @@ CASES = [
     case("flag_unknown", ["estimate", "f.gcode", "--bogus"], {"f.gcode": GOOD_GCODE}, "--bogus"),
     case("flag_not_in_choices", ["estimate", "f.gcode", "--mode", "fast"],
          {"f.gcode": GOOD_GCODE}, "--mode"),
-    case("flag_missing_required", ["resonance", "calibrate", "a.csv"],
-         {"a.csv": RAW_HEADER + RAW_ROWS}, "--axis"),
+    case("flag_missing_required", ["resonance", "recommend", "--damping-ratio", "0.1"],
+         {}, "--natural-frequency-hz"),
     case("flag_negative_damping", ["simulate", "f.gcode", "--natural-frequency-hz", "40",
                                    "--damping-ratio", "-1"], {"f.gcode": GOOD_GCODE},
          "--damping-ratio"),
@@ -227,6 +287,72 @@ CASES = [
          {"s.toml": "[material]\ndensity_kg_m3 = 930\n[bogus]\nx = 1\n"}, "s.toml:3:1", ["out.csv"]),
     case("sls_negative_density", ["thermal", "sls", "--config", "s.toml", "--csv", "out.csv"],
          {"s.toml": "[material]\ndensity_kg_m3 = -930\n"}, "s.toml:2:17", ["out.csv"]),
+    # ---- binary G-code (read by content, whatever the name) ----
+    case("bgcode_corrupt_crc", ["estimate", "f.bgcode"],
+         {"f.bgcode": latin1(bgcode_damaged_byte(GOOD_GCODE)[0])}, "f.bgcode"),
+    case("bgcode_truncated", ["estimate", "f.bgcode"],
+         {"f.bgcode": latin1(bgcode_cut(GOOD_GCODE))}, "f.bgcode"),
+    case("bgcode_unknown_block_type", ["estimate", "f.bgcode"],
+         {"f.bgcode": latin1(bgcode_first_block_type(GOOD_GCODE, 9))}, "f.bgcode"),
+    case("bgcode_version_2", ["estimate", "f.gcode"],
+         {"f.gcode": latin1(b"GCDE" + struct.pack("<IH", 2, 1))}, "f.gcode"),
+    case("bgcode_bad_line_names_the_decoded_line", ["estimate", "f.bgcode"],
+         {"f.bgcode": latin1(bgcode(GOOD_GCODE + "G1 Xq\n"))}, "f.bgcode:7:5"),
+    case("m73_into_binary_gcode_name", ["estimate", "f.bgcode", "--write-m73", "out.bgcode"],
+         {"f.bgcode": latin1(bgcode(GOOD_GCODE))}, "out.bgcode", ["out.bgcode"]),
+    case("bgcode_plan_csv_not_left_behind", ["plan", "f.bgcode", "-o", "out.csv"],
+         {"f.bgcode": latin1(bgcode_damaged_byte(GOOD_GCODE)[0])}, "f.bgcode", ["out.csv"]),
+    # ---- sliced 3MF (.gcode.3mf) and models given as G-code ----
+    case("gcode3mf_zip_bomb", ["estimate", "f.gcode.3mf"],
+         {"f.gcode.3mf": latin1(make_3mf.bomb_3mf(20))}, "f.gcode.3mf"),
+    case("gcode3mf_damaged_zip", ["estimate", "f.gcode.3mf"],
+         {"f.gcode.3mf": latin1(make_3mf.sliced_3mf([GOOD_GCODE.encode()])[:200])}, "f.gcode.3mf"),
+    case("gcode3mf_bad_line", ["estimate", "f.gcode.3mf"],
+         {"f.gcode.3mf": latin1(make_3mf.sliced_3mf([(GOOD_GCODE + "G1 Xq\n").encode()]))},
+         "f.gcode.3mf:7:5"),
+    case("gcode3mf_several_plates_one_expected", ["plan", "f.gcode.3mf", "-o", "out.csv"],
+         {"f.gcode.3mf": latin1(make_3mf.sliced_3mf([GOOD_GCODE.encode()] * 2))}, "f.gcode.3mf",
+         ["out.csv"]),
+    case("model_3mf_is_not_gcode", ["estimate", "m.3mf"],
+         {"m.3mf": latin1(make_3mf.model_3mf())}, "m.3mf"),
+    case("stl_given_as_gcode", ["estimate", "m.gcode"], {"m.gcode": CUBE_STL}, "m.gcode"),
+    case("gzip_truncated", ["estimate", "f.gcode.gz"], {"f.gcode.gz": latin1(GZIP_HALF)},
+         "f.gcode.gz"),
+    # ---- Marlin machines: M503 output, Configuration.h; empty machine files ----
+    case("m503_malformed_number", ["estimate", "f.gcode", "-m", "m503.txt"],
+         {"f.gcode": GOOD_GCODE, "m503.txt": M503.replace("Y500.00 Z5.00", "Y5o0.00 Z5.00")},
+         "m503.txt:2:22"),
+    case("m503_negative_accel", ["estimate", "f.gcode", "-m", "m503.txt"],
+         {"f.gcode": GOOD_GCODE, "m503.txt": M503.replace("P500.00", "P-500.00")}, "m503.txt:4:14"),
+    case("m503_missing_m204", ["estimate", "f.gcode", "-m", "m503.txt"],
+         {"f.gcode": GOOD_GCODE, "m503.txt": M503.replace("echo:  M204 P500.00 R500.00 T500.00\n", "")},
+         "m503.txt"),
+    case("configuration_h_without_limits", ["machine", "show", "Configuration.h"],
+         {"Configuration.h": "#pragma once\n#define MOTHERBOARD BOARD_RAMPS_14_EFB\n"},
+         "Configuration.h"),
+    case("configuration_h_short_array", ["machine", "show", "Configuration.h"],
+         {"Configuration.h": CONFIGURATION_H.replace("{ 500, 500, 5, 25 }", "{ 500, 500, 5 }")},
+         "Configuration.h:3:39"),
+    case("toml_empty", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": ""}, "m.toml"),
+    case("toml_only_defines", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": "#define DEFAULT_ACCELERATION 500\n"}, "m.toml"),
+    # ---- Klipper PSD files ----
+    case("psd_unknown_column_after_psd_xyz", ["resonance", "calibrate", "p.csv"],
+         {"p.csv": "freq,psd_x,psd_y,psd_z,psd_xyz,bogus\n1,1,1,1,3,1\n2,1,1,1,3,1\n"}, "p.csv:1"),
+    case("psd_several_records_short_row", ["resonance", "calibrate", "p.csv"],
+         {"p.csv": "freq,a.csv,b.csv\n1,1,2\n2,1\n"}, "p.csv:3"),
+    # ---- the command line: misspelt commands and options (with a did-you-mean) ----
+    case("misspelt_command", ["estimat", "f.gcode"], {"f.gcode": GOOD_GCODE}, "estimat"),
+    case("misspelt_subcommand", ["resonance", "calibrat", "f.csv"], {"f.csv": RAW_HEADER}, "calibrat"),
+    case("misspelt_option", ["estimate", "f.gcode", "--machin", "voron24"], {"f.gcode": GOOD_GCODE},
+         "--machin"),
+    case("bad_file_limits_policy", ["estimate", "f.gcode", "--file-limits", "sometimes"],
+         {"f.gcode": GOOD_GCODE}, "--file-limits"),
+    case("resonance_probe_point_beyond_limits",
+         ["resonance", "test-gcode", "--machine", "p.cfg", "--axis", "x", "-o", "out.gcode"],
+         {"p.cfg": STEPPER_CFG + "[resonance_tester]\nprobe_points:\n    199.9, 100, 20\n"},
+         "p.cfg:24", ["out.gcode"]),
 ]
 
 

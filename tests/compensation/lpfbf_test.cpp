@@ -191,7 +191,11 @@ TEST(LpfbfStream, WholePrintInBoundedMemory) {
   const std::string csv = ::testing::TempDir() + "lpfbf_stream_boxboss.csv";
   const CompensationResult r = compensate_file_streaming(
       std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode", m, o, csv);
-  ASSERT_EQ(r.status, "ok");
+  // The command is judged against the V0's max_accel (16000 mm/s^2): a 40 Hz / zeta 0.1 belt
+  // needs more at the print's 8000 mm/s^2 infill ramps.
+  ASSERT_TRUE(r.status == "ok" || r.status == "machine_accel_limit_exceeded") << r.status;
+  EXPECT_EQ(r.machine_accel_limit_mm_s2, 16000.0);
+  EXPECT_EQ(r.status == "ok", r.peak_command_accel_mm_s2 <= 16000.0) << r.peak_command_accel_mm_s2;
   EXPECT_GT(r.samples, 800000U);
   const std::size_t q = static_cast<std::size_t>(std::llround(r.knot_spacing_s * 1000.0));
   const std::size_t nw = static_cast<std::size_t>(std::llround(r.window_s / r.knot_spacing_s));

@@ -290,7 +290,7 @@ TEST(LineReader, StreamsFilesInBoundedBufferAndFlagsMissingNewline) {
     std::fputs("G1 X9", f);
     std::fclose(f);
   }
-  LineReader reader(path, 4096);
+  LineReader reader(std::make_unique<InputFile>(path, gcode_input_options()), path, 4096);
   std::string_view line;
   std::uint64_t n = 0;
   while (reader.next(line)) {
@@ -300,7 +300,7 @@ TEST(LineReader, StreamsFilesInBoundedBufferAndFlagsMissingNewline) {
   EXPECT_EQ(n, 20001u);
   EXPECT_EQ(line, "G1 X9");
   EXPECT_TRUE(reader.ended_without_newline());
-  EXPECT_THROW(LineReader("/nonexistent/file.gcode"), Error);
+  EXPECT_THROW(InputFile("/nonexistent/file.gcode", gcode_input_options()), Error);
 }
 
 }  // namespace

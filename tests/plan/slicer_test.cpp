@@ -38,7 +38,7 @@ class SlicedByPrusaSlicer : public ::testing::Test {
                                " " + dir_.string();
     const std::string slice = "prusa-slicer --export-gcode --load " +
                               (kSource / "examples/slicer/klipper_voron.ini").string() + " " +
-                              (dir_ / "boxboss.stl").string() + " --center 125,125 -o " +
+                              (dir_ / "boxboss.stl").string() + " -o " +
                               (dir_ / "boxboss.gcode").string() + " > " +
                               (dir_ / "slicer.log").string() + " 2>&1";
     ok_ = std::system(models.c_str()) == 0 && std::system(slice.c_str()) == 0 &&
@@ -62,6 +62,12 @@ TEST_F(SlicedByPrusaSlicer, EstimateIsSaneAgainstTheSlicersOwnFigure) {
   EXPECT_EQ(r.layers.size(), 100u);  // 20 mm at 0.2 mm layers
   EXPECT_NEAR(r.layers.back().z_mm, 20.0, 1e-9);
   EXPECT_GT(r.filament_mm, 100.0);
+  // The profile's bed is the printer's (120 mm): every move is in range.
+  EXPECT_FALSE(r.range_error.has_value()) << describe_range_error(*r.range_error);
+  // One heat-up: PRINT_START waits for the bed and the hotend, once each.
+  ASSERT_EQ(r.heater_waits.size(), 2u);
+  EXPECT_EQ(r.heater_waits[0].what, "M190 bed 100 C (wait)");
+  EXPECT_EQ(r.heater_waits[1].what, "M109 hotend 240 C (wait)");
   // The config's PRINT_START/PRINT_END macros are expanded (docs/macros.md): nothing unknown.
   EXPECT_TRUE(r.unknown_commands.empty()) << r.unknown_commands.front().name;
   ASSERT_EQ(r.macros.size(), 2u);

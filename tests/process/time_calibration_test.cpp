@@ -94,7 +94,7 @@ TEST(TimeCalibration, PlannerDurationsAreExplainedByTheLimitsThatMadeThem) {
   EXPECT_GT(timings[2].duration_s, 10 * 80.0 / 150.0);
   const auto start = amctl::machine::preset("default");
   const std::vector<std::string> names{"accel", "scv", "max_velocity"};
-  const auto est = pr::planner_duration_estimator(start, names, timings, false);
+  const auto est = pr::planner_duration_estimator(start, names, timings, amctl::plan::FileLimits::ignore);
   std::vector<double> measured;
   for (const auto& t : timings) measured.push_back(t.duration_s);
   const auto r = pr::calibrate_durations(est, measured, pr::limit_parameters(start, names));

@@ -3,7 +3,8 @@
 
 Usage: check_page_screenshot.py SCREENSHOT.png CHROMIUM_LOG DUMPED_DOM [ZOOMED.png]
 
-- the speed plot is drawn: a wide, tall region of its band colour (#1f77b4), well filled;
+- the speed plot is drawn: a wide, tall region of its min-max band colour (#a9c8e4), well
+  filled, with the mean-speed line (#0b4f8a, anti-aliased: pixels close to it) across it;
 - the time-per-layer bars are drawn (#5a8dc0);
 - the toolpath is drawn below them in several colours of the speed scale;
 - the page's script ran to its end (data-drawn="yes" in the DOM Chromium dumped);
@@ -63,7 +64,11 @@ def main():
     png, log, dom = sys.argv[1:4]
     w, h, bpp, rows = read_png(png)
     failures = []
-    band = bytes((31, 119, 180))
+    band = bytes((169, 200, 228))
+    line = (11, 79, 138)
+
+    def near_line(c):
+        return all(abs(c[i] - line[i]) <= 40 for i in range(3))
     if len(sys.argv) > 4:
         zw, zh, zbpp, zrows = read_png(sys.argv[4])
         xs = [x for row in zrows for x in range(zw) if row[x * zbpp:x * zbpp + 3] == band]
@@ -79,8 +84,11 @@ def main():
 
     bars = bytes((90, 141, 192))
     band_box, band_n, bars_n, bars_bottom = [w, h, -1, -1], 0, 0, -1
+    line_xs = set()
     colours = {}
     for x, y, c in pixels():
+        if near_line(c):
+            line_xs.add(x)
         if c == band:
             band_n += 1
             band_box = [min(band_box[0], x), min(band_box[1], y), max(band_box[2], x), max(band_box[3], y)]
@@ -92,6 +100,10 @@ def main():
     print(f"speed band: {band_n} px in {bw} x {bh}; layer bars: {bars_n} px; {len(colours)} colours")
     if bw < w // 2 or bh < 100 or band_n < 0.15 * bw * bh:
         failures.append("the speed plot is not drawn (too few band pixels)")
+    line_span = len([x for x in line_xs if band_box[0] <= x <= band_box[2]])
+    print(f"mean-speed line over {line_span} of the band's {bw} columns")
+    if line_span < 0.8 * bw:
+        failures.append("the mean-speed line is not drawn across the speed plot")
     if bars_n < 1000:
         failures.append("the time-per-layer bars are not drawn")
     # Toolpath: saturated pixels below the layer bars, in several colours.

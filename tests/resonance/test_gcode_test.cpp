@@ -4,11 +4,14 @@
 // whole sweep lasts the closed form (f_N - f0) / rate.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/plan/estimate.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/resonance/test_gcode.hpp"
 
@@ -150,6 +153,108 @@ TEST(TestGcode, RejectsBadOptionsNamingTheParameter) {
   o = {};
   o.hz_per_sec = 1e-5;
   expect_error(o, "--hz-per-sec");
+}
+
+// A printer.cfg with [resonance_tester]: its probe points, chips and frequencies drive the
+// program, one record per point, as TEST_RESONANCES would run it.
+constexpr const char* kTesterCfg =
+    "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+    "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 100\nposition_endstop: 0\n"
+    "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 100\nposition_endstop: 0\n"
+    "[stepper_z]\nrotation_distance: 8\nmicrosteps: 16\nposition_max: 100\nposition_endstop: 0\n"
+    "[input_shaper]\nshaper_freq_x: 50\nshaper_freq_y: 40\n"
+    "[resonance_tester]\naccel_chip_x: adxl345 hotend\naccel_chip_y: adxl345 bed\n"
+    "min_freq: 10\nmax_freq: 20\naccel_per_hz: 50\nmove_speed: 100\n"
+    "probe_points:\n    20, 30, 10\n    80, 30, 10\n";
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+  return n;
+}
+
+machine::Machine tester_machine() {
+  const std::string path = testing::TempDir() + "resonance_tester.cfg";
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  std::fputs(kTesterCfg, f);
+  std::fclose(f);
+  return machine::load_machine(path);
+}
+
+TEST(TestGcode, ResonanceTesterSectionGivesPointsChipsAndFrequencies) {
+  const machine::Machine m = tester_machine();
+  const TestGcodeOptions o = machine_test_options(TestStyle::klipper, 'y', m);
+  ASSERT_EQ(o.probe_points.size(), 2u);
+  EXPECT_EQ(o.probe_points[1], (std::array<double, 3>{80.0, 30.0, 10.0}));
+  EXPECT_EQ(o.accel_chip, "adxl345 bed");
+  EXPECT_EQ(machine_test_options(TestStyle::klipper, 'x', m).accel_chip, "adxl345 hotend");
+  EXPECT_EQ(o.freq_start_hz, 10.0);
+  EXPECT_EQ(o.freq_end_hz, 20.0);
+  EXPECT_EQ(o.accel_per_hz, 50.0);
+  EXPECT_EQ(o.hz_per_sec, 1.0);  // Klipper's default where the section is silent
+  EXPECT_EQ(o.move_speed_mm_s, 100.0);
+
+  const std::string g = test_gcode(o, m);
+  // homed first, shaping off and back on, one start/stop pair per point (adxl345.py: CHIP is
+  // the section's last word)
+  EXPECT_EQ(g.find("G28\nG90\nSET_INPUT_SHAPER SHAPER_FREQ_X=0 SHAPER_FREQ_Y=0\n") != std::string::npos, true) << g.substr(0, 900);
+  EXPECT_EQ(count(g, "ACCELEROMETER_MEASURE CHIP=bed NAME=resonances_y_1\n"), 2u);
+  EXPECT_EQ(count(g, "ACCELEROMETER_MEASURE CHIP=bed NAME=resonances_y_2\n"), 2u);
+  EXPECT_NE(g.find("G1 X80.0000 Y30.0000 Z10.0000 F6000\nM400\nG4 P500\nACCELEROMETER_MEASURE"), std::string::npos);
+  EXPECT_NE(g.find("SET_INPUT_SHAPER SHAPER_FREQ_X=50 SHAPER_FREQ_Y=40\n"), std::string::npos);
+  // amctl plans the whole program: every command known, the sweep twice
+  const plan::EstimateReport r = plan::estimate_text(g, "test.gcode", m);
+  EXPECT_TRUE(r.unknown_commands.empty()) << r.unknown_commands.front().name;
+  EXPECT_FALSE(r.range_error.has_value());
+  EXPECT_GT(r.total_time_s, 2.0 * test_duration_s(o));
+}
+
+TEST(TestGcode, WithoutProbePointsTheMiddleOfThePositionLimits) {
+  const machine::Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/ender3_cartesian.cfg");
+  const TestGcodeOptions o = machine_test_options(TestStyle::klipper, 'x', m);
+  EXPECT_TRUE(o.probe_points.empty());
+  const auto& x = m.steppers.at("x");
+  const auto& y = m.steppers.at("y");
+  EXPECT_EQ(o.point_mm[0], 0.5 * (*x.position_min_mm + *x.position_max_mm));
+  EXPECT_EQ(o.point_mm[1], 0.5 * (*y.position_min_mm + *y.position_max_mm));
+  EXPECT_EQ(o.point_mm[2], 20.0);
+}
+
+TEST(TestGcode, StrokesBeyondThePositionLimitsAreRefused) {
+  // Klipper's pattern moves +a/(16 f0^2) first: 60 * 5 / (16 * 25) = 0.75 mm from the point.
+  TestGcodeOptions o = default_test_options(TestStyle::klipper);
+  EXPECT_NEAR(test_excursion(o).max_mm, 0.75, 1e-12);
+  EXPECT_NEAR(test_excursion(o).min_mm, 0.0, 1e-12);
+  const machine::Machine m = tester_machine();
+  o.point_mm[0] = 99.5;  // 99.5 + 0.75 > position_max 100
+  o.point_mm[1] = 50.0;
+  o.point_given = true;
+  o.point_source = "--point";
+  try {
+    (void)test_gcode(o, m);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--point: found test point 99.5,50,20, whose test moves X from "
+                                         "99.5000 to 100.2500 mm"), std::string::npos) << e.what();
+  }
+  o.point_mm[0] = 99.25;  // exactly at the limit: allowed
+  EXPECT_NO_THROW((void)test_gcode(o, m));
+}
+
+TEST(TestGcode, MalformedProbePointsNameTheirLine) {
+  const std::string path = testing::TempDir() + "bad_probe_points.cfg";
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  std::fputs("[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+             "[resonance_tester]\nprobe_points:\n  50, 50, 20\n  60, y, 20\n", f);
+  std::fclose(f);
+  const machine::Machine m = machine::load_machine(path);
+  try {
+    (void)machine_test_options(TestStyle::klipper, 'x', m);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().line, 8u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("found 'y' in '60, y, 20', expected a number"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -69,6 +69,11 @@ struct CompensationOptions {
   /// enforces it; the other methods report status "base_accel_limit_exceeded" when their
   /// command breaks it.
   double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();
+  /// compensate_file / compensate_file_streaming: judge the command's peak acceleration
+  /// against the machine's own limit (Klipper printer.max_accel; Marlin and RepRapFirmware the
+  /// smaller of marlin.max_accel X and Y, M201) when no max_base_accel_mm_s2 is given: status
+  /// "machine_accel_limit_exceeded" instead of "ok" for a command the firmware would not follow.
+  bool judge_machine_accel = true;
   /// Collocation: the effort term of the objective, mean (rho x_b'')^2 next to the mean
   /// squared tracking error, rho in s^2 (1e-9: 1e4 mm/s^2 weighs as 0.01 um of error).
   double effort_weight_s2 = 1e-9;
@@ -99,7 +104,9 @@ inline constexpr double kMaxLeadTail_s = 600.0;
 
 struct CompensationResult {
   std::string method;
-  std::string status;   ///< "ok" or "unbounded_command_acceleration"
+  /// "ok", "unbounded_command_acceleration", "base_accel_limit_exceeded" (the bound given),
+  /// "machine_accel_limit_exceeded" (the machine's own limit), ...
+  std::string status;
   std::string message;  ///< what the status means and what to do
   double motion_time_s = 0.0;
   double compute_time_s = 0.0;       ///< the method and its check simulation
@@ -130,6 +137,10 @@ struct CompensationResult {
   double max_defect_mm = 0.0;        ///< largest Hermite-Simpson defect of the solution
   double effort_weight_s2 = 0.0;     ///< the effort weight used
   double max_base_accel_mm_s2 = std::numeric_limits<double>::infinity();  ///< the bound given
+  /// The machine's acceleration limit the command was judged against (+inf: not judged) and
+  /// the key it comes from ("printer.max_accel", "marlin.max_accel").
+  double machine_accel_limit_mm_s2 = std::numeric_limits<double>::infinity();
+  std::string machine_accel_limit_key;
   // The command and its check, one entry per sample time.
   std::vector<double> t_s, x_cmd_mm, y_cmd_mm, x_des_mm, y_des_mm, x_sim_mm, y_sim_mm;
   /// Collocation: the command's acceleration at the samples, linear between them (the command

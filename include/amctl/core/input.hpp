@@ -34,8 +34,16 @@ class ByteSource {
   /// Up to `n` bytes into `dst`; 0 only at the end. Throws amctl::Error naming the input on a
   /// read error or malformed data (a decoder).
   virtual std::size_t read(char* dst, std::size_t n) = 0;
-  /// The name used in messages (the path as given, "<stdin>").
-  [[nodiscard]] virtual const std::string& name() const = 0;
+  /// The name used in messages (the path as given, "<stdin>"); empty when the source does not
+  /// know it (a decoder's reader is then given the name).
+  [[nodiscard]] virtual const std::string& name() const;
+  /// Where the byte at `offset` of this stream (0-based) came from, for messages: empty when
+  /// the stream is the file's own bytes, else for example "G-code block 3, the file's block 8
+  /// at byte 4711" or "Metadata/plate_1.gcode" (a decoder).
+  [[nodiscard]] virtual std::string origin(std::uint64_t offset) const {
+    (void)offset;
+    return {};
+  }
 };
 
 struct InputOptions {
@@ -127,6 +135,8 @@ class LineReader {
 
   /// Reads `source`, which it owns.
   explicit LineReader(std::unique_ptr<ByteSource> source, std::size_t buffer_bytes = kDefaultBufferBytes);
+  /// Reads `source`, which it owns, under `name` in messages (a decoder that has no name).
+  LineReader(std::unique_ptr<ByteSource> source, std::string name, std::size_t buffer_bytes = kDefaultBufferBytes);
   /// Reads `source`, which must outlive the reader.
   explicit LineReader(ByteSource& source, std::size_t buffer_bytes = kDefaultBufferBytes);
   /// Reads an in-memory text (tests, fuzzing, generated G-code). `name` is used in messages.
@@ -161,6 +171,7 @@ class LineReader {
     } else {
       begin_ += len + term;
     }
+    line_start_ = bytes_;
     bytes_ += len + term;
     terminator_ = term == 2 ? "\r\n" : data[len] == '\r' ? "\r" : "\n";
     ++line_no_;
@@ -178,6 +189,11 @@ class LineReader {
   [[nodiscard]] std::string_view terminator() const { return terminator_; }
   /// True if the input did not end with a line end (a possibly truncated file).
   [[nodiscard]] bool ended_without_newline() const { return no_final_newline_; }
+  /// Where the line last returned came from inside the file, when the text is decoded from
+  /// a container ("G-code block 3, the file's block 8 at byte 4711"); empty for plain text.
+  [[nodiscard]] std::string origin_of_line() const {
+    return source_ != nullptr ? source_->origin(line_start_) : std::string();
+  }
 
  private:
   bool next_slow(std::string_view& line);
@@ -196,6 +212,7 @@ class LineReader {
   std::string_view terminator_;
   std::uint64_t line_no_ = 0;
   std::uint64_t bytes_ = 0;
+  std::uint64_t line_start_ = 0;  // offset of the line last returned
 };
 
 /// A whole input in memory, for the formats read as a whole (TOML, printer.cfg, JSON, STL,

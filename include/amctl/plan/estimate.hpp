@@ -156,6 +156,24 @@ class EstimateSink final : public Sink {
 EstimateReport estimate_file(const GcodeInput& input, const machine::Machine& machine,
                              const EstimateOptions& options = {});
 
+/// One file of a batch (`amctl estimate A B ...`, the fleet's table): its report, or the
+/// error that stopped it.
+struct EstimateRow {
+  std::string file;
+  std::optional<EstimateReport> report;
+  std::string error;  ///< the amctl::Error's message; empty on success
+  double compute_time_s = 0.0;
+  /// A report without a single move ("no moves": an empty file, or one of comments only).
+  [[nodiscard]] bool no_moves() const { return report && report->moves == 0; }
+};
+
+/// Estimates every input on one machine, one after the other; a file that fails is a row
+/// with its error and does not stop the others. Inputs are expanded as
+/// formats::expand_gcode_inputs does (directories, the plates of a 3MF).
+std::vector<EstimateRow> estimate_files(const std::vector<std::string>& inputs,
+                                        const machine::Machine& machine,
+                                        const EstimateOptions& options = {});
+
 /// Same, on text in memory (tests). `name` appears in messages.
 EstimateReport estimate_text(std::string_view gcode, const std::string& name,
                              const machine::Machine& machine, const EstimateOptions& options = {});

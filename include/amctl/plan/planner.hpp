@@ -25,6 +25,7 @@
 
 #include "amctl/gcode/events.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 #include "amctl/plan/planned_move.hpp"
 
 namespace amctl::plan {
@@ -84,6 +85,9 @@ struct PlannerOptions {
   std::size_t max_queue = 1u << 16;
   /// Marlin's MINIMUM_PLANNER_SPEED [mm/s].
   double minimum_planner_speed_mm_s = 0.05;
+  /// The file's own limits commands: kept as the firmware does, ignored, or capped at the
+  /// machine's (file_limits.hpp).
+  FileLimits file_limits = FileLimits::keep;
 };
 
 /// Count of moves whose request the machine refused or trimmed.
@@ -98,6 +102,8 @@ struct PlannerDiagnostics {
   /// Marlin soft endstops (machine soft_min/max_position): moves whose target was clamped.
   std::uint64_t clamped_moves = 0;
   std::vector<std::string> warnings;       ///< e.g. over-extrusion (Klipper would refuse)
+  /// The file's limits commands and what the planner did with them (PlannerOptions::file_limits).
+  FileLimitsReport file_limits;
 };
 
 class Planner final : public gcode::EventSink {

@@ -17,6 +17,12 @@ namespace amctl::plan {
 [[nodiscard]] Json to_json(const EstimateReport& report, const machine::Machine& machine,
                            double compute_time_s);
 
+/// `amctl estimate A B ... --json`: {"machine", "files": [one `estimate --json` object per
+/// file, or {"file", "error"}]}; a file without moves has "no_moves": true.
+[[nodiscard]] Json to_json(const std::vector<EstimateRow>& rows, const machine::Machine& machine);
+/// The file's limits commands and the policy applied (`file_limits` of the estimate's JSON).
+[[nodiscard]] Json to_json(const FileLimitsReport& file_limits);
+
 /// One velocity profile's figures in `estimate --compare-profiles`.
 struct ProfileRun {
   machine::VelocityProfile profile = machine::VelocityProfile::trapezoid;

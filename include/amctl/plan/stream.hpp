@@ -154,16 +154,17 @@ class GcodeInput {
 };
 
 /// An input open for several passes: `input`'s InputFile when it has one, else `input`'s path
-/// opened rewindable here.
+/// opened rewindable here; a plate named inside a 3MF archive ("a.gcode.3mf/Metadata/
+/// plate_2.gcode") stays a path, which each pass opens again (the archive is a regular file).
 class RewindableGcode {
  public:
   explicit RewindableGcode(const GcodeInput& input);
   RewindableGcode(const RewindableGcode&) = delete;
   RewindableGcode& operator=(const RewindableGcode&) = delete;
-  [[nodiscard]] InputFile& file() { return *file_; }
-  operator GcodeInput() { return GcodeInput(*file_); }  // NOLINT
+  operator GcodeInput() { return file_ != nullptr ? GcodeInput(*file_) : GcodeInput(path_); }  // NOLINT
 
  private:
+  std::string path_;
   std::unique_ptr<InputFile> owned_;
   InputFile* file_ = nullptr;
 };

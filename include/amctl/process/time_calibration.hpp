@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 #include "amctl/process/calibrate.hpp"
 #include "amctl/process/csv.hpp"
 
@@ -45,12 +46,13 @@ void set_limit(machine::Machine& m, const std::string& name, double value);
 [[nodiscard]] std::vector<CalibrationParameter> limit_parameters(
     const machine::Machine& m, const std::vector<std::string>& names);
 
-/// An estimator over `timings` (files loaded once, limit commands stripped unless
-/// keep_file_limits): for a parameter vector, sets the named limits on a copy of `base` and
-/// returns the planner's motion time of each file (or of each timed layer).
+/// An estimator over `timings` (files loaded once): for a parameter vector, sets the named
+/// limits on a copy of `base` and returns the planner's motion time of each file (or of each
+/// timed layer), the files' own limits commands kept, ignored or capped (`file_limits`, as
+/// `amctl estimate --file-limits`).
 [[nodiscard]] DurationEstimator planner_duration_estimator(const machine::Machine& base,
                                                            const std::vector<std::string>& names,
                                                            const std::vector<PrintTiming>& timings,
-                                                           bool keep_file_limits);
+                                                           plan::FileLimits file_limits);
 
 }  // namespace amctl::process

@@ -12,6 +12,7 @@
 //   link_length_widths, filament_diameter_mm                         numbers (scan options)
 // Keys left out keep the seed's values (EmpiricalTimeModel::fdm2000_seed()). Every error
 // names file:line.
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,6 +38,11 @@ struct EmpiricalParams {
 
 struct EmpiricalEstimate {
   std::string file;
+  /// The parameter file (`--params`, e.g. `calibrate-time --mode empirical --save`'s). Empty:
+  /// the model runs on the process-planning study's FDM 2000 speeds (a 2000-era Stratasys
+  /// machine, ~24 mm/s rasters), not on this printer's, and `caveat` says so in the output.
+  std::string params_file;
+  std::string caveat;
   EmpiricalParams params;
   GcodeTimeScan scan;
   double total_time_s = 0.0;
@@ -59,7 +65,9 @@ struct PlannerCalibrationRequest {
   std::string timings_csv;
   machine::Machine machine;
   std::vector<std::string> limits;  ///< empty: default_limits_for(machine)
-  bool keep_file_limits = false;
+  /// The files' own limits commands: kept as the firmware does (default, as `amctl estimate`),
+  /// ignored (the fitted limits hold throughout) or capped at the fitted limits.
+  plan::FileLimits file_limits = plan::FileLimits::keep;
   bool absolute = false;            ///< residuals in seconds instead of relative ones
 };
 
@@ -73,6 +81,12 @@ struct TimeCalibration {
   ScanOptions scan;
   // Planner mode.
   std::optional<CalibrationResult> planner;
+  /// Planner mode: the policy, and the limits commands the files set (distinct files, planned
+  /// once more with the calibrated machine).
+  plan::FileLimits file_limits = plan::FileLimits::keep;
+  std::uint64_t file_limit_commands = 0;
+  std::size_t files_setting_limits = 0;
+  std::size_t files = 0;
   std::vector<CalibrationParameter> start;
   machine::Machine calibrated;  ///< the machine with the fitted limits
 };

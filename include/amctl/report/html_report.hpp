@@ -17,6 +17,7 @@
 
 #include "amctl/core/json.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/file_limits.hpp"
 #include "amctl/report/toolpath.hpp"
 
 namespace amctl::report {
@@ -30,7 +31,12 @@ struct ReportOptions {
   std::optional<BeltModelOptions> belt;   ///< simulate and colour by contour error
   double sample_rate_hz = 1000.0;         ///< simulation rate (with a belt model)
   bool strict = true;                     ///< false: skip malformed lines (counted)
+  /// The file's own limits commands: kept as the firmware does, ignored or capped.
+  plan::FileLimits file_limits = plan::FileLimits::keep;
   std::size_t speed_buckets = 4096;       ///< at most this many (at least half) in the page
+  /// A second, finer level of the speed chart for zoomed views (0: none): at most this many
+  /// buckets, so a view of a few minutes of a long print still has a bucket per pixel.
+  std::size_t fine_speed_buckets = 32768;
   ToolpathOptions toolpath;
   /// An accelerometer record (Klipper raw or PSD CSV, or the corpus CSV): adds the resonance
   /// section (the normalised PSD, every shaper Klipper fits with its remaining-vibration
@@ -38,8 +44,8 @@ struct ReportOptions {
   std::string accel_path;
   char accel_axis = 'x';  ///< the axis the record excited
   /// "hotend" or "bed": adds the heater loop section (thermal::run_heater_study with that
-  /// heater's defaults: temperature, set point and heater effort of every controller). Empty:
-  /// none.
+  /// heater's defaults and the print's own target: the file's first non-zero temperature for
+  /// that heater, the study's default when the file sets none). Empty: none.
   std::string thermal;
 };
 

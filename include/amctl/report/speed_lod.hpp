@@ -3,7 +3,7 @@
 //
 // A sink of the plan stream that keeps, for each of at most max_buckets equal time buckets
 // over the whole print, the minimum and maximum XYZ speed of the nozzle in the bucket and the
-// feature that took most of its time. The print's length is not known while streaming, so
+// feature that took most of its time, and the distance travelled (its mean speed). The print's length is not known while streaming, so
 // the bucket width starts small and doubles (merging neighbours pairwise) whenever the print
 // outgrows max_buckets buckets: at the end there are between max_buckets/2 and max_buckets
 // buckets, whatever the length of the print. Memory: O(max_buckets x features per bucket).
@@ -25,6 +25,10 @@ struct SpeedBucket {
   float min_speed_mm_s = 0.0F;
   float max_speed_mm_s = 0.0F;
   double covered_s = 0.0;  ///< time covered by moves (the rest of the bucket is standing still)
+  /// XYZ distance travelled in the bucket [mm] (the speed's integral: exact on linear ramps
+  /// and cruise, the trapezoid rule between bucket edges on S-curve ramps): the bucket's mean
+  /// speed is distance_mm / the bucket's width.
+  double distance_mm = 0.0;
   /// Time per feature (PlannedMove::feature) of the moves in the bucket; a handful at most.
   std::vector<std::pair<std::uint16_t, float>> feature_time_s;
   [[nodiscard]] bool empty() const { return covered_s <= 0.0; }
@@ -51,7 +55,7 @@ class SpeedLodSink final : public plan::Sink {
   void add_move(const plan::PlannedMove& m);
   void add_span(double t0_s, double t1_s, double v0_mm_s, double v1_mm_s, std::uint16_t feature,
                 const plan::PlannedMove& m, int phase);
-  void touch(std::size_t k, float vmin, float vmax, double dt_s, std::uint16_t feature);
+  void touch(std::size_t k, float vmin, float vmax, double dt_s, double distance_mm, std::uint16_t feature);
   void grow_to(double t_s);
 
   std::size_t max_buckets_;

@@ -80,10 +80,17 @@ struct KlipperCalibration {
 [[nodiscard]] KlipperCalibration klipper_calibrate(const PsdTable& normalized_psd,
                                                    const KlipperOptions& options = {});
 
+/// The same fit over several records (calibrate_shaper.py A.csv B.csv since Klipper's rework
+/// of October 2025): each record keeps its own PSD, and at every test frequency a shaper's
+/// remaining vibrations are the worst over the records (and the test damping ratios).
+[[nodiscard]] KlipperCalibration klipper_calibrate(const std::vector<PsdTable>& normalized_psds,
+                                                   const KlipperOptions& options = {});
+
 /// What `amctl resonance calibrate FILE --axis x|y` does.
 struct CalibrateOptions {
   char axis = 'x';  ///< 'x' or 'y': the axis the record excited (the fit, like Klipper's
-                    ///< calibrate_shaper.py, uses psd_xyz; the axis picks the peak reported)
+                    ///< calibrate_shaper.py, uses psd_xyz; the axis picks the peak reported);
+                    ///< 0: not said (as calibrate_shaper.py, which has no axis): no axis peak
   KlipperOptions klipper;
   /// The commanded sweep, when known: adds the frequency response and the modal fit
   /// (identify_sweep; time records only).
@@ -92,8 +99,28 @@ struct CalibrateOptions {
   int modes = 0;
 };
 
+/// Why Klipper's rule may be biased on this record, and what it picks once the bias is taken
+/// out. Klipper's shaper rule is tuned on its own test: pulses of accel_per_hz * f, so the
+/// excitation's PSD grows as f^2 (then divided by f + 0.1 in normalize_to_frequencies). A
+/// constant-amplitude sweep has a flat excitation: against Klipper's, every frequency f is
+/// weighted (f_ref / f)^2 more, the low frequencies (where the measured acceleration is mostly
+/// the commanded motion itself) dominate, and the rule picks a low shaper frequency. With the
+/// sweep known the record's PSD is reweighted by f^2 (the excitation ratio; the rule is
+/// scale-free) and the rule rerun: what Klipper would pick had it excited the axis itself.
+struct ExcitationCaveat {
+  /// "constant_amplitude_sweep" (a --sweep was given) or "unknown" (a foreign format without
+  /// --sweep: the corpus CSV).
+  std::string excitation;
+  std::string why;  ///< one paragraph, for the text report and the JSON
+  /// Klipper's rule on the PSD reweighted to Klipper's excitation (with a sweep only).
+  std::optional<KlipperCalibration> reweighted;
+};
+
 struct CalibrationReport {
   std::string source;
+  /// Every record of the fit, the first one's name first (several files, or the columns of a
+  /// several-record PSD file); the fields below describe the first record.
+  std::vector<std::string> sources;
   RecordFormat format = RecordFormat::corpus;
   char axis = 'x';
   std::optional<RecordQuality> quality;  ///< for time records
@@ -103,11 +130,19 @@ struct CalibrationReport {
   double peak_xyz_hz = 0.0;              ///< the normalised psd_xyz's peak (f <= max freq)
   KlipperCalibration klipper;
   std::optional<SweepIdentification> identification;  ///< with CalibrateOptions::sweep
+  /// When the record was not excited as Klipper excites (a --sweep, or a foreign format):
+  /// why Klipper's rule is biased there and its pick on the reweighted PSD.
+  std::optional<ExcitationCaveat> caveat;
 };
 
 /// Reads the file and calibrates. Throws amctl::Error on bad input or options.
 [[nodiscard]] CalibrationReport calibrate_file(const std::string& path,
                                                const CalibrateOptions& options);
+/// Several files at once, as `calibrate_shaper.py A.csv B.csv`: every record (a raw record,
+/// a PSD file, each column of a several-record PSD file) joins the fit (klipper_calibrate over
+/// a list). The report's record fields are the first file's. --sweep takes one record.
+[[nodiscard]] CalibrationReport calibrate_files(const std::vector<std::string>& paths,
+                                                const CalibrateOptions& options);
 /// Same on a file already read.
 [[nodiscard]] CalibrationReport calibrate(const AccelFile& file, const std::string& source,
                                           const CalibrateOptions& options);
@@ -119,7 +154,9 @@ struct CalibrationReport {
 /// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std,
 /// rms_residual, bins_used, sweep_start_s, alignment_peak, segment_samples, mode_count,
 /// mode_selection (asked|bic), bic[], dominant_mode, modes[{natural_frequency_hz,
-/// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std, peak_gain}]}.
+/// natural_frequency_std_hz, damping_ratio, damping_ratio_std, gain, gain_std, peak_gain}]};
+/// when the record was not excited as Klipper excites, excitation_caveat{excitation, why,
+/// klipper_rule_on_reweighted_psd{name, freq_hz} (null without a sweep)}.
 [[nodiscard]] Json to_json(const CalibrationReport& report);
 [[nodiscard]] std::string to_text(const CalibrationReport& report);
 

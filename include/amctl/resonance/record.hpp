@@ -4,7 +4,11 @@
 //   - the corpus CSV              `#time_s,accel_x_mm_s2,accel_y_mm_s2,accel_z_mm_s2`
 //   - Klipper's PSD CSV           `freq,psd_x,psd_y,psd_z,psd_xyz` (unnormalised Welch PSD, as
 //     TEST_RESONANCES writes it; with a trailing `,shapers:,...` it is the normalised PSD that
-//     calibrate_shaper.py --csv writes, and is read as such)
+//     calibrate_shaper.py --csv writes, and is read as such; the older calibration_data_*.csv
+//     of SHAPER_CALIBRATE, with one column per shaper after psd_xyz (`zv(41.6),mzv(25.6),...`),
+//     is normalised too, as the Klipper that wrote them read them)
+//   - Klipper's PSD CSV of several records, `freq,NAME1,NAME2,...[,shapers:,...]` (what
+//     calibrate_shaper.py --csv writes for A.csv B.csv): one psd_xyz column per record
 // Bad input throws amctl::Error "FILE:LINE: what was found, expected what"; an empty or
 // binary file throws an error naming the file.
 #include <cstddef>
@@ -42,6 +46,9 @@ struct PsdTable {
   /// true when already divided by (f + 0.1) and damped below 10 Hz (Klipper's
   /// normalize_to_frequencies); a `,shapers:` PSD file is.
   bool normalized = false;
+  /// A column of a several-record PSD file: the record's name; psd_x, psd_y and psd_z are then
+  /// empty (Klipper does not store them there).
+  std::string name;
 };
 
 /// Clipping on one axis: runs of at least kClipRunSamples consecutive samples at exactly the
@@ -80,10 +87,12 @@ struct RecordQuality {
 struct AccelFile {
   RecordFormat format = RecordFormat::corpus;
   AccelRecord record;  ///< klipper_raw and corpus
-  PsdTable psd;        ///< klipper_psd
+  PsdTable psd;        ///< klipper_psd (the first record of a several-record PSD file)
+  std::vector<PsdTable> more_psd;  ///< klipper_psd: the other records of a several-record file
 };
 
-/// Reads any of the three formats (told apart by the header). Throws amctl::Error.
+/// Reads any of the formats above (told apart by the header); "-" reads standard input.
+/// Throws amctl::Error.
 [[nodiscard]] AccelFile read_accel_file(const std::string& path);
 
 /// Memory a calibration takes per sample of a raw record: the record (time and three axes,

@@ -4,7 +4,9 @@
 // (MPC-like) controller whose model is identified from a heat-up curve as M306 T does.
 // Our own implementation; Marlin's behaviour was read for reference (docs/thermal.md).
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -12,25 +14,37 @@
 
 namespace amctl::thermal {
 
-/// The "true" simulated heater: a heater core coupled to the block (the extra node the MPC
-/// model does not have, so the identified model is not the plant), the block losing heat to
-/// ambient through a coefficient that grows linearly with the part-cooling fan, a filament
-/// flow heat load, and a first-order sensor lag.
+/// The "true" simulated heater: the block losing heat to ambient through a coefficient that
+/// grows linearly with the part-cooling fan, a filament flow heat load, a first-order sensor lag
+/// and a transport delay (which the MPC model does not have, so the identified model is not the
+/// plant), optionally a heater core coupled to the block.
+///
+/// The defaults are an E3D V6 hotend with a 40 W cartridge as Prusa-Firmware's thermal model of
+/// it (Firmware/thermal_model/e3d_v6.h, the model the MK3S checks its hotend against): heater
+/// power 38 W, heat capacity 12.1 J/K, resistance to ambient 20.5 K/W with the fan off and
+/// 10.1 K/W at full fan, a first-order filter of factor 0.065 per 0.27 s sample (time constant
+/// 0.27 / -ln(1 - 0.065) = 4.02 s) and a response lag of 2.1 s. Its relay autotune gives about
+/// Marlin-scale P 23, I 2.2, D 60, where published tunings of 40 W hotends lie around P 16-22,
+/// I 1.1-1.6, D 56-110 (docs/thermal.md 4.3).
 struct HeaterPlantParams {
-  double heater_power_w = 40.0;
-  double core_capacity_j_k = 1.5;       ///< cartridge core; 0 removes the node
-  double core_to_block_w_k = 2.0;
-  double block_capacity_j_k = 16.7;
+  double heater_power_w = 38.0;
+  double core_capacity_j_k = 0.0;       ///< heater cartridge core; 0 removes the node (lumped)
+  double core_to_block_w_k = 2.0;       ///< used only with a core
+  double block_capacity_j_k = 12.1;
   double ambient_c = 25.0;
-  double loss_w_k = 0.068;              ///< to ambient, fan off
-  double fan_extra_loss_w_k = 0.097 - 0.068;  ///< added at 100 % fan
+  double loss_w_k = 1.0 / 20.5;         ///< to ambient, fan off
+  double fan_extra_loss_w_k = 1.0 / 10.1 - 1.0 / 20.5;  ///< added at 100 % fan
   double filament_j_mm3k = 2.2e-3;      ///< rho c of the filament (PLA ~ 1.24e-3 g/mm^3 * 1.8 J/(g K))
-  double sensor_time_constant_s = 1.0 / 0.22;
+  double sensor_time_constant_s = 4.02;
+  /// Transport delay between the block and the reading [s]: the heat's way from the heater
+  /// core through the block to the thermistor and the firmware's filtering (Prusa's thermal
+  /// model of the E3D V6 calls it the response lag). 0: none.
+  double sensor_delay_s = 2.1;
   double sensor_noise_k = 0.0;          ///< standard deviation of added white noise
   std::uint32_t noise_seed = 1;
 
   void validate() const;  ///< throws amctl::Error naming the bad field
-  /// A 40 W E3D-V6-like hotend (block values close to Marlin's MPC defaults).
+  /// An E3D V6 with a 40 W cartridge (Prusa-Firmware's thermal model, the defaults above).
   [[nodiscard]] static HeaterPlantParams hotend();
   /// A 24 V 220 W 235 x 235 mm aluminium bed.
   [[nodiscard]] static HeaterPlantParams bed();
@@ -45,7 +59,8 @@ class HeaterPlant {
   /// Sensor reading (lagged, with noise if configured).
   [[nodiscard]] double measured_c();
   [[nodiscard]] double block_c() const { return x_[1]; }
-  [[nodiscard]] double sensor_c() const { return x_[2]; }
+  /// The sensor's reading without noise: the sensor node sensor_delay_s ago.
+  [[nodiscard]] double sensor_c() const { return delayed_sensor_c(); }
   [[nodiscard]] const HeaterPlantParams& params() const { return p_; }
 
  private:
@@ -53,6 +68,10 @@ class HeaterPlant {
   HeaterPlantParams p_;
   double x_[3];  // core, block, sensor
   std::uint64_t rng_;
+  double t_s_ = 0.0;
+  /// (time, sensor node) samples over the last sensor_delay_s (empty without a delay).
+  std::deque<std::pair<double, double>> history_;
+  [[nodiscard]] double delayed_sensor_c() const;
 };
 
 /// The heater PID is a control::PidController on the duty fraction u in [0, 1] with the

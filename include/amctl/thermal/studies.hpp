@@ -83,7 +83,8 @@ struct HeaterStudyOptions {
   int cycles = 5;                 ///< autotune cycles (M303 C), >= 3
   TuningRule rule = TuningRule::classic_zn;
 
-  /// A 40 W hotend at 210 C, classic Ziegler-Nichols.
+  /// The default hotend (an E3D V6 with a 40 W cartridge, HeaterPlantParams::hotend) at 210 C,
+  /// classic Ziegler-Nichols.
   [[nodiscard]] static HeaterStudyOptions hotend();
   /// A 220 W bed at 60 C, the no-overshoot rule, a longer scenario.
   [[nodiscard]] static HeaterStudyOptions bed_defaults();
