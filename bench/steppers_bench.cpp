@@ -9,6 +9,7 @@
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/steppers/step_filter.hpp"
+#include "amctl/steppers/step_rate.hpp"
 #include "amctl/steppers/steps.hpp"
 
 namespace {
@@ -81,6 +82,30 @@ void BM_StepsBoxbossCoreXYKlipperFilter(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<std::int64_t>(steps) * state.iterations());
 }
 BENCHMARK(BM_StepsBoxbossCoreXYKlipperFilter)->Unit(benchmark::kMillisecond);
+
+// The same with the step-rate figures of `amctl steps` (StepRateMeter: the filtered peak and
+// the sustained rate) behind the generator: their cost against BM_StepsBoxbossCoreXY.
+void BM_StepsBoxbossCoreXYRates(benchmark::State& state) {
+  static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
+                                     "configs/klipper-voron-v0.cfg");
+  const auto channels = amctl::steppers::stepper_channels(p.machine);
+  std::uint64_t steps = 0;
+  for (auto _ : state) {
+    std::uint64_t n = 0;
+    amctl::steppers::StepRateMeter meter(channels.size());
+    amctl::steppers::StepSink sink(channels, [&](std::span<const amctl::steppers::Step> s) {
+      n += s.size();
+      meter.push(s);
+    });
+    for (const auto& b : p.batches) sink.consume(b);
+    meter.finish();
+    benchmark::DoNotOptimize(meter.figures().data());
+    steps = n;
+  }
+  state.counters["steps"] = static_cast<double>(steps);
+  state.SetItemsProcessed(static_cast<std::int64_t>(steps) * state.iterations());
+}
+BENCHMARK(BM_StepsBoxbossCoreXYRates)->Unit(benchmark::kMillisecond);
 
 void BM_StepsBoxbossScurve7(benchmark::State& state) {
   static const Planned p = [] {

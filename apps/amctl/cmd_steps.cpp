@@ -1,6 +1,8 @@
 // `amctl steps FILE --machine M --csv OUT.csv [--step-filter none|klipper] [--json]`: the exact
 // step times of every stepper
 // (docs/steppers.md): PlanSource -> steppers::StepSink -> steps CSV.
+#include <cmath>
+#include <cstdint>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -25,7 +27,15 @@ struct StepsArgs {
 void run_steps(const StepsArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
   const steppers::StepFilter filter = steppers::step_filter_from_string(a.filter, "--step-filter");
-  const steppers::StepsReport r = steppers::generate_steps_file(a.file, m, a.csv, filter);
+  const steppers::StepsReport r = steppers::generate_steps_file(
+      a.file, m, a.csv, filter, [&](std::uint64_t bytes, double time_s) {
+        std::cerr << fmt::format(
+            "amctl steps: warning: the steps CSV '{}' passed {:.1f} GB at print time {:.1f} s "
+            "and grows with the print (about {:.0f} bytes a step); stop with Ctrl-C to keep "
+            "nothing, or run without --csv for the figures alone\n",
+            a.csv, static_cast<double>(bytes) / 1e9, time_s,
+            steppers::kStepsCsvRowBytesBesidesName + 10.0);
+      });
   if (a.json) {
     std::cout << steppers::to_json(r).dump(2) << "\n";
     return;
@@ -43,10 +53,25 @@ void run_steps(const StepsArgs& a) {
       std::cout << fmt::format("  peak {:.0f} steps/s at {:.6f} s", s.peak_step_rate_steps_s(),
                                s.peak_time_s);
     }
+    if (i < r.rates.size() && std::isfinite(r.rates[i].filtered_min_interval_s)) {
+      const steppers::StepRateFigures& f = r.rates[i];
+      std::cout << fmt::format(", {:.0f} without step-and-back pairs, sustained {:.0f} over {:g} ms",
+                               f.filtered_peak_step_rate_steps_s(),
+                               f.sustained_step_rate_steps_s, r.sustained_window_s * 1e3);
+    }
     std::cout << "\n";
   }
   if (!r.csv_path.empty()) {
-    std::cout << fmt::format("  {} steps written to {}\n", r.total_steps(), r.csv_path);
+    std::cout << fmt::format("  {} steps written to {} ({:.1f} MB)\n", r.total_steps(),
+                             r.csv_path, static_cast<double>(r.csv_bytes) / 1e6);
+  } else {
+    double bytes = 25.0;  // the header
+    for (std::size_t i = 0; i < r.channels.size(); ++i) {
+      bytes += static_cast<double>(r.stats[i].steps) *
+               (static_cast<double>(r.channels[i].name.size()) +
+                steppers::kStepsCsvRowBytesBesidesName);
+    }
+    std::cout << fmt::format("  a --csv of these steps would take about {:.0f} MB\n", bytes / 1e6);
   }
 }
 
@@ -59,11 +84,12 @@ void register_steps(CLI::App& app) {
   sub->add_option("file", a->file, "G-code file ('-' reads standard input)")->required();
   add_machine_options(*sub, a->machine);
   sub->add_option("--csv", a->csv,
-                  "CSV file stepper,time_s,direction, one row per step (written whole or not at all)");
+                  "CSV file stepper,time_s,direction, one row per step, about 30 bytes a step "
+                  "(written whole or not at all; run without it first to see the size)");
   sub->add_option("--step-filter", a->filter,
                   "none (amctl's exact steps, default) or klipper (drop a step and the step back "
                   "within 750 us, as Klipper's stepcompress does before the MCU)");
-  sub->add_flag("--json", a->json, "Print steps per stepper and the peak step rates as JSON");
+  sub->add_flag("--json", a->json, "Print steps per stepper and the peak, filtered peak and sustained step rates as JSON");
   sub->callback([a] { run_steps(*a); });
 }
 

@@ -1,6 +1,7 @@
 #include "amctl/steppers/steps.hpp"
 
 #include "amctl/steppers/step_filter.hpp"
+#include "amctl/steppers/step_rate.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -676,6 +677,7 @@ void StepSink::consume(const plan::PlanBatch& batch) {
 StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names, OutputOptions options)
     : out_(std::move(path), std::move(options)), names_(std::move(names)) {
   buf_ = "stepper,time_s,direction\n";
+  bytes_ = buf_.size();
 }
 
 void StepsCsvFile::flush() {
@@ -684,12 +686,14 @@ void StepsCsvFile::flush() {
 }
 
 void StepsCsvFile::write(std::span<const Step> steps) {
+  const std::size_t before = buf_.size();
   auto it = std::back_inserter(buf_);
   for (const Step& s : steps) {
     // "{}" is the shortest form that reads back to the same double.
     fmt::format_to(it, "{},{},{}\n", names_[s.stepper], s.time_s, s.direction);
   }
   rows_ += steps.size();
+  bytes_ += buf_.size() - before;
   if (buf_.size() > (1u << 20)) flush();
 }
 
@@ -716,7 +720,8 @@ StepFilter step_filter_from_string(std::string_view name, std::string_view flag)
 const char* to_string(StepFilter f) { return f == StepFilter::klipper ? "klipper" : "none"; }
 
 StepsReport generate_steps_file(const std::string& gcode_path, const machine::Machine& m,
-                                const std::string& csv_path, StepFilter filter) {
+                                const std::string& csv_path, StepFilter filter,
+                                const LargeCsvCallback& on_large_csv) {
   std::vector<StepperChannel> channels = stepper_channels(m);
   std::vector<std::string> names;
   for (const StepperChannel& c : channels) names.push_back(c.name);
@@ -726,13 +731,22 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   std::uint64_t moves = 0;
   StepDirFilter sds(channels.size());
   std::vector<Step> passed;
+  StepRateMeter rates(channels.size());
+  bool warned = false;
   StepSink sink(channels, [&](std::span<const Step> steps) {
+    rates.push(steps);
     if (filter == StepFilter::klipper) {
       passed.clear();
       sds.push(steps, passed);
       steps = passed;
     }
-    if (csv) csv->write(steps);
+    if (csv) {
+      csv->write(steps);
+      if (!warned && on_large_csv && csv->bytes() >= kLargeStepsCsvBytes && !steps.empty()) {
+        warned = true;
+        on_large_csv(csv->bytes(), steps.back().time_s);
+      }
+    }
   });
   plan::CallbackSink counter([&](const PlannedMove&) { ++moves; });
   plan::Sink* sinks[] = {&sink, &counter};
@@ -742,8 +756,12 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
     sds.finish(passed);
     if (csv) csv->write(passed);
   }
+  rates.finish();
   if (csv) csv->commit();
   StepsReport r;
+  r.rates = rates.figures();
+  r.sustained_window_s = rates.window_s();
+  r.csv_bytes = csv ? csv->bytes() : 0;
   r.file = gcode_path;
   r.machine_name = m.name;
   r.kinematics = std::string(machine::to_string(m.kinematics));
@@ -780,6 +798,18 @@ Json to_json(const StepsReport& r) {
         {"peak_time_s", has_pair ? json_number(s.peak_time_s) : Json(nullptr)},
         {"filtered_pairs", i < r.filtered_pairs.size() ? r.filtered_pairs[i] : 0},
     });
+    if (i < r.rates.size()) {
+      const StepRateFigures& f = r.rates[i];
+      const bool has_filtered_pair = std::isfinite(f.filtered_min_interval_s);
+      Json& j = steppers.back();
+      j["filtered_peak_step_rate_steps_s"] =
+          has_filtered_pair ? json_number(f.filtered_peak_step_rate_steps_s()) : Json(nullptr);
+      j["filtered_peak_time_s"] =
+          has_filtered_pair ? json_number(f.filtered_peak_time_s) : Json(nullptr);
+      j["sustained_step_rate_steps_s"] = json_number(f.sustained_step_rate_steps_s);
+      j["sustained_time_s"] =
+          std::isfinite(f.sustained_time_s) ? json_number(f.sustained_time_s) : Json(nullptr);
+    }
   }
   return Json{{"file", r.file},
               {"machine", r.machine_name},
@@ -789,6 +819,8 @@ Json to_json(const StepsReport& r) {
               {"print_time_s", json_number(r.print_time_s)},
               {"moves", r.moves},
               {"total_steps", r.total_steps()},
+              {"sustained_window_s", json_number(r.sustained_window_s)},
+              {"csv_bytes", r.csv_path.empty() ? Json(nullptr) : Json(r.csv_bytes)},
               {"steppers", steppers}};
 }
 

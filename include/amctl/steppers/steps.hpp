@@ -103,6 +103,21 @@ struct StepperStats {
   [[nodiscard]] double peak_step_rate_steps_s() const { return 1.0 / min_interval_s; }
 };
 
+inline constexpr double kSustainedWindowS = 0.010;  ///< default window of the sustained rate
+
+/// Step rates a drive has to sustain (step_rate.hpp, StepRateMeter), per stepper. Rates are 0 and times NaN below the steps they need.
+struct StepRateFigures {
+  /// Shortest interval between consecutive steps after the step+back filter [s] (+inf: < 2).
+  double filtered_min_interval_s = std::numeric_limits<double>::infinity();
+  double filtered_peak_time_s = std::numeric_limits<double>::quiet_NaN();  ///< later step's time
+  /// Most filtered steps in any window of the meter's length, per second of window.
+  double sustained_step_rate_steps_s = 0.0;
+  double sustained_time_s = std::numeric_limits<double>::quiet_NaN();  ///< end of that window
+  [[nodiscard]] double filtered_peak_step_rate_steps_s() const {
+    return 1.0 / filtered_min_interval_s;
+  }
+};
+
 /// The step engine: feeds on moves in time order, keeps one grid state per channel.
 class StepGenerator {
  public:
@@ -186,6 +201,7 @@ class StepsCsvFile {
   void write(std::span<const Step> steps);
   void commit();
   [[nodiscard]] std::uint64_t rows() const { return rows_; }
+  [[nodiscard]] std::uint64_t bytes() const { return bytes_; }  ///< header and rows so far
 
  private:
   void flush();
@@ -193,6 +209,7 @@ class StepsCsvFile {
   std::vector<std::string> names_;
   std::string buf_;
   std::uint64_t rows_ = 0;
+  std::uint64_t bytes_ = 0;
 };
 
 /// Which steps `amctl steps` writes: amctl's exact ones, or what Klipper sends its MCU after
@@ -214,15 +231,30 @@ struct StepsReport {
   std::vector<StepperStats> stats;    ///< of the steps written (after the filter)
   StepFilter step_filter = StepFilter::none;
   std::vector<std::uint64_t> filtered_pairs;  ///< per channel: step pairs the filter removed
+  /// Per channel: the peak after the step+back filter and the sustained rate, whatever
+  /// `step_filter` (StepRateMeter over the exact steps).
+  std::vector<StepRateFigures> rates;
+  double sustained_window_s = kSustainedWindowS;
+  std::uint64_t csv_bytes = 0;  ///< bytes of the CSV written (0 without one)
   [[nodiscard]] std::uint64_t total_steps() const;
 };
+
+/// The CSV reached `bytes` (called once, when it first passes kLargeStepsCsvBytes) at print
+/// time `time_s`: a caller may warn its user.
+using LargeCsvCallback = std::function<void(std::uint64_t bytes, double time_s)>;
+inline constexpr std::uint64_t kLargeStepsCsvBytes = 1'000'000'000;
+/// Bytes a steps CSV row takes on average besides the stepper's name: ',', the time in its
+/// shortest round-trip form (17 significant digits mostly, 18-19 characters), ',', the
+/// direction, a newline (measured: 21.7 on boxboss's 5.5 M steps on the V0).
+inline constexpr double kStepsCsvRowBytesBesidesName = 21.7;
 
 /// G-code file + machine -> steps (PlanSource -> StepSink), written as CSV to `csv_path`
 /// when it is not empty (whole or not at all).
 [[nodiscard]] StepsReport generate_steps_file(const std::string& gcode_path,
                                               const machine::Machine& m,
                                               const std::string& csv_path,
-                                              StepFilter filter = StepFilter::none);
+                                              StepFilter filter = StepFilter::none,
+                                              const LargeCsvCallback& on_large_csv = {});
 
 /// JSON form: step_filter, steppers[] with name, step_distance_mm, steps, steps_positive,
 /// steps_negative, peak_step_rate_steps_s, peak_time_s, min_interval_s (null when fewer than
