@@ -342,7 +342,7 @@ CASES = [
          ["out.csv"]),
     case("configuration_h_tiny_feedrate", ["machine", "show", "Configuration.h"],
          {"Configuration.h": CONFIGURATION_H.replace("{ 500, 500, 5, 25 }", "{ 1e-305, 500, 5, 25 }")},
-         "Configuration.h"),
+         "Configuration.h:3:39"),
     case("m503_tiny_feedrate", ["estimate", "f.gcode", "-m", "m503.txt"],
          {"f.gcode": GOOD_GCODE, "m503.txt": M503.replace("X500.00 Y500.00 Z5.00", "X0.0000000000000000001 Y500.00 Z5.00")},
          "m503.txt:2:14"),
