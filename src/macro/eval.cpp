@@ -533,6 +533,9 @@ class Renderer {
         (b.type() == T::integer || b.type() == T::boolean)) {
       const std::int64_t n = std::max<std::int64_t>(0, b.as_int());
       const std::size_t unit = a.type() == T::string ? a.text().size() : a.items().size();
+      // An empty string or list repeated any number of times is empty: no loop of n steps
+      // that nothing else would count ('' * 10**9).
+      if (unit == 0) return a.type() == T::string ? Value::string(std::string()) : Value::list(List{});
       const double total = static_cast<double>(n) * static_cast<double>(unit);
       if (a.type() == T::string) check_string_size(static_cast<std::uint64_t>(std::min(total, 1e18)), line);
       if (a.type() == T::list) {
@@ -548,6 +551,7 @@ class Renderer {
       work(static_cast<std::uint64_t>(std::min(total, 1e18)), line);
       if (a.type() == T::string) {
         std::string s;
+        s.reserve(static_cast<std::size_t>(total));
         for (std::int64_t k = 0; k < n; ++k) s += a.text();
         return Value::string(std::move(s));
       }
