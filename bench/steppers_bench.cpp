@@ -9,6 +9,7 @@
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/steppers/step_filter.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/step_rate.hpp"
 #include "amctl/steppers/steps.hpp"
 
@@ -29,7 +30,7 @@ Planned plan_file(const std::string& gcode, const std::string& cfg) {
 
 // Generation only: the callback counts the steps of each move.
 void run_steps(benchmark::State& state, const Planned& p) {
-  const auto channels = amctl::steppers::stepper_channels(p.machine);
+  const auto channels = amctl::machine::motors(p.machine);
   std::uint64_t steps = 0;
   for (auto _ : state) {
     std::uint64_t n = 0;
@@ -58,7 +59,7 @@ BENCHMARK(BM_StepsBoxbossCoreXY)->Unit(benchmark::kMillisecond);
 void BM_StepsBoxbossCoreXYKlipperFilter(benchmark::State& state) {
   static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
                                      "configs/klipper-voron-v0.cfg");
-  const auto channels = amctl::steppers::stepper_channels(p.machine);
+  const auto channels = amctl::machine::motors(p.machine);
   std::uint64_t steps = 0, kept = 0;
   for (auto _ : state) {
     std::uint64_t n = 0;
@@ -88,7 +89,7 @@ BENCHMARK(BM_StepsBoxbossCoreXYKlipperFilter)->Unit(benchmark::kMillisecond);
 void BM_StepsBoxbossCoreXYRates(benchmark::State& state) {
   static const Planned p = plan_file("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode",
                                      "configs/klipper-voron-v0.cfg");
-  const auto channels = amctl::steppers::stepper_channels(p.machine);
+  const auto channels = amctl::machine::motors(p.machine);
   std::uint64_t steps = 0;
   for (auto _ : state) {
     std::uint64_t n = 0;

@@ -11,6 +11,9 @@ pkgs=(
   zlib1g-dev libzip-dev  # binary G-code (DEFLATE), sliced 3MF archives (src/formats)
   pybind11-dev python3-dev python3-numpy python3-scipy python3-distributed python3-pandas python3-pytest
   chromium  # the report page's test: headless screenshot (tests/report/page_screenshot_test.sh)
+  # The 3D powder bed (src/sls3d, `amctl thermal sls3d`): deal.II 9.4 (its dev package brings
+  # p4est, Trilinos and the MPI headers) and Open MPI's launcher for mpirun runs.
+  libdeal.ii-dev openmpi-bin
 )
 # The real-slicer tests slice a model with Debian's prusa-slicer.
 for arg in "$@"; do

@@ -18,9 +18,9 @@ else
   (cd "$work" && cmake --graphviz="$work/g.dot" "$build" >/dev/null)
 fi
 # Layers, lowest first: a module may link only modules in lower layers.
-layers="core:0 control:1 gcode:1 formats:2 machine:2 macro:2 plan:3 trajectory:4 dynamics:5 shaping:5
+layers="core:0 control:1 gcode:1 kinematics:1 formats:2 machine:2 macro:2 plan:3 trajectory:4 dynamics:5 shaping:5
 thermal:2 process:4 resonance:6 simulation:6 compensation:6 steppers:5
-tuning:7 report:7 comparison:7 closedloop:6"
+tuning:7 report:7 comparison:7 closedloop:6 sls3d:2"
 /usr/bin/python3 - "$work/g.dot" "$layers" <<'PY'
 import re, sys
 dot, layers = open(sys.argv[1]).read(), dict(l.split(":") for l in sys.argv[2].split())

@@ -21,6 +21,7 @@
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/dynamics/seed000_sweep.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/simulation/shaped_simulation.hpp"
 #include "commands.hpp"
@@ -160,8 +161,8 @@ void do_simulate(const SimulateArgs& a) {
   if (a.t_begin && !std::isfinite(*a.t_begin)) throw Error(fmt::format("--t-begin: must be a finite time [s], got {}", *a.t_begin));
   if (a.t_end && !std::isfinite(*a.t_end)) throw Error(fmt::format("--t-end: must be a finite time [s], got {}", *a.t_end));
   o.simulation.sample_rate_hz = a.rate_hz;
-  o.simulation.kinematics = mach.kinematics;
   o.simulation.motor_space = a.motor_space;
+  if (a.motor_space) o.simulation.motor_rows = machine::motor_space(mach).rows;
   o.simulation.vibration_per_sample = !a.csv.empty();
   o.metrics.worst_count = a.worst;
   o.metrics.corner_window_s = a.corner_window_s;

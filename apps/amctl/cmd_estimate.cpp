@@ -56,7 +56,7 @@ void print_human(const plan::EstimateReport& r, const machine::Machine& m, doubl
   auto& o = std::cout;
   o << fmt::format("amctl estimate: {}\n", r.file);
   o << fmt::format("  machine          {} ({}, {}, junction: {})\n", m.name,
-                   machine::to_string(m.firmware), machine::to_string(m.kinematics),
+                   machine::to_string(m.firmware), kinematics::name_of(m.kinematics),
                    machine::to_string(m.junction));
   o << fmt::format("  print time       {:>12}  ({:.1f} s: motion {:.1f} s + dwells {:.1f} s)\n",
                    hms(r.total_time_s), r.total_time_s, r.motion_time_s, r.dwell_time_s);
@@ -275,7 +275,7 @@ void run_estimate_many(const EstimateArgs& a, const std::vector<std::string>& fi
     for (const auto& r : rows) name_w = std::max(name_w, r.file.size());
     auto& o = std::cout;
     o << fmt::format("amctl estimate: {} files on {} ({}, {})\n", rows.size(), m.name,
-                     machine::to_string(m.firmware), machine::to_string(m.kinematics));
+                     machine::to_string(m.firmware), kinematics::name_of(m.kinematics));
     o << fmt::format("  {:<{}}  {:>12}  {:>10}  {:>9}  {}\n", "file", name_w, "print time", "seconds",
                      "moves", "slicer's own");
     double total = 0.0;

@@ -69,7 +69,7 @@ void register_machine(CLI::App& app) {
     for (const std::string& name : mc::preset_names()) {
       const mc::Machine m = mc::preset(name);
       std::cout << fmt::format("{:<12} {} {} {}\n", name, mc::to_string(m.firmware),
-                               mc::to_string(m.kinematics), mc::to_string(m.junction));
+                               kinematics::name_of(m.kinematics), mc::to_string(m.junction));
     }
   });
 

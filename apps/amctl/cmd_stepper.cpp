@@ -1,10 +1,12 @@
-// `amctl stepper simulate [FILE] --machine M --controller open|seed003|pid|best
-//  [--scenario seed003 --speed-mm-s V] [--no-load] [--csv OUT] [--json]`: stepper, drive,
-// encoder and controller simulated together (docs/closedloop.md).
-// `amctl stepper sweep --machine M [--csv OUT] [--svg CHART]`: the seed003 scenario over
-// 30..150 mm/s for every controller, as a table and a chart.
+// `amctl stepper simulate [FILE] --machine M --controller open|encoder-sequenced|speed-tracking|
+//  pid|feedforward [--scenario reversing-strokes --speed-mm-s V] [--no-load] [--csv OUT]
+//  [--json]`: stepper, drive, encoder, controller and command governor simulated together
+// (docs/closedloop.md).
+// `amctl stepper sweep --machine M [--csv OUT] [--svg CHART]`: the reversing-strokes scenario
+// over 30..150 mm/s for every controller, as a table and a chart.
 #include <iostream>
 #include <memory>
+#include <numbers>
 #include <string>
 
 #include <fmt/format.h>
@@ -24,6 +26,7 @@ struct StepperArgs {
   MachineOptions machine;
   closedloop::SimulateRequest req;
   bool no_load = false;
+  bool no_governor = false;
   bool json = false;
 };
 
@@ -31,6 +34,7 @@ void run_simulate(const StepperArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
   closedloop::SimulateRequest req = a.req;
   req.load = !a.no_load;
+  req.governor = !a.no_governor;
   const closedloop::SimulationResult r = closedloop::stepper_simulate(m, req);
   if (a.json) {
     std::cout << closedloop::to_json(r).dump(2) << "\n";
@@ -43,12 +47,31 @@ void run_simulate(const StepperArgs& a) {
                                             : "");
   for (const closedloop::AxisResult& x : r.axes) {
     std::cout << fmt::format(
-        "  {}: max error {:.4f} mm at {:.3f} s, rms {:.4f} mm, lost {} steps ({} full steps), "
+        "  {}: motor {} ({}), {:.1f} V, run current {:.2f} A RMS ({:.2f} A peak, up to {:.2f} A)\n",
+        x.name, x.motor_name, x.motor_source, x.drive.supply_voltage_v,
+        x.drive.current_amplitude_a / std::numbers::sqrt2, x.drive.current_amplitude_a,
+        x.max_current_a);
+  }
+  for (const closedloop::AxisResult& x : r.axes) {
+    std::cout << fmt::format(
+        "  {}: max error {:.4f} mm at {:.3f} s, rms {:.4f} mm; path error max {:.4f} / rms "
+        "{:.4f} mm; endpoint error max {:.4f} / rms {:.4f} mm; lost {} steps ({} full steps), "
         "max load angle {:.1f} deg, peak {:.0f} steps/s, current {:.2f} A peak / {:.2f} A mean\n",
         x.name, x.max_tracking_error_mm, x.max_error_time_s, x.rms_tracking_error_mm,
-        x.lost_steps, x.lost_full_steps, x.max_load_angle_deg, x.peak_step_rate_hz,
-        x.peak_current_a, x.mean_current_a);
+        x.max_path_error_mm, x.rms_path_error_mm, x.max_endpoint_error_mm,
+        x.rms_endpoint_error_mm, x.lost_steps, x.lost_full_steps,
+        x.max_load_angle_deg, x.peak_step_rate_hz, x.peak_current_a, x.mean_current_a);
+    if (r.controller != "open" && req.governor) {
+      std::cout << fmt::format(
+          "  {}: governor held {} periods; degraded to open loop on {} of {} moves; "
+          "acceleration lead dropped on {}{}\n",
+          x.name, x.governor_limited_periods, x.degraded_moves, x.moves, x.accel_lead_dropped_moves,
+          r.controller == "encoder-sequenced"
+              ? fmt::format("; {} commands reached, {} left", x.commands_reached, x.commands_left)
+              : "");
+    }
   }
+  for (const std::string& n : r.notes) std::cout << "  note: " << n << "\n";
   if (!a.req.csv_path.empty()) std::cout << "  traces written to " << a.req.csv_path << "\n";
 }
 
@@ -95,8 +118,12 @@ void register_stepper(CLI::App& app) {
       "simulate", "Simulate motors, drives, AS5311 encoders and a controller on a file or scenario");
   sim->add_option("file", a->req.file, "G-code file (or use --scenario)");
   add_machine_options(*sim, a->machine);
-  sim->add_option("--controller", a->req.controller, "open, seed003, pid or best (default open)");
-  sim->add_option("--scenario", a->req.scenario, "seed003: seed 003's reversing X and Y strokes");
+  sim->add_option("--controller", a->req.controller,
+                  "open, encoder-sequenced (the closed-loop stepper paper's law as published), "
+                  "speed-tracking (that law against the time-based reference), pid, feedforward "
+                  "(model feed-forward with current scaling); default open");
+  sim->add_option("--scenario", a->req.scenario,
+                  "reversing-strokes: the closed-loop stepper paper's X and Y strokes 0 -> -30 -> 0 mm");
   sim->add_option("--speed-mm-s", a->req.speed_mm_s, "scenario speed [mm/s] (default 90)");
   sim->add_option("--drag-n", a->req.drag_force_n, "scenario load: drag force opposing motion [N]");
   sim->add_option("--end-load-n-per-mm", a->req.end_load_n_per_mm, "scenario load: stiffness of the cable pulled taut beyond -25 mm [N/mm]");
@@ -104,23 +131,27 @@ void register_stepper(CLI::App& app) {
   sim->add_option("--drag-n-s-per-m", a->req.drag_n_s_per_m, "scenario load: drag growing with speed [N s/m]");
   sim->add_option("--backlash-mm", a->req.backlash_mm, "scenario: lost motion at each reversal [mm] (default: the machine's, else 0.05)");
   sim->add_option("--run-current-a", a->req.run_current_a, "scenario: motor current, RMS as Klipper's run_current [A] (default: the machine's, else 0.8)");
-  sim->add_option("--max-current-a", a->req.max_current_a, "scenario: peak phase current best may boost to [A] (default: the motor's rated current)");
+  sim->add_option("--max-current-a", a->req.max_current_a, "scenario: peak phase current feedforward may boost to [A] (default and limit: the motor's rated current)");
   sim->add_flag("--no-load", a->no_load, "scenario without its drag load");
   sim->add_option("--csv", a->req.csv_path, "trace CSV (time, reference, position, error, command, encoder, load angle per axis)");
   sim->add_flag("--json", a->json, "print the result as JSON");
-  sim->add_option("--kp", a->req.kp, "position gain of pid/best [-]");
-  sim->add_option("--ki", a->req.ki_per_s, "integral gain of pid/best [1/s]");
-  sim->add_option("--kd", a->req.kd_s, "derivative gain of pid/best [s]");
- sim->add_option("--model-mass-scale", a->req.model_mass_scale, "best: factor on the carriage mass its model believes (robustness; default 1)");
-  sim->add_option("--model-stiffness-scale", a->req.model_stiffness_scale, "best: factor on the belt stiffness its model believes (robustness; default 1)");
- sim->add_option("--drag-gain", a->req.drag_gain_per_s, "best: adaptation gain of the learned drag [1/s] (default 20; 0 = off)");
-  sim->add_option("--load-angle-deg", a->req.load_angle_deg, "best: load angle the current is sized for [deg] (default 45; 0 = run current only)");
-  sim->add_option("--alpha", a->req.alpha_per_s, "seed003's alpha [1/s] (default 0.6)");
+  sim->add_option("--kp", a->req.kp, "position gain of pid/feedforward [-]");
+  sim->add_option("--ki", a->req.ki_per_s, "integral gain of pid/feedforward [1/s]");
+  sim->add_option("--kd", a->req.kd_s, "derivative gain of pid/feedforward [s]");
+  sim->add_option("--model-mass-scale", a->req.model_mass_scale, "feedforward: factor on the carriage mass its model believes (robustness; default 1)");
+  sim->add_option("--model-stiffness-scale", a->req.model_stiffness_scale, "feedforward: factor on the belt stiffness its model believes (robustness; default 1)");
+  sim->add_option("--drag-gain", a->req.drag_gain_per_s, "feedforward: adaptation gain of the learned drag [1/s] (default 20; 0 = off)");
+  sim->add_option("--load-angle-deg", a->req.load_angle_deg, "feedforward: load angle the current is sized for [deg] (default 40; 0 = run current only)");
+  sim->add_option("--alpha", a->req.alpha_per_s, "encoder-sequenced / speed-tracking: the paper's alpha [1/s] (default 0.6)");
+  sim->add_option("--speed-change-mm-s", a->req.speed_change_mm_s, "encoder-sequenced / speed-tracking: the paper's D*, the largest change of the commanded speed per step event [mm/s] (default sqrt(2 max_accel s), s one microstep)");
+  sim->add_option("--encoder-rate-hz", a->req.encoder_rate_hz, "encoder frame rate = control rate [Hz] (default 10000; a whole number of 20 us substeps, at most 50000)");
+  sim->add_option("--encoder-resolution-um", a->req.encoder_resolution_um, "encoder count [um] (default the AS5311's 0.488; at most half a microstep)");
+  sim->add_flag("--no-governor", a->no_governor, "let the controller's commands reach the motor unchecked (studies of the raw laws)");
   sim->add_option("--corrupt-probability", a->req.corrupt_probability, "probability that an encoder frame is corrupted on the wire");
   sim->callback([a] { run_simulate(*a); });
 
   auto s = std::make_shared<SweepArgs>();
-  CLI::App* sw = st->add_subcommand("sweep", "The seed003 scenario at 30..150 mm/s for every controller, as CSV");
+  CLI::App* sw = st->add_subcommand("sweep", "The reversing-strokes scenario at 30..150 mm/s for every controller, as CSV");
   add_machine_options(*sw, s->machine);
   sw->add_option("--csv", s->csv, "write the table here (default: standard output)");
   sw->add_flag("--no-load", s->no_load, "without the scenario's drag load");

@@ -42,10 +42,11 @@ void run_steps(const StepsArgs& a) {
   }
   std::cout << fmt::format("amctl steps: {} ({} moves, {:.3f} s, machine {}, {})\n", r.file,
                            r.moves, r.print_time_s, r.machine_name, r.kinematics);
-  for (std::size_t i = 0; i < r.channels.size(); ++i) {
+  for (std::size_t i = 0; i < r.motors.size(); ++i) {
     const steppers::StepperStats& s = r.stats[i];
-    std::cout << fmt::format("  {:<12} {:>12} steps  step {:.6g} mm", r.channels[i].name, s.steps,
-                             r.channels[i].step_distance_mm);
+    std::cout << fmt::format("  {:<12} {:>12} steps  step {:.6g} {}", r.motors[i].name, s.steps,
+                             r.motors[i].step_distance.value,
+                             kinematics::to_string(r.motors[i].step_distance.unit));
     if (r.step_filter == steppers::StepFilter::klipper) {
       std::cout << fmt::format("  ({} pairs filtered)", r.filtered_pairs[i]);
     }
@@ -66,9 +67,9 @@ void run_steps(const StepsArgs& a) {
                              r.csv_path, static_cast<double>(r.csv_bytes) / 1e6);
   } else {
     double bytes = 25.0;  // the header
-    for (std::size_t i = 0; i < r.channels.size(); ++i) {
+    for (std::size_t i = 0; i < r.motors.size(); ++i) {
       bytes += static_cast<double>(r.stats[i].steps) *
-               (static_cast<double>(r.channels[i].name.size()) +
+               (static_cast<double>(r.motors[i].name.size()) +
                 steppers::kStepsCsvRowBytesBesidesName);
     }
     std::cout << fmt::format("  a --csv of these steps would take about {:.0f} MB\n", bytes / 1e6);

@@ -261,6 +261,8 @@ void register_thermal(CLI::App& app) {
     hc->add_flag("--json", ha->json_out, "print one JSON object");
     hc->callback([ha] { run_heater(*ha); });
   }
+
+  register_thermal_sls3d(th);
 }
 
 }  // namespace amctl::cli

@@ -24,6 +24,11 @@ void register_report(CLI::App& app);
 void register_dynamics(CLI::App& app);
 /// `amctl thermal ...` (cmd_thermal.cpp).
 void register_thermal(CLI::App& app);
+/// `amctl thermal sls3d` (cmd_sls3d.cpp), added to the thermal subcommand by register_thermal:
+/// checks the options, then runs amctl-sls3d with them (the 3D engine's own executable).
+void register_thermal_sls3d(CLI::App* thermal);
+/// The same options as the whole command line of amctl-sls3d (apps/amctl/sls3d_main.cpp).
+void register_sls3d_command(CLI::App& app);
 /// `amctl shrink ...`, `amctl calibrate-time` (cmd_process.cpp).
 void register_process(CLI::App& app);
 

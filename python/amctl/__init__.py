@@ -18,6 +18,7 @@ from ._amctl import AxisModel, Machine, MOVE_DTYPE, __version__
 from ._planning import estimate, gcode_inputs, iter_plan, plan
 from ._dynamics import simulate
 from ._thermal import bed, hotend, sls_build, sls_margins
+from ._sls3d import sls3d
 from ._process import estimate_empirical, shrink_fit
 from ._shaping import (compare, compensate, report, resonance_calibrate, shaper_show, steps,
                        stepper_simulate, stepper_sweep)
@@ -32,4 +33,5 @@ __all__ = [
     "shaper_show", "resonance_calibrate", "report", "steps", "stepper_simulate", "stepper_sweep", "compensate", "compare",
     "write_m73", "compare_profiles", "calibrate_time", "shrink_slicing", "shrink_apply",
     "resonance_recommend", "resonance_test_gcode", "sweep",
+    "sls3d",
 ]

@@ -131,21 +131,28 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
                      alpha=None, corrupt_probability=0.0, drag_n=None, drag_n_s_per_m=None,
                      bump_n=None, end_load_n_per_mm=None, backlash_mm=None, run_current_a=None,
                      max_current_a=None, drag_gain=None, load_angle_deg=None,
-                     model_mass_scale=None, model_stiffness_scale=None):
-    """Stepper motors, drives, AS5311 encoders and a controller simulated together
-    (``amctl stepper simulate``, docs/closedloop.md) on a G-code file (``path``) or on
-    ``scenario="seed003"`` (seed 003's reversing strokes at ``speed_mm_s`` [mm/s], with its
-    load unless ``load=False``). ``controller``: 'open', 'seed003', 'pid' or 'best'.
+                     model_mass_scale=None, model_stiffness_scale=None, encoder_rate_hz=None,
+                     encoder_resolution_um=None, governor=True, speed_change_mm_s=None):
+    """Stepper motors, drives, AS5311 encoders, a controller and its command governor simulated
+    together (``amctl stepper simulate``, docs/closedloop.md) on a G-code file (``path``) or on
+    ``scenario="reversing-strokes"`` (the closed-loop stepper paper's X and Y strokes at
+    ``speed_mm_s`` [mm/s], with its load unless ``load=False``). ``controller``: 'open',
+    'encoder-sequenced' (the paper's law as published), 'speed-tracking' (that law against the
+    time-based reference), 'pid' or 'feedforward' (model feed-forward with current scaling);
+    the old names 'seed003' and 'best' still work for one release (with a note).
 
-    Returns the dict of ``amctl stepper simulate --json``: ``axes.x`` / ``axes.y`` with
-    ``max_tracking_error_mm``, ``rms_tracking_error_mm``, ``lost_steps`` (microsteps),
-    ``lost_full_steps``, ``max_load_angle_deg``, ``peak_current_a``, ... With ``csv`` the traces
-    are written there. The other keywords are the command's flags of the same names (None: the
-    default): kp [-], ki [1/s], kd [s] override the pid/best gains, alpha [1/s] seed003's;
-    the scenario's load (drag_n [N], drag_n_s_per_m [N s/m], bump_n [N], end_load_n_per_mm),
-    backlash_mm, run_current_a (RMS, as Klipper's run_current), max_current_a (peak, best's
-    boost limit); best's drag_gain [1/s], load_angle_deg and the model error it runs with
-    (model_mass_scale, model_stiffness_scale: factors on the mass and belt stiffness).
+    Returns the dict of ``amctl stepper simulate --json``: ``notes`` and ``axes.x`` /
+    ``axes.y`` with ``max_tracking_error_mm``, ``rms_tracking_error_mm``,
+    ``max_path_error_mm``, ``lost_steps`` (microsteps), ``lost_full_steps``,
+    ``max_load_angle_deg``, the governor's ``degraded_moves``, ``governor_limited_periods``,
+    the ``motor``, ``drive`` and ``mechanics`` simulated, ... With ``csv`` the traces are
+    written there. The other keywords are the command's flags of the same names (None: the
+    default): kp [-], ki [1/s], kd [s] override the pid/feedforward gains, alpha [1/s] and
+    speed_change_mm_s (D* [mm/s]) the paper's; the scenario's load (drag_n [N], drag_n_s_per_m [N s/m], bump_n [N],
+    end_load_n_per_mm), backlash_mm, run_current_a (RMS, as Klipper's run_current),
+    max_current_a (peak, feedforward's boost limit); feedforward's drag_gain [1/s],
+    load_angle_deg and the model error it runs with (model_mass_scale, model_stiffness_scale);
+    the encoder's frame rate [Hz] and resolution [um]; ``governor=False`` for the raw laws.
     """
     p = "" if path is None else _args.path(path, "path")
     m = _args.machine(machine, set)
@@ -156,19 +163,22 @@ def stepper_simulate(path=None, machine=None, set=None, *, controller="open", sc
                  bump_n=bump_n, end_load_n_per_mm=end_load_n_per_mm, backlash_mm=backlash_mm,
                  run_current_a=run_current_a, max_current_a=max_current_a, drag_gain=drag_gain,
                  load_angle_deg=load_angle_deg, model_mass_scale=model_mass_scale,
-                 model_stiffness_scale=model_stiffness_scale)
+                 model_stiffness_scale=model_stiffness_scale, encoder_rate_hz=encoder_rate_hz,
+                 encoder_resolution_um=encoder_resolution_um, speed_change_mm_s=speed_change_mm_s)
     overrides = {k: _args.number(x, k) for k, x in given.items() if x is not None}
     return _amctl._stepper_simulate(p, m, _args.text(controller, "controller"), sc, v,
                                     _args.boolean(load, "load"), out, overrides,
-                                    _args.number(corrupt_probability, "corrupt_probability"))
+                                    _args.number(corrupt_probability, "corrupt_probability"),
+                                    _args.boolean(governor, "governor"))
 
 
 def stepper_sweep(machine=None, set=None, *, load=True, csv=None, svg=None):
-    """The seed003 scenario for every controller (open, seed003, pid, best) at 30, 60, 90, 120
-    and 150 mm/s (``amctl stepper sweep --json``, docs/closedloop.md section 4), with its load
-    unless ``load=False``. Returns a list of dicts ``{controller, speed_mm_s, x, y}`` with the
-    axes as in :func:`stepper_simulate`. ``csv`` writes the table, ``svg`` the chart of the
-    maximum error against speed (each whole or not at all).
+    """The reversing-strokes scenario for every controller (open, encoder-sequenced,
+    speed-tracking, pid, feedforward) at 30, 60, 90, 120 and 150 mm/s (``amctl stepper sweep
+    --json``, docs/closedloop.md section 4), with its load unless ``load=False``. Returns a list
+    of dicts ``{controller, speed_mm_s, x, y}`` with the axes as in :func:`stepper_simulate`.
+    ``csv`` writes the table, ``svg`` the chart of the maximum error against speed (each whole
+    or not at all).
     """
     m = _args.machine(machine, set)
     out_csv = "" if csv is None else _args.path(csv, "csv")

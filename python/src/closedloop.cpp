@@ -25,6 +25,7 @@ std::optional<double>* override_field(closedloop::SimulateRequest& r, const std:
   if (name == "ki") return &r.ki_per_s;
   if (name == "kd") return &r.kd_s;
   if (name == "alpha") return &r.alpha_per_s;
+  if (name == "speed_change_mm_s") return &r.speed_change_mm_s;
   if (name == "drag_n") return &r.drag_force_n;
   if (name == "drag_n_s_per_m") return &r.drag_n_s_per_m;
   if (name == "bump_n") return &r.bump_force_n;
@@ -36,14 +37,18 @@ std::optional<double>* override_field(closedloop::SimulateRequest& r, const std:
   if (name == "load_angle_deg") return &r.load_angle_deg;
   if (name == "model_mass_scale") return &r.model_mass_scale;
   if (name == "model_stiffness_scale") return &r.model_stiffness_scale;
+  if (name == "encoder_rate_hz") return &r.encoder_rate_hz;
+  if (name == "encoder_resolution_um") return &r.encoder_resolution_um;
   throw Error("stepper_simulate: unknown option '" + name + "'");
 }
 
 py::object stepper_simulate(const std::string& path, const MachineValue& mv,
                             const std::string& controller, const std::string& scenario,
                             double speed_mm_s, bool load, const std::string& csv,
-                            const std::map<std::string, double>& overrides, double corrupt) {
+                            const std::map<std::string, double>& overrides, double corrupt,
+                            bool governor) {
   closedloop::SimulateRequest r;
+  r.governor = governor;
   for (const auto& [name, value] : overrides) *override_field(r, name) = value;
   r.file = path;
   r.scenario = scenario;
@@ -88,7 +93,7 @@ void register_closedloop(py::module_& m) {
         py::arg("svg"), "amctl stepper sweep --json [--csv] [--svg]; see amctl.stepper_sweep.");
   m.def("_stepper_simulate", &stepper_simulate, py::arg("path"), py::arg("machine"),
         py::arg("controller"), py::arg("scenario"), py::arg("speed_mm_s"), py::arg("load"),
-        py::arg("csv"), py::arg("overrides"), py::arg("corrupt"),
+        py::arg("csv"), py::arg("overrides"), py::arg("corrupt"), py::arg("governor"),
         "amctl stepper simulate --json (closedloop::stepper_simulate + to_json); see "
         "amctl.stepper_simulate.");
 }

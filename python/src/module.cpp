@@ -213,13 +213,13 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
         const mc::Machine& x = v.m;
         return fmt::format("amctl.Machine('{}', firmware='{}', kinematics='{}', max_velocity_mm_s={}, "
                            "max_accel_mm_s2={})",
-                           x.name, mc::to_string(x.firmware), mc::to_string(x.kinematics),
+                           x.name, mc::to_string(x.firmware), amctl::kinematics::name_of(x.kinematics),
                            x.max_velocity_mm_s, x.max_accel_mm_s2);
       })
       .def_property_readonly("name", [](const MachineValue& v) { const mc::Machine& x = v.m; return x.name; })
       .def_property_readonly("firmware", [](const MachineValue& v) { const mc::Machine& x = v.m; return std::string(mc::to_string(x.firmware)); },
                              "'klipper', 'marlin' or 'reprap': whose G-code semantics apply")
-      .def_property_readonly("kinematics", [](const MachineValue& v) { const mc::Machine& x = v.m; return std::string(mc::to_string(x.kinematics)); },
+      .def_property_readonly("kinematics", [](const MachineValue& v) { const mc::Machine& x = v.m; return std::string(amctl::kinematics::name_of(x.kinematics)); },
                              "'cartesian' or 'corexy'")
       .def_property_readonly("junction", [](const MachineValue& v) { const mc::Machine& x = v.m; return std::string(mc::to_string(x.junction)); },
                              "corner speed limit: 'square_corner_velocity', 'junction_deviation' or 'classic_jerk'")

@@ -11,6 +11,7 @@
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/simulation/shaped_simulation.hpp"
 #include "common.hpp"
 
@@ -76,8 +77,8 @@ py::object simulate(const std::string& path, const MachineValue& mach_value, con
   const machine::Machine& mach = mach_value.m;
   dy::PrintSimulationOptions o;
   o.simulation.sample_rate_hz = sample_rate_hz;
-  o.simulation.kinematics = mach.kinematics;
   o.simulation.motor_space = motor_space;
+  if (motor_space) o.simulation.motor_rows = machine::motor_space(mach).rows;
   o.simulation.vibration_per_sample = samples;
   o.metrics.worst_count = worst;
   o.metrics.corner_window_s = corner_window_s;

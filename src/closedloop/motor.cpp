@@ -96,6 +96,23 @@ StepperAxisModel::StepperAxisModel(const MotorParameters& motor, const DrivePara
   end_x_ = axis_.end_load_start_mm * 1e-3;
   bump_lo_ = (axis_.bump_position_mm - axis_.bump_half_width_mm) * 1e-3;
   bump_hi_ = (axis_.bump_position_mm + axis_.bump_half_width_mm) * 1e-3;
+  coulomb_plus_drag_n_ = axis_.coulomb_friction_n + axis_.drag_force_n;
+  viscous_plus_drag_ = axis_.viscous_friction_n_s_per_m + axis_.drag_n_s_per_m;
+  inv_vs_ = 1.0 / axis_.friction_smoothing_m_s;
+  vmax_ = drive_.supply_voltage_v;
+  r_ohm_ = motor_.phase_resistance_ohm;
+  detent_ = motor_.detent_torque_n_m;
+  damping_ = motor_.rotor_damping_n_m_s_per_rad;
+  f_ext_ = axis_.external_force_n;
+  bump_f_ = axis_.bump_force_n;
+  const int cycle = 4 * drive_.microsteps;
+  cycle_mask_ = (cycle & (cycle - 1)) == 0 ? cycle - 1 : -1;
+  micro_cos_.resize(static_cast<std::size_t>(cycle));
+  micro_sin_.resize(static_cast<std::size_t>(cycle));
+  for (int n = 0; n < cycle; ++n) {
+    micro_cos_[static_cast<std::size_t>(n)] = std::cos(n * rad_per_micro_);
+    micro_sin_[static_cast<std::size_t>(n)] = std::sin(n * rad_per_micro_);
+  }
 }
 
 double StepperAxisModel::magnetic_stiffness_n_m_per_rad() const {
@@ -114,15 +131,42 @@ MotorState StepperAxisModel::rest_state(double x_mm) const {
   set_current(s, drive_.current_amplitude_a);
   s.i_a = s.ref_a;
   s.i_b = s.ref_b;
+  sync_angle(s);
   return s;
 }
 
 void StepperAxisModel::set_microstep(MotorState& s, std::int64_t n) const {
   s.microstep = n;
-  const double phi = static_cast<double>(n) * rad_per_micro_;
+  // The electrical angle n 2 pi / (4 microsteps), from the table of one cycle (a power of two
+  // for every power-of-two microstepping: a mask, not a division).
+  const auto cycle = static_cast<std::int64_t>(micro_cos_.size());
+  const auto j = static_cast<std::size_t>(cycle_mask_ >= 0 ? (n & cycle_mask_) : ((n % cycle) + cycle) % cycle);
   const double amp = s.current_a > 0.0 ? s.current_a : drive_.current_amplitude_a;
-  s.ref_a = amp * std::cos(phi);
-  s.ref_b = amp * std::sin(phi);
+  s.ref_a = amp * micro_cos_[j];
+  s.ref_b = amp * micro_sin_[j];
+}
+
+void StepperAxisModel::set_microstep_path(MotorState& s, std::int64_t n0, std::int64_t n1,
+                                          double c0, double c1) const {
+  const auto cycle = static_cast<std::int64_t>(micro_cos_.size());
+  auto idx = [&](std::int64_t n) {
+    return static_cast<std::size_t>(cycle_mask_ >= 0 ? (n & cycle_mask_) : ((n % cycle) + cycle) % cycle);
+  };
+  const std::int64_t dir = n1 > n0 ? 1 : -1;
+  const double span = c1 - c0;
+  double ra = 0.0, rb = 0.0, prev = 0.0;
+  for (std::int64_t m = n0; m != n1; m += dir) {
+    // The command crosses (m + dir / 2) s at fraction f of the step.
+    const double f = std::clamp(((static_cast<double>(m) + 0.5 * static_cast<double>(dir)) * step_mm_ - c0) / span, prev, 1.0);
+    ra += (f - prev) * micro_cos_[idx(m)];
+    rb += (f - prev) * micro_sin_[idx(m)];
+    prev = f;
+  }
+  ra += (1.0 - prev) * micro_cos_[idx(n1)];
+  rb += (1.0 - prev) * micro_sin_[idx(n1)];
+  const double amp = s.current_a > 0.0 ? s.current_a : drive_.current_amplitude_a;
+  s.ref_a = amp * ra;
+  s.ref_b = amp * rb;
 }
 
 double StepperAxisModel::max_current_a() const {
@@ -143,55 +187,41 @@ void StepperAxisModel::set_current(MotorState& s, double amplitude_a) const {
   }
 }
 
-void StepperAxisModel::step(MotorState& s, double h) const {
-  const double pth = p_ * s.theta_rad;
-  const double sn = std::sin(pth), cs = std::cos(pth);
+SubstepCoefficients StepperAxisModel::substep(double h) const {
   const double L = motor_.phase_inductance_h, R = motor_.phase_resistance_ohm;
-  const double vmax = drive_.supply_voltage_v;
-  // Back-EMF as a voltage drop e (L di/dt = v - R i - e), taken at the start of the step.
-  const double e_a = -kt_ * s.omega_rad_s * sn;
-  const double e_b = kt_ * s.omega_rad_s * cs;
-  // The chopper applies v = Kc (i_ref - i) + R i_ref (it holds the current at standstill
-  // exactly, as a hysteresis chopper does). Backward Euler of L di/dt = v - R i - e; if v
-  // exceeds the supply, the chopper saturates: L di/dt = +-V - R i - e, again backward Euler.
-  auto phase = [&](double i0, double ref, double e) {
-    double i1 = (L * i0 + h * ((kc_ + R) * ref - e)) / (L + h * (kc_ + R));
-    const double v = kc_ * (ref - i1) + R * ref;
-    if (v > vmax || v < -vmax) {
-      const double vs = v > 0 ? vmax : -vmax;
-      i1 = (L * i0 + h * (vs - e)) / (L + h * R);
-    }
-    return i1;
-  };
-  s.i_a = phase(s.i_a, s.ref_a, e_a);
-  s.i_b = phase(s.i_b, s.ref_b, e_b);
-  // sin(4 p th) from sin, cos of p th (double angle twice).
-  const double s2 = 2.0 * sn * cs, c2 = cs * cs - sn * sn;
-  const double s4 = 2.0 * s2 * c2;
-  const double tm = kt_ * (-s.i_a * sn + s.i_b * cs) - motor_.detent_torque_n_m * s4;
-  s.torque_n_m = tm;
-  const double stretch = r_ * s.theta_rad - s.x_m;
-  const double stretch_rate = r_ * s.omega_rad_s - s.v_m_s;
-  double f_belt = 0.0;
-  if (half_backlash_ == 0.0) {
-    f_belt = k_ * stretch + c_ * stretch_rate;
-  } else if (stretch > half_backlash_) {  // engaged pulling +x: a contact pushes, never pulls
-    f_belt = std::max(0.0, k_ * (stretch - half_backlash_) + c_ * stretch_rate);
-  } else if (stretch < -half_backlash_) {
-    f_belt = std::min(0.0, k_ * (stretch + half_backlash_) + c_ * stretch_rate);
-  }
-  const double t_rotor = tm - motor_.rotor_damping_n_m_s_per_rad * s.omega_rad_s - r_ * f_belt;
-  const double sgn = std::tanh(s.v_m_s / axis_.friction_smoothing_m_s);
-  const double f_cart = f_belt - (axis_.coulomb_friction_n + axis_.drag_force_n) * sgn -
-                        (axis_.viscous_friction_n_s_per_m + axis_.drag_n_s_per_m) * s.v_m_s +
-                        axis_.external_force_n +
-                        end_k_ * std::max(0.0, end_x_ - s.x_m) -
-                        ((s.x_m >= bump_lo_ && s.x_m <= bump_hi_) ? axis_.bump_force_n * sgn : 0.0);
-  // Semi-implicit Euler: velocities first, positions with the new velocities.
-  s.omega_rad_s += h * t_rotor / j_;
-  s.v_m_s += h * f_cart * inv_m_;
-  s.theta_rad += h * s.omega_rad_s;
-  s.x_m += h * s.v_m_s;
+  SubstepCoefficients k;
+  k.h_s = h;
+  // The current loop is linear with constant inputs over the substep: its exact solution.
+  // Unsaturated, di/dt = lam (i_inf - i), lam = (Kc + R) / L, i_inf = ref - e / (Kc + R):
+  // i1 = E i0 + (1 - E) i_inf, E = exp(-lam h); the mean over the step (for the chopper's
+  // voltage) i0 g + (1 - g) i_inf, g = (1 - E) / (lam h). Saturated, L di/dt = +-V - e - R i:
+  // i1 = Es i0 + (1 - Es) (+-V - e) / R, Es = exp(-R h / L).
+  const double lam = (kc_ + R) / L;
+  const double e = std::exp(-lam * h);
+  const double g = (1.0 - e) / (lam * h);
+  k.ci0 = e;
+  k.cref = 1.0 - e;
+  k.ce = (1.0 - e) / (kc_ + R);
+  k.gi0 = g;
+  k.gref = 1.0 - g;
+  k.ge = (1.0 - g) / (kc_ + R);
+  const double es = std::exp(-R * h / L);
+  k.si0 = es;
+  k.sv = (1.0 - es) / R;
+  k.h_over_j = h / j_;
+  k.h_over_m = h * inv_m_;
+  return k;
+}
+
+void StepperAxisModel::sync_angle(MotorState& s) const {
+  const double pth = p_ * s.theta_rad;
+  s.sin_e = std::sin(pth);
+  s.cos_e = std::cos(pth);
+}
+
+void StepperAxisModel::step(MotorState& s, double h) const {
+  sync_angle(s);
+  integrate(s, substep(h));
 }
 
 double StepperAxisModel::load_angle_rad(const MotorState& s) const {
@@ -199,7 +229,7 @@ double StepperAxisModel::load_angle_rad(const MotorState& s) const {
 }
 
 std::int64_t StepperAxisModel::slip_cycles(const MotorState& s) const {
-  return static_cast<std::int64_t>(std::llround(load_angle_rad(s) / (2.0 * std::numbers::pi)));
+  return static_cast<std::int64_t>(std::floor(load_angle_rad(s) * (0.5 / std::numbers::pi) + 0.5));
 }
 
 double StepperAxisModel::pull_out_torque_at_n_m(double omega) const {

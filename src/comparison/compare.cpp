@@ -35,7 +35,6 @@ double rate_factor(double motion_time_s, double compute_time_s) {
 dynamics::PrintSimulationOptions simulation_options(const machine::Machine& machine, double rate_hz) {
   dynamics::PrintSimulationOptions o;
   o.simulation.sample_rate_hz = rate_hz;
-  o.simulation.kinematics = machine.kinematics;
   o.metrics.keep_per_move = false;
   return o;
 }

@@ -9,7 +9,6 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/propagator.hpp"
-#include "amctl/trajectory/kinematics.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 
 namespace amctl::dynamics {
@@ -124,9 +123,27 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   const auto n_steps = static_cast<std::size_t>(std::ceil((t_final - t0) / h - 1e-9));
   stats.motion_end_time_s = motion_end_;
 
-  const machine::Kinematics kin = opt.motor_space ? opt.kinematics : machine::Kinematics::cartesian;
-  const auto row0 = trajectory::motor_row(kin, 0);
-  const auto row1 = trajectory::motor_row(kin, 1);
+  static constexpr std::array<std::array<double, 3>, 2> kIdentity{{{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}}};
+  const auto& rows = opt.motor_space ? opt.motor_rows : kIdentity;
+  const auto& row0 = rows[0];
+  const auto& row1 = rows[1];
+  const bool identity = rows == kIdentity;
+  // A motor's share of the tool's z (CoreXZ); the term is left out where it is 0.
+  auto motor = [](const std::array<double, 3>& row, const auto& v) {
+    const double xy = row[0] * v[0] + row[1] * v[1];
+    return row[2] != 0.0 ? xy + row[2] * v[2] : xy;
+  };
+  // The tool's x, y for motor positions a, b at height z: the inverse of the rows' x, y part.
+  const double det = row0[0] * row1[1] - row0[1] * row1[0];
+  if (!identity && !(std::abs(det) > 0.0)) {
+    throw Error("the two motors of the motor-space simulation do not determine X and Y");
+  }
+  auto tool_xy = [&](double a, double b, double z) -> std::array<double, 2> {
+    if (identity) return {a, b};
+    if (row0[2] != 0.0) a -= row0[2] * z;
+    if (row1[2] != 0.0) b -= row1[2] * z;
+    return {(row1[1] * a - row0[1] * b) / det, (row0[0] * b - row1[0] * a) / det};
+  };
   trajectory::Cursor cursor(moves);
   std::array<double, plan::kMaxPieceDegree + 1> d{};
   double u[2][kMaxInputTerms] = {};
@@ -135,8 +152,8 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   auto input_terms = [&](const trajectory::Cursor::Location& loc, double t) -> int {
     trajectory::Cursor::path_derivatives(loc, t, d);
     const plan::PlannedMove& mv = moves[loc.move_index];
-    const double g0 = row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1];
-    const double g1 = row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1];
+    const double g0 = motor(row0, mv.axes_r);
+    const double g1 = motor(row1, mv.axes_r);
     const int terms = loc.holding ? 0 : std::max(0, loc.piece->degree - 1);
     for (int j = 0; j < kMaxInputTerms; ++j) {
       const double dj = j < terms ? d[static_cast<std::size_t>(j + 2)] : 0.0;
@@ -150,8 +167,8 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   auto axis_velocity = [&](const trajectory::Cursor::Location& l, double t, double (&v)[2]) {
     const double sv = l.holding ? 0.0 : trajectory::evaluate_piece(*l.piece, t - l.piece_t0_s).v_mm_s;
     const plan::PlannedMove& mv = moves[l.move_index];
-    v[0] = sv * (row0[0] * mv.axes_r[0] + row0[1] * mv.axes_r[1]);
-    v[1] = sv * (row1[0] * mv.axes_r[0] + row1[1] * mv.axes_r[1]);
+    v[0] = sv * motor(row0, mv.axes_r);
+    v[1] = sv * motor(row1, mv.axes_r);
   };
 
   double (&v_left)[2] = v_left_;
@@ -207,9 +224,9 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
     s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};
     double err[2] = {0.0, 0.0};
     for (const Run& r : runs) err[r.axis] += r.e;
-    const double c0 = row0[0] * s.cmd_mm[0] + row0[1] * s.cmd_mm[1];
-    const double c1 = row1[0] * s.cmd_mm[0] + row1[1] * s.cmd_mm[1];
-    const auto xy = trajectory::from_motor(kin, c0 + err[0], c1 + err[1]);
+    const double c0 = motor(row0, s.cmd_mm);
+    const double c1 = motor(row1, s.cmd_mm);
+    const auto xy = tool_xy(c0 + err[0], c1 + err[1], s.cmd_mm[2]);
     s.sim_mm = {xy[0], xy[1]};
     if (opt.vibration_per_sample) s.vibration_mm = vibration(terms);
     if (opt.modal_state_per_sample) {

@@ -6,10 +6,10 @@
 #include <fmt/format.h>
 
 #include "amctl/core/quantity.hpp"
-#include "amctl/machine/delta.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
+#include "kinematics_keys.hpp"
 
 namespace amctl::machine {
 namespace {
@@ -25,7 +25,7 @@ Json to_json(const Machine& m) {
   j["printer"] = {
       {"name", m.name},
       {"firmware", to_string(m.firmware)},
-      {"kinematics", to_string(m.kinematics)},
+      {"kinematics", kinematics::name_of(m.kinematics)},
       {"junction", to_string(m.junction)},
       {"profile", to_string(m.profile)},
       {"max_velocity", m.max_velocity_mm_s},
@@ -62,6 +62,13 @@ Json to_json(const Machine& m) {
       {"instantaneous_corner_velocity", m.extruder.instantaneous_corner_velocity_mm_s},
       {"max_extrude_cross_section", optional_number(m.extruder.max_extrude_cross_section_mm2)},
   };
+  // Only when they say something: machines without them print as before.
+  if (!m.extruder.present) j["extruder"]["present"] = false;
+  if (m.extruder.pressure_advance_s != 0.0 ||
+      m.extruder.pressure_advance_smooth_time_s != kinematics::Extruder{}.pressure_advance_smooth_time_s) {
+    j["extruder"]["pressure_advance"] = m.extruder.pressure_advance_s;
+    j["extruder"]["pressure_advance_smooth_time"] = m.extruder.pressure_advance_smooth_time_s;
+  }
   j["arcs"] = {
       {"enabled", m.arcs.enabled},
       {"resolution", m.arcs.mm_per_arc_segment},
@@ -88,23 +95,32 @@ Json to_json(const Machine& m) {
     };
   }
   Json steppers = Json::object();
+  Machine copy = m;  // the key tables' accessors take a mutable machine
+  const std::vector<detail::BoundKey> bound = detail::bound_keys(copy);
   for (const auto& [name, s] : m.steppers) {
-    steppers[name] = {{"rotation_distance", s.rotation_distance_mm},
-                      {"microsteps", s.microsteps},
-                      {"full_steps_per_rotation", s.full_steps_per_rotation},
-                      {"steps_per_mm", s.steps_per_mm()}};
-    // Range keys only when set: machines without them print as before.
-    if (s.position_min_mm) steppers[name]["position_min"] = *s.position_min_mm;
-    if (s.position_max_mm) steppers[name]["position_max"] = *s.position_max_mm;
-    if (s.position_endstop_mm) steppers[name]["position_endstop"] = *s.position_endstop_mm;
-    if (s.arm_length_mm) steppers[name]["arm_length"] = *s.arm_length_mm;
-    if (s.angle_deg) steppers[name]["angle"] = *s.angle_deg;
-    if (s.anchor_x_mm) steppers[name]["anchor_x"] = *s.anchor_x_mm;
-    if (s.anchor_y_mm) steppers[name]["anchor_y"] = *s.anchor_y_mm;
-    if (s.anchor_z_mm) steppers[name]["anchor_z"] = *s.anchor_z_mm;
-    if (s.upper_arm_length_mm) steppers[name]["upper_arm_length"] = *s.upper_arm_length_mm;
-    if (s.lower_arm_length_mm) steppers[name]["lower_arm_length"] = *s.lower_arm_length_mm;
-    if (!s.carriages.empty()) steppers[name]["carriages"] = s.carriages;
+    if (detail::drive_train_unit(m, name) == kinematics::Unit::rad) {
+      const double rd = s.rotation_distance_rad.value_or(0.0);
+      steppers[name] = {{"rotation_distance", rd},
+                        {"microsteps", s.microsteps},
+                        {"full_steps_per_rotation", s.full_steps_per_rotation},
+                        {"steps_per_rad", s.microsteps * s.full_steps_per_rotation / rd}};
+    } else {
+      steppers[name] = {{"rotation_distance", s.rotation_distance_mm},
+                        {"microsteps", s.microsteps},
+                        {"full_steps_per_rotation", s.full_steps_per_rotation},
+                        {"steps_per_mm", s.steps_per_mm()}};
+    }
+    // The kinematics' keys of this stepper, only when set: machines without them print as
+    // before.
+    for (const detail::BoundKey& b : bound) {
+      if (b.section != "stepper") continue;
+      if (b.optional_number) {
+        if (const auto* v = b.optional_number(name, false); v && *v) steppers[name][std::string(b.key)] = **v;
+      } else if (b.text) {
+        if (const auto* v = b.text(name, false); v && !v->empty()) steppers[name][std::string(b.key)] = *v;
+      }
+    }
+    if (!s.motor.empty()) steppers[name]["motor"] = s.motor;
     // Motor, driver and drive-train keys (step-level physics), only when set.
     const std::pair<const char*, const std::optional<double>*> motor[] = {
         {"run_current", &s.run_current_a},       {"supply_voltage", &s.supply_voltage_v},
@@ -117,50 +133,7 @@ Json to_json(const Machine& m) {
     }
   }
   j["steppers"] = steppers;
-  if (m.kinematics == Kinematics::generic_cartesian) {
-    // The carriages as given, and each stepper's row over X, Y, Z (dual carriages parked).
-    Json carriages = Json::object();
-    static constexpr const char* kTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
-    for (const auto& [name, c] : m.carriages) {
-      Json cj = {{"type", kTypes[static_cast<std::size_t>(c.type)]}};
-      if (!c.axis.empty()) cj["axis"] = c.axis;
-      if (!c.primary_carriage.empty()) cj["primary_carriage"] = c.primary_carriage;
-      if (c.position_min_mm) cj["position_min"] = *c.position_min_mm;
-      if (c.position_max_mm) cj["position_max"] = *c.position_max_mm;
-      if (c.position_endstop_mm) cj["position_endstop"] = *c.position_endstop_mm;
-      carriages[name] = cj;
-    }
-    j["carriages"] = carriages;
-    Json rows = Json::object();
-    for (const GenericStepper& gs : generic_cartesian_geometry(m).steppers) {
-      rows[gs.name] = {gs.coeffs[0], gs.coeffs[1], gs.coeffs[2]};
-    }
-    j["stepper_rows_xyz"] = rows;
-  }
-  if (m.kinematics == Kinematics::rotary_delta) {
-    const RotaryDeltaGeometry g = rotary_delta_geometry(m);
-    j["rotary_delta"] = {{"shoulder_radius", g.shoulder_radius_mm},
-                         {"shoulder_height", g.shoulder_height_mm},
-                         {"build_radius", std::sqrt(g.max_xy2_mm2)},
-                         {"max_z", g.max_z_mm},
-                         {"min_z", g.min_z_mm},
-                         {"taper_start_z", g.limit_z_mm},
-                         {"home_position", {g.home_position_mm[0], g.home_position_mm[1],
-                                            g.home_position_mm[2]}}};
-  }
-  if (m.max_angular_velocity_rad_s) j["printer"]["max_angular_velocity"] = *m.max_angular_velocity_rad_s;
-  if (m.kinematics == Kinematics::delta) {
-    // The keys as given, and what Klipper derives from them (machine/delta.hpp).
-    const DeltaGeometry g = delta_geometry(m);
-    j["delta"] = {{"radius", g.radius_mm},
-                  {"print_radius", optional_number(m.delta.print_radius_mm)},
-                  {"minimum_z_position", optional_number(m.delta.minimum_z_position_mm)},
-                  {"build_radius", std::sqrt(g.max_xy2_mm2)},
-                  {"slow_radius", std::sqrt(g.slow_xy2_mm2)},
-                  {"very_slow_radius", std::sqrt(g.very_slow_xy2_mm2)},
-                  {"max_z", g.max_z_mm},
-                  {"cone_start_z", g.limit_z_mm}};
-  }
+  make_kinematics(m)->describe(j);
   if (m.firmware == Firmware::klipper) {
     j["effective"] = {
         {"limits_of", "klipper"},

@@ -24,7 +24,9 @@
 #include "amctl/machine/effective.hpp"
 #include "amctl/core/input.hpp"
 #include "amctl/core/quantity.hpp"
+#include "amctl/kinematics/klipper_config.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/machine/motor_presets.hpp"
 #include "schema.hpp"
 
 namespace amctl::machine {
@@ -230,133 +232,10 @@ class CfgReader {
   std::set<std::string> visiting_;
 };
 
-// ---- typed option access with Klipper's checks (configfile.py ConfigWrapper) ----
-
-struct Limits {
-  std::optional<double> minval = std::nullopt;
-  std::optional<double> maxval = std::nullopt;
-  std::optional<double> above = std::nullopt;
-  std::optional<double> below = std::nullopt;
-  /// amctl's physical range of the quantity (core/quantity.hpp), for a value other than 0.
-  std::optional<PhysicalRange> physical = std::nullopt;
-};
-
-class Section {
- public:
-  Section(CfgSection* s, std::string name, SourceLocation fallback)
-      : s_(s), name_(std::move(name)), fallback_(std::move(fallback)) {}
-
-  bool present() const { return s_ != nullptr; }
-  bool has(std::string_view key) const {
-    return s_ != nullptr && s_->options.count(std::string(key)) != 0;
-  }
-  const CfgValue* raw(std::string_view key) const {
-    if (s_ == nullptr) return nullptr;
-    auto it = s_->options.find(std::string(key));
-    return it == s_->options.end() ? nullptr : &it->second;
-  }
-
-  std::optional<double> get_float(std::string_view key, const Limits& lim = {}) const {
-    const CfgValue* v = raw(key);
-    if (v == nullptr) return std::nullopt;
-    const std::string_view text = trim(v->text);
-    double x = 0.0;
-    const char* first = text.data();
-    if (!text.empty() && text.front() == '+') ++first;
-    const auto [ptr, ec] = std::from_chars(first, text.data() + text.size(), x);
-    if (text.empty() || ec != std::errc() || ptr != text.data() + text.size()) {
-      throw Error(v->where, fmt::format("[{}] {}: expected a number, got '{}'", name_, key, text));
-    }
-    if (!std::isfinite(x)) {
-      throw Error(v->where, fmt::format("[{}] {}: must be a finite number, got '{}'", name_, key,
-                                        text));
-    }
-    check(v->where, key, x, lim);
-    return x;
-  }
-  double get_float(std::string_view key, double def, const Limits& lim = {}) const {
-    if (auto x = get_float(key, lim)) return *x;
-    if (s_ != nullptr) {
-      // Klipper's configfile.settings holds the defaults its modules read: the value as Python
-      // prints a float (repr), for the macros that read it.
-      std::string text = fmt::format("{}", def);
-      if (text.find_first_of(".en") == std::string::npos) text += ".0";
-      s_->defaults.emplace(std::string(key), std::move(text));
-    }
-    return def;
-  }
-  double require_float(std::string_view key, const Limits& lim = {}) const {
-    if (auto x = get_float(key, lim)) return *x;
-    throw missing(key);
-  }
-
-  std::optional<int> get_int(std::string_view key, const Limits& lim = {}) const {
-    const CfgValue* v = raw(key);
-    if (v == nullptr) return std::nullopt;
-    const std::string_view text = trim(v->text);
-    long long x = 0;
-    const char* first = text.data();
-    if (!text.empty() && text.front() == '+') ++first;
-    const auto [ptr, ec] = std::from_chars(first, text.data() + text.size(), x);
-    if (text.empty() || ec != std::errc() || ptr != text.data() + text.size() || x > 1000000000 ||
-        x < -1000000000) {
-      throw Error(v->where, fmt::format("[{}] {}: expected an integer, got '{}'", name_, key, text));
-    }
-    check(v->where, key, static_cast<double>(x), lim);
-    return static_cast<int>(x);
-  }
-  int require_int(std::string_view key, const Limits& lim = {}) const {
-    if (auto x = get_int(key, lim)) return *x;
-    throw missing(key);
-  }
-
-  /// Klipper's choice options: the value, lower-cased, must be one of `choices`; `def` when
-  /// the option is absent.
-  std::string get_choice(std::string_view key, std::string_view def,
-                         std::initializer_list<std::string_view> choices) const {
-    const CfgValue* v = raw(key);
-    if (v == nullptr) return std::string(def);
-    std::string t(trim(v->text));
-    for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    for (std::string_view c : choices) {
-      if (c == t) return t;
-    }
-    throw Error(v->where, fmt::format("[{}] {}: found '{}', expected one of {}", name_, key,
-                                      trim(v->text), fmt::join(choices, ", ")));
-  }
-
-  std::string require_text(std::string_view key) const {
-    if (const CfgValue* v = raw(key)) return std::string(trim(v->text));
-    throw missing(key);
-  }
-
-  const std::string& name() const { return name_; }
-  const CfgSection* section() const { return s_; }
-
- private:
-  Error missing(std::string_view key) const {
-    return Error(s_ ? s_->where : fallback_,
-                 fmt::format("option '{}' in section [{}] must be specified", key, name_));
-  }
-  void check(const SourceLocation& where, std::string_view key, double x, const Limits& lim) const {
-    auto fail = [&](std::string_view rule, double bound) {
-      return Error(where, fmt::format("[{}] {}: must be {} {}, got {}", name_, key, rule,
-                                      detail::format_number(bound), detail::format_number(x)));
-    };
-    if (lim.minval && x < *lim.minval) throw fail("at least", *lim.minval);
-    if (lim.maxval && x > *lim.maxval) throw fail("at most", *lim.maxval);
-    if (lim.above && x <= *lim.above) throw fail("above", *lim.above);
-    if (lim.below && x >= *lim.below) throw fail("below", *lim.below);
-    if (lim.physical && x != 0.0 && !in_range(*lim.physical, x)) {
-      throw Error(where, fmt::format("[{}] {}: must be {}, got {}", name_, key, describe(*lim.physical),
-                                     detail::format_number(x)));
-    }
-  }
-
-  CfgSection* s_;
-  std::string name_;
-  SourceLocation fallback_;
-};
+// Typed option access with Klipper's checks: the kinematics module's (they read their own
+// sections with it).
+using Limits = kinematics::Limits;
+using Section = kinematics::KlipperSection;
 
 /// A shaper type as Klipper's shaper_defs.get_shaper_cfg reads it: a name of INPUT_SHAPERS,
 /// compared as written (84104bbb no longer lower-cases it), optionally with parameters in
@@ -412,6 +291,11 @@ Stepper read_stepper(const Section& s, bool radians = false) {
     gearing = detail::parse_gear_ratio(g->text, g->where, fmt::format("[{}] gear_ratio", s.name()));
   }
   st.rotation_distance_mm = rotation / gearing;
+  // amctl's motor preset key (step-level physics; Klipper itself has no such option).
+  if (const CfgValue* v = s.raw("motor")) {
+    st.motor = std::string(trim(v->text));
+    detail::check_motor_preset(st.motor, v->where, fmt::format("[{}] motor", s.name()));
+  }
   return st;
 }
 
@@ -423,104 +307,14 @@ constexpr std::string_view kPrinterOptions[] = {
     "max_accel_to_decel", "square_corner_velocity", "max_z_velocity", "max_z_accel",
     "buffer_time_low", "buffer_time_high",  "buffer_time_start", "move_flush_time"};
 
-// [printer] options of a linear delta (kinematics/delta.py) and a deltesian (deltesian.py).
-constexpr std::string_view kDeltaPrinterOptions[] = {"delta_radius", "print_radius",
-                                                     "minimum_z_position"};
-constexpr std::string_view kDeltesianPrinterOptions[] = {"min_angle", "print_width", "slow_ratio",
-                                                         "minimum_z_position"};
-// polar.py, rotary_delta.py.
-constexpr std::string_view kPolarPrinterOptions[] = {"max_angular_velocity"};
-constexpr std::string_view kRotaryDeltaPrinterOptions[] = {"shoulder_radius", "shoulder_height",
-                                                           "minimum_z_position"};
-
-Kinematics read_kinematics(const Section& printer) {
+kinematics::Params read_kinematics(const Section& printer) {
   const std::string kin = printer.require_text("kinematics");
   const SourceLocation where = printer.raw("kinematics")->where;
-  const auto supported = detail::enum_names(detail::Kind::kinematics);
-  for (std::size_t i = 0; i < supported.size(); ++i) {
-    if (supported[i] == kin) return static_cast<Kinematics>(i);
-  }
+  if (auto p = kinematics::params_named(kin)) return *p;
+  const auto supported = kinematics::names();
   std::vector<std::string> all(supported.begin(), supported.end());
   throw Error(where, fmt::format("[printer] kinematics: found '{}', expected a Klipper kinematics{}", kin,
                                  detail::did_you_mean(kin, all)));
-}
-
-/// generic_cartesian.py and kinematic_stepper.py: [carriage NAME] (axis: x, y or z, by default
-/// the name when it is one of them; position_endstop, position_min (0), position_max),
-/// [extra_carriage NAME] (primary_carriage), [dual_carriage NAME] (primary_carriage, the
-/// range), and [stepper NAME] (carriages, the stepping). The checks that need all of them
-/// together are machine::generic_cartesian_geometry's.
-void read_generic_cartesian(CfgDoc& doc, Machine& m, const SourceLocation& file_loc,
-                            const SourceLocation& printer_where) {
-  auto name_after = [](const std::string& section, std::string_view prefix) -> std::string {
-    if (section.rfind(prefix, 0) != 0) return {};
-    std::string rest(trim(std::string_view(section).substr(prefix.size())));
-    const std::size_t space = rest.find_last_of(" \t");
-    return space == std::string::npos ? rest : rest.substr(space + 1);
-  };
-  for (CfgSection& s : doc.sections) {
-    Carriage c;
-    std::string name;
-    if (!(name = name_after(s.name, "carriage ")).empty()) {
-      c.type = Carriage::Type::primary;
-    } else if (!(name = name_after(s.name, "extra_carriage ")).empty()) {
-      c.type = Carriage::Type::extra;
-    } else if (!(name = name_after(s.name, "dual_carriage ")).empty()) {
-      c.type = Carriage::Type::dual;
-    } else if (!(name = name_after(s.name, "stepper ")).empty()) {
-      const Section sec(&s, s.name, file_loc);
-      if (!detail::generic_stepper_name(name)) {
-        throw Error(s.where, fmt::format("[{}]: amctl names a generic_cartesian stepper by the "
-                                         "word after 'stepper', expected letters, digits and _ "
-                                         "other than e, e1, ... (the extruders'), got '{}'",
-                                         s.name, name));
-      }
-      Stepper st = read_stepper(sec);
-      st.carriages = sec.require_text("carriages");
-      m.steppers[name] = st;
-      continue;
-    } else {
-      continue;
-    }
-    const Section sec(&s, s.name, file_loc);
-    if (c.type == Carriage::Type::primary) {
-      const bool named_axis = name == "x" || name == "y" || name == "z";
-      c.axis = named_axis ? sec.get_choice("axis", name, {"x", "y", "z"})
-                          : sec.get_choice("axis", "", {"x", "y", "z"});
-      if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
-    } else if (c.type == Carriage::Type::extra) {
-      c.primary_carriage = sec.require_text("primary_carriage");
-    } else {
-      // A dual carriage names its primary_carriage (axis optional, must match it) or, without
-      // one, its own axis (generic_cartesian.py DualCarriage).
-      if (sec.has("primary_carriage")) {
-        c.primary_carriage = sec.require_text("primary_carriage");
-        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
-      } else {
-        c.axis = sec.get_choice("axis", "", {"x", "y", "z"});
-        if (c.axis.empty()) (void)sec.require_text("axis");  // throws: missing
-      }
-    }
-    if (c.type != Carriage::Type::extra) {
-      c.position_endstop_mm = sec.require_float("position_endstop");
-      c.position_min_mm = sec.get_float("position_min", 0.0);
-      c.position_max_mm = sec.require_float("position_max", {.above = *c.position_min_mm});
-      c.homing_speed_mm_s = sec.get_float("homing_speed", 5.0, {.above = 0.0});
-    }
-    if (c.type == Carriage::Type::dual && !c.primary_carriage.empty()) {
-      c.safe_distance_mm = sec.get_float("safe_distance", {.minval = 0.0});
-    }
-    if (m.carriages.count(name) != 0) {
-      throw Error(s.where, fmt::format("[{}]: carriage '{}' is defined twice, expected one section "
-                                       "per carriage name",
-                                       s.name, name));
-    }
-    m.carriages[name] = c;
-  }
-  if (m.carriages.empty()) {
-    throw Error(printer_where, "a generic_cartesian printer needs [carriage NAME] sections (one "
-                               "per axis x, y, z) and [stepper NAME] sections with carriages");
-  }
 }
 
 Machine to_machine(CfgDoc& doc, const std::string& source_name) {
@@ -538,25 +332,17 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
   }
   const Section printer(printer_section, "printer", file_loc);
   m.kinematics = read_kinematics(printer);
+  const kinematics::KlipperConfig cfg(doc.sections, file_loc);
   {
     // Klipper rejects any other [printer] option. amctl rejects the ones that look like a typo
     // of a known option (a misspelt square_corner_velocity would otherwise silently become
     // the default) and ignores the rest, so configs of Klipper forks with extra options load.
     std::vector<std::string> known(std::begin(kPrinterOptions), std::end(kPrinterOptions));
-    if (m.kinematics == Kinematics::delta) {
-      known.insert(known.end(), std::begin(kDeltaPrinterOptions), std::end(kDeltaPrinterOptions));
-    }
-    if (m.kinematics == Kinematics::deltesian) {
-      known.insert(known.end(), std::begin(kDeltesianPrinterOptions),
-                   std::end(kDeltesianPrinterOptions));
-    }
-    if (m.kinematics == Kinematics::polar) {
-      known.insert(known.end(), std::begin(kPolarPrinterOptions), std::end(kPolarPrinterOptions));
-    }
-    if (m.kinematics == Kinematics::rotary_delta) {
-      known.insert(known.end(), std::begin(kRotaryDeltaPrinterOptions),
-                   std::end(kRotaryDeltaPrinterOptions));
-    }
+    std::visit(
+        [&](const auto& k) {
+          for (std::string_view o : std::decay_t<decltype(k)>::printer_options()) known.emplace_back(o);
+        },
+        m.kinematics);
     for (const auto& [key, value] : printer_section->options) {
       if (std::find(known.begin(), known.end(), key) != known.end()) continue;
       if (auto near = detail::closest(key, known)) {
@@ -588,22 +374,11 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       printer.get_float("max_z_accel", {.maxval = m.max_accel_mm_s2, .above = 0.0, .physical = kAccelRange})
           .value_or(0.0);
 
+  // The extruder (extruder.py); a stepper is attached when step_pin, dir_pin or
+  // rotation_distance is given.
+  m.extruder = kinematics::Extruder::from_klipper(cfg);
   if (CfgSection* es = doc.find("extruder")) {
     const Section ex(es, "extruder", file_loc);
-    Extruder& e = m.extruder;
-    e.nozzle_diameter_mm = ex.require_float("nozzle_diameter", {.above = 0.0, .physical = kLengthRange});
-    e.filament_diameter_mm =
-        ex.require_float("filament_diameter", {.minval = e.nozzle_diameter_mm});
-    e.max_extrude_cross_section_mm2 = ex.get_float("max_extrude_cross_section", {.above = 0.0});
-    e.max_extrude_only_velocity_mm_s =
-        ex.get_float("max_extrude_only_velocity", {.above = 0.0, .physical = kSpeedRange});
-    e.max_extrude_only_accel_mm_s2 =
-        ex.get_float("max_extrude_only_accel", {.above = 0.0, .physical = kAccelRange});
-    e.max_extrude_only_distance_mm =
-        ex.get_float("max_extrude_only_distance", 50.0, {.minval = 0.0});
-    e.instantaneous_corner_velocity_mm_s =
-        ex.get_float("instantaneous_corner_velocity", 1.0, {.minval = 0.0});
-    // extruder.py: a stepper is attached when step_pin, dir_pin or rotation_distance is given.
     if (ex.has("step_pin") || ex.has("dir_pin") || ex.has("rotation_distance")) {
       m.steppers["e"] = read_stepper(ex);
     }
@@ -636,175 +411,23 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});
     in.damping_ratio_y = sh.get_float("damping_ratio_y", 0.1, {.minval = 0.0, .below = 1.0});
   }
-  const bool delta = m.kinematics == Kinematics::delta;
-  if (delta) {
-    // kinematics/delta.py: delta_radius (required, > 0), print_radius (> 0, default the
-    // radius), minimum_z_position (default 0, at most the lowest endstop: delta_geometry).
-    m.delta.radius_mm = printer.require_float("delta_radius", {.above = 0.0});
-    m.delta.print_radius_mm = printer.get_float("print_radius", {.above = 0.0});
-    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
-    for (const char* tower : {"stepper_a", "stepper_b", "stepper_c"}) {
-      if (doc.find(tower) == nullptr) {
-        throw Error(printer_section->where,
-                    fmt::format("a delta needs [{}] (towers stepper_a, stepper_b, stepper_c)", tower));
-      }
-    }
-  }
-  const bool deltesian = m.kinematics == Kinematics::deltesian;
-  if (deltesian) {
-    // deltesian.py: min_angle (5, [0, 90]), print_width (>= 0, at most the arms' reach:
-    // deltesian_geometry), slow_ratio (3, >= 0), minimum_z_position (0).
-    m.delta.min_angle_deg = printer.get_float("min_angle", {.minval = 0.0, .maxval = 90.0});
-    m.delta.print_width_mm = printer.get_float("print_width", {.minval = 0.0});
-    m.delta.slow_ratio = printer.get_float("slow_ratio", {.minval = 0.0});
-    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
-    for (const char* tower : {"stepper_left", "stepper_right", "stepper_y"}) {
-      if (doc.find(tower) == nullptr) {
-        throw Error(printer_section->where,
-                    fmt::format("a deltesian needs [{}] (stepper_left, stepper_right, stepper_y)",
-                                tower));
-      }
-    }
-  }
-  const bool polar = m.kinematics == Kinematics::polar;
-  if (polar) {
-    // polar.py: max_angular_velocity (> 0, default 0 = off); stepper_bed (radians),
-    // stepper_arm (position_max: the reach), stepper_z (+ z1, ...).
-    if (printer.has("max_angular_velocity")) {
-      m.max_angular_velocity_rad_s = printer.get_float("max_angular_velocity", {.above = 0.0});
-    }
-    for (const char* s : {"stepper_bed", "stepper_arm", "stepper_z"}) {
-      if (doc.find(s) == nullptr) {
-        throw Error(printer_section->where,
-                    fmt::format("a polar printer needs [{}] (stepper_bed, stepper_arm, stepper_z)", s));
-      }
-    }
-  }
-  const bool rotary = m.kinematics == Kinematics::rotary_delta;
-  if (rotary) {
-    // rotary_delta.py: shoulder_radius, shoulder_height (required, > 0), minimum_z_position
-    // (0, at most the lowest endstop: rotary_delta_geometry); max_z_accel is not an option.
-    m.delta.shoulder_radius_mm = printer.require_float("shoulder_radius", {.above = 0.0});
-    m.delta.shoulder_height_mm = printer.require_float("shoulder_height", {.above = 0.0});
-    m.delta.minimum_z_position_mm = printer.get_float("minimum_z_position");
-    if (printer.has("max_z_accel")) {
-      throw Error(printer.raw("max_z_accel")->where,
-                  "[printer] max_z_accel: not an option of a rotary delta (rotary_delta.py caps "
-                  "only the speed of moves with Z), expected no max_z_accel");
-    }
-    for (const char* arm : {"stepper_a", "stepper_b", "stepper_c"}) {
-      if (doc.find(arm) == nullptr) {
-        throw Error(printer_section->where,
-                    fmt::format("a rotary delta needs [{}] (arms stepper_a, stepper_b, stepper_c)", arm));
-      }
-    }
-  }
-  const bool generic = m.kinematics == Kinematics::generic_cartesian;
-  if (generic) read_generic_cartesian(doc, m, file_loc, printer_section->where);
-  const bool winch = m.kinematics == Kinematics::winch;
-  if (winch) {
-    // winch.py: stepper_a, _b, _c required, more (d, e, ...) while present; each with
-    // anchor_x, anchor_y, anchor_z. amctl takes up to four (stepper_e would be the extruder's
-    // name in amctl's TOML form).
-    for (const char* cable : {"stepper_a", "stepper_b", "stepper_c"}) {
-      if (doc.find(cable) == nullptr) {
-        throw Error(printer_section->where,
-                    fmt::format("a winch needs [{}] (cables stepper_a, stepper_b, stepper_c)", cable));
-      }
-    }
-    if (doc.find("stepper_d") != nullptr && doc.find("stepper_e") != nullptr) {
-      throw Error(doc.find("stepper_e")->where,
-                  "amctl supports winches of 3 or 4 cables (stepper_a .. stepper_d)");
-    }
-  }
-  for (CfgSection& s : doc.sections) {
-    if (generic) break;  // its steppers are [stepper NAME] (read_generic_cartesian)
-    if (s.name.rfind("stepper_", 0) != 0) continue;
-    const std::string name = s.name.substr(8);
-    if (!detail::valid_stepper_name(name)) continue;  // e.g. stepper_left of a deltesian
-    const bool lettered = name == "a" || name == "b" || name == "c" || name == "d";
-    if (lettered != (delta || winch || rotary) || ((delta || rotary) && name == "d")) continue;
-    if ((name == "bed" || name == "arm") != polar && (name == "bed" || name == "arm")) continue;
-    if (polar && (name[0] == 'x' || name[0] == 'y')) continue;  // polar has no X/Y rails
-    if (rotary) {
-      // rotary_delta.py: arms in radians (gear_ratio); upper_arm_length, lower_arm_length and
-      // position_endstop required on a, b and c default to a's; angle 30/150/270.
-      const Section sec(&s, s.name, file_loc);
-      Stepper st = read_stepper(sec, true);
-      const bool is_a = name == "a";
-      st.upper_arm_length_mm = is_a ? std::optional(sec.require_float("upper_arm_length", {.above = 0.0}))
-                                    : sec.get_float("upper_arm_length", {.above = 0.0});
-      st.lower_arm_length_mm = is_a ? std::optional(sec.require_float("lower_arm_length", {.above = 0.0}))
-                                    : sec.get_float("lower_arm_length", {.above = 0.0});
-      st.angle_deg = sec.get_float("angle");
-      st.position_endstop_mm = is_a ? std::optional(sec.require_float("position_endstop"))
-                                    : sec.get_float("position_endstop");
-      m.steppers[name] = st;
-      continue;
-    }
-    if (polar && (name == "bed" || name == "arm")) {
-      const Section sec(&s, s.name, file_loc);
-      Stepper st = read_stepper(sec, name == "bed");
-      if (name == "arm") {
-        st.position_endstop_mm = sec.require_float("position_endstop");
-        st.position_min_mm = sec.get_float("position_min", 0.0);
-        st.position_max_mm = sec.require_float("position_max", {.above = *st.position_min_mm});
-      }
-      m.steppers[name] = st;
-      continue;
-    }
-    if (winch) {
-      Stepper st = read_stepper(Section(&s, s.name, file_loc));
-      const Section sec(&s, s.name, file_loc);
-      st.anchor_x_mm = sec.require_float("anchor_x");
-      st.anchor_y_mm = sec.require_float("anchor_y");
-      st.anchor_z_mm = sec.require_float("anchor_z");
-      m.steppers[name] = st;
-      continue;
-    }
-    if ((name == "left" || name == "right") != deltesian && (name == "left" || name == "right")) {
-      continue;
-    }
-    if (deltesian && (name == "left" || name == "right")) {
-      // deltesian.py: arm_x_length (> 0) and arm_length (> arm_x_length) required on left,
-      // right defaults to left's; position_endstop required on left.
-      const Section sec(&s, s.name, file_loc);
-      Stepper st = read_stepper(sec);
-      const bool is_left = name == "left";
-      st.arm_x_length_mm = is_left ? std::optional(sec.require_float("arm_x_length", {.above = 0.0}))
-                                   : sec.get_float("arm_x_length", {.above = 0.0});
-      st.arm_length_mm = is_left ? std::optional(sec.require_float("arm_length", {.above = 0.0}))
-                                 : sec.get_float("arm_length", {.above = 0.0});
-      st.position_endstop_mm = is_left ? std::optional(sec.require_float("position_endstop"))
-                                       : sec.get_float("position_endstop");
-      m.steppers[name] = st;
-      continue;
-    }
-    const bool tower = lettered;
-    const Section sec(&s, s.name, file_loc);
-    Stepper st = read_stepper(sec);
-    if (tower) {
-      // delta.py: arm_length required on stepper_a, > delta_radius; b and c default to a's
-      // (delta_geometry applies those defaults); angle 210/330/90; position_endstop required
-      // on a, b and c default to a's.
-      const Limits arm{.above = *m.delta.radius_mm};
-      st.arm_length_mm = name == "a" ? std::optional(sec.require_float("arm_length", arm))
-                                     : sec.get_float("arm_length", arm);
-      st.angle_deg = sec.get_float("angle");
-      st.position_endstop_mm = name == "a" ? std::optional(sec.require_float("position_endstop"))
-                                           : sec.get_float("position_endstop");
-      m.steppers[name] = st;
-      continue;
-    }
-    // stepper.py PrinterRail: the rail's first stepper (stepper_x, _y, _z) holds the range;
-    // position_min defaults to 0, position_max must lie above it.
-    if ((name == "x" || name == "y" || name == "z") && sec.has("position_max")) {
-      st.position_min_mm = sec.get_float("position_min", 0.0);
-      st.position_max_mm = sec.get_float("position_max", {.above = *st.position_min_mm});
-      st.position_endstop_mm = sec.get_float("position_endstop");
-    }
-    m.steppers[name] = st;
-  }
+  // The kinematics' own options of [printer] and of its sections, then each of its motors'
+  // drive train (stepper.py), in file order.
+  std::visit(
+      [&](auto& k) {
+        using K = std::decay_t<decltype(k)>;
+        k = K::from_klipper(cfg);
+        for (const kinematics::KlipperStepper& st : K::klipper_steppers(cfg)) {
+          const Section sec = cfg.section(st.section);
+          Stepper drive = read_stepper(sec, st.radians);
+          if (st.radians) {
+            drive.rotation_distance_rad = drive.rotation_distance_mm;
+            drive.rotation_distance_mm = Stepper{}.rotation_distance_mm;
+          }
+          m.steppers[st.key] = drive;
+        }
+      },
+      m.kinematics);
   // Trinamic driver sections ([tmc2209 stepper_x], ... klippy/extras/tmc*.py): run_current
   // (RMS) of the stepper they drive, for step-level physics. Other options (hold_current,
   // sense_resistor, stealthchop_threshold, ...) change no motion amctl models.
@@ -823,30 +446,43 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     if (it == m.steppers.end()) continue;
     it->second.run_current_a = Section(&s, s.name, file_loc).get_float("run_current", {.above = 0.0});
   }
-  // exclude_object.py is loaded by its section only; without it EXCLUDE_OBJECT* are unknown.
-  m.exclude_object = doc.find("exclude_object") != nullptr;
-  // cartesian.py / hybrid_corexy.py / hybrid_corexz.py: [dual_carriage] adds a second rail on
-  // X or Y (idex_modes.py); stepper.py's rail rules (position_min 0, endstop and max required).
-  if (CfgSection* ds = doc.find("dual_carriage")) {
-    const Section d(ds, "dual_carriage", file_loc);
-    if (m.kinematics != Kinematics::cartesian && m.kinematics != Kinematics::hybrid_corexy &&
-        m.kinematics != Kinematics::hybrid_corexz) {
-      throw Error(ds->where, "[dual_carriage]: amctl models a dual carriage on cartesian, "
-                             "hybrid_corexy and hybrid_corexz kinematics only (as Klipper)");
+  // klipper_tmc_autotune's [autotune_tmc stepper_x]: `motor` names the motor (an amctl preset,
+  // or a [motor_constants NAME] section: resistance, inductance, holding_torque, max_current,
+  // steps_per_revolution) and `voltage` the driver's supply. Step-level physics only.
+  for (CfgSection& s : doc.sections) {
+    if (s.name.rfind("autotune_tmc ", 0) != 0) continue;
+    const std::string target(trim(std::string_view(s.name).substr(13)));
+    const auto it = m.steppers.find(target.rfind("stepper_", 0) == 0 ? target.substr(8) : "");
+    if (it == m.steppers.end()) continue;
+    const Section at(&s, s.name, file_loc);
+    Stepper& st = it->second;
+    if (auto v = at.get_float("voltage", {.above = 0.0})) st.supply_voltage_v = v;
+    const CfgValue* mv = at.raw("motor");
+    if (mv == nullptr) continue;
+    const std::string name(trim(mv->text));
+    if (find_motor_preset(name) != nullptr) {
+      st.motor = name;
+      continue;
     }
-    DualCarriage& dc = m.dual_carriage;
-    dc.axis = d.get_choice("axis", "", {"x", "y"});
-    if (dc.axis.empty()) throw Error(ds->where, "[dual_carriage] axis: must be specified (x or y)");
-    dc.position_endstop_mm = d.require_float("position_endstop");
-    dc.position_min_mm = d.get_float("position_min", 0.0);
-    dc.position_max_mm = d.get_float("position_max", {.above = *dc.position_min_mm});
-    if (!dc.position_max_mm) throw Error(ds->where, "[dual_carriage] position_max: must be specified");
-    dc.safe_distance_mm = d.get_float("safe_distance", {.minval = 0.0});
-    dc.homing_speed_mm_s = d.get_float("homing_speed", 5.0, {.above = 0.0});
-    if (CfgSection* ps = doc.find(std::string("stepper_") + dc.axis)) {
-      dc.primary_homing_speed_mm_s = Section(ps, ps->name, file_loc).get_float("homing_speed", 5.0, {.above = 0.0});
+    CfgSection* mc = doc.find("motor_constants " + name);
+    if (mc == nullptr) {
+      detail::check_motor_preset(name, mv->where, fmt::format("[{}] motor", s.name));  // throws
+    }
+    const Section c(mc, mc->name, file_loc);
+    st.phase_resistance_ohm = c.require_float("resistance", {.above = 0.0});
+    st.phase_inductance_h = c.require_float("inductance", {.above = 0.0});
+    st.holding_torque_n_m = c.require_float("holding_torque", {.above = 0.0});
+    st.rated_current_a = c.require_float("max_current", {.above = 0.0});
+    if (auto steps = c.get_int("steps_per_revolution", {.minval = 1});
+        steps && *steps != st.full_steps_per_rotation) {
+      throw Error(c.raw("steps_per_revolution")->where,
+                  fmt::format("[{}] steps_per_revolution: {} full steps, but [stepper_{}] "
+                              "full_steps_per_rotation is {}",
+                              mc->name, *steps, it->first, st.full_steps_per_rotation));
     }
   }
+  // exclude_object.py is loaded by its section only; without it EXCLUDE_OBJECT* are unknown.
+  m.exclude_object = doc.find("exclude_object") != nullptr;
   // Every section as written: Klipper's printer.configfile and the [gcode_macro] sections,
   // expanded by the macro module (docs/macros.md).
   m.klipper_config = doc.sections;

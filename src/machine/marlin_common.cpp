@@ -46,7 +46,7 @@ Machine marlin_base_machine(const std::string& source_name) {
   if (const std::size_t dot = stem.rfind('.'); dot != std::string::npos && dot > 0) stem.resize(dot);
   if (!stem.empty()) m.name = stem;
   m.firmware = Firmware::marlin;
-  m.kinematics = Kinematics::cartesian;
+  m.kinematics = kinematics::Cartesian{};
   m.profile = VelocityProfile::trapezoid;
   return m;
 }

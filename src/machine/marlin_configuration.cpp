@@ -490,9 +490,9 @@ Machine parse_marlin_configuration(std::string_view text, const std::string& sou
     }
   }
   Machine m = detail::marlin_base_machine(source_name);
-  if (d.has("COREXY")) m.kinematics = Kinematics::corexy;
-  if (d.has("COREXZ")) m.kinematics = Kinematics::corexz;
-  if (d.has("MARKFORGED_XY")) m.kinematics = Kinematics::hybrid_corexy;
+  if (d.has("COREXY")) m.kinematics = kinematics::CoreXY{};
+  if (d.has("COREXZ")) m.kinematics = kinematics::CoreXZ{};
+  if (d.has("MARKFORGED_XY")) m.kinematics = kinematics::HybridCoreXY{};
   if (d.has("S_CURVE_ACCELERATION")) m.profile = VelocityProfile::bezier5;
 
   // Each limit in its physical range, placed at its #define (0 is Marlin's "unset").

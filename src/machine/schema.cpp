@@ -1,11 +1,15 @@
 #include "schema.hpp"
 
+#include "kinematics_keys.hpp"
+#include "amctl/machine/motor_presets.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace amctl::machine::detail {
 namespace {
@@ -16,10 +20,6 @@ namespace {
 #define AMCTL_AXES(expr) [](Machine& m) -> std::array<double, 4>& { return m.expr; }
 
 constexpr std::string_view kFirmwareNames[] = {"klipper", "marlin", "reprap"};
-constexpr std::string_view kKinematicsNames[] = {"cartesian",     "corexy",        "corexz",
-                                                  "hybrid_corexy", "hybrid_corexz", "delta",
-                                                  "none",          "winch",         "deltesian",
-                                                  "generic_cartesian", "polar",     "rotary_delta"};
 constexpr std::string_view kJunctionNames[] = {"square_corner_velocity", "junction_deviation",
                                                "classic_jerk"};
 constexpr std::string_view kProfileNames[] = {"trapezoid", "scurve7", "bezier5"};
@@ -37,10 +37,17 @@ const std::vector<KeyDef>& key_table() {
          nullptr, nullptr, nullptr, nullptr, [](Machine& m) -> std::string& { return m.name; }});
     add({"printer", "firmware", Kind::firmware, Bound::finite, "",
          "Whose G-code semantics apply: klipper, marlin or reprap."});
-    add({"printer", "kinematics", Kind::kinematics, Bound::finite, "",
-         "cartesian, corexy, corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian, "
-         "generic_cartesian, polar or rotary_delta (Klipper's "
-         "kinematics of those names; per-axis limits apply to X, Y, Z, E of the tool)."});
+    static const std::string kinematics_doc = [] {
+      const auto names = kinematics::names();
+      std::string list;
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        list += i == 0 ? "" : i + 1 == names.size() ? " or " : ", ";
+        list += names[i];
+      }
+      return list + " (Klipper's kinematics of those names; per-axis limits apply to X, Y, Z, E "
+                    "of the tool).";
+    }();
+    add({"printer", "kinematics", Kind::kinematics, Bound::finite, "", kinematics_doc});
     add({"printer", "junction", Kind::junction, Bound::finite, "",
          "Corner speed policy: square_corner_velocity (Klipper), junction_deviation (Marlin JD) "
          "or classic_jerk (Marlin/RRF jerk). Default: square_corner_velocity for klipper, "
@@ -67,10 +74,6 @@ const std::vector<KeyDef>& key_table() {
          "Klipper Z velocity limit; 0 = same as max_velocity.", AMCTL_NUM(max_z_velocity_mm_s)});
     add({"printer", "max_z_accel", Kind::number, Bound::non_negative, "mm/s^2",
          "Klipper Z acceleration limit; 0 = same as max_accel.", AMCTL_NUM(max_z_accel_mm_s2)});
-    add({"printer", "max_angular_velocity", Kind::optional_number, Bound::non_negative, "rad/s",
-         "Polar: moves passing within d of the bed's centre at speed v are slowed when v / d "
-         "exceeds it (Klipper max_angular_velocity; unset or 0 = no limit).",
-         nullptr, AMCTL_OPT(max_angular_velocity_rad_s)});
     add({"printer", "max_jerk", Kind::number, Bound::positive, "mm/s^3",
          "Jerk limit of the jerk-limited profile (scurve7).", AMCTL_NUM(max_jerk_mm_s3)});
     // ---- [marlin] ----
@@ -133,30 +136,6 @@ const std::vector<KeyDef>& key_table() {
     add({"marlin", "block_buffer_size", Kind::integer, Bound::at_least_one, "moves",
          "Planner queue length (BLOCK_BUFFER_SIZE): how many moves the look-ahead sees.",
          nullptr, nullptr, AMCTL_INT(block_buffer_size)});
-    // ---- [extruder] ----
-    add({"extruder", "nozzle_diameter", Kind::number, Bound::positive, "mm",
-         "Nozzle orifice diameter.", AMCTL_NUM(extruder.nozzle_diameter_mm)});
-    add({"extruder", "filament_diameter", Kind::number, Bound::positive, "mm",
-         "Nominal filament diameter (>= nozzle_diameter).",
-         AMCTL_NUM(extruder.filament_diameter_mm)});
-    add({"extruder", "max_extrude_only_velocity", Kind::optional_number, Bound::positive, "mm/s",
-         "Klipper: speed limit of retracts and extrude-only moves (filament mm/s). Unset = "
-         "max_velocity * 4 nozzle_diameter^2 / filament_area.",
-         nullptr, AMCTL_OPT(extruder.max_extrude_only_velocity_mm_s)});
-    add({"extruder", "max_extrude_only_accel", Kind::optional_number, Bound::positive, "mm/s^2",
-         "Klipper: acceleration of retracts and extrude-only moves. Unset = max_accel * 4 "
-         "nozzle_diameter^2 / filament_area.",
-         nullptr, AMCTL_OPT(extruder.max_extrude_only_accel_mm_s2)});
-    add({"extruder", "max_extrude_only_distance", Kind::number, Bound::non_negative, "mm",
-         "Klipper: longest allowed extrude-only move (filament mm).",
-         AMCTL_NUM(extruder.max_extrude_only_distance_mm)});
-    add({"extruder", "instantaneous_corner_velocity", Kind::number, Bound::non_negative, "mm/s",
-         "Klipper: largest instantaneous extruder speed change at a junction.",
-         AMCTL_NUM(extruder.instantaneous_corner_velocity_mm_s)});
-    add({"extruder", "max_extrude_cross_section", Kind::optional_number, Bound::positive, "mm^2",
-         "Klipper: largest extrusion cross-section (width x height). Unset = 4 "
-         "nozzle_diameter^2.",
-         nullptr, AMCTL_OPT(extruder.max_extrude_cross_section_mm2)});
     add({"printer", "exclude_object", Kind::boolean, Bound::finite, "",
          "Klipper [exclude_object]: EXCLUDE_OBJECT_DEFINE/_START/_END and EXCLUDE_OBJECT are "
          "modelled (the moves of excluded objects are not made). false: they are counted as "
@@ -223,63 +202,6 @@ const std::vector<KeyDef>& key_table() {
     add({"input_shaper", "damping_ratio_y", Kind::number, Bound::ratio, "",
          "Damping ratio the Y shaper is designed for (Klipper damping_ratio_y).",
          AMCTL_NUM(input_shaper.damping_ratio_y)});
-    // ---- [dual_carriage] (IDEX) ----
-    add({"dual_carriage", "axis", Kind::text, Bound::finite, "",
-         "Klipper [dual_carriage] axis: \"x\" or \"y\" for an IDEX (a second carriage on that "
-         "axis, SET_DUAL_CARRIAGE); \"\" = none.",
-         nullptr, nullptr, nullptr, nullptr,
-         [](Machine& m) -> std::string& { return m.dual_carriage.axis; }});
-    add({"dual_carriage", "position_min", Kind::optional_number, Bound::finite, "mm",
-         "Second carriage: lowest position (Klipper position_min; unset = 0).",
-         nullptr, AMCTL_OPT(dual_carriage.position_min_mm)});
-    add({"dual_carriage", "position_max", Kind::optional_number, Bound::finite, "mm",
-         "Second carriage: highest position (Klipper position_max; required with an axis).",
-         nullptr, AMCTL_OPT(dual_carriage.position_max_mm)});
-    add({"dual_carriage", "position_endstop", Kind::optional_number, Bound::finite, "mm",
-         "Second carriage: where G28 parks it (Klipper position_endstop; required with an axis).",
-         nullptr, AMCTL_OPT(dual_carriage.position_endstop_mm)});
-    add({"dual_carriage", "safe_distance", Kind::optional_number, Bound::non_negative, "mm",
-         "Closest approach of the two carriages (Klipper safe_distance; unset = the smaller "
-         "difference of the rails' minima or maxima).",
-         nullptr, AMCTL_OPT(dual_carriage.safe_distance_mm)});
-    add({"dual_carriage", "homing_speed", Kind::number, Bound::positive, "mm/s",
-         "Second carriage's homing speed (Klipper homing_speed).",
-         AMCTL_NUM(dual_carriage.homing_speed_mm_s)});
-    add({"dual_carriage", "primary_homing_speed", Kind::number, Bound::positive, "mm/s",
-         "First carriage's homing speed ([stepper_x] or [stepper_y] homing_speed); "
-         "RESTORE_DUAL_CARRIAGE_STATE moves at the lower of the two.",
-         AMCTL_NUM(dual_carriage.primary_homing_speed_mm_s)});
-    // ---- [delta] (kinematics = "delta") ----
-    add({"delta", "radius", Kind::optional_number, Bound::positive, "mm",
-         "Delta: horizontal distance from the centre to each tower's arm joint (Klipper "
-         "[printer] delta_radius; required for a delta).",
-         nullptr, AMCTL_OPT(delta.radius_mm)});
-    add({"delta", "print_radius", Kind::optional_number, Bound::positive, "mm",
-         "Delta: radius of the printable disc (Klipper print_radius; unset = radius).", nullptr,
-         AMCTL_OPT(delta.print_radius_mm)});
-    add({"delta", "minimum_z_position", Kind::optional_number, Bound::finite, "mm",
-         "Delta: lowest Z a move may reach (Klipper minimum_z_position; unset = 0).", nullptr,
-         AMCTL_OPT(delta.minimum_z_position_mm)});
-    add({"delta", "min_angle", Kind::optional_number, Bound::non_negative, "degrees",
-         "Deltesian: smallest angle of the arms with the horizontal (Klipper min_angle; unset = "
-         "5).",
-         nullptr, AMCTL_OPT(delta.min_angle_deg)});
-    add({"delta", "print_width", Kind::optional_number, Bound::non_negative, "mm",
-         "Deltesian: printable width in X, centred (Klipper print_width; unset = the arms' "
-         "reach).",
-         nullptr, AMCTL_OPT(delta.print_width_mm)});
-    add({"delta", "slow_ratio", Kind::optional_number, Bound::non_negative, "",
-         "Deltesian: carriage-to-effector speed ratio beyond which moves run at half (twice it: "
-         "a quarter) of the limits (Klipper slow_ratio; unset = 3, 0 = off).",
-         nullptr, AMCTL_OPT(delta.slow_ratio)});
-    add({"delta", "shoulder_radius", Kind::optional_number, Bound::positive, "mm",
-         "Rotary delta: horizontal distance from the centre to each shoulder joint (Klipper "
-         "[printer] shoulder_radius; required for a rotary delta).",
-         nullptr, AMCTL_OPT(delta.shoulder_radius_mm)});
-    add({"delta", "shoulder_height", Kind::optional_number, Bound::positive, "mm",
-         "Rotary delta: height of the shoulder joints above z = 0 (Klipper [printer] "
-         "shoulder_height; required for a rotary delta).",
-         nullptr, AMCTL_OPT(delta.shoulder_height_mm)});
     return k;
   }();
   return keys;
@@ -298,37 +220,6 @@ const std::vector<StepperKeyDef>& stepper_table() {
       {"full_steps_per_rotation", Kind::integer, Bound::at_least_one, "",
        "Full steps per motor turn (200 for 1.8 degree, 400 for 0.9 degree motors).", nullptr,
        [](Stepper& s) -> int& { return s.full_steps_per_rotation; }},
-      {"position_min", Kind::optional_number, Bound::finite, "mm",
-       "Klipper position_min: lowest position a move may end at (unset: no range check).",
-       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.position_min_mm; }},
-      {"position_max", Kind::optional_number, Bound::finite, "mm",
-       "Klipper position_max: highest position a move may end at (unset: no range check).",
-       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.position_max_mm; }},
-      {"position_endstop", Kind::optional_number, Bound::finite, "mm",
-       "Klipper position_endstop: the position after homing (informative).", nullptr, nullptr,
-       [](Stepper& s) -> std::optional<double>& { return s.position_endstop_mm; }},
-      {"arm_length", Kind::optional_number, Bound::positive, "mm",
-       "Delta towers (stepper_a, _b, _c): length of the diagonal rods (Klipper arm_length; "
-       "unset on b and c = a's).",
-       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.arm_length_mm; }},
-      {"angle", Kind::optional_number, Bound::finite, "degrees",
-       "Delta towers: angle of the tower around the centre (Klipper angle; unset = 210, 330, "
-       "90 for a, b, c).",
-       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.angle_deg; }},
-      {"anchor_x", Kind::optional_number, Bound::finite, "mm",
-       "Winch cables (stepper_a .. stepper_d): X of the cable's anchor (Klipper anchor_x).",
-       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.anchor_x_mm; }},
-      {"anchor_y", Kind::optional_number, Bound::finite, "mm",
-       "Winch cables: Y of the cable's anchor (Klipper anchor_y).", nullptr, nullptr,
-       [](Stepper& s) -> std::optional<double>& { return s.anchor_y_mm; }},
-      {"anchor_z", Kind::optional_number, Bound::finite, "mm",
-       "Winch cables: Z of the cable's anchor (Klipper anchor_z).", nullptr, nullptr,
-       [](Stepper& s) -> std::optional<double>& { return s.anchor_z_mm; }},
-      {"arm_x_length", Kind::optional_number, Bound::positive, "mm",
-       "Deltesian towers (stepper_left, stepper_right): horizontal distance from the centre to "
-       "the arm's carriage joint (Klipper arm_x_length; required on left).",
-       nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.arm_x_length_mm; }},
-
       {"run_current", Kind::optional_number, Bound::positive, "A",
        "Motor current, RMS (Klipper [tmc2209 stepper_x] run_current; the phase current "
        "amplitude is sqrt(2) times it). Step-level physics only (amctl stepper simulate).",
@@ -361,21 +252,11 @@ const std::vector<StepperKeyDef>& stepper_table() {
        "Lost motion between motor and carriage at a reversal of the belt force (pulley teeth, "
        "a loose set screw; Marlin's BACKLASH_DISTANCE_MM). Step-level physics only.",
        nullptr, nullptr, [](Stepper& s) -> std::optional<double>& { return s.backlash_mm; }},
-      {"upper_arm_length", Kind::optional_number, Bound::positive, "mm",
-       "Rotary delta arms (stepper_a, _b, _c): shoulder-to-elbow length (Klipper "
-       "upper_arm_length; required on a, b and c default to a's).",
-       nullptr, nullptr,
-       [](Stepper& s) -> std::optional<double>& { return s.upper_arm_length_mm; }},
-      {"lower_arm_length", Kind::optional_number, Bound::positive, "mm",
-       "Rotary delta arms: elbow-to-effector length (Klipper lower_arm_length; required on a, "
-       "b and c default to a's).",
-       nullptr, nullptr,
-       [](Stepper& s) -> std::optional<double>& { return s.lower_arm_length_mm; }},
-      {"carriages", Kind::text, Bound::finite, "",
-       "generic_cartesian steppers: the carriages the stepper moves, as a linear combination "
-       "(Klipper carriages: \"carriage_x+carriage_y\", \"carriage_u-carriage_y1\", "
-       "\"1*carriage_y+0.5*carriage_z\").",
-       nullptr, nullptr, nullptr, [](Stepper& s) -> std::string& { return s.carriages; }},
+      {"motor", Kind::text, Bound::finite, "",
+       "The motor by preset name: 17hs4401, ldo-42sth48-2504ac, ldo-42sth48-2004mah (0.9 deg), "
+       "ldo-42sth40-1004a (docs/machine.md, motor presets); the numeric motor keys override its "
+       "values. Step-level physics only.",
+       nullptr, nullptr, nullptr, [](Stepper& s) -> std::string& { return s.motor; }},
   };
   return keys;
 }
@@ -391,7 +272,18 @@ char lower(char c) { return static_cast<char>(std::tolower(static_cast<unsigned 
 
 std::span<const KeyDef> machine_keys() { return key_table(); }
 std::span<const StepperKeyDef> stepper_keys() { return stepper_table(); }
-std::span<const std::string_view> machine_sections() { return kSections; }
+std::span<const std::string_view> machine_sections() {
+  // The machine's tables, then those of the kinematics' keys ([delta], [dual_carriage]).
+  static const std::vector<std::string_view> sections = [] {
+    std::vector<std::string_view> out(std::begin(kSections), std::end(kSections));
+    for (const BoundKey& b : all_kinematics_keys()) {
+      if (b.section == "stepper" || b.section == "carriage") continue;
+      if (std::find(out.begin(), out.end(), b.section) == out.end()) out.push_back(b.section);
+    }
+    return out;
+  }();
+  return sections;
+}
 
 const KeyDef* find_key(std::string_view section, std::string_view key) {
   for (const KeyDef& d : key_table()) {
@@ -409,31 +301,31 @@ const StepperKeyDef* find_stepper_key(std::string_view key) {
 
 bool valid_stepper_name(std::string_view name) {
   if (name.empty()) return false;
-  if (name == "a" || name == "b" || name == "c" || name == "d") return true;  // delta, winch
-  if (name == "left" || name == "right") return true;                         // deltesian
-  if (name == "bed" || name == "arm") return true;                            // polar
   if (name[0] != 'x' && name[0] != 'y' && name[0] != 'z' && name[0] != 'e') return false;
   return std::all_of(name.begin() + 1, name.end(),
                      [](char c) { return c >= '0' && c <= '9'; });
 }
 
-bool generic_stepper_name(std::string_view name) {
-  if (name.empty()) return false;
-  if (!std::all_of(name.begin(), name.end(), [](char c) {
-        return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
-      })) {
-    return false;
+void check_shaper_type(std::string_view text, const SourceLocation& where, std::string_view label) {
+  // The names of shaping::shaper_type_names() (the shaping module sits above this one).
+  static constexpr std::string_view kShapers[] = {"zv",       "mzv",      "zvd",  "ei",
+                                                  "2hump_ei", "3hump_ei", "zvdd", "zvddd"};
+  std::string name(text);
+  if (const std::size_t paren = name.find('('); paren != std::string::npos && name.back() == ')') {
+    name.resize(paren);
   }
-  const bool extruder = name[0] == 'e' && std::all_of(name.begin() + 1, name.end(), [](char c) {
-                          return c >= '0' && c <= '9';
-                        });
-  return !extruder;
+  while (!name.empty() && name.back() == ' ') name.pop_back();
+  for (char& c : name) c = lower(c);
+  if (std::find(std::begin(kShapers), std::end(kShapers), name) != std::end(kShapers)) return;
+  throw Error(where, fmt::format("{}: found '{}', expected one of {}, optionally with parameters "
+                                 "as mzv(n=4, t=0.9) or ei(v_tol=0.02)",
+                                 label, text, fmt::join(kShapers, ", ")));
 }
 
 std::span<const std::string_view> enum_names(Kind kind) {
   switch (kind) {
     case Kind::firmware: return kFirmwareNames;
-    case Kind::kinematics: return kKinematicsNames;
+    case Kind::kinematics: return kinematics::names();
     case Kind::junction: return kJunctionNames;
     case Kind::profile: return kProfileNames;
     default: break;
@@ -445,7 +337,7 @@ std::span<const std::string_view> enum_names(Kind kind) {
 int get_enum(const Machine& m, Kind kind) {
   switch (kind) {
     case Kind::firmware: return static_cast<int>(m.firmware);
-    case Kind::kinematics: return static_cast<int>(m.kinematics);
+    case Kind::kinematics: return static_cast<int>(m.kinematics.index());
     case Kind::junction: return static_cast<int>(m.junction);
     case Kind::profile: return static_cast<int>(m.profile);
     default: break;
@@ -459,7 +351,9 @@ void set_enum(Machine& m, Kind kind, int index) {
               "enum index out of range");
   switch (kind) {
     case Kind::firmware: m.firmware = static_cast<Firmware>(index); return;
-    case Kind::kinematics: m.kinematics = static_cast<Kinematics>(index); return;
+    case Kind::kinematics:
+      m.kinematics = kinematics::convert(m.kinematics, static_cast<std::size_t>(index));
+      return;
     case Kind::junction: m.junction = static_cast<JunctionPolicy>(index); return;
     case Kind::profile: m.profile = static_cast<VelocityProfile>(index); return;
     default: break;
@@ -567,6 +461,13 @@ double parse_gear_ratio(std::string_view text, const SourceLocation& where,
   }
   if (pairs == 0) number("");  // throws
   return result;
+}
+
+void check_motor_preset(std::string_view name, const SourceLocation& where, std::string_view label) {
+  if (machine::find_motor_preset(name) != nullptr) return;
+  throw Error(where, fmt::format("{}: unknown motor '{}', expected one of {} (or leave it out and "
+                                 "give the motor's datasheet keys)",
+                                 label, name, machine::motor_preset_names()));
 }
 
 }  // namespace amctl::machine::detail

@@ -74,11 +74,13 @@ std::span<const std::string_view> machine_sections();
 
 const KeyDef* find_key(std::string_view section, std::string_view key);
 const StepperKeyDef* find_stepper_key(std::string_view key);
-/// "x", "y", "z", "e", "z1", "e2", ... (and a, b, c, d, left, right, bed, arm): the stepper
-/// names amctl accepts. A generic_cartesian's steppers are named freely (generic_stepper_name).
+/// "x", "y", "z", "e", "z1", "e2", ...: the axes' stepper names, valid on every machine (a
+/// kinematics' own motors: stepper_a of a delta, ... are its owns_stepper()).
 bool valid_stepper_name(std::string_view name);
-/// A generic_cartesian stepper's name: letters, digits and '_', not an extruder's (e, e1, ...).
-bool generic_stepper_name(std::string_view name);
+/// Throws at `where` unless `text` names a shaper `amctl shaper show` knows (zv, mzv, zvd, ei,
+/// 2hump_ei, 3hump_ei, zvdd, zvddd, any case, optionally with parameters: "mzv(n=4, t=0.9)");
+/// the parameters are checked where the shaper is built.
+void check_shaper_type(std::string_view text, const SourceLocation& where, std::string_view label);
 
 // Enumerations as text.
 std::span<const std::string_view> enum_names(Kind kind);
@@ -92,6 +94,10 @@ bool within(Bound b, double v);
 /// Throws amctl::Error at `where` naming `label` (and its unit) unless `v` is within `b`.
 void check_bound(Bound b, double v, const SourceLocation& where, std::string_view label,
                  std::string_view unit);
+
+/// Throws amctl::Error at `where` naming `label` unless `name` is a motor preset
+/// (amctl/machine/motor_presets.hpp).
+void check_motor_preset(std::string_view name, const SourceLocation& where, std::string_view label);
 
 /// Levenshtein distance, case-insensitive.
 std::size_t edit_distance(std::string_view a, std::string_view b);

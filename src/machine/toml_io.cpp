@@ -3,6 +3,7 @@
 // schema.cpp; validation and the key listing are in validate.cpp.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
+#include "kinematics_keys.hpp"
 #include "schema.hpp"
 
 namespace amctl::machine {
@@ -140,6 +142,7 @@ void assign(Machine& m, const KeyDef& d, const toml::node& v, const SourceLocati
         throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
       d.text(m) = *v.value<std::string>();
+      if (d.section == "input_shaper") detail::check_shaper_type(d.text(m), where, label);
       if (d.key == "name") pending.name_given = true;
       return;
     case Kind::boolean:
@@ -179,6 +182,7 @@ void assign_stepper(Stepper& s, double& gearing, const StepperKeyDef& d, const t
         throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
       d.text(s) = *v.value<std::string>();
+      if (d.key == "motor") detail::check_motor_preset(d.text(s), where, label);
       return;
     case Kind::gear_ratio:
       if (v.is_string()) {
@@ -231,6 +235,13 @@ std::vector<std::string> stepper_key_names() {
   return out;
 }
 
+/// True when some kinematics owns [stepper_NAME] key `key` (a generic_cartesian's carriages).
+bool is_kinematics_stepper_key(std::string_view key) {
+  static const std::vector<detail::BoundKey> all = detail::all_kinematics_keys();
+  return std::any_of(all.begin(), all.end(),
+                     [&](const detail::BoundKey& b) { return b.section == "stepper" && b.key == key; });
+}
+
 /// "unknown key 'x' in [s]; did you mean 'y'?" or "...; 'x' belongs in [marlin]".
 std::string unknown_key_message(std::string_view section, std::string_view key,
                                 std::vector<std::string> candidates) {
@@ -279,68 +290,67 @@ void append_toml_string(std::string& out, std::string_view s) {
   out += '"';
 }
 
-constexpr std::string_view kCarriageTypes[] = {"carriage", "extra_carriage", "dual_carriage"};
-constexpr std::string_view kCarriageKeys[] = {"type",         "axis",         "primary_carriage",
-                                              "position_min", "position_max", "position_endstop",
-                                              "homing_speed", "safe_distance"};
-
-Carriage read_carriage(const toml::table& t, const std::string& name, const std::string& file) {
-  Carriage c;
-  for (const auto& entry : in_file_order(t)) {
-    const toml::key* k = entry.first;
-    const toml::node* v = entry.second;
-    const std::string key(k->str());
-    const SourceLocation where = location_of(v->source(), file);
-    const std::string label = fmt::format("carriage.{}.{}", name, key);
-    auto text = [&]() {
-      if (!v->is_string()) {
-        throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(*v)));
+/// Sets one key the kinematics or the extruder owns from a TOML value.
+void assign_bound(const detail::BoundKey& d, std::string_view instance, const toml::node& v,
+                  const SourceLocation& where, const std::string& label) {
+  using BK = detail::BoundKey::Kind;
+  switch (d.kind) {
+    case BK::number: *d.number(instance, true) = bounded_number(v, d.bound, where, label, d.unit); return;
+    case BK::optional_number:
+      *d.optional_number(instance, true) = bounded_number(v, d.bound, where, label, d.unit);
+      return;
+    case BK::boolean:
+      if (!v.is_boolean()) {
+        throw Error(where, fmt::format("{}: expected true or false, got {}", label, type_name(v)));
       }
-      return *v->value<std::string>();
-    };
-    if (key == "type") {
-      const std::string t_ = text();
-      const auto it = std::find(std::begin(kCarriageTypes), std::end(kCarriageTypes), t_);
-      if (it == std::end(kCarriageTypes)) {
-        throw Error(where, fmt::format("{}: found '{}', expected one of carriage, extra_carriage, "
-                                       "dual_carriage",
-                                       label, t_));
+      *d.boolean(instance, true) = *v.value<bool>();
+      return;
+    case BK::text:
+    case BK::choice: {
+      if (!v.is_string()) {
+        throw Error(where, fmt::format("{}: expected a string, got {}", label, type_name(v)));
       }
-      c.type = static_cast<Carriage::Type>(it - std::begin(kCarriageTypes));
-    } else if (key == "axis") {
-      c.axis = text();
-      if (c.axis != "x" && c.axis != "y" && c.axis != "z") {
-        throw Error(where, fmt::format("{}: found '{}', expected x, y or z", label, c.axis));
+      const std::string text = *v.value<std::string>();
+      int index = -1;
+      if (!d.choices.empty()) {
+        const auto it = std::find(d.choices.begin(), d.choices.end(), text);
+        if (it == d.choices.end()) {
+          std::vector<std::string> shown;
+          for (std::string_view c : d.choices) {
+            if (!c.empty()) shown.emplace_back(c);
+          }
+          throw Error(where, fmt::format("{}: found '{}', expected one of {}", label, text,
+                                         fmt::join(shown, ", ")));
+        }
+        index = static_cast<int>(it - d.choices.begin());
       }
-    } else if (key == "primary_carriage") {
-      c.primary_carriage = text();
-    } else if (key == "position_min") {
-      c.position_min_mm = bounded_number(*v, Bound::finite, where, label, "mm");
-    } else if (key == "position_max") {
-      c.position_max_mm = bounded_number(*v, Bound::finite, where, label, "mm");
-    } else if (key == "position_endstop") {
-      c.position_endstop_mm = bounded_number(*v, Bound::finite, where, label, "mm");
-    } else if (key == "homing_speed") {
-      c.homing_speed_mm_s = bounded_number(*v, Bound::positive, where, label, "mm/s");
-    } else if (key == "safe_distance") {
-      c.safe_distance_mm = bounded_number(*v, Bound::non_negative, where, label, "mm");
-    } else {
-      std::vector<std::string> keys(std::begin(kCarriageKeys), std::end(kCarriageKeys));
-      throw Error(location_of(k->source(), file),
-                  fmt::format("unknown key '{}' in [carriage.{}], expected one of {}{}", key, name,
-                              fmt::join(keys, ", "), detail::did_you_mean(key, keys)));
+      if (d.kind == BK::text) *d.text(instance, true) = text;
+      else d.set_index(instance, index);
+      return;
     }
   }
-  return c;
+}
+
+/// The keys a section holds (machine and bound ones), for hints.
+std::vector<std::string> keys_in(std::string_view section, const std::vector<detail::BoundKey>& bound) {
+  std::vector<std::string> out = keys_of(section);
+  for (const detail::BoundKey& b : bound) {
+    if (b.section == section && std::find(out.begin(), out.end(), b.key) == out.end()) out.emplace_back(b.key);
+  }
+  return out;
+}
+
+/// "[delta] is a delta, deltesian, rotary_delta section, expected none for kinematics cartesian".
+std::string foreign_section(std::string_view shown, std::string_view section, const Machine& m) {
+  const auto owners = detail::kinematics_with_section(section);
+  return fmt::format("[{}] is a {} section, expected none for kinematics {}", shown,
+                     fmt::join(owners, ", "), kinematics::name_of(m.kinematics));
 }
 
 }  // namespace
 
 std::string_view to_string(Firmware f) {
   return detail::enum_names(Kind::firmware)[static_cast<std::size_t>(f)];
-}
-std::string_view to_string(Kinematics k) {
-  return detail::enum_names(Kind::kinematics)[static_cast<std::size_t>(k)];
 }
 std::string_view to_string(JunctionPolicy j) {
   return detail::enum_names(Kind::junction)[static_cast<std::size_t>(j)];
@@ -359,6 +369,14 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
   }
   Machine m;
   Pending pending;
+  // The kinematics first: the other tables hold its keys.
+  if (const toml::table* printer = root["printer"].as_table()) {
+    if (const toml::node* k = printer->get("kinematics")) {
+      const KeyDef* d = detail::find_key("printer", "kinematics");
+      assign(m, *d, *k, location_of(k->source(), source_name), source_name, pending);
+    }
+  }
+  std::vector<detail::BoundKey> bound = detail::bound_keys(m);
   for (const auto& [kp, np] : in_file_order(root)) {
     const std::string section(kp->str());
     const SourceLocation section_where = location_of(kp->source(), source_name);
@@ -373,18 +391,33 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
         std::find(detail::machine_sections().begin(), detail::machine_sections().end(),
                   section) != detail::machine_sections().end();
     if (is_machine_section) {
-      const std::vector<std::string> candidates = keys_of(section);
+      const std::vector<std::string> candidates = keys_in(section, bound);
+      if (candidates.empty()) throw Error(section_where, foreign_section(section, section, m));
       for (const auto& [k, v] : in_file_order(*table)) {
         const std::string key(k->str());
-        const KeyDef* d = detail::find_key(section, key);
-        if (d == nullptr) {
+        const SourceLocation where = location_of(v->source(), source_name);
+        if (section == "printer" && key == "kinematics") continue;  // read first
+        if (const KeyDef* d = detail::find_key(section, key)) {
+          assign(m, *d, *v, where, source_name, pending);
+        } else if (const detail::BoundKey* b = detail::find_bound(bound, section, key, "")) {
+          assign_bound(*b, "", *v, where, fmt::format("{}.{}", section, key));
+          if (b->extruder) {
+            // The extruder's checks beyond a key's bound (Klipper's smooth-time limit), here
+            // where the key's line is known.
+            try {
+              m.extruder.check();
+            } catch (const Error& e) {
+              throw Error(where, e.detail());
+            }
+          }
+        } else {
           throw Error(location_of(k->source(), source_name),
                       unknown_key_message(section, key, candidates));
         }
-        assign(m, *d, *v, location_of(v->source(), source_name), source_name, pending);
       }
     } else if (section == "carriage") {
       // [carriage.NAME] tables: generic_cartesian carriages.
+      const std::vector<std::string> keys = keys_in("carriage", bound);
       for (const auto& [k, v] : in_file_order(*table)) {
         const std::string name(k->str());
         const SourceLocation cw = location_of(k->source(), source_name);
@@ -393,26 +426,58 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
           throw Error(cw, fmt::format("carriage.{}: expected a table [carriage.NAME], got {}", name,
                                       type_name(*v)));
         }
-        m.carriages[name] = read_carriage(*ct, name, source_name);
+        if (keys.empty()) throw Error(cw, foreign_section("carriage." + name, "carriage", m));
+        for (const auto& [ck, cv] : in_file_order(*ct)) {
+          const std::string key(ck->str());
+          const detail::BoundKey* b = detail::find_bound(bound, "carriage", key, name);
+          if (b == nullptr) {
+            throw Error(location_of(ck->source(), source_name),
+                        fmt::format("unknown key '{}' in [carriage.{}], expected one of {}{}", key,
+                                    name, fmt::join(keys, ", "), detail::did_you_mean(key, keys)));
+          }
+          assign_bound(*b, name, *cv, location_of(cv->source(), source_name),
+                       fmt::format("carriage.{}.{}", name, key));
+        }
       }
     } else if (section.rfind("stepper_", 0) == 0 &&
                (detail::valid_stepper_name(section.substr(8)) ||
-                (detail::generic_stepper_name(section.substr(8)) && table->contains("carriages")))) {
+                detail::owned_stepper(m, section.substr(8)) ||
+                std::any_of(table->begin(), table->end(), [&](auto&& kv) {
+                  // A stepper a kinematics names by one of its keys (a generic_cartesian
+                  // stepper by its carriages); on another kinematics the key is refused below.
+                  return is_kinematics_stepper_key(kv.first.str());
+                }))) {
       const std::string name = section.substr(8);
+      const bool radians = detail::drive_train_unit(m, name) == kinematics::Unit::rad;
       Stepper s;
       double gearing = 1.0;
+      std::optional<double> rotation;
       for (const auto& [k, v] : in_file_order(*table)) {
         const std::string key(k->str());
-        const StepperKeyDef* d = detail::find_stepper_key(key);
-        if (d == nullptr) {
+        const SourceLocation where = location_of(v->source(), source_name);
+        const std::string label = fmt::format("{}.{}", section, key);
+        if (const StepperKeyDef* d = detail::find_stepper_key(key)) {
+          assign_stepper(s, gearing, *d, *v, where, label);
+          if (key == "rotation_distance") rotation = s.rotation_distance_mm;
+        } else if (const detail::BoundKey* b = detail::find_bound(bound, "stepper", key, name)) {
+          assign_bound(*b, name, *v, where, label);
+        } else {
+          std::vector<std::string> candidates = stepper_key_names();
+          for (const detail::BoundKey& bk : bound) {
+            if (bk.section == "stepper") candidates.emplace_back(bk.key);
+          }
           throw Error(location_of(k->source(), source_name),
                       fmt::format("unknown key '{}' in [{}], expected a stepper key{}", key, section,
-                                  detail::did_you_mean(key, stepper_key_names())));
+                                  detail::did_you_mean(key, candidates)));
         }
-        assign_stepper(s, gearing, *d, *v, location_of(v->source(), source_name),
-                       fmt::format("{}.{}", section, key));
       }
-      s.rotation_distance_mm /= gearing;
+      if (radians) {
+        // A turning motor: rotation_distance is in radians (its output's turn per motor turn).
+        s.rotation_distance_rad = rotation.value_or(2.0 * std::numbers::pi) / gearing;
+        s.rotation_distance_mm = Stepper{}.rotation_distance_mm;
+      } else {
+        s.rotation_distance_mm /= gearing;
+      }
       m.steppers[name] = s;
     } else {
       std::string hint = detail::did_you_mean(section, section_candidates());
@@ -449,26 +514,85 @@ Machine parse_machine_toml(std::string_view text, const std::string& source_name
   return m;
 }
 
+namespace {
+
+/// "# key is unset: ..." for an unset optional Klipper key, as firmware `fw` reads it.
+std::string unset_comment(std::string_view key, Firmware fw) {
+  return fw == Firmware::klipper
+             ? fmt::format("# {} is unset: Klipper's derived default applies\n", key)
+             : fmt::format("# {} is unset (a Klipper key, not read for {})\n", key, to_string(fw));
+}
+
+/// `key = value  # unit` of a bound key at `instance`; nothing when it does not apply or is
+/// unset (`comment_unset`: unset_comment for an unset optional number instead).
+void append_bound(std::string& out, const detail::BoundKey& d, std::string_view instance,
+                  std::optional<Firmware> comment_unset) {
+  using BK = detail::BoundKey::Kind;
+  const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
+  switch (d.kind) {
+    case BK::number:
+      if (const double* v = d.number(instance, false); v != nullptr && *v != d.unwritten_default) {
+        out += fmt::format("{} = {}{}\n", d.key, detail::format_number(*v), unit);
+      }
+      return;
+    case BK::optional_number:
+      if (const std::optional<double>* v = d.optional_number(instance, false)) {
+        if (*v) {
+          out += fmt::format("{} = {}{}\n", d.key, detail::format_number(**v), unit);
+        } else if (comment_unset) {
+          out += unset_comment(d.key, *comment_unset);
+        }
+      }
+      return;
+    case BK::text:
+      if (const std::string* v = d.text(instance, false); v != nullptr && !v->empty()) {
+        out += fmt::format("{} = ", d.key);
+        append_toml_string(out, *v);
+        out += '\n';
+      }
+      return;
+    case BK::choice:
+      if (const int i = d.get_index(instance); i >= 0) {
+        out += fmt::format("{} = \"{}\"\n", d.key, d.choices[static_cast<std::size_t>(i)]);
+      }
+      return;
+    case BK::boolean:
+      if (const bool* v = d.boolean(instance, false); v != nullptr && !*v) {
+        out += fmt::format("{} = false\n", d.key);
+      }
+      return;
+  }
+}
+
+/// True when a bound key applies at `instance` (its field exists).
+bool applies(const detail::BoundKey& d, std::string_view instance) {
+  using BK = detail::BoundKey::Kind;
+  switch (d.kind) {
+    case BK::number: return d.number(instance, false) != nullptr;
+    case BK::optional_number: return d.optional_number(instance, false) != nullptr;
+    case BK::text: return d.text(instance, false) != nullptr;
+    case BK::choice: return d.get_index(instance) >= 0;
+    case BK::boolean: return d.boolean(instance, false) != nullptr;
+  }
+  return false;
+}
+
+}  // namespace
+
 std::string to_toml(const Machine& machine) {
   Machine m = machine;  // the key table's accessors take a mutable Machine
+  const std::vector<detail::BoundKey> bound = detail::bound_keys(m);
   std::string out =
       "# amctl machine description. Units: mm, s, mm/s, mm/s^2; every key is documented in\n"
       "# docs/machine.md.\n";
   for (std::string_view section : detail::machine_sections()) {
     // [input_shaper] is written only when it says something (Klipper's defaults: off).
     if (section == "input_shaper" && m.input_shaper == InputShaper{}) continue;
-    // [delta] only for a delta (or a machine that carries delta keys).
-    if (section == "delta" && m.kinematics != Kinematics::delta &&
-        m.kinematics != Kinematics::deltesian && m.kinematics != Kinematics::rotary_delta &&
-        m.delta == Delta{}) {
-      continue;
-    }
-    // [dual_carriage] only for an IDEX.
-    if (section == "dual_carriage" && m.dual_carriage == DualCarriage{}) continue;
-    out += fmt::format("\n[{}]\n", section);
+    std::string body;
+    bool any = false;
     const bool klipper = m.firmware == Firmware::klipper;
     if (section == "printer" && !klipper) {
-      out += fmt::format(
+      body += fmt::format(
           "# firmware = {0}: its limits are the [marlin] section's (M201/M203/M204/M205); the\n"
           "# Klipper toolhead keys here (max_velocity, max_accel, square_corner_velocity,\n"
           "# minimum_cruise_ratio, max_z_velocity, max_z_accel) are not read for {0}\n",
@@ -476,92 +600,100 @@ std::string to_toml(const Machine& machine) {
     }
     for (const KeyDef& d : detail::machine_keys()) {
       if (d.section != section) continue;
+      any = true;
       const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
       switch (d.kind) {
         case Kind::number:
-          out += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(m)), unit);
+          body += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(m)), unit);
           break;
         case Kind::optional_number:
           if (d.optional_number(m)) {
-            out += fmt::format("{} = {}{}\n", d.key,
-                               detail::format_number(*d.optional_number(m)), unit);
-          } else if (d.section != "marlin" && d.section != "delta" &&
-                     d.section != "dual_carriage" &&
-                     d.key != "max_angular_velocity") {  // unset soft endstops, delta, IDEX, polar-only: nothing written
-            out += klipper ? fmt::format("# {} is unset: Klipper's derived default applies\n", d.key)
-                           : fmt::format("# {} is unset (a Klipper key, not read for {})\n", d.key,
-                                         to_string(m.firmware));
+            body += fmt::format("{} = {}{}\n", d.key,
+                                detail::format_number(*d.optional_number(m)), unit);
+          } else if (d.section != "marlin") {  // unset soft endstops: nothing written
+            body += unset_comment(d.key, m.firmware);
           }
           break;
         case Kind::integer:
-          out += fmt::format("{} = {}{}\n", d.key, d.integer(m), unit);
+          body += fmt::format("{} = {}{}\n", d.key, d.integer(m), unit);
           break;
         case Kind::axes4: {
           const auto& a = d.axes(m);
-          out += fmt::format("{} = [{}, {}, {}, {}]{}  [x, y, z, e]\n", d.key,
-                             detail::format_number(a[0]), detail::format_number(a[1]),
-                             detail::format_number(a[2]), detail::format_number(a[3]),
-                             unit.empty() ? "  #" : unit);
+          body += fmt::format("{} = [{}, {}, {}, {}]{}  [x, y, z, e]\n", d.key,
+                              detail::format_number(a[0]), detail::format_number(a[1]),
+                              detail::format_number(a[2]), detail::format_number(a[3]),
+                              unit.empty() ? "  #" : unit);
           break;
         }
         case Kind::text:
-          out += fmt::format("{} = ", d.key);
-          append_toml_string(out, d.text(m));
-          out += '\n';
+          body += fmt::format("{} = ", d.key);
+          append_toml_string(body, d.text(m));
+          body += '\n';
           break;
         case Kind::boolean:
-          out += fmt::format("{} = {}\n", d.key, d.boolean(m) ? "true" : "false");
+          body += fmt::format("{} = {}\n", d.key, d.boolean(m) ? "true" : "false");
           break;
         case Kind::firmware:
         case Kind::kinematics:
         case Kind::junction:
         case Kind::profile:
-          out += fmt::format("{} = \"{}\"\n", d.key,
-                             detail::enum_names(d.kind)[static_cast<std::size_t>(
-                                 detail::get_enum(m, d.kind))]);
+          body += fmt::format("{} = \"{}\"\n", d.key,
+                              detail::enum_names(d.kind)[static_cast<std::size_t>(
+                                  detail::get_enum(m, d.kind))]);
           break;
         case Kind::accel_to_decel:
         case Kind::gear_ratio: break;  // read-only aliases
       }
     }
+    // The extruder's and the kinematics' keys of this table (an extruder's unset limit gets
+    // the comment the derived defaults get; a kinematics' unset key nothing).
+    for (const detail::BoundKey& d : bound) {
+      if (d.section != section || !applies(d, "")) continue;
+      any = true;
+      append_bound(body, d, "", d.extruder ? std::optional(m.firmware) : std::nullopt);
+    }
+    if (any) out += fmt::format("\n[{}]\n{}", section, body);
   }
   for (auto& [name, s] : m.steppers) {
     out += fmt::format("\n[stepper_{}]\n", name);
+    const bool radians = detail::drive_train_unit(m, name) == kinematics::Unit::rad;
+    bool kinematics_written = false;
     for (const StepperKeyDef& d : detail::stepper_keys()) {
+      // The kinematics' keys of the stepper after its drive train, before the motor physics.
+      if (!kinematics_written && d.key == "run_current") {
+        kinematics_written = true;
+        for (const detail::BoundKey& b : bound) {
+          if (b.section == "stepper") append_bound(out, b, name, std::nullopt);
+        }
+      }
       const std::string unit = d.unit.empty() ? std::string() : fmt::format("  # {}", d.unit);
       if (d.kind == Kind::number) {
-        out += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(s)), unit);
+        if (d.key == "rotation_distance" && radians) {
+          out += fmt::format("{} = {}  # rad\n", d.key,
+                             detail::format_number(s.rotation_distance_rad.value_or(0.0)));
+        } else {
+          out += fmt::format("{} = {}{}\n", d.key, detail::format_number(d.number(s)), unit);
+        }
       } else if (d.kind == Kind::integer) {
         out += fmt::format("{} = {}{}\n", d.key, d.integer(s), unit);
       } else if (d.kind == Kind::optional_number && d.optional_number(s)) {
         out += fmt::format("{} = {}{}\n", d.key, detail::format_number(*d.optional_number(s)), unit);
-      } else if (d.kind == Kind::text && !d.text(s).empty()) {
-        out += fmt::format("{} = ", d.key);
-        append_toml_string(out, d.text(s));
-        out += '\n';
       }
     }
   }
-  for (const auto& [name, c] : m.carriages) {
-    out += fmt::format("\n[carriage.{}]\ntype = \"{}\"\n", name,
-                       kCarriageTypes[static_cast<std::size_t>(c.type)]);
-    if (!c.axis.empty()) out += fmt::format("axis = \"{}\"\n", c.axis);
-    if (!c.primary_carriage.empty()) {
-      out += "primary_carriage = ";
-      append_toml_string(out, c.primary_carriage);
-      out += '\n';
+  // [carriage.NAME] tables.
+  for (const detail::BoundKey& d : bound) {
+    if (d.section != "carriage" || !d.instances) continue;
+    for (const std::string& name : d.instances()) {
+      out += fmt::format("\n[carriage.{}]\n", name);
+      for (const detail::BoundKey& k : bound) {
+        if (k.section != "carriage") continue;
+        // homing_speed at Klipper's default is left out.
+        if (k.key == "homing_speed" && k.number && *k.number(name, false) == 5.0) continue;
+        append_bound(out, k, name, std::nullopt);
+      }
     }
-    if (c.position_min_mm) out += fmt::format("position_min = {}  # mm\n", detail::format_number(*c.position_min_mm));
-    if (c.position_max_mm) out += fmt::format("position_max = {}  # mm\n", detail::format_number(*c.position_max_mm));
-    if (c.position_endstop_mm) {
-      out += fmt::format("position_endstop = {}  # mm\n", detail::format_number(*c.position_endstop_mm));
-    }
-    if (c.homing_speed_mm_s != Carriage{}.homing_speed_mm_s) {
-      out += fmt::format("homing_speed = {}  # mm/s\n", detail::format_number(c.homing_speed_mm_s));
-    }
-    if (c.safe_distance_mm) {
-      out += fmt::format("safe_distance = {}  # mm\n", detail::format_number(*c.safe_distance_mm));
-    }
+    break;
   }
   return out;
 }
@@ -590,9 +722,13 @@ void apply_override(Machine& m, std::string_view assignment) {
   if (parts.size() < 2 || parts.size() > 3 || parts[0].empty() || parts[1].empty()) {
     throw Error(where, "expected section.key=value, e.g. printer.max_accel=5000");
   }
+  const std::vector<detail::BoundKey> bound = detail::bound_keys(m);
   // All known "section.key" names, for hints.
   std::vector<std::string> all;
   for (const KeyDef& d : detail::machine_keys()) all.push_back(fmt::format("{}.{}", d.section, d.key));
+  for (const detail::BoundKey& d : bound) {
+    if (d.section != "stepper" && d.section != "carriage") all.push_back(fmt::format("{}.{}", d.section, d.key));
+  }
   for (const StepperKeyDef& d : detail::stepper_keys()) all.push_back(fmt::format("stepper_x.{}", d.key));
   const std::string dotted = parts[0] + "." + parts[1];
 
@@ -613,26 +749,58 @@ void apply_override(Machine& m, std::string_view assignment) {
   if (parts[0].rfind("stepper_", 0) == 0) {
     const std::string name = parts[0].substr(8);
     const bool known_stepper = m.steppers.find(name) != m.steppers.end();
-    if ((!detail::valid_stepper_name(name) && !known_stepper) || parts.size() != 2) {
+    if ((!detail::valid_stepper_name(name) && !detail::owned_stepper(m, name) && !known_stepper) ||
+        parts.size() != 2) {
       throw Error(where, fmt::format("unknown key '{}', expected a stepper section stepper_x, "
                                      "stepper_y, stepper_z, stepper_e, stepper_z1, ...",
                                      path));
     }
-    const StepperKeyDef* d = detail::find_stepper_key(parts[1]);
-    if (d == nullptr) {
-      throw Error(where, fmt::format("unknown key '{}', expected a key that `amctl machine keys` lists{}", path,
-                                     detail::did_you_mean(parts[1], stepper_key_names())));
+    if (const StepperKeyDef* d = detail::find_stepper_key(parts[1])) {
+      const auto it = m.steppers.find(name);
+      Stepper s = it == m.steppers.end() ? Stepper{} : it->second;
+      double gearing = 1.0;
+      assign_stepper(s, gearing, *d, *value, where, label);
+      if (detail::drive_train_unit(m, name) == kinematics::Unit::rad) {
+        if (parts[1] == "rotation_distance") {
+          s.rotation_distance_rad = s.rotation_distance_mm;
+          s.rotation_distance_mm = it == m.steppers.end() ? Stepper{}.rotation_distance_mm
+                                                          : it->second.rotation_distance_mm;
+        }
+        if (s.rotation_distance_rad) *s.rotation_distance_rad /= gearing;
+      } else {
+        s.rotation_distance_mm /= gearing;
+      }
+      m.steppers[name] = s;  // only once the value is known to be good
+      return;
     }
-    const auto it = m.steppers.find(name);
-    Stepper s = it == m.steppers.end() ? Stepper{} : it->second;
-    double gearing = 1.0;
-    assign_stepper(s, gearing, *d, *value, where, label);
-    s.rotation_distance_mm /= gearing;
-    m.steppers[name] = s;  // only once the value is known to be good
+    Machine changed = m;  // the value is checked before m changes
+    const std::vector<detail::BoundKey> changed_keys = detail::bound_keys(changed);
+    const detail::BoundKey* b = detail::find_bound(changed_keys, "stepper", parts[1], name);
+    if (b == nullptr) {
+      std::vector<std::string> candidates = stepper_key_names();
+      for (const detail::BoundKey& bk : bound) {
+        if (bk.section == "stepper") candidates.emplace_back(bk.key);
+      }
+      throw Error(where, fmt::format("unknown key '{}', expected a key that `amctl machine keys` lists{}", path,
+                                     detail::did_you_mean(parts[1], candidates)));
+    }
+    assign_bound(*b, name, *value, where, label);
+    m = std::move(changed);
     return;
   }
   const KeyDef* d = detail::find_key(parts[0], parts[1]);
   if (d == nullptr) {
+    Machine changed = m;
+    const std::vector<detail::BoundKey> changed_keys = detail::bound_keys(changed);
+    const std::string instance = parts[0] == "carriage" && parts.size() == 3 ? parts[1] : "";
+    const std::string& key = parts[0] == "carriage" && parts.size() == 3 ? parts[2] : parts[1];
+    if (parts.size() == 2 || !instance.empty()) {
+      if (const detail::BoundKey* b = detail::find_bound(changed_keys, parts[0], key, instance)) {
+        assign_bound(*b, instance, *value, where, label);
+        m = std::move(changed);
+        return;
+      }
+    }
     // The key spelled right in another section is the likeliest meaning; then a near miss.
     std::string hint;
     for (const KeyDef& k : detail::machine_keys()) {

@@ -8,9 +8,9 @@
 #include <fmt/format.h>
 
 #include "amctl/core/quantity.hpp"
-#include "amctl/machine/delta.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
+#include "kinematics_keys.hpp"
 #include "schema.hpp"
 
 namespace amctl::machine {
@@ -65,13 +65,10 @@ void check_bounds_for_validate(Machine& m) {
     }
   }
   for (auto& [name, s] : m.steppers) {
-    const bool generic_name = m.kinematics == Kinematics::generic_cartesian &&
-                              detail::generic_stepper_name(name) && !s.carriages.empty();
-    if (!detail::valid_stepper_name(name) && !generic_name) {
-      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1{}", name,
-                              m.kinematics == Kinematics::generic_cartesian
-                                  ? " (or any name with carriages, on a generic_cartesian)"
-                                  : ""));
+    if (!detail::valid_stepper_name(name) && !detail::owned_stepper(m, name)) {
+      throw Error(fmt::format("stepper '{}': expected a name like x, y, z, e, z1 or a motor of the "
+                              "{} kinematics",
+                              name, kinematics::name_of(m.kinematics)));
     }
     for (const StepperKeyDef& d : detail::stepper_keys()) {
       const std::string label = fmt::format("stepper_{}.{}", name, d.key);
@@ -81,9 +78,33 @@ void check_bounds_for_validate(Machine& m) {
         check_bound(d.bound, *d.optional_number(s), {}, label, d.unit);
       }
     }
-    if (s.position_min_mm && s.position_max_mm && *s.position_min_mm > *s.position_max_mm) {
-      throw Error(fmt::format("stepper_{}.position_min ({} mm) must be <= position_max ({} mm)",
-                              name, *s.position_min_mm, *s.position_max_mm));
+    const bool radians = detail::drive_train_unit(m, name) == kinematics::Unit::rad;
+    if (radians != s.rotation_distance_rad.has_value()) {
+      throw Error(fmt::format("stepper_{}.rotation_distance: {}", name,
+                              radians ? "the motor turns (its unit is the radian), expected its "
+                                        "turn per motor revolution in radians"
+                                      : "given in radians for a motor that moves a carriage, "
+                                        "expected mm"));
+    }
+    if (radians) check_bound(detail::Bound::positive, *s.rotation_distance_rad, {}, fmt::format("stepper_{}.rotation_distance", name), "rad");
+  }
+  // The keys the extruder and the kinematics own: their bounds.
+  for (const detail::BoundKey& b : detail::bound_keys(m)) {
+    auto check = [&](std::string_view instance, const std::string& label) {
+      if (b.number) {
+        if (const double* v = b.number(instance, false)) check_bound(b.bound, *v, {}, label, b.unit);
+      } else if (b.optional_number) {
+        if (const auto* v = b.optional_number(instance, false); v && *v) check_bound(b.bound, **v, {}, label, b.unit);
+      }
+    };
+    if (b.section == "stepper") {
+      for (const auto& [name, s] : m.steppers) check(name, fmt::format("stepper_{}.{}", name, b.key));
+    } else if (b.section == "carriage") {
+      if (b.instances) {
+        for (const std::string& c : b.instances()) check(c, fmt::format("carriage.{}.{}", c, b.key));
+      }
+    } else {
+      check("", fmt::format("{}.{}", b.section, b.key));
     }
   }
   for (std::size_t i = 0; i < 3; ++i) {
@@ -106,72 +127,51 @@ void validate(const Machine& machine) {
                             "extruder.nozzle_diameter ({} mm)",
                             m.extruder.filament_diameter_mm, m.extruder.nozzle_diameter_mm));
   }
+  m.extruder.check();
   if (m.arcs.min_arc_segment_mm > 0.0 && m.arcs.max_arc_segment_mm > 0.0 &&
       m.arcs.min_arc_segment_mm > m.arcs.max_arc_segment_mm) {
     throw Error(fmt::format("arcs.min_segment ({} mm) must be <= arcs.max_segment ({} mm)",
                             m.arcs.min_arc_segment_mm, m.arcs.max_arc_segment_mm));
   }
-  if (const DualCarriage& dc = m.dual_carriage; dc.present()) {
-    if (dc.axis != "x" && dc.axis != "y") {
-      throw Error(fmt::format("dual_carriage.axis must be \"x\", \"y\" or \"\" (none), got \"{}\"", dc.axis));
-    }
-    if (m.kinematics != Kinematics::cartesian && m.kinematics != Kinematics::hybrid_corexy &&
-        m.kinematics != Kinematics::hybrid_corexz) {
-      throw Error("dual_carriage: Klipper supports a dual carriage on cartesian, hybrid_corexy "
-                  "and hybrid_corexz kinematics only");
-    }
-    if (!dc.position_max_mm || !dc.position_endstop_mm) {
-      throw Error("dual_carriage: position_max and position_endstop are required with an axis");
-    }
-    const auto first = m.steppers.find(dc.axis);
-    if (first == m.steppers.end() || !first->second.position_endstop_mm || !first->second.position_max_mm) {
-      throw Error(fmt::format("dual_carriage: stepper_{} (the first carriage's rail) needs "
-                              "position_endstop and position_max",
-                              dc.axis));
-    }
-    const double lo = dc.position_min_mm.value_or(0.0);
-    if (lo >= *dc.position_max_mm) {
-      throw Error(fmt::format("dual_carriage.position_min ({} mm) must be < position_max ({} mm)", lo,
-                              *dc.position_max_mm));
-    }
-    if (*dc.position_endstop_mm < lo || *dc.position_endstop_mm > *dc.position_max_mm) {
-      throw Error(fmt::format("dual_carriage.position_endstop ({} mm) must lie in [position_min, "
-                              "position_max] = [{}, {}] mm",
-                              *dc.position_endstop_mm, lo, *dc.position_max_mm));
-    }
-  }
-  // A delta's geometry must be complete and consistent (rods longer than the radius, ...).
-  if (m.kinematics == Kinematics::delta) (void)delta_geometry(m);
-  if (m.kinematics == Kinematics::deltesian) (void)deltesian_geometry(m);
-  if (m.kinematics == Kinematics::generic_cartesian) (void)generic_cartesian_geometry(m);
-  if (m.kinematics == Kinematics::polar) (void)polar_geometry(m);
-  if (m.kinematics == Kinematics::rotary_delta) (void)rotary_delta_geometry(m);
-  if (m.kinematics != Kinematics::generic_cartesian && !m.carriages.empty()) {
-    throw Error(fmt::format("[carriage.{}] is a generic_cartesian section, expected none for "
-                            "kinematics {}",
-                            m.carriages.begin()->first, to_string(m.kinematics)));
-  }
-  if (m.kinematics == Kinematics::winch) {
-    for (const char* cable : {"a", "b", "c", "d"}) {
-      const auto it = m.steppers.find(cable);
-      if (it == m.steppers.end()) {
-        if (cable[0] == 'd') break;
-        throw Error(fmt::format("a winch needs stepper_a, stepper_b and stepper_c; stepper_{} is "
-                                "missing",
-                                cable));
-      }
-      const Stepper& s = it->second;
-      if (!s.anchor_x_mm || !s.anchor_y_mm || !s.anchor_z_mm) {
-        throw Error(fmt::format("stepper_{}: a winch cable needs anchor_x, anchor_y and anchor_z",
-                                cable));
-      }
-    }
+  // The kinematics must be complete and consistent (a delta's rods longer than its radius, a
+  // generic_cartesian's steppers moving X, Y and Z, ...): built, and its motors allocated.
+  {
+    const auto kin = make_kinematics(m);
+    std::vector<std::string> keys, missing;
+    for (const auto& [k, s] : m.steppers) keys.push_back(k);
+    (void)kin->motors(keys, missing);
   }
 }
 
 std::vector<KeyInfo> schema() {
   std::vector<KeyInfo> out;
+  const std::vector<detail::BoundKey> owned = detail::all_kinematics_keys();
+  auto bound_type = [](const detail::BoundKey& b) -> std::string {
+    switch (b.kind) {
+      case detail::BoundKey::Kind::number: return "number";
+      case detail::BoundKey::Kind::optional_number: return "number (optional)";
+      case detail::BoundKey::Kind::text:
+      case detail::BoundKey::Kind::choice: return "text";
+      case detail::BoundKey::Kind::boolean: return "true | false";
+    }
+    return "text";
+  };
+  auto add_owned = [&](std::string_view section, auto&& keep) {
+    for (const detail::BoundKey& b : owned) {
+      if (b.section != section || !keep(b)) continue;
+      out.push_back({section == "stepper" ? "stepper_*" : section == "carriage" ? "carriage.*" : std::string(section), std::string(b.key),
+                     bound_type(b), std::string(b.unit), std::string(b.description)});
+    }
+  };
+  auto any = [](const detail::BoundKey&) { return true; };
+  bool extruder_listed = false, marlin_seen = false;
   for (const KeyDef& d : detail::machine_keys()) {
+    // The extruder's keys where the [extruder] table stands in the file, after [marlin].
+    marlin_seen = marlin_seen || d.section == "marlin";
+    if (!extruder_listed && marlin_seen && d.section != "marlin") {
+      extruder_listed = true;
+      add_owned("extruder", any);
+    }
     std::string type;
     switch (d.kind) {
       case Kind::number:
@@ -188,8 +188,19 @@ std::vector<KeyInfo> schema() {
     }
     out.push_back({std::string(d.section), std::string(d.key), type, std::string(d.unit),
                    std::string(d.description)});
+    // The kinematics' [printer] keys after the toolhead's Z limits.
+    if (d.section == "printer" && d.key == "max_z_accel") add_owned("printer", any);
   }
+  add_owned("dual_carriage", any);
+  add_owned("delta", any);
+  add_owned("carriage", any);
+  // Drive train, the kinematics' stepper keys, the motor physics.
+  bool kinematics_listed = false;
   for (const StepperKeyDef& d : detail::stepper_keys()) {
+    if (!kinematics_listed && d.key == "run_current") {
+      kinematics_listed = true;
+      add_owned("stepper", any);
+    }
     out.push_back({"stepper_*", std::string(d.key),
                    d.kind == Kind::integer      ? "integer"
                    : d.kind == Kind::gear_ratio ? "text or number"

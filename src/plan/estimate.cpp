@@ -11,8 +11,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
-#include "amctl/machine/delta.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -113,39 +112,12 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
                             : m.max_feedrate_mm_s[2];
   // Klipper's M84/M18 dwells DISABLE_STALL_TIME (0.1 s) before and after switching off.
   o.motor_off_dwell_s = m.firmware == machine::Firmware::klipper ? 0.2 : 0.0;
-  if (m.kinematics == machine::Kinematics::delta) {
-    // delta.py home(): all towers home together; the effector ends at the home position.
-    o.home_all_axes = true;
-    o.home_position_mm = machine::delta_geometry(m).home_position_mm;
-  }
-  if (m.kinematics == machine::Kinematics::deltesian) {
-    // deltesian.py home(): X and Z home together to (0, home_z); Y to its endstop. amctl homes
-    // all three on any G28.
-    const auto g = machine::deltesian_geometry(m);
-    o.home_all_axes = true;
-    o.home_position_mm = {0.0, g.home_y_mm, g.home_z_mm};
-  }
-  if (m.kinematics == machine::Kinematics::rotary_delta) {
-    // rotary_delta.py home(): all arms home together; the effector ends at the home position.
-    o.home_all_axes = true;
-    o.home_position_mm = machine::rotary_delta_geometry(m).home_position_mm;
-  }
-  if (m.kinematics == machine::Kinematics::polar) {
-    // polar.py homes X and Y together to (arm position_endstop, 0); Z homes to 0 as on every
-    // cartesian-like machine in amctl.
-    o.home_position_mm = {machine::polar_geometry(m).arm_endstop_mm, 0.0, 0.0};
-  }
-  using K = machine::Kinematics;
-  if (m.firmware == machine::Firmware::klipper &&
-      (m.kinematics == K::cartesian || m.kinematics == K::corexy || m.kinematics == K::corexz ||
-       m.kinematics == K::hybrid_corexy || m.kinematics == K::hybrid_corexz)) {
-    // Klipper's homing (homing.py home_rails via cartesian.py, corexy.py, ...): a homed axis
-    // ends at its rail's position_endstop, in toolhead coordinates on every one of these.
+  const std::shared_ptr<const kinematics::Kinematics> kin = machine::make_kinematics(m);
+  const kinematics::Homing homing = kin->homing();
+  if (!homing.klipper_only || m.firmware == machine::Firmware::klipper) {
+    o.home_all_axes = homing.all_axes;
     for (std::size_t a = 0; a < 3; ++a) {
-      const auto it = m.steppers.find(std::string(1, "xyz"[a]));
-      if (it != m.steppers.end() && it->second.position_endstop_mm) {
-        o.home_position_mm[a] = *it->second.position_endstop_mm;
-      }
+      if (homing.position_mm[a]) o.home_position_mm[a] = *homing.position_mm[a];
     }
   }
   if (m.firmware == machine::Firmware::marlin) {
@@ -157,68 +129,27 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   o.exclude_object = m.exclude_object              ? ExcludeMode::active
                      : !m.klipper_config.empty()   ? ExcludeMode::unknown
                                                    : ExcludeMode::ignored;
-  if (const auto& dc = m.dual_carriage; dc.present() && m.firmware == machine::Firmware::klipper) {
-    gcode::InterpreterOptions::DualCarriage d;
-    d.axis = dc.axis == "y" ? 1 : 0;
-    const auto it = m.steppers.find(dc.axis);
-    if (it == m.steppers.end() || !it->second.position_max_mm || !it->second.position_endstop_mm) {
-      throw Error(fmt::format("dual_carriage: stepper_{} needs position_endstop and position_max "
-                              "(the first carriage's rail)",
-                              dc.axis));
+  if (m.firmware == machine::Firmware::klipper) {
+    // IDEX pairs (idex_modes.py): [dual_carriage] on cartesian and hybrid printers, the
+    // [dual_carriage NAME] of a generic_cartesian.
+    for (const kinematics::IdexPair& p : kin->idex_pairs()) {
+      gcode::InterpreterOptions::DualCarriage d;
+      d.axis = p.axis;
+      d.names = p.names;
+      set_idex_rails(d, p.position_min_mm, p.position_max_mm, p.position_endstop_mm);
+      d.safe_distance_mm = p.safe_distance_mm;
+      d.homing_speed_mm_s = p.homing_speed_mm_s;
+      o.dual_carriages.push_back(d);
     }
-    const machine::Stepper& first = it->second;
-    set_idex_rails(d, {first.position_min_mm.value_or(0.0), dc.position_min_mm.value_or(0.0)},
-                   {*first.position_max_mm, *dc.position_max_mm},
-                   {*first.position_endstop_mm, *dc.position_endstop_mm});
-    d.safe_distance_mm = dc.safe_distance_mm;
-    d.homing_speed_mm_s = {dc.primary_homing_speed_mm_s, dc.homing_speed_mm_s};
-    o.dual_carriages.push_back(d);
-    // G28 puts the first carriage at its endstop (other axes keep amctl's G28 at 0).
-    o.home_position_mm[static_cast<std::size_t>(d.axis)] = d.position_endstop_mm[0];
-  }
-  if (m.kinematics == K::generic_cartesian && m.firmware == machine::Firmware::klipper) {
-    // generic_cartesian.py home_axis: a homed axis ends at its primary carriage's
-    // position_endstop (the dual carriage's pair too: idex_modes.py home() ends with the
-    // primary carriage active).
-    const auto& cs = m.carriages;
-    for (const auto& [name, c] : cs) {
-      if (c.type != machine::Carriage::Type::primary || c.axis.size() != 1 || !c.position_endstop_mm) {
-        continue;
-      }
-      o.home_position_mm[static_cast<std::size_t>(c.axis[0] - 'x')] = *c.position_endstop_mm;
-    }
-    // SET_STEPPER_CARRIAGES: the expressions as configured, checked as Klipper checks them.
-    for (const auto& [name, s] : m.steppers) {
-      if (!s.carriages.empty()) o.stepper_carriages[name] = s.carriages;
-    }
-    o.check_stepper_carriages = [m](const std::map<std::string, std::string, std::less<>>& now,
-                                    const std::string& stepper, const std::string& expr,
-                                    bool full) {
-      return machine::stepper_carriages_error(m, now, stepper, expr, full);
-    };
-    // IDEX (idex_modes.py through generic_cartesian.py): one pair per [dual_carriage NAME]
-    // with its primary carriage. A dual carriage without primary_carriage (a second pair on
-    // one axis) is not modelled: all dual carriages then stay parked, as before.
-    const bool pairs_only = std::all_of(cs.begin(), cs.end(), [](const auto& kv) {
-      return kv.second.type != machine::Carriage::Type::dual || !kv.second.primary_carriage.empty();
-    });
-    for (const char axis : {'x', 'y'}) {
-      for (const auto& [name, dual] : cs) {
-        if (!pairs_only || dual.type != machine::Carriage::Type::dual) continue;
-        const auto pit = cs.find(dual.primary_carriage);
-        if (pit == cs.end() || pit->second.axis != std::string(1, axis)) continue;
-        const machine::Carriage& first = pit->second;
-        gcode::InterpreterOptions::DualCarriage d;
-        d.axis = axis - 'x';
-        d.names = {pit->first, name};
-        set_idex_rails(d, {first.position_min_mm.value_or(0.0), dual.position_min_mm.value_or(0.0)},
-                       {first.position_max_mm.value_or(0.0), dual.position_max_mm.value_or(0.0)},
-                       {first.position_endstop_mm.value_or(0.0),
-                        dual.position_endstop_mm.value_or(0.0)});
-        d.safe_distance_mm = dual.safe_distance_mm;
-        d.homing_speed_mm_s = {first.homing_speed_mm_s, dual.homing_speed_mm_s};
-        o.dual_carriages.push_back(d);
-      }
+    // generic_cartesian's SET_STEPPER_CARRIAGES: the expressions as configured, checked as
+    // Klipper checks them.
+    o.stepper_carriages = kin->stepper_carriages();
+    if (!o.stepper_carriages.empty()) {
+      o.check_stepper_carriages = [kin](const std::map<std::string, std::string, std::less<>>& now,
+                                      const std::string& stepper, const std::string& expr,
+                                      bool full) {
+        return kin->stepper_carriages_error(now, stepper, expr, full);
+      };
     }
   }
   return o;

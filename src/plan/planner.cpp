@@ -60,45 +60,12 @@ constexpr double kExtrudeOnlyAccel = 99999999.9;  // Klipper: extrude-only moves
 
 void PlannerCore::special_move_limits(const gcode::MoveRequest& r, const std::array<double, 4>& d,
                                       const PlannedMove& o, double& velocity, double& accel) {
-  auto limit_speed = [&](double speed, double a) {
-    velocity = std::min(velocity, speed);
-    accel = std::min(accel, a);
-  };
-  if (delta_) {
-    // Linear delta: a move touching the outer zones (either end beyond the radius where a
-    // tower moves 3x (6x) faster than the effector) runs at 1/2 (1/4) of the configured
-    // limits. A deltesian measures |x| only and only for moves with X motion.
-    const double sy = deltesian_ ? 0.0 : o.start_mm[1], ey = deltesian_ ? 0.0 : r.end_mm[1];
-    const double ex = r.end_mm[0];
-    const double extreme_xy2 = std::max(o.start_mm[0] * o.start_mm[0] + sy * sy, ex * ex + ey * ey);
-    const bool applies = !deltesian_ || (d[0] != 0.0 && delta_slow_xy2_ > 0.0 && delta_very_slow_xy2_ > 0.0);
-    if (applies && extreme_xy2 > delta_slow_xy2_) {
-      const double f = extreme_xy2 > delta_very_slow_xy2_ ? 0.25 : 0.5;
-      limit_speed(delta_velocity_mm_s_ * f, delta_accel_mm_s2_ * f);
-    }
-    return;
-  }
-  if (rotary_) {
-    if (d[2] != 0.0) limit_speed(rotary_z_velocity_mm_s_, accel);
-    return;
-  }
-  if (polar_ && (d[0] != 0.0 || d[1] != 0.0) && polar_v_rad_max_ > 0.0) {
-    // polar.py: the segment's closest approach to the centre d; the bed turns at up to v / d.
-    const double ax = o.start_mm[0], ay = o.start_mm[1], bx = r.end_mm[0], by = r.end_mm[1];
-    const double ux = bx - ax, uy = by - ay;
-    const double along = -(ux * ax + uy * ay);  // (b - a) . (0 - a)
-    const double len2 = ux * ux + uy * uy;
-    double dist = 0.0;
-    if (along <= 0.0) dist = std::sqrt(ax * ax + ay * ay);
-    else if (along >= len2) dist = std::sqrt(bx * bx + by * by);
-    else dist = std::fabs(ux * ay - uy * ax) / std::sqrt(len2);
-    if (dist == 0.0) return;  // through the centre: Klipper leaves it unlimited
-    const double v_angular = velocity / dist;
-    if (polar_v_rad_max_ < v_angular) {
-      const double scale = polar_v_rad_max_ / v_angular;
-      limit_speed(delta_velocity_mm_s_ * scale, delta_accel_mm_s2_ * scale);
-    }
-  }
+  kinematics::MoveGeometry g;
+  g.start = o.start_mm;
+  g.end = r.end_mm;
+  g.d = d;
+  g.distance_mm = o.distance_mm;
+  kinematics_->limit_move(g, velocity, accel);
 }
 
 inline double PlannerCore::marlin_move_limits(const std::array<double, 4>& d, Move& m, double& velocity,
@@ -124,20 +91,22 @@ inline double PlannerCore::marlin_move_limits(const std::array<double, 4>& d, Mo
 const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
                                                    gcode::MoveRequest& /*scratch*/) {
   if (klipper_) {
+    if (no_extruder_ && r.end_mm[3] != r.start_mm[3]) {
+      // toolhead.py: without [extruder] the toolhead's extruder is a dummy whose check_move
+      // refuses any move with an E component; the print stops there.
+      throw Error(SourceLocation{"", r.line, 0},
+                  fmt::format("move extrudes (E {:.5f} to {:.5f}) on a printer without [extruder]; "
+                              "Klipper stops the print here with \"Extrude when no extruder "
+                              "present: {:.3f} {:.3f} {:.3f} [{:.3f}]\", expected a move without E "
+                              "or a printer.cfg with an [extruder] section",
+                              r.start_mm[3], r.end_mm[3], r.end_mm[0], r.end_mm[1], r.end_mm[2],
+                              r.end_mm[3]));
+    }
     // klippy/kinematics/cartesian.py check_move: an axis that moves must end inside
     // [position_min, position_max], else "Move out of range" and the print stops.
     if (range_reported_) return r;
-    if (deltesian_) {
-      deltesian_range(r);
-      return r;
-    }
-    if (rotary_) {
-      rotary_range(r);
-      return r;
-    }
-    if (polar_ && polar_range(r)) return r;
-    if (delta_) {
-      delta_range(r);
+    if (special_kin_) {
+      special_range(r);
       return r;
     }
     for (std::size_t i = 0; i < 3; ++i) {
@@ -162,96 +131,18 @@ const gcode::MoveRequest& PlannerCore::apply_range(const gcode::MoveRequest& r,
   return r;
 }
 
-namespace {
-
-// delta.py and rotary_delta.py check_move: a kinematic move must end inside the build volume:
-// z in [min_z, max_z] and the radius within max_xy2, tapered above limit_z (G: DeltaGeometry
-// or RotaryDeltaGeometry). A move to the home position (homing) is allowed.
-template <class G>
-std::optional<RangeError> tower_volume_error(const G& g, const gcode::MoveRequest& r) {
-  const double dx = r.end_mm[0] - r.start_mm[0], dy = r.end_mm[1] - r.start_mm[1],
-               dz = r.end_mm[2] - r.start_mm[2];
-  if (std::sqrt(dx * dx + dy * dy + dz * dz) < 1e-9) return std::nullopt;
-  const double x = r.end_mm[0], y = r.end_mm[1], z = r.end_mm[2];
-  const double xy2 = x * x + y * y;
-  const double limit_xy2 = g.limit_xy2_at(z);
-  if (xy2 <= limit_xy2 && z <= g.max_z_mm && z >= g.min_z_mm) return std::nullopt;
-  if (x == g.home_position_mm[0] && y == g.home_position_mm[1] && z >= g.min_z_mm &&
-      z <= g.home_position_mm[2]) {
-    return std::nullopt;
-  }
-  RangeError e;
-  e.line = r.line;
-  if (z > g.max_z_mm || z < g.min_z_mm) {
-    e.axis = 'z';
-    e.position_mm = z;
-    e.limit_mm = z > g.max_z_mm ? g.max_z_mm : g.min_z_mm;
-  } else {
-    e.axis = 'r';
-    e.position_mm = std::sqrt(xy2);
-    e.limit_mm = std::sqrt(std::max(0.0, limit_xy2));
-  }
-  return e;
-}
-
-}  // namespace
-
-void PlannerCore::delta_range(const gcode::MoveRequest& r) {
-  if (const auto e = tower_volume_error(delta_geometry_, r)) {
+void PlannerCore::special_range(const gcode::MoveRequest& r) {
+  kinematics::MoveGeometry g;
+  g.start = r.start_mm;
+  g.end = r.end_mm;
+  if (const auto v = kinematics_->check_range(g)) {
+    RangeError e;
+    e.line = r.line;
+    e.axis = v->axis;
+    e.position_mm = v->position_mm;
+    e.limit_mm = v->limit_mm;
     range_reported_ = true;
-    post(PendingEvent::make_range_error(*e));
-  }
-}
-
-bool PlannerCore::polar_range(const gcode::MoveRequest& r) {
-  // polar.py check_move: every kinematic move must end within the arm's reach (Z is checked
-  // like cartesian's, by the caller).
-  const double dx = r.end_mm[0] - r.start_mm[0], dy = r.end_mm[1] - r.start_mm[1],
-               dz = r.end_mm[2] - r.start_mm[2];
-  if (std::sqrt(dx * dx + dy * dy + dz * dz) < 1e-9) return false;
-  const double xy2 = r.end_mm[0] * r.end_mm[0] + r.end_mm[1] * r.end_mm[1];
-  if (xy2 <= polar_max_r2_mm2_) return false;
-  RangeError e;
-  e.line = r.line;
-  e.axis = 'r';
-  e.position_mm = std::sqrt(xy2);
-  e.limit_mm = std::sqrt(polar_max_r2_mm2_);
-  range_reported_ = true;
-  post(PendingEvent::make_range_error(e));
-  return true;
-}
-
-void PlannerCore::rotary_range(const gcode::MoveRequest& r) {
-  // rotary_delta.py check_move: as delta.py's, the radius tapered to max_z - z above limit_z.
-  if (const auto e = tower_volume_error(rotary_geometry_, r)) {
-    range_reported_ = true;
-    post(PendingEvent::make_range_error(*e));
-  }
-}
-
-void PlannerCore::deltesian_range(const gcode::MoveRequest& r) {
-  // deltesian.py check_move: every moving axis must end inside its limits; above the top of
-  // the volume the Z limit is the carriages' reach at that X; a move to (0, home_z) without Y
-  // motion is homing and allowed.
-  const machine::DeltesianGeometry& g = deltesian_geometry_;
-  const double x = r.end_mm[0], z = r.end_mm[2];
-  const bool homing = x == 0.0 && z == g.home_z_mm && r.end_mm[1] == r.start_mm[1];
-  if (homing) return;
-  auto limits = g.limits_mm;
-  if (z > limits[2][1]) limits[2][1] = g.pillars_z_max(x);
-  for (std::size_t i = 0; i < 3; ++i) {
-    if (r.end_mm[i] == r.start_mm[i]) continue;
-    const double p = r.end_mm[i];
-    if (p < limits[i][0] || p > limits[i][1]) {
-      RangeError e;
-      e.line = r.line;
-      e.axis = "xyz"[i];
-      e.position_mm = p;
-      e.limit_mm = p < limits[i][0] ? limits[i][0] : limits[i][1];
-      range_reported_ = true;
-      post(PendingEvent::make_range_error(e));
-      return;
-    }
+    post(PendingEvent::make_range_error(e));  // fires when the moves before it have run
   }
 }
 

@@ -8,8 +8,9 @@
 #include <cstdint>
 
 #include "amctl/gcode/events.hpp"
-#include "amctl/machine/delta.hpp"
-#include "amctl/machine/linkage.hpp"
+#include <memory>
+
+#include "amctl/kinematics/kinematics.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planner.hpp"
 #include "klipper_lookahead.hpp"
@@ -80,31 +81,12 @@ class PlannerCore {
   bool classic_jerk_ = false;
   bool slowdown_ = false;  // Marlin: SLOWDOWN applies (min_segment_time may become > 0)
   double z_velocity_mm_s_ = 0, z_accel_mm_s2_ = 0;
-  // Linear delta (Klipper delta.py check_move): moves touching the outer zones run at a half
-  // or a quarter of the configured speed and accel; the build volume is checked.
-  // A deltesian (deltesian.py) slows moves with X motion by |x| the same way.
-  // Any kinematics with limits beyond the Z one (delta, deltesian, polar, rotary delta): one
-  // flag on the hot path, the kind inside.
+  // The kinematics' own checks (Klipper check_move beyond the Z limit and the axis ranges:
+  // delta, deltesian, polar, rotary delta): one flag on the hot path.
   bool special_kin_ = false;
-  bool delta_ = false;
-  bool deltesian_ = false;
-  // Polar (polar.py): moves passing within d of the centre at speed v, v / d above
-  // max_angular_velocity, run at max_velocity and max_accel (configured) scaled by
-  // max_angular_velocity d / v. Rotary delta (rotary_delta.py): moves with Z motion capped
-  // at max_z_velocity, not scaled to the move.
-  bool polar_ = false;
-  bool rotary_ = false;
-  double polar_v_rad_max_ = 0, rotary_z_velocity_mm_s_ = 0;
-  double polar_max_r2_mm2_ = 0;
-  double delta_slow_xy2_ = 0, delta_very_slow_xy2_ = 0;
-  double delta_velocity_mm_s_ = 0, delta_accel_mm_s2_ = 0;
-  /// Klipper delta.py: the first move leaving the build volume is posted as a range error.
-  void delta_range(const gcode::MoveRequest& r);
-  void deltesian_range(const gcode::MoveRequest& r);
-  /// polar.py: the end of every kinematic move within the arm's reach; true when reported.
-  bool polar_range(const gcode::MoveRequest& r);
-  void rotary_range(const gcode::MoveRequest& r);
-  /// The special kinematics' speed limits (klipper_move_limits, off the hot path).
+  bool no_extruder_ = false;  // Klipper printer.cfg without [extruder]: a move that extrudes stops
+  /// The special kinematics' range check and speed limits (off the hot path).
+  void special_range(const gcode::MoveRequest& r);
   void special_move_limits(const gcode::MoveRequest& r, const std::array<double, 4>& d,
                            const PlannedMove& o, double& velocity, double& accel);
   double filament_area_mm2_ = 0, extrude_only_velocity_mm_s_ = 0, extrude_only_accel_mm_s2_ = 0;
@@ -131,9 +113,7 @@ class PlannerCore {
   /// The machine's own limits (lim_ before any G-code changed it): the ceiling of
   /// FileLimits::cap.
   Planner::Limits machine_lim_{};
-  machine::DeltaGeometry delta_geometry_{};
-  machine::DeltesianGeometry deltesian_geometry_{};
-  machine::RotaryDeltaGeometry rotary_geometry_{};
+  std::unique_ptr<const kinematics::Kinematics> kinematics_;
 };
 
 }  // namespace amctl::plan::detail

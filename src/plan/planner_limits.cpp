@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
 #include "planner_core.hpp"
 
@@ -60,21 +61,13 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   // Per-move constants of the machine, computed once with the same expressions on_move()
   // used to evaluate for every move (so the doubles are the same).
   klipper_ = klipper;
-  if (klipper && m.kinematics == machine::Kinematics::generic_cartesian) {
-    // generic_cartesian.py: the ranges of the primary carriages, checked as cartesian.py does.
-    const auto g = machine::generic_cartesian_geometry(m);
-    for (std::size_t i = 0; i < 3; ++i) {
-      range_min_mm_[i] = g.limits_mm[i][0];
-      range_max_mm_[i] = g.limits_mm[i][1];
-    }
-  } else if (klipper) {
-    for (std::size_t i = 0; i < 3; ++i) {
-      const auto it = m.steppers.find(std::string(1, "xyz"[i]));
-      if (it != m.steppers.end() && it->second.position_min_mm && it->second.position_max_mm) {
-        range_min_mm_[i] = it->second.position_min_mm;
-        range_max_mm_[i] = it->second.position_max_mm;
-      }
-    }
+  // The kinematics' check_move (Klipper): Z limits and axis ranges applied inline, the rest
+  // (delta, deltesian, polar, rotary delta) by the kinematics itself.
+  kinematics_ = machine::make_kinematics(m);
+  const kinematics::MoveRules rules = kinematics_->move_rules();
+  if (klipper) {
+    range_min_mm_ = rules.range_min_mm;
+    range_max_mm_ = rules.range_max_mm;
   } else if (m.firmware == Firmware::marlin) {
     range_min_mm_ = m.soft_min_position_mm;
     range_max_mm_ = m.soft_max_position_mm;
@@ -84,54 +77,17 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
   }
   z_velocity_mm_s_ = m.max_z_velocity_mm_s > 0 ? m.max_z_velocity_mm_s : m.max_velocity_mm_s;
   z_accel_mm_s2_ = m.max_z_accel_mm_s2 > 0 ? m.max_z_accel_mm_s2 : m.max_accel_mm_s2;
-  if (klipper && (m.kinematics == machine::Kinematics::none ||
-                  m.kinematics == machine::Kinematics::winch)) {
-    // Klipper's `none` and `winch` kinematics check nothing: no Z limit (infinite limits are
-    // no-ops).
-    z_velocity_mm_s_ = z_accel_mm_s2_ = std::numeric_limits<double>::infinity();
+  if (klipper) {
+    // No Z limit where the kinematics has none (infinite limits are no-ops).
+    z_velocity_mm_s_ = rules.z_velocity_mm_s.value_or(std::numeric_limits<double>::infinity());
+    z_accel_mm_s2_ = rules.z_accel_mm_s2.value_or(std::numeric_limits<double>::infinity());
+    special_kin_ = rules.special;
+    range_active_ = range_active_ || rules.special;
+    // No [extruder]: Klipper's toolhead has a dummy extruder whose check_move refuses a move
+    // that extrudes (checked with the ranges, off the hot path).
+    no_extruder_ = !m.extruder.present;
+    range_active_ = range_active_ || no_extruder_;
   }
-  if (klipper && m.kinematics == machine::Kinematics::delta) {
-    // delta.py reads max_velocity / max_accel once at start-up for its slow zones.
-    delta_ = true;
-    delta_geometry_ = machine::delta_geometry(m);
-    delta_slow_xy2_ = delta_geometry_.slow_xy2_mm2;
-    delta_very_slow_xy2_ = delta_geometry_.very_slow_xy2_mm2;
-    delta_velocity_mm_s_ = m.max_velocity_mm_s;
-    delta_accel_mm_s2_ = m.max_accel_mm_s2;
-    range_active_ = true;  // Klipper always checks a delta's build volume
-  }
-  if (klipper && m.kinematics == machine::Kinematics::deltesian) {
-    // deltesian.py: moves with X motion beyond slow_x2 (very_slow_x2) at 1/2 (1/4) of the
-    // configured limits; its X, Y, Z ranges always checked.
-    delta_ = deltesian_ = true;
-    deltesian_geometry_ = machine::deltesian_geometry(m);
-    delta_slow_xy2_ = deltesian_geometry_.slow_x2_mm2;
-    delta_very_slow_xy2_ = deltesian_geometry_.very_slow_x2_mm2;
-    delta_velocity_mm_s_ = m.max_velocity_mm_s;
-    delta_accel_mm_s2_ = m.max_accel_mm_s2;
-    range_active_ = true;
-  }
-  if (klipper && m.kinematics == machine::Kinematics::polar) {
-    // polar.py: max_velocity / max_accel read once at start-up; Z as cartesian; the radius
-    // always checked.
-    special_kin_ = polar_ = true;
-    polar_v_rad_max_ = m.max_angular_velocity_rad_s.value_or(0.0);
-    delta_velocity_mm_s_ = m.max_velocity_mm_s;
-    delta_accel_mm_s2_ = m.max_accel_mm_s2;
-    const double r = machine::polar_geometry(m).max_radius_mm;
-    polar_max_r2_mm2_ = r * r;
-    range_active_ = true;
-  }
-  if (klipper && m.kinematics == machine::Kinematics::rotary_delta) {
-    // rotary_delta.py: any move with Z motion at most max_z_velocity (no accel limit, not
-    // scaled to the move); the build volume always checked.
-    special_kin_ = rotary_ = true;
-    rotary_z_velocity_mm_s_ = z_velocity_mm_s_;
-    z_velocity_mm_s_ = z_accel_mm_s2_ = std::numeric_limits<double>::infinity();
-    rotary_geometry_ = machine::rotary_delta_geometry(m);
-    range_active_ = true;
-  }
-  special_kin_ = special_kin_ || delta_;
   const auto& ex = m.extruder;
   filament_area_mm2_ = std::numbers::pi * 0.25 * ex.filament_diameter_mm * ex.filament_diameter_mm;
   const double def_ratio = 4.0 * ex.nozzle_diameter_mm * ex.nozzle_diameter_mm / filament_area_mm2_;

@@ -24,7 +24,7 @@ Json to_json(const EstimateReport& r, const machine::Machine& m, double compute_
   j["file"] = r.file;
   j["machine"] = {{"name", m.name},
                   {"firmware", std::string(machine::to_string(m.firmware))},
-                  {"kinematics", std::string(machine::to_string(m.kinematics))},
+                  {"kinematics", std::string(kinematics::name_of(m.kinematics))},
                   {"junction", std::string(machine::to_string(m.junction))}};
   j["total_time_s"] = r.total_time_s;
   j["motion_time_s"] = r.motion_time_s;

@@ -1,5 +1,7 @@
 #include "amctl/plan/stream.hpp"
 
+#include "amctl/machine/kinematics.hpp"
+
 #include <cerrno>
 #include <utility>
 
@@ -68,14 +70,13 @@ macro::ToolheadInfo toolhead_info(const machine::Machine& m) {
   t.max_accel_mm_s2 = m.max_accel_mm_s2;
   t.square_corner_velocity_mm_s = m.square_corner_velocity_mm_s;
   t.minimum_cruise_ratio = m.minimum_cruise_ratio;
+  // Klipper's axis_minimum/maximum: the ranges the kinematics checks moves against.
+  const kinematics::MoveRules rules = machine::make_kinematics(m)->move_rules();
   std::array<double, 3> lo{}, hi{};
-  for (int a = 0; a < 3; ++a) {
-    const auto it = m.steppers.find(std::string(1, "xyz"[a]));
-    if (it == m.steppers.end() || !it->second.position_min_mm || !it->second.position_max_mm) {
-      return t;  // Klipper's axis_minimum/maximum need every rail's range
-    }
-    lo[static_cast<std::size_t>(a)] = *it->second.position_min_mm;
-    hi[static_cast<std::size_t>(a)] = *it->second.position_max_mm;
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!rules.range_min_mm[a] || !rules.range_max_mm[a]) return t;  // every axis's range needed
+    lo[a] = *rules.range_min_mm[a];
+    hi[a] = *rules.range_max_mm[a];
   }
   t.axis_minimum_mm = lo;
   t.axis_maximum_mm = hi;

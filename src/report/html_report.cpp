@@ -223,7 +223,6 @@ Json report_data(const std::string& path, const machine::Machine& machine,
     dynamics::require_above_nyquist(options.sample_rate_hz, {&*model});
     dynamics::SimulationOptions sim_o;
     sim_o.sample_rate_hz = options.sample_rate_hz;
-    sim_o.kinematics = machine.kinematics;
     dynamics::MetricsOptions met_o;
     met_o.keep_per_move = false;  // bounded memory
     // The toolpath sink comes before the simulation in `sinks`, so it has seen every move

@@ -6,8 +6,8 @@ namespace amctl::report {
 
 LineChart stepper_sweep_chart(std::span<const closedloop::SweepRow> rows, bool load) {
   LineChart c;
-  c.title = load ? "seed003 scenario under load: maximum tracking error against speed"
-                 : "seed003 scenario without load: maximum tracking error against speed";
+  c.title = load ? "reversing strokes under load: maximum tracking error against speed"
+                 : "reversing strokes without load: maximum tracking error against speed";
   c.x_label = "speed [mm/s]";
   c.y_label = "max tracking error [mm]";
   c.log_y = true;

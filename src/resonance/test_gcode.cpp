@@ -12,6 +12,7 @@
 
 #include "amctl/core/config_section.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/machine/kinematics.hpp"
 
 namespace amctl::resonance {
 namespace {
@@ -171,11 +172,11 @@ std::vector<std::array<double, 3>> probe_points_of(const ConfigSection& sec, con
 }
 
 std::optional<std::pair<double, double>> axis_range(const machine::Machine& m, int axis) {
-  const std::string name(1, "xyz"[axis]);
-  const auto it = m.steppers.find(name);
-  if (it != m.steppers.end() && it->second.position_min_mm && it->second.position_max_mm) {
-    return std::make_pair(*it->second.position_min_mm, *it->second.position_max_mm);
-  }
+  // The kinematics' range of the axis (its rail's position_min / position_max).
+  const kinematics::MoveRules rules = machine::make_kinematics(m)->move_rules();
+  const auto& min = rules.range_min_mm[static_cast<std::size_t>(axis)];
+  const auto& max = rules.range_max_mm[static_cast<std::size_t>(axis)];
+  if (min && max) return std::make_pair(*min, *max);
   const auto& lo = m.soft_min_position_mm[static_cast<std::size_t>(axis)];
   const auto& hi = m.soft_max_position_mm[static_cast<std::size_t>(axis)];
   if (lo && hi) return std::make_pair(*lo, *hi);

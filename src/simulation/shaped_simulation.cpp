@@ -10,7 +10,6 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/shaping/shaped_trajectory.hpp"
-#include "amctl/trajectory/kinematics.hpp"
 
 namespace amctl::simulation {
 

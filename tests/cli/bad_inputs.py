@@ -93,6 +93,9 @@ CONFIGURATION_H = ("#pragma once\n#define DEFAULT_AXIS_STEPS_PER_UNIT   { 80, 80
 CUBE_STL = "solid t\n" + ("facet normal 0 0 -1\n outer loop\n  vertex 0 0 0\n  vertex 0 1 0\n"
                           "  vertex 1 0 0\n endloop\nendfacet\n") + "endsolid t\n"
 
+SLS3D_ARGS = ["thermal", "sls3d", "--config", "s.toml", "--vtu-dir", "vtu", "--report", "out.html", "--csv", "out.csv"]
+SLS3D_OUTPUTS = ["vtu", "out.html", "out.csv"]
+
 
 def case(name, args, files, where, outputs=(), dirs=(), links=None):
     """`dirs`: directories to make; `links`: {link: target} symbolic links to make."""
@@ -198,6 +201,31 @@ CASES = [
                    "[tmc2209 stepper_x]\nrun_current: -0.8\n"}, "p.cfg:12:14"),
     case("toml_negative_backlash", ["machine", "show", "m.toml"],
          {"m.toml": '[stepper_x]\nbacklash = -0.1\n'}, "m.toml:2:12"),
+    # ---- closed-loop stepper simulation: refused before simulating, naming the limit ----
+    case("stepper_unstable_gain", ["stepper", "simulate", "--scenario", "reversing-strokes",
+                                   "--controller", "pid", "--kp", "20", "--csv", "out.csv"],
+         {}, "--kp", ["out.csv"]),
+    case("stepper_current_above_rating", ["stepper", "simulate", "--scenario",
+                                          "reversing-strokes", "--run-current-a", "1.5"],
+         {}, "--run-current-a"),
+    case("stepper_boost_above_rating", ["stepper", "simulate", "--scenario", "reversing-strokes",
+                                        "--controller", "feedforward", "--max-current-a", "2.5"],
+         {}, "--max-current-a"),
+    case("stepper_encoder_rate_above_ssi", ["stepper", "simulate", "--scenario",
+                                            "reversing-strokes", "--controller", "pid",
+                                            "--encoder-rate-hz", "60000"], {}, "--encoder-rate-hz"),
+    case("stepper_encoder_rate_too_low", ["stepper", "simulate", "f.gcode", "--controller", "pid",
+                                          "--encoder-rate-hz", "200", "--csv", "out.csv"],
+         {"f.gcode": GOOD_GCODE}, "--encoder-rate-hz", ["out.csv"]),
+    case("stepper_encoder_too_coarse", ["stepper", "simulate", "--scenario", "reversing-strokes",
+                                        "--controller", "feedforward", "--encoder-resolution-um",
+                                        "10"], {}, "--encoder-resolution-um"),
+    case("stepper_unknown_motor", ["stepper", "simulate", "--scenario", "reversing-strokes", "-m",
+                                   "m.toml"],
+         {"m.toml": GOOD_TOML + '[stepper_x]\nmotor = "nema99"\n'}, "m.toml:6:9"),
+    case("cfg_autotune_unknown_motor", ["machine", "show", "p.cfg"],
+         {"p.cfg": GOOD_CFG + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
+                   "[autotune_tmc stepper_x]\nmotor: nema99\n"}, "p.cfg:9:8"),
     # ---- --set and other command-line values ----
     case("set_negative_limit", ["estimate", "f.gcode", "--set", "printer.max_accel=-1"],
          {"f.gcode": GOOD_GCODE}, "--set printer.max_accel=-1"),
@@ -287,6 +315,19 @@ CASES = [
          {"s.toml": "[material]\ndensity_kg_m3 = 930\n[bogus]\nx = 1\n"}, "s.toml:3:1", ["out.csv"]),
     case("sls_negative_density", ["thermal", "sls", "--config", "s.toml", "--csv", "out.csv"],
          {"s.toml": "[material]\ndensity_kg_m3 = -930\n"}, "s.toml:2:17", ["out.csv"]),
+    # ---- the 3D powder bed (amctl thermal sls3d) ----
+    case("sls3d_negative_conductivity", SLS3D_ARGS,
+         {"s.toml": "[powder]\nconductivity_w_mk = -0.1\n"}, "s.toml:2:21", SLS3D_OUTPUTS),
+    case("sls3d_part_outside_the_disc", SLS3D_ARGS,
+         {"s.toml": "[part]\ninner_radius_mm = 50.0\nouter_radius_mm = 120.0\n"}, "s.toml:3:19", SLS3D_OUTPUTS),
+    case("sls3d_laser_never_reaches_the_part", SLS3D_ARGS,
+         {"s.toml": "[laser]\nfield_radius_mm = 30.0\n"}, "s.toml:2:19", SLS3D_OUTPUTS),
+    case("sls3d_time_step_off_the_schedule", SLS3D_ARGS,
+         {"s.toml": "[numerics]\ndt_s = 0.7\n"}, "s.toml:2:8", SLS3D_OUTPUTS),
+    case("sls3d_nan_density", SLS3D_ARGS,
+         {"s.toml": "[sintered]\ndensity_kg_m3 = nan\n"}, "s.toml:2:17", SLS3D_OUTPUTS),
+    case("sls3d_unknown_key", SLS3D_ARGS,
+         {"s.toml": "[laser]\npower_watts = 30\n"}, "s.toml:2:1", SLS3D_OUTPUTS),
     # ---- binary G-code (read by content, whatever the name) ----
     case("bgcode_corrupt_crc", ["estimate", "f.bgcode"],
          {"f.bgcode": latin1(bgcode_damaged_byte(GOOD_GCODE)[0])}, "f.bgcode"),
@@ -381,6 +422,43 @@ CASES = [
          ["resonance", "test-gcode", "--machine", "p.cfg", "--axis", "x", "-o", "out.gcode"],
          {"p.cfg": STEPPER_CFG + "[resonance_tester]\nprobe_points:\n    199.9, 100, 20\n"},
          "p.cfg:24", ["out.gcode"]),
+    # ---- input shaper, pressure advance, printers without [extruder] (Klipper's checks) ----
+    case("cfg_unknown_shaper_type", ["steps", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE,
+          "p.cfg": STEPPER_CFG + "[input_shaper]\nshaper_freq_x: 40\nshaper_type_x: zvx\n"},
+         "p.cfg:24:16"),
+    case("cfg_negative_shaper_freq", ["steps", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG + "[input_shaper]\nshaper_freq_x: -40\n"},
+         "p.cfg:23:16"),
+    case("cfg_negative_pressure_advance", ["steps", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG + "pressure_advance: -0.04\n"},
+         "p.cfg:22:19"),
+    case("cfg_pressure_advance_smooth_time_above_limit", ["steps", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG + "pressure_advance_smooth_time: 0.3\n"},
+         "p.cfg:22:31"),
+    case("cfg_negative_pressure_advance_smooth_time", ["steps", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG + "pressure_advance_smooth_time: -0.01\n"},
+         "p.cfg:22:31"),
+    case("toml_unknown_shaper_type", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE,
+          "m.toml": GOOD_TOML + '[input_shaper]\nshaper_type_x = "zvx"\nshaper_freq_x = 40\n'},
+         "m.toml:6:17"),
+    case("toml_negative_shaper_freq", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": GOOD_TOML + "[input_shaper]\nshaper_freq_x = -40\n"},
+         "m.toml:6:17"),
+    case("toml_negative_pressure_advance", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": GOOD_TOML + "[extruder]\npressure_advance = -0.04\n"},
+         "m.toml:6:20"),
+    case("toml_pressure_advance_smooth_time_above_limit", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE,
+          "m.toml": GOOD_TOML + "[extruder]\npressure_advance_smooth_time = 0.3\n"},
+         "m.toml:6:32"),
+    case("steps_extrude_without_extruder", ["steps", "f.gcode", "-m", "p.cfg", "--csv", "out.csv"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG[:STEPPER_CFG.index("[extruder]")]},
+         "f.gcode:5", ["out.csv"]),
+    case("estimate_extrude_without_extruder", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG[:STEPPER_CFG.index("[extruder]")]},
+         "f.gcode:5"),
 ]
 
 

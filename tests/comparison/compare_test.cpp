@@ -29,7 +29,6 @@ ComparisonOptions seed_options() {
 dynamics::PrintSimulationOptions sim_options(const machine::Machine& m) {
   dynamics::PrintSimulationOptions o;
   o.simulation.sample_rate_hz = 1000.0;
-  o.simulation.kinematics = m.kinematics;
   o.metrics.keep_per_move = false;
   return o;
 }

@@ -117,7 +117,7 @@ TEST(Simulate, CoreXYMotorSpaceWithEqualMotorsEqualsCartesian) {
   const auto moves = seed_path(VP::scurve7, 10.0);
   const AxisModel m = AxisModel::from_modes({Mode{30.0, 0.1, 0.8}, Mode{95.0, 0.03, 0.2}});
   SimulationOptions o;
-  o.kinematics = machine::Kinematics::corexy;
+  o.motor_rows = {{{1.0, 1.0, 0.0}, {1.0, -1.0, 0.0}}};  // CoreXY A = X + Y, B = X - Y
   o.motor_space = true;
   const auto a = run(moves, m, m, 2000.0, o);
   const auto b = run(moves, m, m, 2000.0);

@@ -52,7 +52,7 @@ TEST(KlipperCfg, MinimalPrinterGetsKlippersDefaults) {
   const Machine m = cfg(kMinimal);
   EXPECT_EQ(m.firmware, Firmware::klipper);
   EXPECT_EQ(m.junction, JunctionPolicy::square_corner_velocity);
-  EXPECT_EQ(m.kinematics, Kinematics::cartesian);
+  EXPECT_TRUE(kinematics::is<kinematics::Cartesian>(m.kinematics));
   EXPECT_DOUBLE_EQ(m.max_velocity_mm_s, 250);
   EXPECT_DOUBLE_EQ(m.max_accel_mm_s2, 4000);
   EXPECT_DOUBLE_EQ(m.square_corner_velocity_mm_s, 5.0);  // Config_Reference: default 5
@@ -67,7 +67,7 @@ TEST(KlipperCfg, ColonsEqualsAndBothCommentStylesAreAccepted) {
       "# a comment\n; another\n[printer]\nkinematics = corexy   ; inline\n"
       "max_velocity:300#no space needed before hash\nmax_accel :  7000  # trailing\n"
       "square_corner_velocity:8\nMAX_Z_VELOCITY: 20\n");
-  EXPECT_EQ(m.kinematics, Kinematics::corexy);
+  EXPECT_TRUE(kinematics::is<kinematics::CoreXY>(m.kinematics));
   EXPECT_DOUBLE_EQ(m.max_velocity_mm_s, 300);
   EXPECT_DOUBLE_EQ(m.max_accel_mm_s2, 7000);
   EXPECT_DOUBLE_EQ(m.square_corner_velocity_mm_s, 8);
@@ -254,12 +254,13 @@ TEST(KlipperCfg, RailRangesAreRead) {
                         "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\n"
                         "position_min: -5\nposition_endstop: -5\nposition_max: 230\n"
                         "[stepper_e]\nrotation_distance: 7\nmicrosteps: 16\n");
-  EXPECT_EQ(m.steppers.at("x").position_min_mm, 0.0);  // Klipper's default
-  EXPECT_EQ(m.steppers.at("x").position_max_mm, 235.0);
-  EXPECT_EQ(m.steppers.at("x").position_endstop_mm, 0.0);
-  EXPECT_EQ(m.steppers.at("y").position_min_mm, -5.0);
-  EXPECT_EQ(m.steppers.at("y").position_max_mm, 230.0);
-  EXPECT_FALSE(m.steppers.at("e").position_max_mm.has_value());
+  const auto& rails = std::get<kinematics::Cartesian>(m.kinematics).rails;
+  EXPECT_EQ(rails.at("x").position_min_mm, 0.0);  // Klipper's default
+  EXPECT_EQ(rails.at("x").position_max_mm, 235.0);
+  EXPECT_EQ(rails.at("x").position_endstop_mm, 0.0);
+  EXPECT_EQ(rails.at("y").position_min_mm, -5.0);
+  EXPECT_EQ(rails.at("y").position_max_mm, 230.0);
+  EXPECT_EQ(rails.count("e"), 0u);  // [stepper_e] is no rail (nor a Klipper section)
   EXPECT_EQ(cfg_error(kMinimal + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\n"
                                  "position_min: 10\nposition_max: 5\n"),
             "printer.cfg:9:15: [stepper_x] position_max: must be above 10, got 5");
@@ -335,7 +336,7 @@ TEST(KlipperCfg, IncludesResolveRelativeToTheFileWithGlobsAndLaterOverrides) {
       "conf/printer.cfg",
       "[include limits.cfg]\n[include macros/*.cfg]\n[printer]\nsquare_corner_velocity: 6\n");
   const Machine m = load_machine(main);
-  EXPECT_EQ(m.kinematics, Kinematics::corexy);
+  EXPECT_TRUE(kinematics::is<kinematics::CoreXY>(m.kinematics));
   EXPECT_DOUBLE_EQ(m.max_velocity_mm_s, 350);
   EXPECT_DOUBLE_EQ(m.max_accel_mm_s2, 5500);
   EXPECT_DOUBLE_EQ(m.square_corner_velocity_mm_s, 6);
@@ -373,7 +374,7 @@ TEST(KlipperCfg, OptionsRightAfterAnIncludeNeedASectionHeader) {
 TEST(KlipperCfg, ExampleVoronV0ConfigLoadsWithItsIncludedMacros) {
   const Machine m = load_machine(std::string(AMCTL_SOURCE_DIR) + "/configs/klipper-voron-v0.cfg");
   EXPECT_EQ(m.name, "klipper-voron-v0");
-  EXPECT_EQ(m.kinematics, Kinematics::corexy);
+  EXPECT_TRUE(kinematics::is<kinematics::CoreXY>(m.kinematics));
   EXPECT_DOUBLE_EQ(m.max_velocity_mm_s, 500);   // machine_max_feedrate_x 30000 mm/min
   EXPECT_DOUBLE_EQ(m.max_accel_mm_s2, 16000);   // machine_max_acceleration_x
   EXPECT_DOUBLE_EQ(m.max_z_velocity_mm_s, 50);  // machine_max_feedrate_z 3000 mm/min

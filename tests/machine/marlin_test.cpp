@@ -224,7 +224,7 @@ TEST(MarlinConfiguration, ReadsTheLimitsAndMatchesTheEnder3Preset) {
   const Machine m = load_machine(path);
   const Machine p = preset("ender3");
   EXPECT_EQ(m.firmware, Firmware::marlin);
-  EXPECT_EQ(m.kinematics, Kinematics::cartesian);
+  EXPECT_TRUE(kinematics::is<kinematics::Cartesian>(m.kinematics));
   EXPECT_EQ(m.junction, JunctionPolicy::junction_deviation);
   EXPECT_DOUBLE_EQ(m.junction_deviation_mm, p.junction_deviation_mm);
   EXPECT_EQ(m.max_feedrate_mm_s, p.max_feedrate_mm_s);
@@ -250,7 +250,7 @@ TEST(MarlinConfiguration, ClassicJerkAndCoreXyWhenDefined) {
   const Machine m = parse_marlin_configuration(t, "Configuration.h");
   EXPECT_EQ(m.junction, JunctionPolicy::classic_jerk);
   EXPECT_EQ(m.jerk_mm_s, (std::array<double, 4>{10, 10, 0.3, 5}));
-  EXPECT_EQ(m.kinematics, Kinematics::corexy);
+  EXPECT_TRUE(kinematics::is<kinematics::CoreXY>(m.kinematics));
 }
 
 TEST(MarlinConfiguration, ConditionalsDecideWhichDefinitionApplies) {

@@ -26,7 +26,7 @@ TEST(Override, SetsNumbersArraysElementsEnumsAndText) {
   EXPECT_DOUBLE_EQ(m.max_feedrate_mm_s[0], 500);  // other elements untouched
   EXPECT_EQ(m.firmware, Firmware::marlin);
   EXPECT_EQ(m.junction, JunctionPolicy::square_corner_velocity);  // only the named key changes
-  EXPECT_EQ(m.kinematics, Kinematics::corexy);
+  EXPECT_TRUE(kinematics::is<kinematics::CoreXY>(m.kinematics));
   EXPECT_EQ(m.name, "My printer");
   EXPECT_EQ(m.extruder.max_extrude_only_velocity_mm_s, 60.0);
   EXPECT_EQ(m.arcs.min_circle_segments, 72);

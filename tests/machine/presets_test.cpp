@@ -58,7 +58,7 @@ TEST(Presets, DefaultPresetIsTheBuiltInDefaultMachine) {
 TEST(Presets, Voron24HasTheVoronOctopusConfigLimits) {
   const Machine m = preset("voron24");
   EXPECT_EQ(m.firmware, Firmware::klipper);
-  EXPECT_EQ(m.kinematics, Kinematics::corexy);
+  EXPECT_TRUE(kinematics::is<kinematics::CoreXY>(m.kinematics));
   EXPECT_EQ(m.junction, JunctionPolicy::square_corner_velocity);
   EXPECT_DOUBLE_EQ(m.max_velocity_mm_s, 300);
   EXPECT_DOUBLE_EQ(m.max_accel_mm_s2, 3000);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "amctl/core/error.hpp"
+#include "amctl/machine/kinematics.hpp"
 
 namespace amctl::machine::test {
 
@@ -41,5 +42,35 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+/// The geometry a kinematics derives from machine m (the kinematics held must be that one).
+inline kinematics::DeltaGeometry delta_geometry(const Machine& m) {
+  const auto c = kinematics_context(m);
+  return kinematics::delta_geometry(std::get<kinematics::Delta>(m.kinematics),
+                                    {c.step_distance.at("a"), c.step_distance.at("b"),
+                                     c.step_distance.at("c")});
+}
+inline kinematics::DeltesianGeometry deltesian_geometry(const Machine& m) {
+  return kinematics::deltesian_geometry(std::get<kinematics::Deltesian>(m.kinematics));
+}
+inline kinematics::PolarGeometry polar_geometry(const Machine& m) {
+  return kinematics::polar_geometry(std::get<kinematics::Polar>(m.kinematics));
+}
+inline kinematics::RotaryDeltaGeometry rotary_delta_geometry(const Machine& m) {
+  return kinematics::rotary_delta_geometry(std::get<kinematics::RotaryDelta>(m.kinematics));
+}
+inline kinematics::GenericCartesianGeometry generic_cartesian_geometry(const Machine& m) {
+  // Every stepper that is not an extruder needs carriages, as the kinematics checks.
+  std::vector<std::string> keys, missing;
+  for (const auto& [k, s] : m.steppers) keys.push_back(k);
+  (void)make_kinematics(m)->motors(keys, missing);
+  return kinematics::generic_cartesian_geometry(
+      std::get<kinematics::GenericCartesian>(m.kinematics));
+}
+inline std::array<double, 3> parse_carriages(std::string_view expr, const Machine& m,
+                                             std::string_view label, bool with_dual) {
+  return kinematics::parse_carriages(
+      expr, std::get<kinematics::GenericCartesian>(m.kinematics), label, with_dual);
+}
 
 }  // namespace amctl::machine::test

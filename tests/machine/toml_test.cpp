@@ -148,7 +148,7 @@ TEST(MachineToml, ToTomlRoundTripsEveryFieldExactly) {
   Machine m;
   m.name = "quote \" and \\ backslash\tand tab";
   m.firmware = Firmware::reprap;
-  m.kinematics = Kinematics::corexy;
+  m.kinematics = kinematics::CoreXY{};
   m.junction = JunctionPolicy::junction_deviation;
   m.profile = VelocityProfile::scurve7;
   m.max_velocity_mm_s = 0.1 + 0.2;  // not representable in short decimal
@@ -166,7 +166,8 @@ TEST(MachineToml, ToTomlRoundTripsEveryFieldExactly) {
   m.firmware_retraction.lift_z_mm = 0.2;
   m.steppers["x"] = Stepper{40.0 / 3.0, 256, 400};
   m.steppers["z2"] = Stepper{8, 16, 200};
-  m.steppers["y"] = Stepper{40, 16, 200, -5.0, 230.0, -5.0};
+  m.steppers["y"] = Stepper{40, 16, 200};
+  std::get<kinematics::CoreXY>(m.kinematics).rails["y"] = {-5.0, 230.0, -5.0};
   m.soft_min_position_mm = {0.0, -2.0, std::nullopt};
   m.soft_max_position_mm = {220.0, std::nullopt, 250.0};
   const std::string text = to_toml(m);
@@ -193,7 +194,7 @@ TEST(MachineToml, SchemaListsEveryKeyWithItsUnit) {
   EXPECT_EQ(to_toml(plain).find("position"), std::string::npos);
   EXPECT_EQ(to_json(plain).dump().find("position"), std::string::npos);
   plain.soft_max_position_mm[0] = 220.0;
-  plain.steppers["x"].position_max_mm = 230.0;
+  std::get<kinematics::Cartesian>(plain.kinematics).rails["x"].position_max_mm = 230.0;
   EXPECT_NE(to_toml(plain).find("max_position_x = 220"), std::string::npos);
   EXPECT_NE(to_toml(plain).find("position_max = 230"), std::string::npos);
   EXPECT_EQ(to_toml(plain).find("min_position"), std::string::npos);

@@ -89,12 +89,12 @@ TEST(Estimate, PausesAreListedApartWithTheirPlaceNotTimed) {
 
 machine::Machine klipper_with_range() {
   machine::Machine m = simple();
+  kinematics::Cartesian c;
   for (const char* a : {"x", "y", "z"}) {
-    machine::Stepper st;
-    st.position_min_mm = 0.0;
-    st.position_max_mm = 100.0;
-    m.steppers[a] = st;
+    m.steppers[a] = machine::Stepper{};
+    c.rails[a] = {0.0, 100.0, std::nullopt};
   }
+  m.kinematics = c;
   return m;
 }
 

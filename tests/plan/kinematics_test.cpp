@@ -8,6 +8,7 @@
 #include <cmath>
 #include <string>
 
+#include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
 
@@ -76,7 +77,7 @@ TEST(DeltaLimits, HomingPutsTheEffectorAtTheTop) {
   EXPECT_NEAR(r.total_time_s, trapezoid_s(287.05, 150, 1500), 1e-9);
 }
 
-machine::Machine gantry(machine::Kinematics k) {
+machine::Machine gantry(kinematics::Params k) {
   machine::Machine m;
   m.kinematics = k;
   m.max_z_velocity_mm_s = 10;
@@ -85,10 +86,10 @@ machine::Machine gantry(machine::Kinematics k) {
 }
 
 TEST(GantryLimits, CoreXZAndHybridLimitZLikeCartesian) {
-  for (auto k : {machine::Kinematics::corexz, machine::Kinematics::hybrid_corexy,
-                 machine::Kinematics::hybrid_corexz}) {
+  for (const kinematics::Params& k : {kinematics::Params{kinematics::CoreXZ{}}, kinematics::Params{kinematics::HybridCoreXY{}},
+                                    kinematics::Params{kinematics::HybridCoreXZ{}}}) {
     const auto r = estimate_text("G1 Z20 F6000\n", "z.gcode", gantry(k));
-    EXPECT_NEAR(r.total_time_s, trapezoid_s(20, 10, 100), 1e-9) << machine::to_string(k);
+    EXPECT_NEAR(r.total_time_s, trapezoid_s(20, 10, 100), 1e-9) << kinematics::name_of(k);
   }
 }
 
@@ -126,7 +127,7 @@ TEST(GantryLimits, WinchHasNoZLimit) {
 
 TEST(GantryLimits, NoneHasNoZLimit) {
   // Klipper's none kinematics checks nothing: the toolhead's 300 mm/s and 3000 mm/s^2 apply.
-  const auto r = estimate_text("G1 Z100 F18000\n", "z.gcode", gantry(machine::Kinematics::none));
+  const auto r = estimate_text("G1 Z100 F18000\n", "z.gcode", gantry(kinematics::None{}));
   EXPECT_NEAR(r.total_time_s, trapezoid_s(100, 300, 3000), 1e-9);
 }
 
@@ -186,6 +187,32 @@ TEST(RotaryDeltaLimits, AnyMoveWithZIsCappedUnscaled) {
   const auto z = reference_estimate("rotary_delta.cfg", at + "G1 Z253 F18000\n");
   ASSERT_TRUE(z.range_error.has_value());
   EXPECT_EQ(z.range_error->axis, 'z');
+}
+
+TEST(NoExtruder, MovesWithoutEPlanAndAMoveThatExtrudesStopsAtItsLine) {
+  // A printer.cfg without [extruder] (valid in Klipper): the toolhead's extruder is a dummy
+  // whose check_move refuses a move with an E component ("Extrude when no extruder present").
+  const std::string cfg =
+      "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 200\n"
+      "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 200\n"
+      "[stepper_z]\nrotation_distance: 8\nmicrosteps: 16\nposition_max: 200\n";
+  const machine::Machine m = machine::parse_klipper_cfg(cfg, "p.cfg");
+  EXPECT_FALSE(m.extruder.present);
+  // 100 mm at 300 mm/s, 3000 mm/s^2 from rest to rest: 100/300 + 300/3000 s.
+  EXPECT_NEAR(estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG1 X100 F18000\n", "t.gcode", m).total_time_s,
+              trapezoid_s(100, 300, 3000), 1e-9);
+  try {
+    (void)estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG1 X100 F18000\nG1 X110 E1\n", "t.gcode", m);
+    FAIL() << "a move that extrudes was planned";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_NE(std::string(e.what()).find("Extrude when no extruder present: 110.000 0.000 0.000 [1.000]"),
+              std::string::npos)
+        << e.what();
+  }
+  // A retract alone extrudes too (Klipper checks any E component).
+  EXPECT_THROW((void)estimate_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nG1 E-1 F1800\n", "t.gcode", m), Error);
 }
 
 }  // namespace

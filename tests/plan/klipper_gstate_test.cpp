@@ -167,6 +167,8 @@ TEST(KlipperGcodeState, MacrosSeeExcludeObjectAsKlipperReportsIt) {
   // object only when there is one (current_object is None outside an object).
   const std::string cfg =
       "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+      "[extruder]\nrotation_distance: 33.5\nmicrosteps: 16\nnozzle_diameter: 0.4\n"
+      "filament_diameter: 1.75\n"
       "[exclude_object]\n"
       "[gcode_macro M486]\ngcode:\n"
       "  {% if 'exclude_object' not in printer %}\n    M117 missing\n  {% endif %}\n"

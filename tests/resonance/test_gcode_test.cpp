@@ -213,10 +213,9 @@ TEST(TestGcode, WithoutProbePointsTheMiddleOfThePositionLimits) {
   const machine::Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/ender3_cartesian.cfg");
   const TestGcodeOptions o = machine_test_options(TestStyle::klipper, 'x', m);
   EXPECT_TRUE(o.probe_points.empty());
-  const auto& x = m.steppers.at("x");
-  const auto& y = m.steppers.at("y");
-  EXPECT_EQ(o.point_mm[0], 0.5 * (*x.position_min_mm + *x.position_max_mm));
-  EXPECT_EQ(o.point_mm[1], 0.5 * (*y.position_min_mm + *y.position_max_mm));
+  // ender3_cartesian.cfg: [stepper_x] and [stepper_y] position_min 0, position_max 300.
+  EXPECT_EQ(o.point_mm[0], 0.5 * (0.0 + 300.0));
+  EXPECT_EQ(o.point_mm[1], 0.5 * (0.0 + 300.0));
   EXPECT_EQ(o.point_mm[2], 20.0);
 }
 

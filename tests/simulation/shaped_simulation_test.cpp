@@ -335,7 +335,7 @@ TEST(ShapedSimulate, MotorSpaceWithTheSameShaperMergesTheTaps) {
   const auto belt = dy::AxisModel::belt(40.0, 0.1);
   const auto moves = corner_path(VP::trapezoid, 10.0);
   dy::SimulationOptions so;
-  so.kinematics = machine::Kinematics::corexy;
+  so.motor_rows = {{{1.0, 1.0, 0.0}, {1.0, -1.0, 0.0}}};  // CoreXY A = X + Y, B = X - Y
   so.motor_space = true;
   const ShapedRun m = run_shaped(moves, belt, belt, taps, 1000.0, 80, so);
   const ShapedRun c = run_shaped(moves, belt, belt, command_taps(a, a, false));
@@ -354,7 +354,7 @@ TEST(ShapedSimulate, MotorSpaceSplitTapsWithEqualShapersEqualTheMergedOnes) {
   ASSERT_EQ(split.size(), 6u);
   const auto ma = dy::AxisModel::belt(40.0, 0.05), mb = dy::AxisModel::belt(55.0, 0.08);
   dy::SimulationOptions so;
-  so.kinematics = machine::Kinematics::corexy;
+  so.motor_rows = {{{1.0, 1.0, 0.0}, {1.0, -1.0, 0.0}}};  // CoreXY A = X + Y, B = X - Y
   so.motor_space = true;
   for (const VP p : {VP::trapezoid, VP::scurve7}) {
     const auto moves = corner_path(p, 15.0);
@@ -380,7 +380,7 @@ TEST(ShapedSimulate, MotorSpaceDifferentShapersEqualRk45OnTheExplicitlyShapedCom
   const std::array<double, 2> w{2 * std::numbers::pi * f[0], 2 * std::numbers::pi * f[1]};
   const auto ma = dy::AxisModel::belt(f[0], z[0]), mb = dy::AxisModel::belt(f[1], z[1]);
   dy::SimulationOptions so;
-  so.kinematics = machine::Kinematics::corexy;
+  so.motor_rows = {{{1.0, 1.0, 0.0}, {1.0, -1.0, 0.0}}};  // CoreXY A = X + Y, B = X - Y
   so.motor_space = true;
   struct Case {
     VP profile;

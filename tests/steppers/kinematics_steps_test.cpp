@@ -11,8 +11,9 @@
 #include <vector>
 
 #include "amctl/core/error.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 #include "step_run.hpp"
@@ -26,12 +27,12 @@ constexpr double kRadius = 174.75, kArm = 333.0, kEndstop = 297.05;
 
 Machine delta_machine() {
   Machine m;
-  m.kinematics = machine::Kinematics::delta;
-  m.delta.radius_mm = kRadius;
-  m.delta.minimum_z_position_mm = -5.0;
+  kinematics::Delta d;
+  d.radius_mm = kRadius;
+  d.minimum_z_position_mm = -5.0;
+  d.towers["a"] = {kArm, std::nullopt, kEndstop};
+  m.kinematics = d;
   for (const char* t : {"a", "b", "c"}) m.steppers[t] = {40.0, 16, 200};  // 0.0125 mm
-  m.steppers["a"].arm_length_mm = kArm;
-  m.steppers["a"].position_endstop_mm = kEndstop;
   m.steppers["e"] = {33.5, 16, 200};
   return m;
 }
@@ -47,14 +48,19 @@ using test::run;
 using KinRun = test::StepRun;
 
 TEST(DeltaSteps, ChannelsAreTheTowersAndTheExtruder) {
-  const auto ch = stepper_channels(delta_machine());
+  const auto ch = machine::motors(delta_machine());
   ASSERT_EQ(ch.size(), 4u);
   EXPECT_EQ(ch[0].name, "stepper_a");
   EXPECT_EQ(ch[2].name, "stepper_c");
   EXPECT_EQ(ch[3].name, "extruder");
-  EXPECT_NEAR(ch[2].tower_x_mm, 0.0, 1e-12);
-  EXPECT_NEAR(ch[2].tower_y_mm, kRadius, 1e-12);
-  EXPECT_DOUBLE_EQ(ch[1].arm2_mm2, kArm * kArm);  // b's arm defaults to a's
+  // The towers' curves are the carriage heights (b's arm defaults to a's).
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_FALSE(ch[static_cast<std::size_t>(i)].linear());
+    for (const auto& p : {kinematics::Vec3{0, 0, 0}, {30, -40, 12}, {-70, 55, 3}}) {
+      EXPECT_NEAR(ch[static_cast<std::size_t>(i)].curve->position(p), carriage(i, p[0], p[1], p[2]),
+                  1e-9);
+    }
+  }
 }
 
 // Every step puts its carriage on the half-step level (to 1e-9 mm), and the number of steps
@@ -68,7 +74,7 @@ void check_delta(const std::string& gcode) {
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   for (int i = 0; i < 3; ++i) {
     const double origin = carriage(i, p0.pos_mm[0], p0.pos_mm[1], p0.pos_mm[2]);
-    const double h = r.channels[static_cast<std::size_t>(i)].step_distance_mm;
+    const double h = r.motors[static_cast<std::size_t>(i)].step_distance.value;
     long n = 0, count = 0;
     double last_t = -1.0;
     for (const Step& s : r.steps) {
@@ -160,14 +166,13 @@ constexpr std::array<std::array<double, 3>, 4> kAnchors{
 
 Machine winch_machine() {
   Machine m;
-  m.kinematics = machine::Kinematics::winch;
+  kinematics::Winch w;
   for (std::size_t i = 0; i < 4; ++i) {
-    machine::Stepper s{40.0, 16, 200};
-    s.anchor_x_mm = kAnchors[i][0];
-    s.anchor_y_mm = kAnchors[i][1];
-    s.anchor_z_mm = kAnchors[i][2];
-    m.steppers[std::string(1, static_cast<char>('a' + i))] = s;
+    const std::string k(1, static_cast<char>('a' + i));
+    w.anchors[k] = {kAnchors[i][0], kAnchors[i][1], kAnchors[i][2]};
+    m.steppers[k] = {40.0, 16, 200};
   }
+  m.kinematics = w;
   m.steppers["e"] = {33.5, 16, 200};
   return m;
 }
@@ -184,8 +189,8 @@ TEST(WinchSteps, CablesStayOnTheGridAndCountAsSampled) {
       "SET_KINEMATIC_POSITION X=-150 Y=-100 Z=10\nG1 X150 Y-100 F6000\nG1 X0 Y100 Z40\n"
       "G1 E-1 F2400\nG1 X-50 Y0 Z10 F9000\n";
   const KinRun r = run(g, winch_machine());
-  ASSERT_EQ(r.channels.size(), 5u);
-  EXPECT_EQ(r.channels[3].name, "stepper_d");
+  ASSERT_EQ(r.motors.size(), 5u);
+  EXPECT_EQ(r.motors[3].name, "stepper_d");
   const trajectory::Trajectory traj(r.moves);
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   for (std::size_t i = 0; i < 4; ++i) {
@@ -225,21 +230,19 @@ TEST(DeltesianSteps, TowersInTheXZPlaneStayOnTheGrid) {
   // tests/reference/klipper/deltesian.cfg geometry: arms 217, arm_x 160; left tower at
   // x = -160, right at +160; y is cartesian.
   Machine m;
-  m.kinematics = machine::Kinematics::deltesian;
+  kinematics::Deltesian d;
+  d.towers["left"] = {160.0, 217.0, 268.0};
+  d.rails["y"] = {0.0, 200.0, std::nullopt};
+  m.kinematics = d;
   m.steppers["left"] = {40.0, 16, 200};
-  m.steppers["left"].arm_length_mm = 217.0;
-  m.steppers["left"].arm_x_length_mm = 160.0;
-  m.steppers["left"].position_endstop_mm = 268.0;
   m.steppers["right"] = {40.0, 16, 200};
   m.steppers["y"] = {40.0, 16, 200};
-  m.steppers["y"].position_min_mm = 0.0;
-  m.steppers["y"].position_max_mm = 200.0;
   m.steppers["e"] = {33.5, 16, 200};
   const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=100 Z=10\nG1 X40 Y120 F6000\nG1 X-40 Z20\nG1 Y20\n", m);
-  ASSERT_EQ(r.channels.size(), 4u);
-  EXPECT_EQ(r.channels[0].name, "stepper_left");
-  EXPECT_EQ(r.channels[1].name, "stepper_right");
-  EXPECT_EQ(r.channels[2].name, "stepper_y");
+  ASSERT_EQ(r.motors.size(), 4u);
+  EXPECT_EQ(r.motors[0].name, "stepper_left");
+  EXPECT_EQ(r.motors[1].name, "stepper_right");
+  EXPECT_EQ(r.motors[2].name, "stepper_y");
   const trajectory::Trajectory traj(r.moves);
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   auto carriage_lr = [](int i, double x, double z) {
@@ -268,17 +271,17 @@ TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
   m.steppers["z"] = {40.0, 16, 200};
   m.steppers["e"] = {33.5, 16, 200};
   struct Case {
-    machine::Kinematics k;
+    kinematics::Params k;
     std::array<double, 4> x, y, z;
   };
   const Case cases[] = {
-      {machine::Kinematics::corexz, {1, 0, 1, 0}, {0, 1, 0, 0}, {1, 0, -1, 0}},
-      {machine::Kinematics::hybrid_corexy, {1, -1, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
-      {machine::Kinematics::hybrid_corexz, {1, 0, -1, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
+      {kinematics::CoreXZ{}, {1, 0, 1, 0}, {0, 1, 0, 0}, {1, 0, -1, 0}},
+      {kinematics::HybridCoreXY{}, {1, -1, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
+      {kinematics::HybridCoreXZ{}, {1, 0, -1, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}},
   };
   for (const Case& c : cases) {
     m.kinematics = c.k;
-    const auto ch = stepper_channels(m);
+    const auto ch = machine::motors(m);
     EXPECT_EQ(ch[0].row, c.x);
     EXPECT_EQ(ch[1].row, c.y);
     EXPECT_EQ(ch[2].row, c.z);
@@ -296,9 +299,9 @@ TEST(LinearGantrySteps, CoreXZAndHybridRowsAreKlippers) {
 
 TEST(LinearGantrySteps, NoneHasOnlyTheExtruder) {
   Machine m;
-  m.kinematics = machine::Kinematics::none;
+  m.kinematics = kinematics::None{};
   m.steppers["e"] = {33.5, 16, 200};
-  const auto ch = stepper_channels(m);
+  const auto ch = machine::motors(m);
   ASSERT_EQ(ch.size(), 1u);
   EXPECT_EQ(ch[0].name, "extruder");
 }
@@ -309,15 +312,15 @@ TEST(GenericCartesianSteps, EachStepperFollowsItsCarriageRow) {
   const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) +
                                           "/tests/reference/klipper/generic_cartesian.cfg");
   const KinRun r = run("SET_KINEMATIC_POSITION X=150 Y=100 Z=10\nG1 X170 Y90 Z11 F6000\n", m);
-  ASSERT_EQ(r.channels.size(), 7u);
-  EXPECT_EQ(r.channels[0].name, "stepper my_stepper_u");
-  EXPECT_EQ(r.channels[6].name, "extruder");
+  ASSERT_EQ(r.motors.size(), 7u);
+  EXPECT_EQ(r.motors[0].name, "stepper my_stepper_u");
+  EXPECT_EQ(r.motors[6].name, "extruder");
   const std::map<std::string, long> net = {
       {"stepper my_stepper_x", std::lround(10 / 0.0125)},  {"stepper my_stepper_u", std::lround(10 / 0.0125)},
       {"stepper my_stepper_y0", std::lround(-10 / 0.0125)}, {"stepper my_stepper_y1", std::lround(-10 / 0.0125)},
       {"stepper my_stepper_z0", std::lround(1 / 0.0025)},   {"stepper my_stepper_z1", std::lround(1 / 0.0025)}};
-  for (std::size_t i = 0; i + 1 < r.channels.size(); ++i) {
-    EXPECT_EQ(r.stats[i].position_steps, net.at(r.channels[i].name)) << r.channels[i].name;
+  for (std::size_t i = 0; i + 1 < r.motors.size(); ++i) {
+    EXPECT_EQ(r.stats[i].position_steps, net.at(r.motors[i].name)) << r.motors[i].name;
   }
 }
 
@@ -327,9 +330,9 @@ TEST(PolarSteps, BedAngleAndArmRadiusStayOnTheGrid) {
   const Machine m = machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/polar.cfg");
   const KinRun r = run("SET_KINEMATIC_POSITION X=100 Y=0 Z=10\nG1 X0 Y100 F6000\nG1 X-100 Y-5\n"
                        "G1 X-100 Y5\nG1 X3 Y2\nG1 X80 Y-40 Z12\n", m);
-  ASSERT_EQ(r.channels.size(), 4u);
-  EXPECT_EQ(r.channels[0].name, "stepper_bed");
-  EXPECT_EQ(r.channels[1].name, "stepper_arm");
+  ASSERT_EQ(r.motors.size(), 4u);
+  EXPECT_EQ(r.motors[0].name, "stepper_bed");
+  EXPECT_EQ(r.motors[1].name, "stepper_arm");
   const trajectory::Trajectory traj(r.moves);
   const double bed_step = 2.0 * std::numbers::pi / 16000.0;
   for (int i = 0; i < 2; ++i) {
@@ -362,11 +365,12 @@ TEST(RotaryDeltaSteps, ArmAnglesPutTheElbowsAtTheLowerArmLength) {
   // (forward kinematics from the shoulder) must be one lower arm (320 mm) from the effector.
   const Machine m =
       machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/rotary_delta.cfg");
-  const machine::RotaryDeltaGeometry g = machine::rotary_delta_geometry(m);
+  const kinematics::RotaryDeltaGeometry g = kinematics::rotary_delta_geometry(
+      std::get<kinematics::RotaryDelta>(m.kinematics));
   const KinRun r = run("SET_KINEMATIC_POSITION X=0 Y=0 Z=10\nG1 X100 Y40 F6000\nG1 X-120 Y-20 Z40\nG1 X0 Y150 Z5\n", m);
-  ASSERT_EQ(r.channels.size(), 4u);
+  ASSERT_EQ(r.motors.size(), 4u);
   const trajectory::Trajectory traj(r.moves);
-  const double step = r.channels[0].step_distance_mm;
+  const double step = r.motors[0].step_distance.value;
   EXPECT_NEAR(step, 2.0 * std::numbers::pi / (3200.0 * 107.0 / 16.0 * 60.0 / 16.0), 1e-18);
   const auto p0 = traj.evaluate(r.moves.front().start_time_s);
   for (int i = 0; i < 3; ++i) {

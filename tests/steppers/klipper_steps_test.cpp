@@ -64,8 +64,8 @@ TEST(KlipperSteps, SyntheticFilesHaveKlippersStepCountsAndTimes) {
     for (const auto& s : r.at("steppers")) {
       const std::string name = s.at("stepper").get<std::string>();
       std::size_t c = 0;
-      while (c < rep.channels.size() && rep.channels[c].name != name) ++c;
-      ASSERT_LT(c, rep.channels.size()) << cfg << " " << file << " " << name;
+      while (c < rep.motors.size() && rep.motors[c].name != name) ++c;
+      ASSERT_LT(c, rep.motors.size()) << cfg << " " << file << " " << name;
       EXPECT_EQ(rep.stats[c].steps, s.at("klipper_steps").get<std::uint64_t>())
           << cfg << " " << file << " " << name;
       EXPECT_EQ(rep.stats[c].steps_positive, s.at("klipper_steps_positive").get<std::uint64_t>())
@@ -104,8 +104,8 @@ TEST(KlipperSteps, LinkageKinematicsHaveKlippersStepCountsAndTimes) {
     for (const auto& s : r.at("steppers")) {
       const std::string name = s.at("stepper").get<std::string>();
       std::size_t c = 0;
-      while (c < rep.channels.size() && rep.channels[c].name != name) ++c;
-      ASSERT_LT(c, rep.channels.size()) << cfg << " " << name;
+      while (c < rep.motors.size() && rep.motors[c].name != name) ++c;
+      ASSERT_LT(c, rep.motors.size()) << cfg << " " << name;
       const auto pairs = s.at("amctl_sds_pairs_removed").get<std::uint64_t>();
       EXPECT_EQ(rep.stats[c].steps - 2 * pairs, s.at("klipper_steps").get<std::uint64_t>())
           << cfg << " " << name;

@@ -81,7 +81,7 @@ TEST(StepDirFilter, AFileReversalOfOneStepIsFilteredAsKlipperWould) {
   const StepsReport raw = generate_steps_file(g, m, "");
   const StepsReport klipper = generate_steps_file(g, m, "", StepFilter::klipper);
   std::remove(g.c_str());
-  ASSERT_EQ(raw.channels[0].name, "stepper_x");
+  ASSERT_EQ(raw.motors[0].name, "stepper_x");
   EXPECT_EQ(raw.stats[0].steps, 802u);
   EXPECT_EQ(raw.stats[0].steps_negative, 1u);
   EXPECT_EQ(klipper.stats[0].steps, 800u);

@@ -9,16 +9,17 @@
 
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/stream.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/steps.hpp"
 
 namespace amctl::steppers::test {
 
 struct StepRun {
-  std::vector<StepperChannel> channels;
+  std::vector<kinematics::Motor> motors;
   std::vector<Step> steps;
   std::vector<plan::PlannedMove> moves;
   std::vector<StepperStats> stats;
-  /// The steps of channel c, in time order.
+  /// The steps of motor c, in time order.
   [[nodiscard]] std::vector<Step> of(std::uint32_t c) const {
     std::vector<Step> out;
     for (const Step& s : steps) if (s.stepper == c) out.push_back(s);
@@ -28,9 +29,9 @@ struct StepRun {
 
 inline StepRun run(const std::string& gcode, const machine::Machine& m) {
   StepRun r;
-  r.channels = stepper_channels(m);
+  r.motors = machine::motors(m);
   plan::PlanSource source(std::string_view(gcode), "test", m);
-  StepSink sink(r.channels, [&](std::span<const Step> s) { r.steps.insert(r.steps.end(), s.begin(), s.end()); });
+  StepSink sink(r.motors, [&](std::span<const Step> s) { r.steps.insert(r.steps.end(), s.begin(), s.end()); });
   plan::CollectSink collect;
   plan::Sink* sinks[] = {&sink, &collect};
   plan::run_pipeline(source, sinks);

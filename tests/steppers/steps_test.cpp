@@ -8,8 +8,8 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
+#include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/steps.hpp"
-#include "amctl/trajectory/kinematics.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 #include "step_run.hpp"
 
@@ -18,7 +18,7 @@ namespace {
 
 using machine::Machine;
 
-Machine test_machine(machine::Kinematics k = machine::Kinematics::cartesian,
+Machine test_machine(kinematics::Params k = kinematics::Cartesian{},
                      machine::VelocityProfile p = machine::VelocityProfile::trapezoid) {
   Machine m;
   m.kinematics = k;
@@ -34,22 +34,35 @@ Machine test_machine(machine::Kinematics k = machine::Kinematics::cartesian,
 using test::run;
 using test::StepRun;
 
+// The tool state with X, Y replaced by the motors' A, B: CoreXY A = X + Y, B = X - Y
+// (Klipper's kin_corexy.c), cartesian unchanged. Written here, independent of the kinematics
+// module.
+trajectory::AxisState to_motor(kinematics::Params k, trajectory::AxisState s) {
+  if (!kinematics::is<kinematics::CoreXY>(k)) return s;
+  for (auto* v : {&s.pos_mm, &s.vel_mm_s, &s.acc_mm_s2, &s.jerk_mm_s3}) {
+    const double x = (*v)[0], y = (*v)[1];
+    (*v)[0] = x + y;
+    (*v)[1] = x - y;
+  }
+  return s;
+}
+
 // Every step sits on its half-step level: motor position at the step time, from
 // Trajectory::evaluate, equals origin + (n - dir/2) * step after the step to 1e-9 mm.
-void expect_on_levels(const StepRun& r, machine::Kinematics k) {
+void expect_on_levels(const StepRun& r, kinematics::Params k) {
   const trajectory::Trajectory traj(r.moves);
-  const auto s0 = trajectory::to_motor(k, traj.evaluate(r.moves.front().start_time_s));
-  for (std::uint32_t c = 0; c < r.channels.size(); ++c) {
-    const std::size_t axis = c < 2 ? c : (r.channels[c].key[0] == 'z' ? 2 : 3);
+  const auto s0 = to_motor(k, traj.evaluate(r.moves.front().start_time_s));
+  for (std::uint32_t c = 0; c < r.motors.size(); ++c) {
+    const std::size_t axis = c < 2 ? c : (r.motors[c].key[0] == 'z' ? 2 : 3);
     const double origin = s0.pos_mm[axis];
-    const double step = r.channels[c].step_distance_mm;
+    const double step = r.motors[c].step_distance.value;
     long n = 0;
     double last_t = -1.0;
     for (const Step& s : r.of(c)) {
       const double level = origin + (static_cast<double>(n) + 0.5 * s.direction) * step;
       n += s.direction;
-      const auto st = trajectory::to_motor(k, traj.evaluate(s.time_s));
-      ASSERT_NEAR(st.pos_mm[axis], level, 1e-9) << r.channels[c].name << " t=" << s.time_s;
+      const auto st = to_motor(k, traj.evaluate(s.time_s));
+      ASSERT_NEAR(st.pos_mm[axis], level, 1e-9) << r.motors[c].name << " t=" << s.time_s;
       ASSERT_GE(s.time_s, last_t);
       last_t = s.time_s;
     }
@@ -105,7 +118,7 @@ TEST(Steps, ReversalChangesDirection) {
 }
 
 TEST(Steps, CoreXYPureXPureYAndDiagonal) {
-  const Machine m = test_machine(machine::Kinematics::corexy);
+  const Machine m = test_machine(kinematics::Params{kinematics::CoreXY{}});
   {  // pure X: A = X + Y and B = X - Y both turn forward, step for step
     const StepRun r = run("G1 X10 F6000\n", m);
     const auto a = r.of(0), b = r.of(1);
@@ -143,22 +156,22 @@ TEST(Steps, CountEqualsRoundedDisplacementBetweenRests) {
   const StepRun r = run("G1 X13.3337 Y-7.21 Z0.3 E1.2345 F3000\nG4 P100\nG1 E0.4 F2400\n", m);
   const double d[4] = {13.3337, 7.21, 0.3, 0.4};
   for (std::uint32_t c = 0; c < 4; ++c) {
-    const double step = r.channels[c].step_distance_mm;
+    const double step = r.motors[c].step_distance.value;
     const std::size_t expect = c < 3 ? static_cast<std::size_t>(std::llround(d[c] / step))
                                      : static_cast<std::size_t>(std::llround(1.2345 / step)) +
                                            static_cast<std::size_t>(std::llround(1.2345 / step) -
                                                                     std::llround(0.4 / step));
-    EXPECT_EQ(r.of(c).size(), expect) << r.channels[c].name;
+    EXPECT_EQ(r.of(c).size(), expect) << r.motors[c].name;
   }
   EXPECT_EQ(r.stats[1].steps_negative, r.stats[1].steps);
-  EXPECT_EQ(r.stats[3].position_steps, std::llround(0.4 / r.channels[3].step_distance_mm));
+  EXPECT_EQ(r.stats[3].position_steps, std::llround(0.4 / r.motors[3].step_distance.value));
   expect_on_levels(r, m.kinematics);
 }
 
 TEST(Steps, ExtrudeOnlyMove) {
   const Machine m = test_machine();
   const StepRun r = run("G1 E5 F1800\nG1 E3\n", m);
-  const double step = r.channels[3].step_distance_mm;
+  const double step = r.motors[3].step_distance.value;
   EXPECT_EQ(r.stats[3].steps_positive, static_cast<std::uint64_t>(std::llround(5.0 / step)));
   EXPECT_EQ(r.stats[3].position_steps, std::llround(3.0 / step));
   expect_on_levels(r, m.kinematics);
@@ -166,14 +179,14 @@ TEST(Steps, ExtrudeOnlyMove) {
 
 // Crossing times on jerk-limited pieces against a plain bisection on Trajectory::evaluate.
 void check_against_bisection(machine::VelocityProfile p) {
-  const Machine m = test_machine(machine::Kinematics::cartesian, p);
+  const Machine m = test_machine(kinematics::Params{kinematics::Cartesian{}}, p);
   const StepRun r = run("G1 X10 Y3 F9000\nG1 X2 Y5\n", m);
   ASSERT_EQ(r.moves.size(), 2u);
   ASSERT_EQ(r.moves[0].profile, p);
   const trajectory::Trajectory traj(r.moves);
   std::size_t checked = 0;
   for (std::uint32_t c = 0; c < 2; ++c) {
-    const double step = r.channels[c].step_distance_mm;
+    const double step = r.motors[c].step_distance.value;
     const double origin = 0.0;
     long n = 0;
     std::size_t i = 0;
@@ -191,7 +204,7 @@ void check_against_bisection(machine::VelocityProfile p) {
         const double f = (traj.evaluate(mid).pos_mm[c] - level) * sign;
         if (f >= 0.0) hi = mid; else lo = mid;
       }
-      EXPECT_NEAR(s.time_s, 0.5 * (lo + hi), 1e-9) << r.channels[c].name << " step " << i;
+      EXPECT_NEAR(s.time_s, 0.5 * (lo + hi), 1e-9) << r.motors[c].name << " step " << i;
       ++checked;
     }
     EXPECT_EQ(r.stats[c].position_steps, std::lround((c == 0 ? 2.0 : 5.0) / step));
@@ -207,7 +220,7 @@ TEST(Steps, Bezier5CrossingsMatchBisection) { check_against_bisection(machine::V
 // with Z hops and retracts: every step on its half-step level, times non-decreasing, and the
 // net step position of each motor equal to its rounded displacement.
 TEST(Steps, RandomZigzagStaysOnTheGrid) {
-  for (const auto k : {machine::Kinematics::cartesian, machine::Kinematics::corexy}) {
+  for (const kinematics::Params& k : {kinematics::Params{kinematics::Cartesian{}}, kinematics::Params{kinematics::CoreXY{}}}) {
     for (const auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::scurve7,
                          machine::VelocityProfile::bezier5}) {
       const Machine m = test_machine(k, p);
@@ -227,13 +240,13 @@ TEST(Steps, RandomZigzagStaysOnTheGrid) {
       const StepRun r = run(g, m);
       expect_on_levels(r, k);
       const trajectory::Trajectory traj(r.moves);
-      const auto s0 = trajectory::to_motor(k, traj.evaluate(r.moves.front().start_time_s));
-      const auto s1 = trajectory::to_motor(k, traj.evaluate(traj.end_time_s() + 1.0));
+      const auto s0 = to_motor(k, traj.evaluate(r.moves.front().start_time_s));
+      const auto s1 = to_motor(k, traj.evaluate(traj.end_time_s() + 1.0));
       for (std::uint32_t c = 0; c < 4; ++c) {
         const std::size_t axis = c;
         EXPECT_EQ(r.stats[c].position_steps,
-                  std::llround((s1.pos_mm[axis] - s0.pos_mm[axis]) / r.channels[c].step_distance_mm))
-            << r.channels[c].name;
+                  std::llround((s1.pos_mm[axis] - s0.pos_mm[axis]) / r.motors[c].step_distance.value))
+            << r.motors[c].name;
         EXPECT_EQ(r.stats[c].steps, r.stats[c].steps_positive + r.stats[c].steps_negative);
       }
       EXPECT_GT(r.stats[0].steps_negative, 1000u);
@@ -266,7 +279,7 @@ TEST(Steps, LevelReachedWithinKlippersTolerance) {
 
 TEST(Steps, StepDistanceIsKlippers) {
   machine::Stepper s{40.0 / (80.0 / 16.0), 32, 200};  // gear_ratio 80:16 folded in
-  EXPECT_DOUBLE_EQ(step_distance_mm(s, "stepper_z"), 40.0 / (200.0 * 32.0 * 5.0));
+  EXPECT_DOUBLE_EQ(machine::step_distance(s, "stepper_z"), 40.0 / (200.0 * 32.0 * 5.0));
 }
 
 TEST(Steps, BadMachinesNameTheParameter) {
@@ -274,20 +287,20 @@ TEST(Steps, BadMachinesNameTheParameter) {
   m.steppers.erase("y");
   m.steppers.erase("e");
   try {
-    (void)stepper_channels(m);
+    (void)machine::motors(m);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("stepper_y, extruder"), std::string::npos) << e.what();
   }
   m = test_machine();
   m.steppers["x"].rotation_distance_mm = 0.0;
-  EXPECT_THROW((void)stepper_channels(m), Error);
-  try { (void)stepper_channels(m); } catch (const Error& e) {
+  EXPECT_THROW((void)machine::motors(m), Error);
+  try { (void)machine::motors(m); } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("stepper_x.rotation_distance"), std::string::npos);
   }
   m = test_machine();
   m.steppers["e"].microsteps = -4;
-  try { (void)stepper_channels(m); FAIL(); } catch (const Error& e) {
+  try { (void)machine::motors(m); FAIL(); } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("extruder.microsteps"), std::string::npos);
   }
 }
@@ -298,10 +311,10 @@ TEST(Steps, GenerateStepsFileAndJson) {
                                           "/tests/reference/klipper/ender3_cartesian.cfg");
   const StepsReport r = generate_steps_file(
       std::string(AMCTL_SOURCE_DIR) + "/tests/reference/klipper/syn_square.gcode", m, "");
-  ASSERT_EQ(r.channels.size(), 4u);
+  ASSERT_EQ(r.motors.size(), 4u);
   EXPECT_EQ(r.moves, 4u);
   for (std::uint32_t c = 0; c < 2; ++c) {
-    const double h = r.channels[c].step_distance_mm;
+    const double h = r.motors[c].step_distance.value;
     EXPECT_EQ(r.stats[c].steps_positive, static_cast<std::uint64_t>(std::llround(20.0 / h)));
     EXPECT_EQ(r.stats[c].steps_negative, r.stats[c].steps_positive);
     EXPECT_EQ(r.stats[c].position_steps, 0);
@@ -313,7 +326,7 @@ TEST(Steps, GenerateStepsFileAndJson) {
   EXPECT_TRUE(j["steppers"][2]["peak_step_rate_steps_s"].is_null());
   EXPECT_TRUE(j["csv"].is_null());
   // The peak rate of X is the cruise rate of the fastest straight side: v / h.
-  const double v = j["steppers"][0]["peak_step_rate_steps_s"].get<double>() * r.channels[0].step_distance_mm;
+  const double v = j["steppers"][0]["peak_step_rate_steps_s"].get<double>() * r.motors[0].step_distance.value;
   EXPECT_NEAR(v, 100.0, 1e-6);
 }
 

@@ -6,7 +6,6 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/trajectory/build.hpp"
-#include "amctl/trajectory/kinematics.hpp"
 #include "amctl/trajectory/sampling.hpp"
 
 namespace amctl::trajectory {
@@ -90,22 +89,6 @@ TEST(Trajectory, RejectsMovesOutOfTimeOrder) {
   auto moves = seed_path();
   std::swap(moves[0], moves[1]);
   EXPECT_THROW(Trajectory{moves}, Error);
-}
-
-TEST(Kinematics, CoreXYMotorsAreSumAndDifference) {
-  const auto ab = to_motor(machine::Kinematics::corexy, 3.0, 1.0);
-  EXPECT_DOUBLE_EQ(ab[0], 4.0);
-  EXPECT_DOUBLE_EQ(ab[1], 2.0);
-  const auto xy = from_motor(machine::Kinematics::corexy, 4.0, 2.0);
-  EXPECT_DOUBLE_EQ(xy[0], 3.0);
-  EXPECT_DOUBLE_EQ(xy[1], 1.0);
-  const auto c = to_motor(machine::Kinematics::cartesian, 3.0, 1.0);
-  EXPECT_DOUBLE_EQ(c[0], 3.0);
-  // A pure X move drives both corexy motors at the same speed.
-  const Trajectory tr(seed_path());
-  const AxisState m = to_motor(machine::Kinematics::corexy, tr.evaluate(0.05));
-  EXPECT_NEAR(m.vel_mm_s[0], 100.0, 1e-12);
-  EXPECT_NEAR(m.vel_mm_s[1], 100.0, 1e-12);
 }
 
 TEST(Sampling, SeedStepCountFollowsEquation37) {

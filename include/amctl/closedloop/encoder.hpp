@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <optional>
 #include <random>
+#include <vector>
 
 namespace amctl::closedloop {
 
@@ -38,6 +39,10 @@ struct DecodedFrame {
 
 /// Encoder options.
 struct EncoderParameters {
+  /// One count [mm]: the AS5311's 2.0 mm / 4096 by default. Coarser values model a coarser
+  /// encoder (fewer counts per 2 mm pole pair in the same 12-bit frame); finer ones do not
+  /// fit the frame and are refused.
+  double resolution_mm = kAs5311ResolutionMm;
   double noise_rms_um = 0.3;        ///< white noise on the sensed position before quantising [um]
   double latency_s = 100e-6;        ///< sensing to frame available (internal sampling + SSI)
   double corrupt_probability = 0.0; ///< a bit of the frame flipped on the wire, per read
@@ -60,11 +65,18 @@ class As5311Encoder {
  private:
   EncoderParameters p_;
   std::mt19937_64 rng_;
-  std::normal_distribution<double> noise_{0.0, 1.0};
   std::uniform_real_distribution<double> uni_{0.0, 1.0};
+  /// Standard normal samples drawn once from rng_ (the sensor noise is white noise of a
+  /// given rms; a table cycled by a xorshift index costs a few ns per read instead of a
+  /// Gaussian draw).
+  std::vector<double> normals_;
+  std::uint64_t pick_ = 0;
   std::int64_t turns_counts_ = 0;  ///< unwrapped count of the last good frame
   int last_count_ = 0;
   double offset_mm_ = 0.0;         ///< strip zero so that the first read returns start_mm
+  double res_mm_ = kAs5311ResolutionMm;  ///< one count
+  double inv_res_ = 1.0 / kAs5311ResolutionMm;
+  int counts_ = kAs5311Counts;     ///< counts per pole pair
   std::uint64_t rejected_ = 0, reads_ = 0;
   bool last_valid_ = true;
 };

@@ -2,10 +2,13 @@
 // The closed-loop stepper simulator (docs/closedloop.md, section 4): every axis's motor and
 // drive (StepperAxisModel), its AS5311 encoder and its controller, stepped together. Each
 // control period T the controller reads the encoder (latency rounded to whole periods) and
-// sets a target for the motor command; the command ramps there over the period and is
-// quantised into microsteps with Klipper's half-step rule; the physics is integrated with a
-// fixed substep h (T / h whole). Tracking error = carriage position - reference, sampled at
-// every control period.
+// sets a target for the motor command; the command governor (governor.hpp) limits it to what
+// the motor can follow; the command ramps there over the period and is quantised into
+// microsteps with Klipper's half-step rule; the physics is integrated with a fixed substep h
+// (T / h whole). Two errors are sampled at every control period: the tracking error
+// (carriage - the time-based reference) and the path error (the carriage's distance from the
+// segment, on this axis, of the command under way: the move at that time, or for the
+// encoder-sequenced law the command it is executing).
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -29,22 +32,36 @@ struct AxisSetup {
   MotorParameters motor;
   DriveParameters drive;
   AxisMechanics mechanics;
+  /// Which motor that is: the preset name ("17hs4401"), and where it came from ("the
+  /// machine's stepper_x.motor", "the default: the machine names no motor", ...).
+  std::string motor_name = "17hs4401";
+  std::string motor_source = "the default: the machine names no motor";
 };
 
 struct SimulationOptions {
   ControllerKind controller = ControllerKind::open;
   ControllerParameters gains;
   EncoderParameters encoder;
-  double substep_s = 20e-6;   ///< physics step h; control period / h must be whole
+  GovernorParameters governor;
+  /// The gains are the defaults (not the user's): fitted to each axis (fit_default_gains) where
+  /// they would make its loop unstable, and said so in the notes; the user's are refused.
+  bool default_gains = true;
+  double substep_s = 50e-6;   ///< physics step h; control period / h must be whole
   double settle_s = 0.05;     ///< simulated past the end of the reference
   std::string csv_path;       ///< traces, "" = none
   double csv_rate_hz = 1000.0;
   void validate() const;
 };
 
-/// The reference of one axis at one time.
+/// The reference of one axis at one time, and the move under way.
 struct RefSample {
   double pos_mm = 0.0, vel_mm_s = 0.0, acc_mm_s2 = 0.0;
+  std::uint64_t move = 0;              ///< changes when a new move starts (0: none, holding)
+  double move_speed_mm_s = 0.0;        ///< the move's peak speed along this axis
+  double move_accel_mm_s2 = 0.0;       ///< the move's acceleration along this axis
+  double move_jump_mm_s = 0.0;         ///< the step of this axis's speed where the move starts
+  double seg_from_mm = 0.0, seg_to_mm = 0.0;  ///< the move's start and end on this axis
+  std::uint64_t line = 0;              ///< its G-code line
 };
 
 /// Per-axis outcome.
@@ -65,11 +82,49 @@ struct AxisResult {
   double pull_out_torque_n_m = 0.0;    ///< static, Kt I at the run current
   double peak_current_a = 0.0;         ///< largest commanded current amplitude
   double mean_current_a = 0.0;         ///< mean commanded current amplitude (heating)
+  double gain_scale = 1.0;             ///< the default gains' factor on this axis (1: as documented)
+  double max_path_error_mm = 0.0;      ///< distance from the command's segment on this axis
+  double max_path_error_time_s = 0.0;
+  double rms_path_error_mm = 0.0;
+  /// Where the axis is when each command of its sequence ends, against the point commanded
+  /// (time-referenced controllers: at the plan's end of the move; encoder-sequenced: when its
+  /// position judgement moves on): max and rms over the commands that move this axis.
+  double max_endpoint_error_mm = 0.0, rms_endpoint_error_mm = 0.0;
+  std::uint64_t endpoints = 0;
+  /// The governor: periods whose command it held short of the controller's, moves it
+  /// degraded to open loop (the plan leaves no torque margin, or runs faster than the motor
+  /// can be corrected at), the first such move's line and why, and moves whose acceleration
+  /// lead it dropped (it would ring the belt).
+  std::uint64_t governor_limited_periods = 0;
+  std::uint64_t degraded_moves = 0;
+  std::uint64_t first_degraded_line = 0;
+  std::string first_degraded_reason;
+  std::uint64_t accel_lead_dropped_moves = 0;
+  /// Periods whose correction limits the load the motor was measured to carry narrowed (a
+  /// load the model does not know).
+  std::uint64_t load_limited_periods = 0;
+  /// Slips the governor inferred from the encoder (a lead over it no belt and rotor can hold):
+  /// each degraded the move and took the lost cycle out of the controller's view, given back
+  /// at 1 mm/s.
+  std::uint64_t slips_inferred = 0;
+  /// When the axis fell back to open loop's command for the rest of the run (a slip on a move
+  /// the governor found feasible); negative: never.
+  double fall_back_time_s = -1.0;
+  std::uint64_t moves = 0;             ///< moves of this axis checked by the governor
+  std::uint64_t commands_reached = 0;  ///< encoder-sequenced: commands of the sequence reached
+  std::uint64_t commands_left = 0;     ///< encoder-sequenced: commands not reached at the end
+  // The motor, drive and axis simulated (the assumed motor is printed).
+  std::string motor_name, motor_source;
+  MotorParameters motor;
+  DriveParameters drive;
+  AxisMechanics mechanics;
+  double max_current_a = 0.0;          ///< the largest current a controller may request
 };
 
 struct SimulationResult {
-  std::string source;                  ///< file name or "scenario seed003"
+  std::string source;                  ///< file name or "scenario reversing-strokes"
   std::string controller;
+  std::vector<std::string> notes;      ///< what the user should know (aliases, defaults, ...)
   double speed_mm_s = 0.0;             ///< scenario speed (0 for a file)
   bool load = false;
   double duration_s = 0.0;             ///< simulated time
@@ -90,6 +145,12 @@ class ClosedLoopSimulator {
   /// One control period from time() to time() + T: `now` holds the reference of each axis at
   /// time(), `next` at time() + T.
   void tick(std::span<const RefSample> now, std::span<const RefSample> next);
+  /// The next command of axis i's own command sequence (the encoder-sequenced law; other
+  /// controllers ignore it). Commands come in the plan's order, ahead of the ticks.
+  void push_command(std::size_t axis, const AxisCommand& c);
+  /// Every axis's controller has reached its last command and stopped (always true for the
+  /// time-referenced controllers).
+  [[nodiscard]] bool finished() const;
   [[nodiscard]] double time_s() const;
   [[nodiscard]] double period_s() const;
   [[nodiscard]] std::size_t axes() const;
@@ -103,10 +164,11 @@ class ClosedLoopSimulator {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Seed 003's experiment: each axis (x, then y, run side by side) goes 0 -> -30 mm -> 0 three
-/// times at `speed_mm_s` with the machine's max_accel; `load` adds the drag that makes open
-/// loop lose steps near the reversals (docs/closedloop.md, section 4).
-struct Seed003Scenario {
+/// The closed-loop stepper paper's experiment: each axis (x, then y, run side by side) goes
+/// 0 -> -30 mm -> 0 three times at `speed_mm_s` with the machine's max_accel; `load` adds the
+/// drag that makes open loop lose steps near the reversals (docs/closedloop.md, section 4).
+/// The scenario's name is "reversing-strokes" ("seed003" is accepted for one release).
+struct ReversingStrokesScenario {
   double speed_mm_s = 90.0;
   bool load = true;
   double stroke_mm = 30.0;
@@ -123,7 +185,7 @@ struct Seed003Scenario {
   double bump_force_n = 0.0;
   double bump_position_mm = -29.0;
   double bump_half_width_mm = 0.3;
-  /// The seed's printer class where the machine's [stepper_x|y] give no run_current,
+  /// The paper's printer class where the machine's [stepper_x|y] give no run_current,
   /// supply_voltage or backlash: Klipper run_current 0.8 A RMS (phase current amplitude
   /// sqrt(2) 0.8 = 1.13 A), 12 V, 0.05 mm of lost motion at each reversal of the belt force.
   double default_run_current_a = 0.8;   ///< RMS, as Klipper's run_current
@@ -135,15 +197,24 @@ struct Seed003Scenario {
   double x_mass_kg = 0.5;         ///< X carriage
   double y_mass_kg = 0.8;         ///< Y (a bed slinger's bed)
 };
+using Seed003Scenario = ReversingStrokesScenario;  ///< the old name, for one release
 
 /// The axes of a machine ([stepper_x], [stepper_y]: rotation_distance, microsteps,
-/// full_steps_per_rotation; motor, drive and belt defaults otherwise). Throws amctl::Error
-/// naming a missing section or a bad parameter.
+/// full_steps_per_rotation, the motor preset and the motor keys; the default motor, drive
+/// and belt otherwise). Throws amctl::Error naming a missing section, a bad parameter, a run
+/// current above the motor's rating or a motor whose step angle the section contradicts.
 [[nodiscard]] std::vector<AxisSetup> machine_axes(const machine::Machine& m);
 
-[[nodiscard]] SimulationResult simulate_seed003(const machine::Machine& m,
-                                                const Seed003Scenario& scenario,
-                                                const SimulationOptions& options);
+/// The scenario. A machine without [stepper_x] / [stepper_y] (the default preset) runs on the
+/// default drive train (rotation_distance 40, 16 microsteps) and says so in the notes.
+[[nodiscard]] SimulationResult simulate_reversing_strokes(const machine::Machine& m,
+                                                          const ReversingStrokesScenario& scenario,
+                                                          const SimulationOptions& options);
+[[deprecated("simulate_reversing_strokes")]] inline SimulationResult simulate_seed003(
+    const machine::Machine& m, const ReversingStrokesScenario& scenario,
+    const SimulationOptions& options) {
+  return simulate_reversing_strokes(m, scenario, options);
+}
 /// A G-code file's plan through the closed loop (PlanSource -> sink; memory: one batch).
 /// CoreXY: the motors (A, B) are simulated, each pulling its own belt.
 [[nodiscard]] SimulationResult simulate_file(const std::string& gcode_path,
@@ -159,7 +230,7 @@ struct Seed003Scenario {
 /// What `amctl stepper simulate` asks for (the CLI and the Python binding fill it).
 struct SimulateRequest {
   std::string file;             ///< G-code file, or "" with scenario
-  std::string scenario;         ///< "seed003" or ""
+  std::string scenario;         ///< "reversing-strokes" (alias "seed003") or ""
   std::string controller = "open";
   double speed_mm_s = 90.0;
   bool load = true;
@@ -168,12 +239,19 @@ struct SimulateRequest {
   /// kp and ki/kd apply to pid and best, alpha to seed003, drag_gain and load_angle to best;
   /// the load, backlash and currents to the scenario (run_current RMS, max_current peak).
   std::optional<double> kp, ki_per_s, kd_s, alpha_per_s;
+  /// The paper's D*, the largest change of the commanded speed per step event [mm/s] (> 0).
+  std::optional<double> speed_change_mm_s;
   std::optional<double> drag_force_n, bump_force_n, end_load_n_per_mm, drag_n_s_per_m;
   std::optional<double> backlash_mm, run_current_a, max_current_a;
   std::optional<double> drag_gain_per_s, load_angle_deg;
-  /// best's model error: factors on the mass and belt stiffness it believes (> 0).
+  /// feedforward's model error: factors on the mass and belt stiffness it believes (> 0).
   std::optional<double> model_mass_scale, model_stiffness_scale;
   double corrupt_probability = 0.0;
+  /// The encoder: its frame rate (the control period is 1 / rate; a whole number of 20 us
+  /// substeps, at most the AS5311's 50 kHz SSI limit) and its resolution [um] (no finer than
+  /// the AS5311's 0.488 um, no coarser than half a microstep).
+  std::optional<double> encoder_rate_hz, encoder_resolution_um;
+  bool governor = true;         ///< false: no command governor (studies of the raw laws)
 };
 /// Validates the request (amctl::Error naming the flag), then simulate_seed003 or
 /// simulate_file; the controller's max_accel is the machine's.
@@ -182,18 +260,18 @@ struct SimulateRequest {
 /// JSON: source, controller, speed_mm_s, load, duration_s, axes.{x,y}.{...}.
 [[nodiscard]] Json to_json(const SimulationResult& r);
 
-/// Speed sweep of the seed003 scenario: one row per (controller, speed).
+/// Speed sweep of the reversing-strokes scenario: one row per (controller, speed).
 struct SweepRow {
   std::string controller;
   double speed_mm_s = 0.0;
   AxisResult x, y;
 };
-[[nodiscard]] std::vector<SweepRow> sweep_seed003(const machine::Machine& m,
+[[nodiscard]] std::vector<SweepRow> sweep_reversing_strokes(const machine::Machine& m,
                                                   std::span<const ControllerKind> controllers,
                                                   std::span<const double> speeds_mm_s,
                                                   bool load, const SimulationOptions& options);
-/// `amctl stepper sweep`: every controller (open, seed003, pid, best) at 30, 60, 90, 120 and
-/// 150 mm/s, with or without the load, on the machine (its max_accel for the strokes and for D*).
+/// `amctl stepper sweep`: every controller at 30, 60, 90, 120 and 150 mm/s, with or without
+/// the load, on the machine (its max_accel for the strokes and for D*).
 [[nodiscard]] std::vector<SweepRow> stepper_sweep(const machine::Machine& m, bool load);
 /// JSON: a list of {controller, speed_mm_s, x: {...}, y: {...}} (the axes as in to_json).
 [[nodiscard]] Json sweep_json(std::span<const SweepRow> rows);

@@ -29,9 +29,11 @@ struct SimulationOptions {
   /// Simulated time after the last move ends, to let vibration decay. < 0: automatic,
   /// 5 time constants of the slowest-decaying mode, clamped to [0.05, 1] s.
   double settle_s = -1.0;
-  machine::Kinematics kinematics = machine::Kinematics::cartesian;
-  /// false: the two models act on X and Y (seed 000). true: on the motors (corexy A, B).
+  /// false: the two models act on X and Y (seed 000). true: on two motors of a linear
+  /// kinematics, motor i at position motor_rows[i] . (x, y, z) (machine::motor_space: Klipper's
+  /// stepper_x and stepper_y; CoreXY A = X + Y, B = X - Y).
   bool motor_space = false;
+  std::array<std::array<double, 3>, 2> motor_rows{{{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}}};
   /// Fill SimSample::vibration_mm on every sample (costs two square roots per sample).
   bool vibration_per_sample = false;
   /// Keep the free-vibration state of every mode of the current sample for

@@ -63,7 +63,6 @@ void validate(const Machine& m);
 
 /// Short names used in files and JSON: "klipper", "corexy", "square_corner_velocity", ...
 std::string_view to_string(Firmware f);
-std::string_view to_string(Kinematics k);
 std::string_view to_string(JunctionPolicy j);
 std::string_view to_string(VelocityProfile p);
 

@@ -21,7 +21,7 @@
 
 #include "amctl/core/output.hpp"
 #include "amctl/core/json.hpp"
-#include "amctl/machine/linkage.hpp"
+#include "amctl/kinematics/kinematics.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
 #include "amctl/plan/velocity_profile.hpp"
@@ -34,60 +34,10 @@ namespace amctl::steppers {
 /// that close short of a level steps at its end, as Klipper does.
 inline constexpr double kLevelToleranceMm = 1e-9;
 
-/// One motor as step generation sees it.
-struct StepperChannel {
-  std::string name;        ///< Klipper's name: stepper_x, stepper_z1, extruder, ...
-  std::string key;         ///< Machine::steppers key: x, z1, e, ...
-  /// Motor position = row . (X, Y, Z, E) [mm of the motor's own axis] (linear motors).
-  std::array<double, 4> row{};
-  double step_distance_mm = 0.0;
-  /// A delta tower (arm2_mm2 > 0): carriage height z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2)
-  /// instead of the row (Klipper kin_delta.c). Along a straight move the square root is of
-  /// a concave quadratic in the path distance, so the carriage height is concave in it: at
-  /// most one turning point per move.
-  double arm2_mm2 = 0.0;
-  double tower_x_mm = 0.0, tower_y_mm = 0.0;
-  /// A deltesian tower: the same with the arm in the XZ plane (y ignored).
-  bool planar = false;
-  /// A winch cable (cable = true): its length |tool - anchor| (Klipper kin_winch.c), the norm
-  /// of an affine function of the path distance, hence convex: at most one turning point.
-  bool cable = false;
-  std::array<double, 3> anchor_mm{};
-  /// Motors whose position is a curve of the tool position, solved on monotone pieces found
-  /// by sampling each move (curve_move): the polar bed (angle atan2(y, x), unwrapped along the
-  /// move; radians), the polar arm (radius sqrt(x^2 + y^2)), a rotary delta arm (its angle,
-  /// machine::RotaryDeltaGeometry::arm_angle_rad; radians).
-  enum class Curve { none, polar_angle, polar_radius, rotary_arm };
-  Curve curve = Curve::none;
-  int rotary_arm = 0;  ///< arm index 0..2 (curve = rotary_arm)
-  std::shared_ptr<const machine::RotaryDeltaGeometry> rotary;
-  [[nodiscard]] bool linear() const { return arm2_mm2 == 0.0 && !cable && curve == Curve::none; }
-};
-
-/// Klipper stepper.py: rotation_distance / (full_steps_per_rotation * microsteps), the gear
-/// ratio already folded into rotation_distance by the machine loaders. Throws amctl::Error
-/// naming `label`.rotation_distance / .microsteps / .full_steps_per_rotation when one is not
-/// positive.
-[[nodiscard]] double step_distance_mm(const machine::Stepper& s, const std::string& label);
-
-/// The channels of a machine, in the order stepper_x, stepper_y, stepper_z, stepper_z1, ...,
-/// extruder (a delta: stepper_a, _b, _c, extruder). As Klipper's kinematics allocate them
-/// (klippy/kinematics/*.py, chelper/kin_*.c): cartesian stepper_x = X, stepper_y = Y,
-/// stepper_z* = Z; CoreXY stepper_x = X + Y, stepper_y = X - Y; CoreXZ stepper_x = X + Z,
-/// stepper_z* = X - Z; hybrid_corexy stepper_x = X - Y; hybrid_corexz stepper_x = X - Z;
-/// delta towers z + sqrt(L^2 - (x - tx)^2 - (y - ty)^2); winch cables (stepper_a .. _d)
-/// |tool - anchor|; deltesian stepper_left/_right z + sqrt(L^2 - (x -+ ax)^2), stepper_y = Y;
-/// generic_cartesian "stepper NAME" = its carriages' row over X, Y, Z (dual carriages parked);
-/// polar stepper_bed = atan2(Y, X), stepper_arm = sqrt(X^2 + Y^2), stepper_z* = Z; rotary delta
-/// stepper_a/_b/_c the arm angles; `none` only the extruder; extruder =
-/// E. Throws amctl::Error naming every missing section (x, y, z and e, or a, b, c and e) or a
-/// bad parameter. Extra extruders (e1, ...) are not generated (amctl plans one E axis).
-[[nodiscard]] std::vector<StepperChannel> stepper_channels(const machine::Machine& m);
-
-/// One step. Steps are delivered in time order (ties: channel order).
+/// One step. Steps are delivered in time order (ties: motor order).
 struct Step {
   double time_s = 0.0;        ///< print time of the half-step crossing
-  std::uint32_t stepper = 0;  ///< index into the channels
+  std::uint32_t stepper = 0;  ///< index into the motors
   std::int32_t direction = 1; ///< +1 or -1
 };
 
@@ -118,15 +68,16 @@ struct StepRateFigures {
   }
 };
 
-/// The step engine: feeds on moves in time order, keeps one grid state per channel.
+/// The step engine: feeds on moves in time order, keeps one grid state per motor (the motors
+/// of machine::motors: a linear row or a kinematics::MotorCurve each).
 class StepGenerator {
  public:
-  explicit StepGenerator(std::vector<StepperChannel> channels);
+  explicit StepGenerator(std::vector<kinematics::Motor> motors);
 
   /// Appends the steps of `move` to `out`, sorted by time. Moves must come in time order.
   void add_move(const plan::PlannedMove& move, std::vector<Step>& out);
 
-  [[nodiscard]] const std::vector<StepperChannel>& channels() const { return channels_; }
+  [[nodiscard]] const std::vector<kinematics::Motor>& motors() const { return motors_; }
   [[nodiscard]] const std::vector<StepperStats>& stats() const { return stats_; }
 
  private:
@@ -152,20 +103,20 @@ class StepGenerator {
       return offset_mm;
     }
   };
-  void stepper_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
-  /// The same for a non-linear motor (a delta tower, a winch cable).
-  void tower_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
-  /// The same for a curve motor (polar, rotary delta).
+  /// The steps of motor c over the move, appended to `out` in time order.
+  void linear_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
+  /// The same for a non-linear motor, on the intervals where its curve is monotone.
   void curve_move(std::uint32_t c, const plan::PlannedMove& move, std::vector<Step>& out);
-  /// Records one step of channel c at time t.
+  /// Records one step of motor c at time t.
   void record_step(std::uint32_t c, double t, int dir, std::vector<Step>& out);
 
-  std::vector<StepperChannel> channels_;
+  std::vector<kinematics::Motor> motors_;
   std::vector<State> state_;
   std::vector<StepperStats> stats_;
   std::array<plan::PathPiece, 7> pieces_{};
   std::size_t piece_count_ = 0;
-  std::vector<std::vector<Step>> scratch_;  ///< per channel, one move
+  std::vector<std::vector<Step>> scratch_;  ///< per motor, one move
+  std::vector<double> bounds_;             ///< curve_move's monotone intervals
 };
 
 /// Time of the crossing s(tau) = s_target on a piece with s non-decreasing on
@@ -178,7 +129,7 @@ class StepGenerator {
 class StepSink final : public plan::Sink {
  public:
   using Callback = std::function<void(std::span<const Step>)>;
-  StepSink(std::vector<StepperChannel> channels, Callback on_steps);
+  StepSink(std::vector<kinematics::Motor> motors, Callback on_steps);
   void consume(const plan::PlanBatch& batch) override;
   void finish(const plan::StreamSummary& summary) override { end_time_s_ = summary.end_time_s; }
   [[nodiscard]] const StepGenerator& generator() const { return gen_; }
@@ -227,11 +178,11 @@ struct StepsReport {
   std::string csv_path;          ///< "" when no CSV was written
   double print_time_s = 0.0;
   std::uint64_t moves = 0;
-  std::vector<StepperChannel> channels;
+  std::vector<kinematics::Motor> motors;
   std::vector<StepperStats> stats;    ///< of the steps written (after the filter)
   StepFilter step_filter = StepFilter::none;
-  std::vector<std::uint64_t> filtered_pairs;  ///< per channel: step pairs the filter removed
-  /// Per channel: the peak after the step+back filter and the sustained rate, whatever
+  std::vector<std::uint64_t> filtered_pairs;  ///< per motor: step pairs the filter removed
+  /// Per motor: the peak after the step+back filter and the sustained rate, whatever
   /// `step_filter` (StepRateMeter over the exact steps).
   std::vector<StepRateFigures> rates;
   double sustained_window_s = kSustainedWindowS;

@@ -1,0 +1,36 @@
+#pragma once
+// CoreXZ: stepper_x = X + Z, stepper_y = Y, stepper_z* = X - Z (kin_corexz.c).
+// klippy/kinematics/corexz.py, chelper/kin_corexz.c (read at 84104bbb, nothing copied).
+#include <memory>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "amctl/kinematics/rails.hpp"
+
+namespace amctl::kinematics {
+
+struct CoreXZ {
+  static constexpr std::string_view kName = "corexz";
+  Rails rails;
+  bool operator==(const CoreXZ&) const = default;
+
+  /// printer.cfg: [stepper_x], [stepper_y], [stepper_z] and their extra steppers
+  /// (stepper_z1, ...).
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  [[nodiscard]] static CoreXZ from_klipper(const KlipperConfig& cfg);
+  /// [printer] options beyond the toolhead's: none.
+  [[nodiscard]] static std::span<const std::string_view> printer_options() { return {}; }
+  /// TOML keys: the rails' position_min, position_max, position_endstop.
+  [[nodiscard]] static std::span<const ParamKey<CoreXZ>> keys();
+  [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): none.
+  [[nodiscard]] bool owns_stepper(std::string_view) const { return false; }
+  static Rail* rail(CoreXZ& k, std::string_view key, bool create) {
+    return detail::rail_of(k.rails, key, create);
+  }
+};
+
+[[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const CoreXZ& p, const Context& ctx);
+
+}  // namespace amctl::kinematics

@@ -1,0 +1,38 @@
+#pragma once
+// Hybrid CoreXZ: stepper_x = X - Z (the '-' callback hybrid_corexz.py allocates
+// for rail 0), stepper_y = Y, stepper_z* = Z; an optional [dual_carriage] on X or Y.
+// klippy/kinematics/hybrid_corexz.py, chelper/kin_corexz.c (read at 84104bbb, nothing copied).
+#include <memory>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "amctl/kinematics/rails.hpp"
+
+namespace amctl::kinematics {
+
+struct HybridCoreXZ {
+  static constexpr std::string_view kName = "hybrid_corexz";
+  Rails rails;
+  std::optional<DualCarriage> dual_carriage;
+  bool operator==(const HybridCoreXZ&) const = default;
+
+  /// printer.cfg: [stepper_x], [stepper_y], [stepper_z] and their extra steppers
+  /// (stepper_z1, ...), [dual_carriage].
+  [[nodiscard]] static std::vector<KlipperStepper> klipper_steppers(const KlipperConfig& cfg);
+  [[nodiscard]] static HybridCoreXZ from_klipper(const KlipperConfig& cfg);
+  /// [printer] options beyond the toolhead's: none.
+  [[nodiscard]] static std::span<const std::string_view> printer_options() { return {}; }
+  /// TOML keys: the rails' position_min, position_max, position_endstop and [dual_carriage].
+  [[nodiscard]] static std::span<const ParamKey<HybridCoreXZ>> keys();
+  [[nodiscard]] static Unit unit_of(std::string_view) { return Unit::mm; }
+  /// Motors beyond the axes' (stepper_x, stepper_z1, ...): none.
+  [[nodiscard]] bool owns_stepper(std::string_view) const { return false; }
+  static Rail* rail(HybridCoreXZ& k, std::string_view key, bool create) {
+    return detail::rail_of(k.rails, key, create);
+  }
+};
+
+[[nodiscard]] std::unique_ptr<Kinematics> make_kinematics(const HybridCoreXZ& p, const Context& ctx);
+
+}  // namespace amctl::kinematics
