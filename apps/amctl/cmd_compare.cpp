@@ -14,6 +14,7 @@
 
 #include "amctl/comparison/compare.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
 
@@ -70,6 +71,7 @@ void run_compare(const CompareArgs& a) {
   for (const auto& t : split_list(a.offsets)) o.plant_offsets_pct.push_back(parse_offset_pct(t));
   o.natural_frequency_hz = a.f_hz;
   o.damping_ratio = a.zeta;
+  require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
   o.sample_rate_hz = a.rate_hz;
   o.layer = a.layer;
   comparison::validate(o);

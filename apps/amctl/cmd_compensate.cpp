@@ -14,6 +14,9 @@
 
 #include "amctl/compensation/compensate.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
+#include "amctl/core/memory.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
@@ -71,6 +74,7 @@ void run_compensate(const CompensateArgs& a) {
     o.plant_x = o.plant_y = dynamics::AxisModel::belt(a.plant_f_hz.value_or(m.natural_frequency_hz),
                                                       a.plant_zeta.value_or(m.damping_ratio));
   }
+  require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
   o.sample_rate_hz = a.rate_hz;
   if (a.knot_spacing_s && !(*a.knot_spacing_s > 0.0))
     throw Error(fmt::format("--knot-spacing-s: must be > 0, got {}", *a.knot_spacing_s));
@@ -83,7 +87,7 @@ void run_compensate(const CompensateArgs& a) {
     throw Error("--window-s and --overlap-s are options of --method lpfbf and collocation");
   if (a.max_base_accel_mm_s2) {
     if (!(*a.max_base_accel_mm_s2 > 0.0) || !std::isfinite(*a.max_base_accel_mm_s2))
-      throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", *a.max_base_accel_mm_s2));
+      throw Error(fmt::format("--max-base-accel-mm-s2: must be > 0, got {}", *a.max_base_accel_mm_s2));
     o.max_base_accel_mm_s2 = *a.max_base_accel_mm_s2;
   }
   o.judge_machine_accel = !a.ignore_machine_limits;
@@ -96,17 +100,35 @@ void run_compensate(const CompensateArgs& a) {
   o.window_s = a.window_s.value_or(-1.0);
   o.overlap_s = a.overlap_s.value_or(-1.0);
   const machine::Machine m = resolve_machine(a.machine);
+  // The methods other than LPFBF hold the whole command: said before it is computed.
+  o.on_memory_estimate = [](const cp::MemoryEstimate& e) {
+    if (e.bytes > (256ull << 20)) {
+      std::cerr << fmt::format("amctl: note: --method {} holds the whole command: {} samples, about {} of "
+                               "memory (--method lpfbf streams)\n",
+                               e.method, e.samples, memory_text(e.bytes));
+    }
+  };
   cp::CompensationResult r;
   o.sample_z_e = !a.gcode.empty();
-  if (!a.gcode.empty() && a.gcode == a.csv) throw Error(fmt::format("--gcode {} is also the --csv file", a.gcode));
+  require_distinct_outputs(a.csv, "--csv", a.gcode, "--gcode");
+  if (a.json && (a.csv == "-" || a.gcode == "-")) {
+    throw Error("--json: prints on standard output, expected the --csv and --gcode outputs in files");
+  }
+  // Both outputs opened before the work: one that cannot be written (or is the input) fails now.
+  OutputFile csv(a.csv, OutputOptions{"--csv", {a.file}, {}});
+  std::optional<OutputFile> gcode;
+  if (!a.gcode.empty()) gcode.emplace(a.gcode, OutputOptions{"--gcode", {a.file}, {}});
   // LPFBF streams to the CSV; with --gcode it runs in memory (the same windows and command).
   if (o.method == cp::Method::lpfbf && a.gcode.empty()) {
-    r = cp::compensate_file_streaming(a.file, m, o, a.csv);  // writes the CSV as it goes
+    r = cp::compensate_file_streaming(a.file, m, o, csv);  // writes the CSV as it goes
+    if (r.samples > 0) csv.commit();
   } else {
     r = cp::compensate_file(a.file, m, o);
     if (!r.t_s.empty()) {
-      if (!a.gcode.empty()) cp::write_gcode(r, a.gcode);  // first: it refuses an unbounded command
-      cp::write_csv(r, a.csv);
+      if (gcode) cp::write_gcode(r, *gcode);  // first: it refuses an unbounded command
+      cp::write_csv(r, csv);
+      if (gcode) gcode->commit();
+      csv.commit();
     }
   }
   // A solver that found no command (infeasible bound, iteration limit) writes no CSV.
@@ -115,7 +137,7 @@ void run_compensate(const CompensateArgs& a) {
   if (no_command)
     throw Error(fmt::format("{}: {} found no command ({}): {}; {} not written", a.file, r.method, r.status,
                             r.message, a.csv));
-  if (a.json) return;
+  if (a.json || a.csv == "-" || a.gcode == "-") return;  // standard output holds the command
   std::cout << fmt::format(
       "{}: {} over {:.4f} s of motion, {} samples at {} Hz -> {}\n"
       "  status {}{}{}\n"

@@ -7,6 +7,7 @@
 //   amctl sweep [--json]   seed 000 tables 3.2/3.3 with real look-ahead and zero junction speed
 // The work is dynamics::simulate_print and dynamics::seed000_sweep; this file parses flags
 // and prints.
+#include <cmath>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -15,6 +16,9 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
+#include "amctl/core/input.hpp"
+#include "amctl/gcode/line_reader.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/dynamics/seed000_sweep.hpp"
 #include "amctl/machine/kinematics.hpp"
@@ -49,6 +53,9 @@ dy::AxisModel build_model(const ModelFlags& m, bool y_axis) {
     if (!m.mass_kg || !m.stiffness) {
       throw Error("--mass-kg and --stiffness-n-per-m must be given together");
     }
+    require_positive_flag("--mass-kg", *m.mass_kg);
+    require_positive_flag("--stiffness-n-per-m", *m.stiffness);
+    if (m.damping) require_non_negative_flag("--damping-n-s-per-m", *m.damping);
     return dy::AxisModel::belt(dy::BeltParameters{*m.mass_kg, *m.stiffness, m.damping.value_or(0.0)});
   }
   if (!f) throw Error("give the belt model: --natural-frequency-hz (with --damping-ratio) or --mass-kg and --stiffness-n-per-m");
@@ -59,7 +66,7 @@ machine::VelocityProfile parse_profile(const std::string& s) {
   if (s == "trapezoid") return machine::VelocityProfile::trapezoid;
   if (s == "scurve7") return machine::VelocityProfile::scurve7;
   if (s == "bezier5") return machine::VelocityProfile::bezier5;
-  throw Error(fmt::format("--profile must be trapezoid, scurve7 or bezier5, got '{}'", s));
+  throw Error(fmt::format("--profile: must be trapezoid, scurve7 or bezier5, got '{}'", s));
 }
 
 // ------------------------------------------------------------------------------ simulate
@@ -99,8 +106,8 @@ void print_report(const dy::QualityReport& rep) {
 
 void do_shaped(const SimulateArgs& a, const machine::Machine& mach, const dy::AxisModel& mx,
                const dy::AxisModel& my, const dy::PrintSimulationOptions& o,
-               const simulation::ShaperSettings& shapers) {
-  const simulation::ShapedPrintResult r = simulation::simulate_shaped_print(a.file, mach, mx, my, o, shapers);
+               const simulation::ShaperSettings& shapers, InputFile& input) {
+  const simulation::ShapedPrintResult r = simulation::simulate_shaped_print(input, mach, mx, my, o, shapers);
   const bool peaks = mach.profile != machine::VelocityProfile::trapezoid || !a.profile.empty();
   if (a.json_out) {
     std::cout << simulation::to_json(r, peaks).dump(2) << "\n";
@@ -145,6 +152,14 @@ void do_simulate(const SimulateArgs& a) {
   }
   const dy::AxisModel mx = build_model(a.model, false), my = build_model(a.model, true);
   dy::PrintSimulationOptions o;
+  require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
+  if (a.csv_rate_hz) require_range_flag("--csv-rate-hz", kSampleRateRange, *a.csv_rate_hz);
+  // CLI11 reads "-1" for an unsigned flag as 2^64 - 1: a count beyond any file is refused.
+  if (a.worst > 1000000) throw Error(fmt::format("--worst: must be a count in [0, 1000000], got {}", a.worst));
+  require_non_negative_flag("--corner-window-s", a.corner_window_s);
+  // A range bound is a time of the print: finite (an open end is simply not given).
+  if (a.t_begin && !std::isfinite(*a.t_begin)) throw Error(fmt::format("--t-begin: must be a finite time [s], got {}", *a.t_begin));
+  if (a.t_end && !std::isfinite(*a.t_end)) throw Error(fmt::format("--t-end: must be a finite time [s], got {}", *a.t_end));
   o.simulation.sample_rate_hz = a.rate_hz;
   o.simulation.motor_space = a.motor_space;
   if (a.motor_space) o.simulation.motor_rows = machine::motor_space(mach).rows;
@@ -167,16 +182,19 @@ void do_simulate(const SimulateArgs& a) {
   req.freq_y_hz = a.shaper_freq_y;
   req.damping_ratio = a.shaper_damping;
   req.none = a.no_shaper;
-  const simulation::ShaperSettings shapers = simulation::resolve_shapers(req, mach, a.file);
+  // M593 before the first move, then the simulation: two passes over one rewindable input
+  // (standard input and a FIFO are read once).
+  InputFile input(a.file, gcode::gcode_input_options(true));
+  const simulation::ShaperSettings shapers = simulation::resolve_shapers(req, mach, input);
   if (!shapers.any()) {
     for (const auto& w : shapers.warnings) std::cerr << "warning: " << w << "\n";
   }
   if (shapers.any() || a.compare_shaper) {
     if (!shapers.any()) throw Error("--compare-shaper needs a shaper: --shaper T --shaper-freq-hz F");
-    do_shaped(a, mach, mx, my, o, shapers);
+    do_shaped(a, mach, mx, my, o, shapers, input);
     return;
   }
-  const dy::PrintSimulationResult r = dy::simulate_print(a.file, mach, mx, my, o);
+  const dy::PrintSimulationResult r = dy::simulate_print(input, mach, mx, my, o);
   const bool peaks = mach.profile != machine::VelocityProfile::trapezoid || !a.profile.empty();
   if (a.json_out) {
     std::cout << dy::to_json(r, peaks).dump(2) << "\n";
@@ -197,6 +215,7 @@ void do_simulate(const SimulateArgs& a) {
 
 // ------------------------------------------------------------------------------ sweep
 void do_sweep(bool json_out, double scv) {
+  require_non_negative_flag("--square-corner-velocity", scv);
   const std::vector<dy::Seed000Row> rows = dy::seed000_sweep(scv);
   if (json_out) {
     std::cout << dy::to_json(rows, scv).dump(2) << "\n";

@@ -6,11 +6,15 @@
 #include <iostream>
 #include <string>
 #include <iomanip>
+#include <optional>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/input.hpp"
+#include "amctl/core/output.hpp"
+#include "amctl/gcode/line_reader.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/estimate.hpp"
@@ -23,6 +27,7 @@ namespace {
 
 std::string hms(double s) {
   if (!std::isfinite(s)) return "-";
+  if (std::fabs(s) >= 1e12) return fmt::format("{:.4g} s", s);  // beyond any print: no h/m split
   const auto total = static_cast<long long>(std::llround(s));
   const long long h = total / 3600, m = (total % 3600) / 60, sec = total % 60;
   if (h > 0) return fmt::format("{}h {:02}m {:02}s", h, m, sec);
@@ -186,8 +191,21 @@ void run_estimate(const EstimateArgs& a) {
     require_positive_flag("--m73-interval", a.m73_interval_s);
     opt.checkpoint_interval_s = a.m73_interval_s;
   }
+  // --write-m73 reads the file twice: one rewindable input (standard input and a FIFO are
+  // read once, the second pass reads the reader's own copy), and the output checked first.
+  std::optional<InputFile> input;
+  if (!a.m73_out.empty()) {
+    if (a.m73_out == "-" && (a.json || a.brief)) {
+      throw Error("--write-m73: standard output would hold the G-code and the report, expected a file");
+    }
+    input.emplace(a.file, gcode::gcode_input_options(true));
+    OutputOptions oo{"--write-m73", {a.file}, {}};
+    if (input->identity()) oo.input_ids.push_back(*input->identity());
+    check_output(a.m73_out, oo);
+  }
   const auto t0 = std::chrono::steady_clock::now();
-  const plan::EstimateReport r = plan::estimate_file(a.file, m, opt);
+  const plan::EstimateReport r =
+      input ? plan::estimate_file(*input, m, opt) : plan::estimate_file(a.file, m, opt);
   const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (r.ended_without_newline) {
     std::cerr << fmt::format("amctl: warning: {}:{}: the file does not end with a newline; it may be truncated\n",
@@ -202,7 +220,8 @@ void run_estimate(const EstimateArgs& a) {
     std::cerr << fmt::format("amctl: warning: {}: {} malformed lines skipped (--lenient)\n", r.file, r.skipped_lines);
   }
   std::size_t m73 = 0;
-  if (!a.m73_out.empty()) m73 = plan::write_m73(a.file, a.m73_out, r);
+  if (!a.m73_out.empty()) m73 = plan::write_m73(*input, a.m73_out, r);
+  if (a.m73_out == "-") return;  // standard output holds the G-code
   if (a.brief) {
     std::cout << fmt::format("{:<18} {:>10}  ({:.1f} s)", m.name, hms(r.total_time_s), r.total_time_s);
     if (r.slicer_estimate_s) {

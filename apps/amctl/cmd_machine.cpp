@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/core/quantity.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
@@ -82,8 +83,10 @@ void register_machine(CLI::App& app) {
       return;
     }
     for (const auto& k : all) {
-      std::cout << fmt::format("{}.{} [{}{}]: {}\n", k.section, k.key, k.type,
-                               k.unit.empty() ? "" : ", " + k.unit, k.description);
+      const auto r = range_for_unit(k.unit);
+      std::cout << fmt::format("{}.{} [{}{}{}]: {}\n", k.section, k.key, k.type,
+                               k.unit.empty() ? "" : ", " + k.unit,
+                               r ? fmt::format(", {:g} to {:g}", r->min, r->max) : std::string(), k.description);
     }
   });
 }

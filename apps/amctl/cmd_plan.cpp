@@ -1,5 +1,6 @@
 // `amctl plan FILE [-o moves.csv] [--json] [--t-begin/--t-end S] [--layer-begin/--layer-end N]`:
 // the planned moves as CSV: PlanSource -> SelectStage (a range, when asked) -> MovesCsvSink.
+#include <cmath>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -33,8 +34,17 @@ struct PlanArgs {
 };
 
 void run_plan(const PlanArgs& a) {
-  if (a.json && a.output.empty()) {
-    throw Error("plan --json prints a summary: give the CSV file with -o/--output");
+  if (a.json && (a.output.empty() || a.output == "-")) {
+    throw Error("--json: prints a summary on standard output, expected the CSV file with -o/--output");
+  }
+  // A range bound is a time of the print, finite; an end before the beginning selects nothing.
+  if (a.t_begin && !std::isfinite(*a.t_begin)) throw Error(fmt::format("--t-begin: must be a finite time [s], got {}", *a.t_begin));
+  if (a.t_end && !std::isfinite(*a.t_end)) throw Error(fmt::format("--t-end: must be a finite time [s], got {}", *a.t_end));
+  if (a.t_begin && a.t_end && *a.t_end < *a.t_begin) {
+    throw Error(fmt::format("--t-end: must not be before --t-begin ({} s), got {}", *a.t_begin, *a.t_end));
+  }
+  if (a.layer_begin && a.layer_end && *a.layer_end < *a.layer_begin) {
+    throw Error(fmt::format("--layer-end: must not be before --layer-begin ({}), got {}", *a.layer_begin, *a.layer_end));
   }
   const machine::Machine m = resolve_machine(a.machine);
   plan::SelectOptions sel;
@@ -47,18 +57,14 @@ void run_plan(const PlanArgs& a) {
   if (a.t_begin || a.t_end || a.layer_begin || a.layer_end) stages.push_back(&select);
   plan::SourceOptions so;
   so.strict = !a.lenient;
+  const std::string output = a.output.empty() ? "-" : a.output;
+  plan::MovesCsvFile csv(output, OutputOptions{"-o/--output", {a.file}, {}});
   so.planner.file_limits = file_limits_policy(a.file_limits);
   plan::PlanSource source(a.file, m, so);
-  if (a.output.empty()) {
-    plan::MovesCsvSink csv(std::cout);
-    plan::Sink* sinks[] = {&csv};
-    plan::run_pipeline(source, stages, sinks);
-    return;
-  }
-  plan::MovesCsvFile csv(a.output);
   plan::Sink* sinks[] = {&csv};
   plan::run_pipeline(source, stages, sinks);
   csv.commit();
+  if (output == "-") return;
   const std::uint64_t rows = csv.rows();
   const double total_s = source.summary().end_time_s;
   if (a.json) {

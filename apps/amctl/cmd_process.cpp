@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/process/csv.hpp"
 #include "amctl/process/scale_map.hpp"
 #include "amctl/process/shrink_apply.hpp"
@@ -35,10 +36,10 @@ std::vector<double> parse_list(const std::string& s, const char* what) {
     try {
       std::size_t used = 0;
       const double v = std::stod(tok, &used);
-      if (used != tok.size()) throw std::invalid_argument(tok);
+      if (used != tok.size() || !std::isfinite(v)) throw std::invalid_argument(tok);
       out.push_back(v);
     } catch (const std::exception&) {
-      throw Error(fmt::format("{}: expected comma-separated numbers, got '{}'", what, s));
+      throw Error(fmt::format("{}: expected comma-separated finite numbers, got '{}'", what, s));
     }
   }
   return out;
@@ -74,22 +75,29 @@ void register_shrink_fit(CLI::App& shrink) {
     if (!o->axis.empty()) {
       const char a = static_cast<char>(std::toupper(static_cast<unsigned char>(o->axis[0])));
       if (o->axis.size() != 1 || (a != 'X' && a != 'Y' && a != 'Z')) {
-        throw Error(fmt::format("--axis must be X, Y or Z, got '{}'", o->axis));
+        throw Error(fmt::format("--axis: must be X, Y or Z, got '{}'", o->axis));
       }
       axis = a;
     }
+    if (!(o->confidence > 0.0 && o->confidence < 1.0)) {
+      throw Error(fmt::format("--confidence: must lie strictly between 0 and 1, got {}", o->confidence));
+    }
+    if (o->min_points < 2) throw Error(fmt::format("--min-points: must be at least 2, got {}", o->min_points));
     pr::ShrinkFitOptions opt;
     opt.average_repeats = o->average;
     opt.min_points_per_range = o->min_points;
     opt.confidence = o->confidence;
     if (!o->breaks.empty()) {
       opt.breaks_mm = parse_list(o->breaks, "--breaks");
+      for (const double b : opt.breaks_mm) {
+        if (!(b > 0.0)) throw Error(fmt::format("--breaks: must be sizes > 0 mm, got {}", b));
+      }
     } else if (o->ranges == "auto") {
       opt.ranges = 0;
     } else {
       const auto v = parse_list(o->ranges, "--ranges");
       if (v.size() != 1 || v[0] < 1 || v[0] != std::floor(v[0])) {
-        throw Error(fmt::format("--ranges must be a whole number >= 1 or 'auto', got '{}'",
+        throw Error(fmt::format("--ranges: must be a whole number >= 1 or 'auto', got '{}'",
                                 o->ranges));
       }
       opt.ranges = static_cast<int>(v[0]);
@@ -188,12 +196,23 @@ void register_shrink_apply(CLI::App& shrink) {
     if (!o->format.empty()) {
       q.stl_format = o->format == "ascii" ? pr::StlFormat::ascii : pr::StlFormat::binary;
     }
+    // 0 (the default) means no sliced-height prediction; a negative thickness is a typo, not
+    // "off".
+    require_non_negative_flag("--layer-mm", o->layer_mm);
+    if (o->first_layer_mm) require_positive_flag("--first-layer-mm", *o->first_layer_mm);
+    if (!(o->plane_fraction > 0.0 && o->plane_fraction <= 1.0)) {
+      throw Error(fmt::format("--plane-fraction: must be in (0, 1], got {}", o->plane_fraction));
+    }
     if (o->layer_mm > 0.0) {
       q.layers = pr::SlicingModel{o->layer_mm, o->first_layer_mm.value_or(o->layer_mm),
                                   o->plane_fraction};
     }
     q.scale_extrusion = !o->no_scale_e;
+    if (o->out == "-" && o->json) {
+      throw Error("--json: standard output holds the scaled file (-o -), expected -o FILE");
+    }
     const auto rep = pr::shrink_apply(q);
+    if (o->out == "-") return;  // standard output holds the scaled file
     std::cout << (o->json ? pr::shrink_apply_json(rep).dump(2) + "\n" : pr::shrink_apply_text(rep));
   });
 }
@@ -229,6 +248,8 @@ void register_calibrate_time(CLI::App& app) {
   cmd->add_option("--save", o->save, "write the calibrated machine (TOML) or parameters (JSON)");
   cmd->add_flag("--json", o->json, "print one JSON object");
   cmd->callback([o, file_limits] {
+    // The output first: a path that cannot be written (or is an input) fails before the fit.
+    if (!o->save.empty()) check_output(o->save, OutputOptions{"--save", {o->file, o->params}, {}});
     pr::TimeCalibration c;
     if (o->mode == "empirical") {
       c = pr::calibrate_empirical_time({o->file, o->params, o->fix, o->separate_contour});
@@ -246,7 +267,9 @@ void register_calibrate_time(CLI::App& app) {
       q.absolute = o->absolute;
       c = pr::calibrate_planner_time(q);
     }
-    if (!o->save.empty()) pr::write_file_atomic(o->save, pr::time_calibration_file(c));
+    if (!o->save.empty()) {
+      pr::write_file_atomic(o->save, pr::time_calibration_file(c), OutputOptions{"--save", {o->file, o->params}, {}});
+    }
     std::cout << (o->json ? pr::time_calibration_json(c).dump(2) + "\n"
                           : pr::time_calibration_text(c));
   });

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/report/html_report.hpp"
 #include "commands.hpp"
 #include "machine_cli.hpp"
@@ -33,14 +34,19 @@ void run_report(const ReportArgs& a) {
   const machine::Machine m = resolve_machine(a.machine);
   report::ReportOptions o;
   o.strict = !a.lenient;
+  require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
   o.file_limits = file_limits_policy(a.file_limits);
   o.sample_rate_hz = a.rate_hz;
   if (a.zeta && !a.f_hz) throw Error("--damping-ratio needs --natural-frequency-hz");
+  if (a.f_hz) require_range_flag("--natural-frequency-hz", kFrequencyRange, *a.f_hz);
+  if (a.zeta && !(*a.zeta >= 0.0 && *a.zeta < 1.0)) {
+    throw Error(fmt::format("--damping-ratio: must be in [0, 1), got {}", *a.zeta));
+  }
   if (a.f_hz) o.belt = report::BeltModelOptions{*a.f_hz, a.zeta.value_or(0.1)};
   o.accel_path = a.accel;
   o.thermal = a.thermal;
   if (a.accel_axis != "x" && a.accel_axis != "y") {
-    throw Error(fmt::format("--accel-axis must be x or y, got '{}'", a.accel_axis));
+    throw Error(fmt::format("--accel-axis: must be x or y, got '{}'", a.accel_axis));
   }
   o.accel_axis = a.accel_axis[0];
   const report::ReportResult r = report::write_report(a.file, m, a.output, o);

@@ -12,6 +12,8 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/memory.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/process/csv.hpp"
 #include "amctl/resonance/calibrate.hpp"
 #include "amctl/resonance/test_gcode.hpp"
@@ -79,7 +81,7 @@ void run_test_gcode(const TestGcodeArgs& a) {
     for (int i = 0; i < 3; ++i) {
       const std::size_t comma = a.point.find(',', start);
       if ((i < 2) != (comma != std::string::npos)) {
-        throw Error(fmt::format("--point '{}': expected X,Y,Z", a.point));
+        throw Error(fmt::format("--point: found '{}', expected X,Y,Z", a.point));
       }
       const std::string field = a.point.substr(start, i < 2 ? comma - start : std::string::npos);
       std::size_t used = 0;
@@ -89,7 +91,7 @@ void run_test_gcode(const TestGcodeArgs& a) {
         used = 0;
       }
       if (field.empty() || used != field.size() || !std::isfinite(v[i])) {
-        throw Error(fmt::format("--point '{}': '{}' is not a number, expected X,Y,Z", a.point, field));
+        throw Error(fmt::format("--point: '{}' in '{}' is not a finite number, expected X,Y,Z", field, a.point));
       }
       start = comma + 1;
     }
@@ -100,11 +102,7 @@ void run_test_gcode(const TestGcodeArgs& a) {
     o.probe_point_locations.clear();
   }
   const std::string text = resonance::test_gcode(o, m);  // whole text first: all or nothing
-  if (a.output.empty() || a.output == "-") {
-    std::cout << text;
-  } else {
-    process::write_file_atomic(a.output, text);
-  }
+  write_output(a.output.empty() ? "-" : a.output, text, OutputOptions{"-o/--output", {}, {}});
   if (!o.point_given) {
     std::cerr << fmt::format("amctl: note: test point {:g},{:g},{:g} (default; the machine's position limits are not known)\n",
                              o.point_mm[0], o.point_mm[1], o.point_mm[2]);
@@ -149,6 +147,9 @@ void register_resonance(CLI::App& app) {
   cal->add_option("--max-smoothing-mm", a->max_smoothing_mm,
                   "With --recommend: smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
   cal->callback([a] {
+    if (a->json && (a->csv == "-" || a->response_csv == "-")) {
+      throw Error("--json: standard output would hold the CSV too, expected --csv/--response-csv in files");
+    }
     resonance::CalibrateOptions o;
     o.axis = a->axis.empty() ? '\0' : a->axis.front();
     if (!a->sweep.empty()) o.sweep = resonance::parse_sweep(a->sweep);
@@ -163,13 +164,31 @@ void register_resonance(CLI::App& app) {
     if (a->modes) {
       if (!o.sweep) throw Error("--modes needs --sweep (the modes are fitted to the sweep's response)");
       if (*a->modes < 1 || *a->modes > resonance::kMaxModes) {
-        throw Error(fmt::format("--modes must be 1 to {}, got {}", resonance::kMaxModes, *a->modes));
+        throw Error(fmt::format("--modes: must be 1 to {}, got {}", resonance::kMaxModes, *a->modes));
       }
       o.modes = *a->modes;
     }
     if (a->recommend && !o.sweep) throw Error("--recommend needs --sweep (the modal model comes from the sweep's fit)");
     if (a->max_smoothing_mm && !a->recommend) throw Error("--max-smoothing-mm needs --recommend");
     const tuning::RecommendOptions ro = recommend_options(a->max_smoothing_mm);
+    // A record is held whole (the analysis reads it several times): said before reading it
+    // when it is large, refused when the machine cannot hold it.
+    for (const std::string& file : a->files) {
+      const auto size = resonance::estimate_record_size(file);
+      if (!size) continue;
+      const std::uint64_t avail = available_memory_bytes();
+      if (avail != 0 && size->memory_bytes > avail) {
+        throw Error(SourceLocation{file, 0, 0},
+                    fmt::format("about {} samples would take about {} of memory, more than the {} available; "
+                                "expected a shorter record",
+                                size->samples, memory_text(size->memory_bytes), memory_text(avail)));
+      }
+      if (size->samples > 1000000) {
+        std::cerr << fmt::format("amctl: note: {}: about {} samples; reading and analysing them takes about {} "
+                                 "of memory\n",
+                                 file, size->samples, memory_text(size->memory_bytes));
+      }
+    }
     const resonance::CalibrationReport r = resonance::calibrate_files(a->files, o);
     std::optional<tuning::Recommendation> rec;
     if (a->recommend) {
@@ -177,8 +196,12 @@ void register_resonance(CLI::App& app) {
       const resonance::ModalFit& fit = r.identification->model;
       rec = tuning::recommend({fit.natural_frequency_hz, fit.damping_ratio}, m, ro, r.klipper.recommended);
     }
-    if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv);
-    if (!a->response_csv.empty()) resonance::write_response_csv(r, a->response_csv);
+    require_distinct_outputs(a->csv, "--csv", a->response_csv, "--response-csv");
+    if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv, OutputOptions{"--csv", a->files, {}});
+    if (!a->response_csv.empty()) {
+      resonance::write_response_csv(r, a->response_csv, OutputOptions{"--response-csv", a->files, {}});
+    }
+    if (a->csv == "-" || a->response_csv == "-") return;  // standard output holds the CSV
     if (a->json) {
       Json j = resonance::to_json(r);
       if (rec) {

@@ -4,6 +4,10 @@
 #include <iostream>
 #include <memory>
 
+#include <fmt/format.h>
+
+#include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/shaping/report.hpp"
 #include "commands.hpp"
 
@@ -45,6 +49,14 @@ void register_shaper(CLI::App& app) {
   show->callback([a, test_dr] {
     shaping::ShaperReportOptions o = a->options;
     if (test_dr->count() > 0) o.test_damping_ratio = a->test_damping_ratio;
+    // Each flag under its own name (the library names its parameters).
+    require_range_flag("--freq-hz", kFrequencyRange, o.freq_hz);
+    auto ratio = [](std::string_view flag, double z) {
+      if (!(z >= 0.0 && z < 1.0)) throw Error(fmt::format("{}: must be a damping ratio in [0, 1), got {}", flag, z));
+    };
+    ratio("--damping-ratio", o.damping_ratio);
+    if (test_dr->count() > 0) ratio("--test-damping-ratio", a->test_damping_ratio);
+    for (const double f : o.residual_at_hz) require_range_flag("--residual-at-hz", kFrequencyRange, f);
     const shaping::ShaperReport r = shaping::shaper_report(o);
     if (a->json) {
       std::cout << shaping::to_json(r).dump(2) << "\n";

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/report/sls3d_page.hpp"
 #include "amctl/sls3d/studies.hpp"
 #include "commands.hpp"
@@ -178,6 +179,12 @@ void run(const Sls3dArgs& a) {
     sls3d::ScenarioConfig c;
     if (!a.config.empty()) c = sls3d::load_scenario_config(a.config);
     else c.validate();
+    // The outputs are checked before the simulation, not after it (the one output writer's
+    // checks: a directory, a missing directory, the configuration itself).
+    if (root) {
+      if (!a.csv.empty()) check_output(a.csv, OutputOptions{"--csv", {a.config}, {}});
+      if (!a.report.empty()) check_output(a.report, OutputOptions{"--report", {a.config}, {}});
+    }
     sls3d::ScenarioOptions o;
     o.vtu_dir = a.vtu_dir;
     o.keep_rasters = !a.report.empty();

@@ -1,8 +1,10 @@
 // amctl thermal ...: SLS powder-bed transfer-function tools, margins, PDE closed loop, and the
 // FDM hotend/bed loops. Each command parses its flags, calls one study of the thermal module
 // (amctl/thermal/studies.hpp) and prints its result. See docs/thermal.md.
+#include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -25,11 +27,18 @@ struct MarginArgs {
 };
 
 void run_margins(MarginArgs a) {
-  require_positive("--length-mm (powder depth l)", a.length_mm);
+  // Each flag checked under its own name (the study's messages name its parameters).
+  require_positive_flag("--length-mm", a.length_mm);
+  require_positive_flag("--kp", a.study.kp_w_m2k);
+  require_positive_flag("--ti", a.study.ti_s);
+  require_positive_flag("--rho", a.study.material.density_kg_m3);
+  require_positive_flag("--cp", a.study.material.specific_heat_j_kgk);
+  require_positive_flag("--k", a.study.material.conductivity_w_mk);
+  if (!(a.study.beta_1_s < 0.0)) throw Error(fmt::format("--beta: must be a finite number < 0 [1/s], got {}", a.study.beta_1_s));
   if (a.study.modes < 1)
-    throw Error("--modes (N) must be >= 1, got " + std::to_string(a.study.modes));
+    throw Error("--modes: must be >= 1 (N), got " + std::to_string(a.study.modes));
   if (a.study.hamiltonian_modes < 1)
-    throw Error("--hamiltonian-modes must be >= 1, got " +
+    throw Error("--hamiltonian-modes: must be >= 1, got " +
                 std::to_string(a.study.hamiltonian_modes));
   a.study.length_m = a.length_mm * 1e-3;
   const thermal::MarginStudy study = thermal::run_margin_study(a.study);
@@ -66,14 +75,17 @@ struct SlsArgs {
   std::string config;
   std::string csv;  ///< "" (default): no trace file; the run writes nothing unless asked
   bool json_out = false;
-  int layers = -1;
+  std::optional<int> layers;
   std::string anti_windup;
 };
 
 void run_sls(const SlsArgs& a) {
   thermal::SlsRunOptions o;
   o.config_path = a.config;
-  o.layers_added = a.layers;
+  if (a.layers && (*a.layers < 0 || *a.layers > thermal::kMaxSlsLayers)) {
+    throw Error(fmt::format("--layers: must be in [0, {}], got {}", thermal::kMaxSlsLayers, *a.layers));
+  }
+  o.layers_added = a.layers.value_or(-1);
   if (!a.anti_windup.empty()) {
     o.anti_windup = control::anti_windup_from_string(a.anti_windup);
     if (!o.anti_windup)
@@ -85,7 +97,8 @@ void run_sls(const SlsArgs& a) {
   const thermal::SlsRun run = thermal::run_sls_build(o);
   const thermal::SlsBuildConfig& cfg = run.config;
   const thermal::SlsBuildResult& r = run.result;
-  if (!a.csv.empty()) thermal::write_sls_trace_csv(a.csv, r);
+  if (!a.csv.empty()) thermal::write_sls_trace_csv(a.csv, r, {a.config});
+  if (a.csv == "-") return;  // standard output holds the trace
   if (a.json_out) {
     std::cout << thermal::to_json(run).dump(2) << "\n";
     return;
@@ -128,6 +141,17 @@ struct HeaterArgs {
 
 void run_heater(HeaterArgs a) {
   using namespace thermal;
+  // Each flag checked under its own name (the study's messages name its parameters).
+  if (!std::isfinite(a.study.target_c)) throw Error(fmt::format("--target: must be a finite temperature [C], got {}", a.study.target_c));
+  require_non_negative_flag("--noise", a.study.sensor_noise_k);
+  if (a.study.cycles < 3 || a.study.cycles > 1000) {
+    throw Error(fmt::format("--cycles: must be in [3, 1000], got {}", a.study.cycles));
+  }
+  require_positive_flag("--power-w", a.study.plant.heater_power_w);
+  require_positive_flag("--capacity-j-k", a.study.plant.block_capacity_j_k);
+  require_positive_flag("--loss-w-k", a.study.plant.loss_w_k);
+  require_non_negative_flag("--fan-loss-w-k", a.study.plant.fan_extra_loss_w_k);
+  require_positive_flag("--sensor-tau-s", a.study.plant.sensor_time_constant_s);
   if (!a.rule.empty()) {
     const auto rule = tuning_rule_from_string(a.rule);
     if (!rule)
@@ -137,6 +161,7 @@ void run_heater(HeaterArgs a) {
   }
   const HeaterStudy s = run_heater_study(a.study);
   if (!a.csv.empty()) write_heater_traces_csv(a.csv, s);
+  if (a.csv == "-") return;  // standard output holds the traces
   if (a.json_out) {
     std::cout << to_json(s).dump(2) << "\n";
     return;

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 
 namespace amctl::cli {
 void register_all(CLI::App& app) {
@@ -27,6 +28,10 @@ void require_positive_flag(std::string_view flag, double value) {
   if (!(std::isfinite(value) && value > 0.0)) {
     throw Error(fmt::format("{}: must be a finite number > 0, got {}", flag, value));
   }
+}
+
+void require_range_flag(std::string_view flag, const PhysicalRange& range, double value) {
+  if (!in_range(range, value)) throw Error(fmt::format("{}: must be {}, got {}", flag, describe(range), value));
 }
 
 void require_non_negative_flag(std::string_view flag, double value) {

@@ -4,6 +4,10 @@
 
 #include <CLI/CLI.hpp>
 
+namespace amctl {
+struct PhysicalRange;
+}
+
 namespace amctl::cli {
 // One register function per subcommand family, defined in cmd_<family>.cpp. Each adds its
 // subcommand(s) to `app` with a callback that does the work (callbacks run inside app.parse,
@@ -50,4 +54,6 @@ void register_compare(CLI::App& app);
 /// "--damping-ratio: must be a finite number >= 0, got -1" (amctl::Error otherwise).
 void require_positive_flag(std::string_view flag, double value);
 void require_non_negative_flag(std::string_view flag, double value);
+/// "--sample-rate-hz: must be a sample rate in [1, 1e+06] Hz, got 1e+12" (core/quantity.hpp).
+void require_range_flag(std::string_view flag, const PhysicalRange& range, double value);
 }  // namespace amctl::cli

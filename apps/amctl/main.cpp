@@ -1,5 +1,8 @@
 // amctl command-line entry point. Each subcommand lives in its own cmd_*.cpp and is
 // registered here; errors in user input end with exit code 2 and one message on stderr.
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <algorithm>
 #include <exception>
 #include <iostream>
@@ -9,6 +12,7 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
 #include "commands.hpp"
@@ -173,6 +177,13 @@ int main(int argc, char** argv) {
   }
   try {
     app.parse(argc, argv);
+    // What went to standard output is checked too: a full disk or a closed pipe behind a
+    // redirection is an error, not exit 0 with half a report.
+    std::cout.flush();
+    if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+      throw amctl::Error(fmt::format("standard output: writing failed: {}; expected room for the whole output",
+                                     std::strerror(errno != 0 ? errno : EIO)));
+    }
   } catch (const CLI::ParseError& e) {
     // --help and --version end here too, with exit code 0.
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);

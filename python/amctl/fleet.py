@@ -24,9 +24,11 @@ See docs/python.md, "Fleet runs".
 import argparse
 import csv
 import glob
+import io
 import itertools
 import json
 import logging
+import math
 import os
 import sys
 import time
@@ -73,7 +75,9 @@ def _row(file, machine, overrides, report=None, error=None):
         for key in ("total_time_s", "motion_time_s", "dwell_time_s", "travel_time_s",
                     "extrude_time_s", "filament_mm", "moves", "slicer_estimate_s",
                     "compute_time_s"):
-            row[key] = report.get(key)
+            value = report.get(key)
+            # JSON has no Infinity or NaN (amctl writes them as null): never pass one on.
+            row[key] = None if isinstance(value, float) and not math.isfinite(value) else value
         row["layers"] = len(report.get("layers", []))
         if report.get("moves") == 0:
             row["note"] = "no moves"  # an empty file, or only comments: not a print of 0 s
@@ -277,18 +281,16 @@ def _parse_set(items):
 
 
 def _write_csv(rows, path):
-    tmp = path + ".part"
-    try:
-        with open(tmp, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(ROW_KEYS)
-            for row in rows:
-                w.writerow([json.dumps(row[k], sort_keys=True) if k == "set" else
-                            ("" if row[k] is None else row[k]) for k in ROW_KEYS])
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    """The rows as CSV through amctl's one output writer (a regular file whole or not at all;
+    '-', a device or a FIFO streamed; amctl.Error naming the path when it cannot be written)."""
+    from . import _amctl
+    fh = io.StringIO(newline="")
+    w = csv.writer(fh)
+    w.writerow(ROW_KEYS)
+    for row in rows:
+        w.writerow([json.dumps(row[k], sort_keys=True) if k == "set" else
+                    ("" if row[k] is None else row[k]) for k in ROW_KEYS])
+    _amctl._write_output(path, fh.getvalue(), "--csv")
 
 
 def _hms(s):
@@ -320,6 +322,9 @@ def main(argv=None):
     p.add_argument("--progress", action="store_true", help="progress bar even when stderr is not a terminal")
     a = p.parse_args(argv)
     try:
+        if a.csv:
+            from . import _amctl
+            _amctl._check_output(a.csv, "--csv")  # a path that cannot be written fails before the runs
         files = expand_inputs(a.inputs)
         rows = run(files, a.machine or ["default"], overrides=_parse_set(a.set) or None,
                    workers=a.workers, scheduler=a.scheduler, batch=a.batch,
@@ -328,11 +333,16 @@ def main(argv=None):
         print(f"amctl.fleet: error: {e}", file=sys.stderr)
         return 2
     if a.json:
-        json.dump(rows, sys.stdout, indent=2)
+        json.dump(rows, sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
     elif a.csv:
-        _write_csv(rows, a.csv)
-        print(f"{len(rows)} rows written to {a.csv}")
+        try:
+            _write_csv(rows, a.csv)
+        except Error as e:
+            print(f"amctl.fleet: error: {e}", file=sys.stderr)
+            return 2
+        if a.csv != "-":
+            print(f"{len(rows)} rows written to {a.csv}")
     else:
         name_w = max(len(os.path.basename(r["file"])) for r in rows)
         mach_w = max(len(r["machine"]) for r in rows)

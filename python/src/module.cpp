@@ -9,6 +9,7 @@
 #include <pybind11/stl.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/machine/json.hpp"
 #include "amctl/machine/loader.hpp"
@@ -253,6 +254,22 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
   m.def("_estimate", &estimate, py::arg("path"), py::arg("machine"), py::arg("strict"),
         py::arg("file_limits") = "keep",
         "amctl estimate --json (plan::estimate_file + plan::to_json); see amctl.estimate.");
+  m.def(
+      "_write_output",
+      [](const std::string& path, const std::string& text, const std::string& flag) {
+        py::gil_scoped_release nogil;
+        amctl::write_output(path, text, amctl::OutputOptions{flag, {}, {}});
+      },
+      py::arg("path"), py::arg("text"), py::arg("flag") = "",
+      "amctl's one output writer (core/output.hpp): a regular file whole or not at all, '-', a "
+      "device or a FIFO streamed; amctl.Error naming the path when it cannot be written.");
+  m.def(
+      "_check_output",
+      [](const std::string& path, const std::string& flag) {
+        amctl::check_output(path, amctl::OutputOptions{flag, {}, {}});
+      },
+      py::arg("path"), py::arg("flag") = "",
+      "The checks of _write_output without writing (amctl.Error when the path cannot be written).");
   m.def("_gcode_inputs",
         [](const std::vector<std::string>& inputs) { return amctl::formats::expand_gcode_inputs(inputs); },
         py::arg("inputs"), "formats::expand_gcode_inputs; see amctl.gcode_inputs.");

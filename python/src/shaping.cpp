@@ -7,6 +7,7 @@
 
 #include <pybind11/stl.h>
 
+#include "amctl/core/output.hpp"
 #include "amctl/comparison/compare.hpp"
 #include "amctl/compensation/compensate.hpp"
 #include "amctl/core/error.hpp"
@@ -117,10 +118,20 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
   Json j;
   {
     py::gil_scoped_release nogil;
+    // The outputs opened first (as `amctl compensate`): one that is the input, or cannot be
+    // written, fails before the work.
+    require_distinct_outputs(csv, "csv", gcode, "gcode");
+    std::optional<OutputFile> csv_out, gcode_out;
+    if (!csv.empty()) csv_out.emplace(csv, OutputOptions{"csv", {path}, {}});
+    if (!gcode.empty()) gcode_out.emplace(gcode, OutputOptions{"gcode", {path}, {}});
     r = compensation::compensate_file(path, mv.m, o);
     // No command (collocation: an infeasible bound): the status says so, no CSV.
-    if (!gcode.empty() && !r->t_s.empty()) compensation::write_gcode(*r, gcode);
-    if (!csv.empty() && !r->t_s.empty()) compensation::write_csv(*r, csv);
+    if (!r->t_s.empty()) {
+      if (gcode_out) compensation::write_gcode(*r, *gcode_out);
+      if (csv_out) compensation::write_csv(*r, *csv_out);
+      if (gcode_out) gcode_out->commit();
+      if (csv_out) csv_out->commit();
+    }
     j = compensation::to_json(*r);
   }
   py::dict out(to_python(j));

@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 #include <pybind11/stl.h>
 
+#include "amctl/core/input.hpp"
+#include "amctl/gcode/line_reader.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/machine/kinematics.hpp"
@@ -95,11 +97,13 @@ py::object simulate(const std::string& path, const MachineValue& mach_value, con
     py::gil_scoped_release nogil;
     // The shapers as `amctl simulate` resolves them: requested, else the machine's
     // [input_shaper], else M593 before the first move.
-    const simulation::ShaperSettings shapers = simulation::resolve_shapers(shaper_request, mach, path);
+    // Two passes over one rewindable input (standard input and a FIFO are read once).
+    InputFile input(path, gcode::gcode_input_options(true));
+    const simulation::ShaperSettings shapers = simulation::resolve_shapers(shaper_request, mach, input);
     if (shapers.any()) {
-      j = simulation::to_json(simulation::simulate_shaped_print(path, mach, mx, my, o, shapers), with_peaks);
+      j = simulation::to_json(simulation::simulate_shaped_print(input, mach, mx, my, o, shapers), with_peaks);
     } else {
-      const dy::PrintSimulationResult r = dy::simulate_print(path, mach, mx, my, o);
+      const dy::PrintSimulationResult r = dy::simulate_print(input, mach, mx, my, o);
       j = dy::to_json(r, with_peaks);
     }
   }

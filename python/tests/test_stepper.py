@@ -74,7 +74,7 @@ def test_stepper_simulate_load_keywords_equal_the_cli_flags(cli):
 
 
 def test_stepper_simulate_names_a_negative_load():
-    with pytest.raises(amctl.Error, match="--drag-n must be"):
+    with pytest.raises(amctl.Error, match="--drag-n: must be"):
         amctl.stepper_simulate(machine="ender3", scenario="reversing-strokes", drag_n=-5.0)
 
 

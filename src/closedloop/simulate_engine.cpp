@@ -11,6 +11,7 @@
 
 #include "amctl/closedloop/simulate.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 
 namespace amctl::closedloop {
 
@@ -30,13 +31,12 @@ void SimulationOptions::validate() const {
 
 namespace {
 
-// Writes rows to "<path>.part", renamed on commit; removed if never committed.
+// The trace CSV through amctl::OutputFile (a regular file appears at commit, whole or not at
+// all; every write checked).
 class TraceCsv {
  public:
-  TraceCsv(std::string path, const std::vector<AxisSetup>& axes) : path_(std::move(path)) {
-    tmp_ = path_ + ".part";
-    file_ = std::fopen(tmp_.c_str(), "wb");
-    if (!file_) throw Error(fmt::format("{}: cannot open for writing", path_));
+  TraceCsv(std::string path, const std::vector<AxisSetup>& axes)
+      : out_(std::move(path), OutputOptions{"--csv", {}, {}}) {
     std::string h = "time_s";
     for (const AxisSetup& a : axes) {
       h += fmt::format(",{0}_ref_mm,{0}_mm,{0}_error_mm,{0}_command_mm,{0}_encoder_mm,"
@@ -44,27 +44,13 @@ class TraceCsv {
     }
     for (const AxisSetup& a : axes) h += fmt::format(",{}_path_error_mm", a.name);
     h += "\n";
-    std::fputs(h.c_str(), file_);
+    out_.write(h);
   }
-  ~TraceCsv() {
-    if (file_) std::fclose(file_);
-    if (!committed_) std::remove(tmp_.c_str());
-  }
-  void write(const std::string& row) { std::fputs(row.c_str(), file_); }
-  void commit() {
-    if (std::fclose(file_) != 0) {
-      file_ = nullptr;
-      throw Error(fmt::format("{}: write failed", path_));
-    }
-    file_ = nullptr;
-    std::filesystem::rename(tmp_, path_);
-    committed_ = true;
-  }
+  void write(const std::string& row) { out_.write(row); }
+  void commit() { out_.commit(); }
 
  private:
-  std::string path_, tmp_;
-  std::FILE* file_ = nullptr;
-  bool committed_ = false;
+  OutputFile out_;
 };
 
 const char* reason_text(DegradeReason r) {

@@ -39,7 +39,7 @@ dynamics::PrintSimulationOptions simulation_options(const machine::Machine& mach
   return o;
 }
 
-ComparisonRow uncompensated_row(const std::string& path, const machine::Machine& machine,
+ComparisonRow uncompensated_row(const plan::GcodeInput& path, const machine::Machine& machine,
                                 const dynamics::AxisModel& plant, double rate_hz) {
   const dynamics::PrintSimulationResult r =
       dynamics::simulate_print(path, machine, plant, plant, simulation_options(machine, rate_hz));
@@ -62,7 +62,7 @@ ComparisonRow uncompensated_row(const std::string& path, const machine::Machine&
 
 ComparisonRow from_compensation(const compensation::CompensationResult& r);
 
-ComparisonRow compensation_row(const std::string& path, const machine::Machine& machine,
+ComparisonRow compensation_row(const plan::GcodeInput& path, const machine::Machine& machine,
                                const std::string& method, const dynamics::AxisModel& model,
                                const dynamics::AxisModel& plant, double rate_hz, double max_base_accel_mm_s2) {
   compensation::CompensationOptions o;
@@ -97,7 +97,7 @@ ComparisonRow from_compensation(const compensation::CompensationResult& r) {
   return row;
 }
 
-ComparisonRow shaper_row(const std::string& path, const machine::Machine& machine,
+ComparisonRow shaper_row(const plan::GcodeInput& path, const machine::Machine& machine,
                          const std::string& type, const ComparisonOptions& options,
                          const dynamics::AxisModel& plant) {
   simulation::AxisShaperSetting s;
@@ -130,7 +130,7 @@ ComparisonRow shaper_row(const std::string& path, const machine::Machine& machin
 
 // ------------------------------------------------------------------ one layer (a move span)
 
-std::vector<plan::PlannedMove> layer_moves(const std::string& path, const machine::Machine& machine, int layer) {
+std::vector<plan::PlannedMove> layer_moves(const plan::GcodeInput& path, const machine::Machine& machine, int layer) {
   plan::PlanSource source(path, machine);
   plan::CollectSink collect;
   std::vector<plan::Sink*> sinks{&collect};
@@ -208,7 +208,7 @@ void validate(const ComparisonOptions& o) {
       throw Error(fmt::format("--plant-offsets: {} % must be > -100 (the plant frequency must stay > 0)", p));
   }
   if (!(o.max_base_accel_mm_s2 > 0.0))
-    throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", o.max_base_accel_mm_s2));
+    throw Error(fmt::format("--max-base-accel-mm-s2: must be > 0, got {}", o.max_base_accel_mm_s2));
   if (!(o.natural_frequency_hz > 0.0) || !std::isfinite(o.natural_frequency_hz))
     throw Error(fmt::format("--natural-frequency-hz: must be > 0, got {}", o.natural_frequency_hz));
   if (!(o.damping_ratio >= 0.0) || !std::isfinite(o.damping_ratio))
@@ -218,11 +218,15 @@ void validate(const ComparisonOptions& o) {
     throw Error(fmt::format("--damping-ratio: must be < 1 for the shapers (zv, mzv, ei), got {}", o.damping_ratio));
 }
 
-ComparisonResult compare_file(const std::string& path, const machine::Machine& machine,
+ComparisonResult compare_file(const plan::GcodeInput& input, const machine::Machine& machine,
                               const ComparisonOptions& options) {
   validate(options);
+  // Every run plans the file again: one rewindable input (standard input and a FIFO are read
+  // once; the later runs read the reader's copy).
+  plan::RewindableGcode rewindable(input);
+  const plan::GcodeInput path = rewindable;
   ComparisonResult result;
-  result.file = path;
+  result.file = input.path();
   result.natural_frequency_hz = options.natural_frequency_hz;
   result.damping_ratio = options.damping_ratio;
   result.sample_rate_hz = options.sample_rate_hz;

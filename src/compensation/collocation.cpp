@@ -299,9 +299,9 @@ const char* solver_return_name(Ipopt::SolverReturn s) {
 void run_collocation(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
                      double auto_tail_s, Grid& grid, CompensationResult& r) {
   if (!(o.effort_weight_s2 >= 0.0) || !std::isfinite(o.effort_weight_s2))
-    throw Error(fmt::format("--effort-weight-s2 {} must be >= 0", o.effort_weight_s2));
+    throw Error(fmt::format("--effort-weight-s2: must be >= 0, got {}", o.effort_weight_s2));
   if (o.max_solver_iterations < 1)
-    throw Error(fmt::format("--max-iterations {} must be >= 1", o.max_solver_iterations));
+    throw Error(fmt::format("--max-iterations: must be >= 1, got {}", o.max_solver_iterations));
   const double h = 1.0 / o.sample_rate_hz;
   const double decay = std::min(slowest_decay_rate_per_s(o.model_x), slowest_decay_rate_per_s(o.model_y));
   const double settle = std::isfinite(decay) && decay > 0 ? 4.0 / decay : 1.0;
@@ -324,7 +324,7 @@ void run_collocation(std::span<const plan::PlannedMove> moves, const Compensatio
   if (o.window_s > 0.0 && o.window_s < settle)
     throw Error(fmt::format("--window-s {} is shorter than the model's settling time ({:.4g} s)", o.window_s, settle));
   if (o.overlap_s >= 0.0 && !(o.overlap_s < w_s))
-    throw Error(fmt::format("--overlap-s {} must be >= 0 and shorter than the window ({} s)", o.overlap_s, w_s));
+    throw Error(fmt::format("--overlap-s: must be >= 0 and shorter than the window ({1} s), got {0}", o.overlap_s, w_s));
   if (o.overlap_s >= 0.0 && o.overlap_s < 0.5 * settle)
     throw Error(fmt::format("--overlap-s {} is shorter than half the model's settling time ({:.4g} s)",
                             o.overlap_s, 0.5 * settle));

@@ -13,6 +13,9 @@
 #include "amctl/control/discretize.hpp"
 #include "amctl/control/state_space.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
+#include "amctl/core/memory.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/core/fixed_format.hpp"
 #include "amctl/dynamics/simulate.hpp"
 #include "amctl/plan/stream.hpp"
@@ -176,14 +179,18 @@ double auto_tail_s(const CompensationOptions& options) {
 }
 
 void validate_options(const CompensationOptions& o) {
-  if (!(o.sample_rate_hz > 0.0) || !std::isfinite(o.sample_rate_hz))
-    throw Error(fmt::format("--sample-rate-hz: must be > 0, got {}", o.sample_rate_hz));
+  if (!in_range(kSampleRateRange, o.sample_rate_hz))
+    throw Error(fmt::format("--sample-rate-hz: must be {}, got {}", describe(kSampleRateRange), o.sample_rate_hz));
+  if (o.lead_in_s > kMaxLeadTail_s || std::isnan(o.lead_in_s))
+    throw Error(fmt::format("--lead-in-s: must be at most {} s, got {}", kMaxLeadTail_s, o.lead_in_s));
+  if (o.tail_s > kMaxLeadTail_s || std::isnan(o.tail_s))
+    throw Error(fmt::format("tail_s: must be at most {} s, got {}", kMaxLeadTail_s, o.tail_s));
   if (o.model_x.is_rigid() || o.model_y.is_rigid())
     throw Error("--natural-frequency-hz: compensation needs a belt model (one mode or more)");
   dynamics::require_above_nyquist(o.sample_rate_hz,
                                   {&o.model_x, &o.model_y, &o.plant_x, &o.plant_y});
   if (!(o.max_base_accel_mm_s2 > 0.0))
-    throw Error(fmt::format("--max-base-accel-mm-s2 {} must be > 0", o.max_base_accel_mm_s2));
+    throw Error(fmt::format("--max-base-accel-mm-s2: must be > 0, got {}", o.max_base_accel_mm_s2));
   if (o.method == Method::fbf || o.method == Method::lpfbf || o.method == Method::rfbf) {
     if (o.degree < 1 || o.degree > 7)
       throw Error(fmt::format("--degree: must be between 1 and 7, got {}", o.degree));
@@ -203,6 +210,28 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   const auto clock0 = std::chrono::steady_clock::now();
   const double h = 1.0 / options.sample_rate_hz;
   const double t_begin = moves.front().start_time_s, t_end = moves.back().end_time_s();
+  {
+    // Said before anything is allocated for the command: how much it will hold (an upper
+    // bound of the automatic lead-in and tail, 10 s each).
+    const double lead = options.lead_in_s >= 0.0 ? options.lead_in_s : 10.0;
+    const double tail = options.tail_s >= 0.0 ? options.tail_s : 10.0;
+    const double samples = (t_end - t_begin + lead + tail) * options.sample_rate_hz + 1.0;
+    MemoryEstimate est;
+    est.method = method_name(options.method);
+    est.samples = static_cast<std::uint64_t>(std::min(samples, 1e18));
+    est.bytes = static_cast<std::uint64_t>(std::min(samples * static_cast<double>(kCompensationBytesPerSample) +
+                                                        static_cast<double>(all_moves.size() * sizeof(plan::PlannedMove)),
+                                                    1e18));
+    if (options.on_memory_estimate) options.on_memory_estimate(est);
+    const std::uint64_t limit = options.max_memory_bytes != 0 ? options.max_memory_bytes : available_memory_bytes();
+    if (limit != 0 && est.bytes > limit) {
+      throw Error(fmt::format(
+          "--method: {} would hold {} samples ({:.1f} s at {:g} Hz), about {} of memory, more than the {} "
+          "available; expected a shorter file, a lower --sample-rate-hz, or --method lpfbf, which streams",
+          est.method, est.samples, samples / options.sample_rate_hz, options.sample_rate_hz, memory_text(est.bytes),
+          memory_text(limit)));
+    }
+  }
 
   CompensationResult r;
   r.method = method_name(options.method);
@@ -347,7 +376,7 @@ void judge_machine_accel(CompensationResult& r, const machine::Machine& m, const
 
 }  // namespace detail
 
-CompensationResult compensate_file(const std::string& path, const machine::Machine& machine,
+CompensationResult compensate_file(const plan::GcodeInput& path, const machine::Machine& machine,
                                    const CompensationOptions& options) {
   plan::PlanSource source(path, machine);
   plan::CollectSink collect;
@@ -409,34 +438,15 @@ Json to_json(const CompensationResult& r) {
   return j;
 }
 
-namespace {
-
-/// Writes `path` through a temporary file renamed at the end (whole or not at all).
-template <class F>
-void write_atomically(const std::string& path, const char* flag, F&& body) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    if (!f) throw Error(fmt::format("{} {}: cannot open for writing", flag, path));
-    body(f);
-    f.flush();
-    if (!f) {
-      std::remove(tmp.c_str());
-      throw Error(fmt::format("{} {}: write failed", flag, path));
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    throw Error(fmt::format("{} {}: {}", flag, path, ec.message()));
-  }
+void write_csv(const CompensationResult& r, const std::string& path) {
+  OutputFile out(path, OutputOptions{"--csv", {}, {}});
+  write_csv(r, out);
+  out.commit();
 }
 
-}  // namespace
-
-void write_csv(const CompensationResult& r, const std::string& path) {
-  write_atomically(path, "--csv", [&](std::ofstream& f) {
+void write_csv(const CompensationResult& r, OutputFile& out) {
+  {
+    std::ostream& f = out.stream();
     const bool accel = !r.x_cmd_accel_mm_s2.empty();
     f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm"
       << (accel ? ",x_cmd_accel_mm_s2,y_cmd_accel_mm_s2\n" : "\n");
@@ -457,11 +467,18 @@ void write_csv(const CompensationResult& r, const std::string& path) {
       }
     }
     f.write(row.data(), static_cast<std::streamsize>(row.size()));
-  });
+  }
 }
 
 
 void write_gcode(const CompensationResult& r, const std::string& path) {
+  OutputFile out(path, OutputOptions{"--gcode", {}, {}});
+  write_gcode(r, out);
+  out.commit();
+}
+
+void write_gcode(const CompensationResult& r, OutputFile& out) {
+  const std::string& path = out.path();
   const std::size_t n = r.t_s.size();
   if (n == 0) throw Error(fmt::format("--gcode {}: there is no command to write", path));
   if (r.z_des_mm.size() != n || r.e_des_mm.size() != n)
@@ -471,7 +488,8 @@ void write_gcode(const CompensationResult& r, const std::string& path) {
                             "follow it: use a jerk-limited plan or another method", path, r.status));
   const double h = 1.0 / r.sample_rate_hz;
   const long accel = std::lround(std::ceil(r.peak_command_accel_mm_s2 * 1.01));
-  write_atomically(path, "--gcode", [&](std::ofstream& f) {
+  {
+    std::ostream& f = out.stream();
     f << fmt::format(
         "; amctl compensate --method {}: the motor-side command, one segment per {:.6g} s ({} Hz)\n"
         "; status {}; max tracking error {:.6g} mm (uncompensated {:.6g} mm), lead-in {:.4f} s\n"
@@ -509,7 +527,7 @@ void write_gcode(const CompensationResult& r, const std::string& path) {
       px = x, py = y, pz = z, pe += de;
     }
     if (rest_s > 0.0) f << fmt::format("G4 P{:.3f}\n", rest_s * 1e3);
-  });
+  }
 }
 
 }  // namespace amctl::compensation

@@ -141,7 +141,7 @@ FbfLayout fbf_layout_start(const plan::PlannedMove& first, const CompensationOpt
         "--knot-spacing-s {} is too coarse for the model: the basis cannot follow its {} Hz mode; "
         "use at most half its period, {:.6g} s", o.knot_spacing_s, f_max, 0.5 / f_max));
   if (o.knot_spacing_s == 0.0 || (o.knot_spacing_s > 0.0 && o.knot_spacing_s < 0.5 * h))
-    throw Error(fmt::format("--knot-spacing-s {} must be at least one sample step ({} s)",
+    throw Error(fmt::format("--knot-spacing-s: must be at least one sample step ({1} s), got {0}",
                             o.knot_spacing_s, h));
   const int q = std::max(1, static_cast<int>(std::llround(t_req / h)));
   const double T = q * h;

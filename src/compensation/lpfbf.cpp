@@ -287,7 +287,7 @@ std::pair<int, int> lpfbf_window_knots(const FbfLayout& lay, const CompensationO
     throw Error(fmt::format("--window-s {} is shorter than the model's settling time {:.4g} s "
                             "(4 / (zeta w) of its slowest mode); use a longer window", W, settle));
   if (!(O >= 0.0) || !(O < W))
-    throw Error(fmt::format("--overlap-s {} must be >= 0 and shorter than the window ({} s)", O, W));
+    throw Error(fmt::format("--overlap-s: must be >= 0 and shorter than the window ({1} s), got {0}", O, W));
   // Without preview the last kept coefficients are fitted blind to what follows (overlap 0
   // gave a 4 mm error on the seed); half the settling time is enough there.
   if (O < 0.5 * settle)

@@ -2,15 +2,13 @@
 // batch, the desired path sampled on the FBF grid as its moves arrive, each axis's LpfbfAxis
 // emits the command once its windows are solved, and every emitted sample is checked at once
 // (the plant, exact for a command linear between samples: e += B dv at each sample, e <- Phi e)
-// and written to OUT.csv.part, renamed to OUT.csv at the end. Held: the window's samples, the
+// and written to the CSV (amctl::OutputFile: a regular file appears whole at the end). Held: the window's samples, the
 // moves from 64 before the oldest unwritten sample (the contour search) to the newest.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <deque>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
 
@@ -58,16 +56,10 @@ struct HeldMove {
 
 class LpfbfStream final : public plan::Sink {
  public:
-  LpfbfStream(const CompensationOptions& o, std::string csv_path)
-      : o_(o), csv_(std::move(csv_path)), part_(csv_ + ".part"),
+  LpfbfStream(const CompensationOptions& o, OutputFile& csv)
+      : o_(o), f_(csv),
         plant_x_(o.plant_x, 1.0 / o.sample_rate_hz), plant_y_(o.plant_y, 1.0 / o.sample_rate_hz),
         unc_x_(o.plant_x, 1.0 / o.sample_rate_hz), unc_y_(o.plant_y, 1.0 / o.sample_rate_hz) {}
-  ~LpfbfStream() override {
-    if (f_.is_open()) {
-      f_.close();
-      std::remove(part_.c_str());
-    }
-  }
 
   void consume(const plan::PlanBatch& batch) override {
     for (const plan::PlannedMove& m : batch.moves)
@@ -88,17 +80,8 @@ class LpfbfStream final : public plan::Sink {
     ax_->finish(K, M, last_x_);
     ay_->finish(K, M, last_y_);
     drain(true);
-    f_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+    f_.write(line_);
     line_.clear();
-    f_.flush();
-    if (!f_) throw Error(fmt::format("--csv {}: write failed", csv_));
-    f_.close();
-    std::error_code ec;
-    std::filesystem::rename(part_, csv_, ec);
-    if (ec) {
-      std::remove(part_.c_str());
-      throw Error(fmt::format("--csv {}: {}", csv_, ec.message()));
-    }
     r_.motion_time_s = t_end_ - t_begin_;
     r_.lead_in_s = static_cast<double>(lay_.grid.lead_steps) * lay_.grid.h;
     r_.tail_s = lay_.grid.t(K - 1) - t_end_;
@@ -137,9 +120,7 @@ class LpfbfStream final : public plan::Sink {
     r_.window_s = nw * T;
     r_.overlap_s = no * T;
     t_begin_ = m.start_time_s;
-    f_.open(part_, std::ios::trunc);
-    if (!f_) throw Error(fmt::format("--csv {}: cannot open {} for writing", csv_, part_));
-    f_ << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm\n";
+    f_.write("time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm\n");
     started_ = true;
   }
 
@@ -213,7 +194,7 @@ class LpfbfStream final : public plan::Sink {
       detail::append_csv_row(line_, t, cmd_[0], cmdy_[0], xd, yd, xs, ys);
       line_.push_back('\n');
       if (line_.size() > (1U << 16)) {
-        f_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+        f_.write(line_);
         line_.clear();
       }
       ++written_;
@@ -241,8 +222,7 @@ class LpfbfStream final : public plan::Sink {
     double t, x, y;
   };
   const CompensationOptions& o_;
-  std::string csv_, part_;
-  std::ofstream f_;
+  OutputFile& f_;
   std::string line_;
   detail::FbfLayout lay_;
   std::optional<detail::LpfbfAxis> ax_, ay_;
@@ -260,11 +240,19 @@ class LpfbfStream final : public plan::Sink {
 
 CompensationResult compensate_file_streaming(const std::string& path, const machine::Machine& machine,
                                              const CompensationOptions& options, const std::string& csv_path) {
+  OutputFile csv(csv_path, OutputOptions{"--csv", {path}, {}});
+  CompensationResult r = compensate_file_streaming(path, machine, options, csv);
+  csv.commit();
+  return r;
+}
+
+CompensationResult compensate_file_streaming(const plan::GcodeInput& path, const machine::Machine& machine,
+                                             const CompensationOptions& options, OutputFile& csv) {
   if (options.method != Method::lpfbf)
     throw Error("compensate_file_streaming: only --method lpfbf streams");
   detail::validate_options(options);
   const auto clock0 = std::chrono::steady_clock::now();
-  LpfbfStream sink(options, csv_path);
+  LpfbfStream sink(options, csv);
   plan::PlanSource source(path, machine);
   std::vector<plan::Sink*> sinks{&sink};
   plan::run_pipeline(source, sinks);

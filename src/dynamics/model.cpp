@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 
 namespace amctl::dynamics {
 
@@ -123,7 +124,8 @@ control::StateSpace seed000_xy_state_space(double wx, double zx, double wy, doub
 }
 
 void require_above_nyquist(double sample_rate_hz, const std::vector<const AxisModel*>& models) {
-  require_positive("sample_rate_hz", sample_rate_hz);
+  // A rate the simulation can run at: 1e12 Hz would take hours per second of print.
+  require_in_range("sample_rate_hz", kSampleRateRange, sample_rate_hz);
   double f = 0.0;
   for (const AxisModel* m : models) f = std::max(f, m->max_natural_frequency_hz());
   if (sample_rate_hz <= 2.0 * f) {

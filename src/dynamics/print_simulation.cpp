@@ -66,9 +66,10 @@ void SimulationSink::finish(const plan::StreamSummary& summary) {
   }
 }
 
-PrintSimulationResult simulate_print(const std::string& path, const machine::Machine& machine,
+PrintSimulationResult simulate_print(const plan::GcodeInput& input, const machine::Machine& machine,
                                      const AxisModel& model_x, const AxisModel& model_y,
                                      const PrintSimulationOptions& options) {
+  const std::string& path = input.path();
   require_above_nyquist(options.simulation.sample_rate_hz, {&model_x, &model_y});
   const MetricsOptions& mo = options.metrics;
   if (mo.t_end_s < mo.t_begin_s) {
@@ -81,7 +82,8 @@ PrintSimulationResult simulate_print(const std::string& path, const machine::Mac
   std::unique_ptr<SampleCsvFile> csv;
   if (!options.csv_path.empty()) {
     csv = std::make_unique<SampleCsvFile>(
-        options.csv_path, csv_decimation(options.simulation.sample_rate_hz, options.csv_rate_hz));
+        options.csv_path, csv_decimation(options.simulation.sample_rate_hz, options.csv_rate_hz),
+        OutputOptions{"--csv", {path}, {}});
   }
   StreamingSimulation::RowSink rows;
   if (csv && options.rows) {
@@ -96,7 +98,7 @@ PrintSimulationResult simulate_print(const std::string& path, const machine::Mac
   }
 
   const auto t0 = std::chrono::steady_clock::now();
-  plan::PlanSource source(path, machine);
+  plan::PlanSource source(input, machine);
   SimulationSink sim(model_x, model_y, options.simulation, options.metrics, std::move(rows));
   plan::ProfilePeaksSink peaks;
   plan::Sink* sinks[] = {&sim, &peaks};

@@ -13,6 +13,7 @@
 #include <zlib.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/input.hpp"
 #include "amctl/formats/sources.hpp"
 
 namespace amctl::formats {
@@ -32,37 +33,6 @@ bool starts_with_word_ci(std::string_view s, std::string_view word) {
   return s.size() == word.size() || is_space(s[word.size()]);
 }
 
-/// An open input before its content is known.
-struct RawInput {
-  std::FILE* file = nullptr;
-  bool owns = false;
-  std::string name;          // for messages
-  std::string open_path;     // the path that was opened (the archive for a named member)
-  std::string member;        // a named member of an archive
-  std::string prefix;        // the first bytes, already read
-  bool regular = false;
-  std::uint64_t size = 0;
-
-  RawInput() = default;
-  RawInput(const RawInput&) = delete;
-  RawInput& operator=(const RawInput&) = delete;
-  RawInput(RawInput&& o) noexcept
-      : file(o.file), owns(o.owns), name(std::move(o.name)), open_path(std::move(o.open_path)),
-        member(std::move(o.member)), prefix(std::move(o.prefix)), regular(o.regular),
-        size(o.size) {
-    o.file = nullptr;
-  }
-  ~RawInput() {
-    if (owns && file != nullptr) std::fclose(file);
-  }
-  /// Hands the file to a source (which then closes it).
-  std::unique_ptr<gcode::ByteSource> release_as_source() {
-    auto s = std::make_unique<FileSource>(file, owns, name, std::move(prefix));
-    file = nullptr;
-    return s;
-  }
-};
-
 /// "a.gcode.3mf/Metadata/plate_2.gcode" -> the regular file a.gcode.3mf and the member.
 bool split_member(const std::string& path, std::string& archive, std::string& member) {
   for (std::size_t slash = path.find('/', 1); slash != std::string::npos;
@@ -79,51 +49,39 @@ bool split_member(const std::string& path, std::string& archive, std::string& me
   return false;
 }
 
-RawInput open_raw(const std::string& path) {
+/// An input opened by the project's one reader (core/input.hpp) before its content is known.
+struct RawInput {
+  std::unique_ptr<InputFile> file;
+  std::string name;       // for messages
+  std::string open_path;  // the path that was opened (the archive for a named member)
+  std::string member;     // a named member of an archive
+  std::string prefix;     // the first bytes (peeked: the file still gives them out)
+  bool regular = false;
+  std::uint64_t size = 0;
+};
+
+void fill_prefix(RawInput& r) {
+  r.prefix = std::string(r.file->peek(kPrefixBytes));
+  r.regular = r.file->size().has_value();
+  r.size = r.file->size().value_or(0);
+}
+
+RawInput open_raw(const std::string& path, InputOptions options = gcode::gcode_input_options()) {
   RawInput r;
-  if (path == "-") {
-    r.file = stdin;
-    r.name = "<stdin>";
-  } else {
-    r.name = path;
-    r.open_path = path;
-    r.file = std::fopen(path.c_str(), "rb");
-    if (r.file == nullptr) {
-      const int err = errno;
+  r.open_path = path;
+  if (path != "-") {
+    struct stat st{};
+    if (::stat(path.c_str(), &st) != 0 && (errno == ENOTDIR || errno == ENOENT)) {
       std::string archive, member;
-      if ((err == ENOTDIR || err == ENOENT) && split_member(path, archive, member)) {
-        r.file = std::fopen(archive.c_str(), "rb");
+      if (split_member(path, archive, member)) {
         r.open_path = archive;
         r.member = member;
       }
-      if (r.file == nullptr) {
-        throw Error(SourceLocation{path, 0, 0},
-                    fmt::format("cannot open G-code file: {}", std::strerror(err)));
-      }
-    }
-    r.owns = true;
-    struct stat st{};
-    if (::fstat(fileno(r.file), &st) == 0) {
-      if (S_ISDIR(st.st_mode)) {
-        throw Error(SourceLocation{path, 0, 0},
-                    "found a directory, expected a G-code file (several files: name each, as "
-                    "DIR/*.gcode)");
-      }
-      r.regular = S_ISREG(st.st_mode);
-      r.size = r.regular ? static_cast<std::uint64_t>(st.st_size) : 0;
     }
   }
-  r.prefix.resize(kPrefixBytes);
-  std::size_t got = 0;
-  while (got < r.prefix.size()) {
-    const std::size_t k = std::fread(r.prefix.data() + got, 1, r.prefix.size() - got, r.file);
-    if (k == 0) break;
-    got += k;
-  }
-  if (got < r.prefix.size() && std::ferror(r.file)) {
-    throw Error(SourceLocation{r.name, 0, 0}, fmt::format("read error: {}", std::strerror(errno)));
-  }
-  r.prefix.resize(got);
+  r.file = std::make_unique<InputFile>(r.open_path, std::move(options));
+  r.name = r.member.empty() ? r.file->name() : path;
+  fill_prefix(r);
   if (!r.member.empty() && !is_zip(r.prefix)) {
     throw Error(SourceLocation{path, 0, 0},
                 fmt::format("cannot open G-code file: {} is not a zip archive, so it holds no "
@@ -132,6 +90,20 @@ RawInput open_raw(const std::string& path) {
   }
   return r;
 }
+
+/// A decoder over an InputFile, owning both.
+class OwnedInput final : public gcode::ByteSource {
+ public:
+  OwnedInput(std::unique_ptr<InputFile> file, std::unique_ptr<gcode::ByteSource> decoded)
+      : file_(std::move(file)), decoded_(std::move(decoded)) {}
+  std::size_t read(char* dst, std::size_t n) override { return decoded_->read(dst, n); }
+  [[nodiscard]] const std::string& name() const override { return file_->name(); }
+  [[nodiscard]] std::string origin(std::uint64_t offset) const override { return decoded_->origin(offset); }
+
+ private:
+  std::unique_ptr<InputFile> file_;  // declared first: destroyed after the decoder reading it
+  std::unique_ptr<gcode::ByteSource> decoded_;
+};
 
 /// gzip (or zlib) data inflated as a stream.
 class GzipSource final : public gcode::ByteSource {
@@ -197,24 +169,29 @@ class GzipSource final : public gcode::ByteSource {
                           what, name));
 }
 
-/// Standard input (or a pipe) holding a zip: copied to an unnamed temporary file, since a
-/// zip's directory is at its end.
-std::FILE* spool(RawInput& r) {
+/// A zip read as a stream (standard input, a pipe, a second pass): copied to an unnamed
+/// temporary file, since a zip's directory is at its end.
+std::FILE* spool(gcode::ByteSource& raw, const std::string& name) {
   std::FILE* t = std::tmpfile();
   if (t == nullptr) {
-    throw Error(SourceLocation{r.name, 0, 0},
-                fmt::format("cannot make a temporary copy of the zip archive: {}",
-                            std::strerror(errno)));
+    throw Error(SourceLocation{name, 0, 0},
+                fmt::format("cannot make a temporary copy of the zip archive: {}", std::strerror(errno)));
   }
   std::vector<char> buf(64 * 1024);
-  std::fwrite(r.prefix.data(), 1, r.prefix.size(), t);
-  for (std::size_t k; (k = std::fread(buf.data(), 1, buf.size(), r.file)) > 0;) {
-    if (std::fwrite(buf.data(), 1, k, t) != k) {
-      std::fclose(t);
-      throw Error(SourceLocation{r.name, 0, 0},
-                  fmt::format("cannot make a temporary copy of the zip archive: {}",
-                              std::strerror(errno)));
+  try {
+    for (std::size_t k; (k = raw.read(buf.data(), buf.size())) > 0;) {
+      if (std::fwrite(buf.data(), 1, k, t) != k) {
+        throw Error(SourceLocation{name, 0, 0},
+                    fmt::format("cannot make a temporary copy of the zip archive: {}", std::strerror(errno)));
+      }
     }
+    if (std::fflush(t) != 0) {
+      throw Error(SourceLocation{name, 0, 0},
+                  fmt::format("cannot make a temporary copy of the zip archive: {}", std::strerror(errno)));
+    }
+  } catch (...) {
+    std::fclose(t);
+    throw;
   }
   std::rewind(t);
   return t;
@@ -222,7 +199,7 @@ std::FILE* spool(RawInput& r) {
 
 ZipArchive open_archive(RawInput& r, const InputLimits& limits) {
   if (r.regular) return ZipArchive(r.open_path, r.name, limits.archive);
-  return ZipArchive(spool(r), r.name, limits.archive);
+  return ZipArchive(spool(*r.file, r.name), r.name, limits.archive);
 }
 
 std::string member_list(const std::vector<ArchiveMember>& ms) {
@@ -244,11 +221,24 @@ class BorrowedSource final : public gcode::ByteSource {
  public:
   explicit BorrowedSource(gcode::ByteSource& s) : s_(s) {}
   std::size_t read(char* dst, std::size_t n) override { return s_.read(dst, n); }
+  [[nodiscard]] const std::string& name() const override { return s_.name(); }
   [[nodiscard]] std::string origin(std::uint64_t offset) const override { return s_.origin(offset); }
 
  private:
   gcode::ByteSource& s_;
 };
+
+/// The only plate of a sliced 3MF (several are an error naming them).
+std::unique_ptr<gcode::ByteSource> one_plate(const ZipArchive& z, const std::string& name) {
+  const std::vector<ArchiveMember> ms = z.gcode_members();
+  if (ms.empty()) no_gcode_in_archive(name, z);
+  if (ms.size() > 1) {
+    throw Error(SourceLocation{name, 0, 0},
+                fmt::format("found {} plates with G-code ({}), expected one: name it as {}/{}",
+                            ms.size(), member_list(ms), name == "<stdin>" ? "FILE" : name, ms[1].name));
+  }
+  return z.open_member(ms.front().name, true);
+}
 
 }  // namespace
 
@@ -268,28 +258,7 @@ std::unique_ptr<gcode::ByteSource> decode_gzip(gcode::ByteSource& raw, std::stri
 
 std::unique_ptr<gcode::ByteSource> decode_sliced_3mf(gcode::ByteSource& raw, std::string name,
                                                      const ArchiveLimits& limits) {
-  std::FILE* t = std::tmpfile();
-  if (t == nullptr) {
-    throw Error(SourceLocation{name, 0, 0},
-                fmt::format("cannot make a temporary copy of the zip archive: {}", std::strerror(errno)));
-  }
-  std::vector<char> buf(64 * 1024);
-  for (std::size_t k; (k = raw.read(buf.data(), buf.size())) > 0;) {
-    if (std::fwrite(buf.data(), 1, k, t) != k) {
-      std::fclose(t);
-      throw Error(SourceLocation{name, 0, 0}, "cannot make a temporary copy of the zip archive");
-    }
-  }
-  std::rewind(t);
-  const ZipArchive z(t, name, limits);
-  const std::vector<ArchiveMember> ms = z.gcode_members();
-  if (ms.empty()) no_gcode_in_archive(name, z);
-  if (ms.size() > 1) {
-    throw Error(SourceLocation{name, 0, 0},
-                fmt::format("found {} plates with G-code ({}), expected one: name it as {}/{}",
-                            ms.size(), member_list(ms), name, ms[1].name));
-  }
-  return z.open_member(ms.front().name, true);
+  return one_plate(ZipArchive(spool(raw, name), name, limits), name);
 }
 
 ContentKind detect_content(std::string_view prefix, std::uint64_t file_size) {
@@ -311,26 +280,49 @@ ContentKind detect_content(std::string_view prefix, std::uint64_t file_size) {
   return ContentKind::gcode_text;
 }
 
+std::unique_ptr<gcode::ByteSource> decode_gcode(InputFile& file, const InputLimits& limits,
+                                                GcodeFormat* format) {
+  const std::string prefix(file.peek(kPrefixBytes));
+  const std::string& name = file.name();
+  GcodeFormat f = GcodeFormat::text;
+  std::unique_ptr<gcode::ByteSource> out;
+  switch (detect_content(prefix, file.size().value_or(0))) {
+    case ContentKind::gcode_text: out = std::make_unique<BorrowedSource>(file); break;
+    case ContentKind::binary_gcode:
+      f = GcodeFormat::binary_gcode;
+      out = decode_bgcode(file, name, limits.bgcode);
+      break;
+    case ContentKind::gzip:
+      f = GcodeFormat::gzip;
+      out = decode_gzip(file, name);
+      break;
+    case ContentKind::zip:
+      f = GcodeFormat::sliced_3mf;
+      if (file.size() && file.path() != "-") {
+        // A regular file: libzip reads its directory in place, no copy.
+        const ZipArchive z(file.path(), name, limits.archive);
+        out = one_plate(z, name);
+      } else {
+        out = decode_sliced_3mf(file, name, limits.archive);
+      }
+      break;
+    case ContentKind::stl_ascii: model_error(name, "an ASCII STL");
+    case ContentKind::stl_binary: model_error(name, "a binary STL");
+    case ContentKind::step: model_error(name, "a STEP file");
+  }
+  if (format != nullptr) *format = f;
+  return out;
+}
+
 GcodeInput open_gcode_input(const std::string& path, const InputLimits& limits) {
   RawInput r = open_raw(path);
   GcodeInput in;
   in.name = r.name;
-  switch (detect_content(r.prefix, r.size)) {
-    case ContentKind::gcode_text:
-      in.bytes = r.release_as_source();
-      return in;
-    case ContentKind::binary_gcode:
-      in.format = GcodeFormat::binary_gcode;
-      in.bytes = std::make_unique<BgcodeReader>(r.release_as_source(), r.name, limits.bgcode);
-      return in;
-    case ContentKind::gzip:
-      in.format = GcodeFormat::gzip;
-      in.bytes = std::make_unique<GzipSource>(r.release_as_source(), r.name);
-      return in;
-    case ContentKind::stl_ascii: model_error(r.name, "an ASCII STL");
-    case ContentKind::stl_binary: model_error(r.name, "a binary STL");
-    case ContentKind::step: model_error(r.name, "a STEP file");
-    case ContentKind::zip: break;
+  const ContentKind kind = detect_content(r.prefix, r.size);
+  if (kind != ContentKind::zip) {
+    std::unique_ptr<gcode::ByteSource> decoded = decode_gcode(*r.file, limits, &in.format);
+    in.bytes = std::make_unique<OwnedInput>(std::move(r.file), std::move(decoded));
+    return in;
   }
   in.format = GcodeFormat::sliced_3mf;
   const std::string archive_name = r.member.empty() ? r.name : r.open_path;
@@ -354,8 +346,12 @@ GcodeInput open_gcode_input(const std::string& path, const InputLimits& limits) 
   return in;
 }
 
-std::unique_ptr<gcode::LineReader> open_gcode_reader(const std::string& path,
-                                                     const InputLimits& limits,
+std::unique_ptr<gcode::LineReader> open_gcode_reader(InputFile& file, const InputLimits& limits,
+                                                     std::size_t buffer_bytes) {
+  return std::make_unique<gcode::LineReader>(decode_gcode(file, limits), file.name(), buffer_bytes);
+}
+
+std::unique_ptr<gcode::LineReader> open_gcode_reader(const std::string& path, const InputLimits& limits,
                                                      std::size_t buffer_bytes) {
   GcodeInput in = open_gcode_input(path, limits);
   return std::make_unique<gcode::LineReader>(std::move(in.bytes), std::move(in.name), buffer_bytes);
@@ -363,6 +359,10 @@ std::unique_ptr<gcode::LineReader> open_gcode_reader(const std::string& path,
 
 std::vector<std::string> gcode_parts(const std::string& path, const InputLimits& limits) {
   if (path == "-") return {path};
+  // Only a regular file is looked into here: the first bytes of a pipe, once read, would be
+  // gone for the reader that reads it afterwards.
+  struct stat st{};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return {path};
   std::optional<RawInput> r;
   try {
     r.emplace(open_raw(path));

@@ -56,11 +56,25 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
                          allow_zero ? ">=" : ">", kMaxLimit, *o));
       }
     };
+    // A velocity or an acceleration a machine can have: 1e-300 passes "> 0" but makes every
+    // move take for ever (PhysicalRange, core/quantity.hpp).
+    auto physical = [&](const std::optional<double>& o, std::string_view key, const PhysicalRange& r,
+                        bool allow_zero) {
+      if (o && !(allow_zero && *o == 0.0) && !in_range(r, *o)) {
+        fail(line_no, cmd.args_column,
+             detail::out_of_range(fmt::format("SET_VELOCITY_LIMIT {}", key), r, *o) +
+                 (allow_zero ? " (or 0)" : ""));
+      }
+    };
     bad(lc.velocity, "VELOCITY", false);
     bad(lc.accel, "ACCEL", false);
     bad(lc.square_corner_velocity, "SQUARE_CORNER_VELOCITY", true);
     bad(lc.minimum_cruise_ratio, "MINIMUM_CRUISE_RATIO", true);
     bad(lc.accel_to_decel, "ACCEL_TO_DECEL", false);
+    physical(lc.velocity, "VELOCITY", kSpeedRange, false);
+    physical(lc.accel, "ACCEL", kAccelRange, false);
+    physical(lc.square_corner_velocity, "SQUARE_CORNER_VELOCITY", kSpeedRange, true);
+    physical(lc.accel_to_decel, "ACCEL_TO_DECEL", kAccelRange, false);
     if (lc.minimum_cruise_ratio && *lc.minimum_cruise_ratio >= 1.0) {
       fail(line_no, cmd.args_column, "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO must be < 1");
     }
@@ -96,10 +110,16 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     double v = number_arg("RETRACT_LENGTH", has);
     if (has) opt_.retract_length_mm = std::max(0.0, v);
     v = number_arg("RETRACT_SPEED", has);
+    if (has && v > 0 && !in_range(kSpeedRange, v)) {
+      fail(line_no, cmd.args_column, detail::out_of_range("SET_RETRACTION RETRACT_SPEED", kSpeedRange, v));
+    }
     if (has && v > 0) opt_.retract_speed_mm_s = v;
     v = number_arg("UNRETRACT_EXTRA_LENGTH", has);
     if (has) opt_.unretract_extra_length_mm = v;
     v = number_arg("UNRETRACT_SPEED", has);
+    if (has && v > 0 && !in_range(kSpeedRange, v)) {
+      fail(line_no, cmd.args_column, detail::out_of_range("SET_RETRACTION UNRETRACT_SPEED", kSpeedRange, v));
+    }
     if (has && v > 0) opt_.unretract_speed_mm_s = v;
     return;
   }

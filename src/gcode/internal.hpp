@@ -4,7 +4,19 @@
 #include <string>
 #include <string_view>
 
+#include <fmt/format.h>
+
+#include "amctl/core/quantity.hpp"
+
 namespace amctl::gcode::detail {
+
+/// "M220 S must be a factor in [0.001, 1e+06] %, got 1e-300" (the message of a G-code word
+/// outside its physical range; PhysicalRange, core/quantity.hpp).
+inline std::string out_of_range(std::string_view what, const PhysicalRange& r, double v) {
+  return fmt::format("{} must be {}, got {}", what, describe(r), v);
+}
+/// A speed given in mm/min (F words): the speed range times 60.
+inline constexpr PhysicalRange kFeedRange{"feedrate", "mm/min", kSpeedRange.min * 60.0, kSpeedRange.max * 60.0};
 
 // Largest accepted machine coordinate [mm] (1000 km): anything beyond is an overflow or a
 // typo, never a print, and squares of distances must stay far from double overflow.

@@ -31,7 +31,7 @@ using detail::trim;
   // Everything that could fail is checked before any state changes, so a line that fails
   // here is handed whole to the general path and reported there.
   const bool has_f = (pm.present >> 4) & 1u;
-  if (has_f && !(pm.value[4] > 0.0)) return false;
+  if (has_f && !in_range(detail::kFeedRange, pm.value[4] * unit_mm_)) return false;
   std::array<double, 4> new_gcode;
   std::array<double, 4> target = modal_target(pm.present & 0xFu, pm.value.data(), new_gcode);
   for (std::size_t a = 0; a < 4; ++a) {
@@ -152,6 +152,9 @@ bool Interpreter::expand(std::string_view line, std::uint64_t line_no, EventSink
         try {
           feed(piece, line_no, sink);
         } catch (const Error& e) {
+          // An error placed in another file (a macro's bound, at its printer.cfg line) stays
+          // where it is: that is the line to fix.
+          if (!e.where().file.empty() && e.where().file != source_) throw;
           // The column belongs to the macro's line, not to the file's: name that line instead.
           fail(line_no, 0, fmt::format("{} (in the lines of macro {}: '{}')", e.detail(), x.name,
                                        trim(piece)));
@@ -185,13 +188,17 @@ void Interpreter::dispatch(std::uint64_t line_no, EventSink& sink) {
 
 void Interpreter::note_unknown(std::string_view name, std::uint64_t line_no) {
   std::string key = to_upper(name);
-  for (auto& u : unknown_) {
-    if (u.name == key) {
-      ++u.count;
-      return;
-    }
+  if (const auto it = unknown_index_.find(key); it != unknown_index_.end()) {
+    ++unknown_[it->second].count;
+    return;
   }
-  unknown_.push_back(UnknownCommand{key, line_no, 1});
+  if (unknown_index_.size() >= kMaxUnknownCommandNames) key = std::string(kOtherUnknownCommands);
+  if (const auto it = unknown_index_.find(key); it != unknown_index_.end()) {
+    ++unknown_[it->second].count;
+    return;
+  }
+  unknown_index_.emplace(key, unknown_.size());
+  unknown_.push_back(UnknownCommand{std::move(key), line_no, 1});
 }
 
 void Interpreter::note_ignored(std::string_view name) { ++ignored_[to_upper(name)]; }
@@ -231,9 +238,9 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
         double s = 0.0;
         if (p.has('S')) s = p.get('S');
         else if (p.has('P')) s = p.get('P') / 1000.0;
-        if (s < 0.0) {
+        if (!(s >= 0.0) || s > kDurationRange.max) {
           fail(line_no, p.column[p.has('S') ? 'S' - 'A' : 'P' - 'A'],
-               fmt::format("G4 dwell must be >= 0, got {}", s));
+               detail::out_of_range("G4 dwell", kDurationRange, s));
         }
         sink.on_dwell(s, line_no);
         return;
@@ -311,14 +318,18 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
       case 220: {
         const Params& p = params();
         double s = p.get_or('S', 100.0);
-        if (!(s > 0.0)) fail(line_no, p.column['S' - 'A'], fmt::format("M220 S must be > 0 %, got {}", s));
+        if (!in_range(kPercentRange, s)) {
+          fail(line_no, p.column['S' - 'A'], detail::out_of_range("M220 S", kPercentRange, s));
+        }
         speed_factor_ = s / 100.0;
         return;
       }
       case 221: {
         const Params& p = params();
         double s = p.get_or('S', 100.0);
-        if (!(s > 0.0)) fail(line_no, p.column['S' - 'A'], fmt::format("M221 S must be > 0 %, got {}", s));
+        if (!in_range(kPercentRange, s)) {
+          fail(line_no, p.column['S' - 'A'], detail::out_of_range("M221 S", kPercentRange, s));
+        }
         extrude_factor_ = s / 100.0;
         return;
       }
@@ -370,6 +381,15 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
                    fmt::format("{} {} must be in [0, {:g}], got {}", cmd.name,
                                static_cast<char>('A' + i), kMaxLimit, v));
             }
+            // M201 accelerations, M203 feedrates (mm/s, or mm/min on RepRapFirmware), M204
+            // accelerations: 0 is ignored as the firmware ignores it; a positive value must be
+            // one a machine can have (1e-300 would make the moves take for ever).
+            const PhysicalRange& r = code == 203 ? kSpeedRange : kAccelRange;
+            if ((code == 201 || code == 203 || code == 204) && v > 0.0 && v < r.min) {
+              fail(line_no, lc.params.column[static_cast<std::size_t>(i)],
+                   detail::out_of_range(fmt::format("{} {}", cmd.name, static_cast<char>('A' + i)), r, v) +
+                       " (or 0, which the firmware ignores)");
+            }
           }
         }
         lc.line = line_no;
@@ -378,7 +398,7 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
       }
       case 207:
       case 208:
-        set_firmware_retraction(code, params());
+        set_firmware_retraction(code, params(), line_no);
         return;
       case 593: {  // Marlin input shaping: passed on, and counted as ignored as before
         const Params& p = params();
@@ -438,8 +458,8 @@ void Interpreter::handle_word(const Command& cmd, std::uint64_t line_no, EventSi
 void Interpreter::apply_feed(const Params& p, std::uint64_t line_no) {
   if (!p.has('F')) return;
   const double f = p.get('F');
-  if (!(f > 0.0)) {
-    fail(line_no, p.column['F' - 'A'], fmt::format("feedrate F must be > 0 mm/min, got {}", f));
+  if (!in_range(detail::kFeedRange, f * unit_mm_)) {
+    fail(line_no, p.column['F' - 'A'], detail::out_of_range("feedrate F", detail::kFeedRange, f * unit_mm_));
   }
   feed_mm_s_ = f * unit_mm_ / 60.0;
 }

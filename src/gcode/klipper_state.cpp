@@ -137,10 +137,9 @@ void Interpreter::restore_gcode_state(const Command& cmd, std::uint64_t line_no,
   double speed_mm_s = s.feed_mm_s * s.speed_factor;  // Klipper's saved `speed`
   if (auto m = text_arg(cmd, "MOVE_SPEED", &col)) {
     double v = 0.0;
-    if (parse_float_value(*m, v) != m->size() || !(v > 0.0) || v > kMaxLimit) {
-      fail(
-          line_no, col,
-          fmt::format("RESTORE_GCODE_STATE MOVE_SPEED= must be a number > 0 mm/s, found '{}'", *m));
+    if (parse_float_value(*m, v) != m->size() || !in_range(kSpeedRange, v)) {
+      fail(line_no, col,
+           fmt::format("RESTORE_GCODE_STATE MOVE_SPEED= must be {}, found '{}'", describe(kSpeedRange), *m));
     }
     if (move) speed_mm_s = v;
   }
@@ -196,8 +195,8 @@ void Interpreter::set_gcode_offset(const Command& cmd, std::uint64_t line_no, Ev
     double speed_mm_s = feed_mm_s_ * speed_factor_;
     double v = 0.0;
     if (number("MOVE_SPEED", v)) {
-      if (!(v > 0.0))
-        fail(line_no, cmd.args_column, "SET_GCODE_OFFSET MOVE_SPEED= must be > 0 mm/s");
+      if (!in_range(kSpeedRange, v))
+        fail(line_no, cmd.args_column, detail::out_of_range("SET_GCODE_OFFSET MOVE_SPEED=", kSpeedRange, v));
       speed_mm_s = v;
     }
     std::array<double, 4> target = pos_;
@@ -574,11 +573,10 @@ void Interpreter::dual_carriage_command(const Command& cmd, std::uint64_t line_n
   }
   if (auto m = text_arg(cmd, "MOVE_SPEED", &col)) {
     double v = 0.0;
-    if (parse_float_value(*m, v) != m->size() || !(v > 0.0) || v > kMaxLimit) {
-      fail(
-          line_no, col,
-          fmt::format(
-              "RESTORE_DUAL_CARRIAGE_STATE MOVE_SPEED= must be a number > 0 mm/s, found '{}'", *m));
+    if (parse_float_value(*m, v) != m->size() || !in_range(kSpeedRange, v)) {
+      fail(line_no, col,
+           fmt::format("RESTORE_DUAL_CARRIAGE_STATE MOVE_SPEED= must be {}, found '{}'", describe(kSpeedRange),
+                       *m));
     }
     speed_mm_s = v;
   }

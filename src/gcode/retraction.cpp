@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "amctl/gcode/interpreter.hpp"
+#include "internal.hpp"
 
 namespace amctl::gcode {
 
@@ -47,7 +48,12 @@ void Interpreter::firmware_retraction(bool retract, const Params& p, std::uint64
   if (t[3] != pos_[3]) emit_move(t, opt_.unretract_speed_mm_s, line_no, sink, false, true);
 }
 
-void Interpreter::set_firmware_retraction(int code, const Params& p) {
+void Interpreter::set_firmware_retraction(int code, const Params& p, std::uint64_t line_no) {
+  // F: Marlin ignores a value <= 0; a positive one must be a feedrate a machine can have.
+  if (p.has('F') && p.get('F') > 0 && !in_range(detail::kFeedRange, p.get('F'))) {
+    fail(line_no, p.column['F' - 'A'],
+         detail::out_of_range(fmt::format("M{} F", code), detail::kFeedRange, p.get('F')));
+  }
   if (code == 207) {  // Marlin/RRF: S length [mm], F speed [mm/min], Z hop [mm]
     if (p.has('S')) opt_.retract_length_mm = std::max(0.0, p.get('S'));
     if (p.has('F') && p.get('F') > 0) opt_.retract_speed_mm_s = p.get('F') / 60.0;

@@ -17,11 +17,12 @@ Extruder Extruder::from_klipper(const KlipperConfig& cfg) {
     e.present = false;
     return e;
   }
-  e.nozzle_diameter_mm = ex.require_float("nozzle_diameter", {.above = 0.0});
+  e.nozzle_diameter_mm = ex.require_float("nozzle_diameter", {.above = 0.0, .physical = kLengthRange});
   e.filament_diameter_mm = ex.require_float("filament_diameter", {.minval = e.nozzle_diameter_mm});
   e.max_extrude_cross_section_mm2 = ex.get_float("max_extrude_cross_section", {.above = 0.0});
-  e.max_extrude_only_velocity_mm_s = ex.get_float("max_extrude_only_velocity", {.above = 0.0});
-  e.max_extrude_only_accel_mm_s2 = ex.get_float("max_extrude_only_accel", {.above = 0.0});
+  e.max_extrude_only_velocity_mm_s = ex.get_float("max_extrude_only_velocity", {.above = 0.0, .physical = kSpeedRange});
+  e.max_extrude_only_accel_mm_s2 =
+      ex.get_float("max_extrude_only_accel", {.above = 0.0, .physical = kAccelRange});
   e.max_extrude_only_distance_mm = ex.get_float("max_extrude_only_distance", 50.0, {.minval = 0.0});
   e.instantaneous_corner_velocity_mm_s =
       ex.get_float("instantaneous_corner_velocity", 1.0, {.minval = 0.0});

@@ -117,6 +117,9 @@ void KlipperSection::check(const SourceLocation& where, std::string_view key, do
   if (lim.maxval && x > *lim.maxval) throw fail("at most", *lim.maxval);
   if (lim.above && x <= *lim.above) throw fail("above", *lim.above);
   if (lim.below && x >= *lim.below) throw fail("below", *lim.below);
+  if (lim.physical && x != 0.0 && !in_range(*lim.physical, x)) {
+    throw Error(where, fmt::format("[{}] {}: must be {}, got {}", name_, key, describe(*lim.physical), x));
+  }
 }
 
 KlipperSection KlipperConfig::section(std::string_view name) const {

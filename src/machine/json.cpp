@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/core/quantity.hpp"
 #include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/loader.hpp"
@@ -167,8 +168,11 @@ Json to_json(const Machine& m) {
 Json schema_json() {
   Json arr = Json::array();
   for (const auto& k : schema()) {
-    arr.push_back({{"section", k.section}, {"key", k.key}, {"type", k.type},
-                   {"unit", k.unit}, {"description", k.description}});
+    Json key{{"section", k.section}, {"key", k.key}, {"type", k.type},
+             {"unit", k.unit}, {"description", k.description}};
+    // The physical range of the unit (core/quantity.hpp), where the key has one.
+    if (const auto r = range_for_unit(k.unit)) key["range"] = Json::array({r->min, r->max});
+    arr.push_back(std::move(key));
   }
   return Json{{"keys", arr}};
 }

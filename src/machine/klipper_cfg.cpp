@@ -22,6 +22,8 @@
 
 #include "amctl/core/config_section.hpp"
 #include "amctl/machine/effective.hpp"
+#include "amctl/core/input.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/kinematics/klipper_config.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/machine/motor_presets.hpp"
@@ -64,11 +66,14 @@ struct CfgDoc {
 };
 
 std::string read_file(const fs::path& path, const SourceLocation& where) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(where, fmt::format("cannot open config file '{}'", path.string()));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  InputOptions o;
+  o.what = "config file";
+  o.max_bytes = kMaxMachineFileBytes;
+  try {
+    return read_whole_input(path.string(), std::move(o));
+  } catch (const Error& e) {
+    throw Error(where, fmt::format("include: {}", e.what()));
+  }
 }
 
 bool has_glob_magic(std::string_view s) { return s.find_first_of("*?[") != std::string_view::npos; }
@@ -347,11 +352,11 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
       }
     }
   }
-  m.max_velocity_mm_s = printer.require_float("max_velocity", {.above = 0.0});
-  m.max_accel_mm_s2 = printer.require_float("max_accel", {.above = 0.0});
+  m.max_velocity_mm_s = printer.require_float("max_velocity", {.above = 0.0, .physical = kSpeedRange});
+  m.max_accel_mm_s2 = printer.require_float("max_accel", {.above = 0.0, .physical = kAccelRange});
   if (auto mcr = printer.get_float("minimum_cruise_ratio", {.minval = 0.0, .below = 1.0})) {
     m.minimum_cruise_ratio = *mcr;
-  } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0})) {
+  } else if (auto a2d = printer.get_float("max_accel_to_decel", {.above = 0.0, .physical = kAccelRange})) {
     // Older Klipper (before 2023-12): minimum_cruise_ratio = 1 - min(1, a2d / max_accel).
     m.minimum_cruise_ratio =
         minimum_cruise_ratio_from_accel_to_decel(*a2d, m.max_accel_mm_s2);
@@ -359,14 +364,15 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     m.minimum_cruise_ratio = 0.5;
   }
   m.square_corner_velocity_mm_s =
-      printer.get_float("square_corner_velocity", 5.0, {.minval = 0.0});
+      printer.get_float("square_corner_velocity", 5.0, {.minval = 0.0, .physical = kSpeedRange});
   // 0 = "same as max_velocity / max_accel", Klipper's default; an explicit value is kept so a
   // later --set printer.max_velocity does not move it.
   m.max_z_velocity_mm_s =
-      printer.get_float("max_z_velocity", {.maxval = m.max_velocity_mm_s, .above = 0.0})
+      printer.get_float("max_z_velocity", {.maxval = m.max_velocity_mm_s, .above = 0.0, .physical = kSpeedRange})
           .value_or(0.0);
   m.max_z_accel_mm_s2 =
-      printer.get_float("max_z_accel", {.maxval = m.max_accel_mm_s2, .above = 0.0}).value_or(0.0);
+      printer.get_float("max_z_accel", {.maxval = m.max_accel_mm_s2, .above = 0.0, .physical = kAccelRange})
+          .value_or(0.0);
 
   // The extruder (extruder.py); a stepper is attached when step_pin, dir_pin or
   // rotation_distance is given.

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "amctl/core/input.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/machine/marlin.hpp"
 #include "schema.hpp"
@@ -75,11 +76,10 @@ Machine load_marlin_configuration(const fs::path& path, const std::string& text,
 }
 
 Machine load_file(const fs::path& path, const std::string& spec) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(fmt::format("cannot read machine file '{}'", spec));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
+  InputOptions o;
+  o.what = "machine file (.toml or Klipper printer.cfg)";
+  o.max_bytes = kMaxMachineFileBytes;
+  const std::string text = read_whole_input(spec, std::move(o));
   const std::string ext = lowercase(path.extension().string());
   if (ext == ".toml") return parse_toml_file(text, spec);
   if (ext == ".cfg" || ext == ".conf" || ext == ".ini") return parse_klipper_cfg(text, spec);
@@ -141,7 +141,9 @@ Machine load_machine(const std::string& spec) {
   const bool bare_name = !path.has_parent_path() && !path.has_extension();
   if (bare_name && find_preset(spec) != nullptr) return preset(spec);
   std::error_code ec;
-  if (fs::is_regular_file(path, ec)) return load_file(path, spec);
+  // Anything that exists is read as a file (a directory or an unreadable file is an error
+  // naming it); "-" is standard input.
+  if (spec == "-" || fs::exists(path, ec)) return load_file(path, spec);
   if (bare_name) throw unknown_preset(spec);
   throw Error(fmt::format("machine file '{}' does not exist (presets: {})", spec,
                           fmt::join(preset_names(), ", ")));

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/machine/marlin.hpp"
 #include "marlin_common.hpp"
 
@@ -494,8 +495,23 @@ Machine parse_marlin_configuration(std::string_view text, const std::string& sou
   if (d.has("MARKFORGED_XY")) m.kinematics = kinematics::HybridCoreXY{};
   if (d.has("S_CURVE_ACCELERATION")) m.profile = VelocityProfile::bezier5;
 
-  if (const auto v = d.array("DEFAULT_MAX_FEEDRATE", 4)) set_axes(m.max_feedrate_mm_s, *v);
-  if (const auto v = d.array("DEFAULT_MAX_ACCELERATION", 4)) set_axes(m.max_axis_accel_mm_s2, *v);
+  // Each limit in its physical range, placed at its #define (0 is Marlin's "unset").
+  const auto in_range_at = [&d](const char* key, const PhysicalRange& r, const std::vector<double>& v) {
+    for (const double x : v) {
+      if (x != 0.0 && !in_range(r, x)) {
+        throw Error(d.get(key)->where, fmt::format("{} must be {} values in [{:g}, {:g}] {}, got {:g}", key, r.quantity,
+                                                   r.min, r.max, r.unit, x));
+      }
+    }
+  };
+  if (const auto v = d.array("DEFAULT_MAX_FEEDRATE", 4)) {
+    in_range_at("DEFAULT_MAX_FEEDRATE", kSpeedRange, *v);
+    set_axes(m.max_feedrate_mm_s, *v);
+  }
+  if (const auto v = d.array("DEFAULT_MAX_ACCELERATION", 4)) {
+    in_range_at("DEFAULT_MAX_ACCELERATION", kAccelRange, *v);
+    set_axes(m.max_axis_accel_mm_s2, *v);
+  }
   if (const auto v = d.number("DEFAULT_ACCELERATION")) m.print_accel_mm_s2 = *v;
   if (const auto v = d.number("DEFAULT_RETRACT_ACCELERATION")) m.retract_accel_mm_s2 = *v;
   if (const auto v = d.number("DEFAULT_TRAVEL_ACCELERATION")) m.travel_accel_mm_s2 = *v;

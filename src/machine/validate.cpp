@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/core/quantity.hpp"
 #include "amctl/machine/kinematics.hpp"
 #include "amctl/machine/loader.hpp"
 #include "kinematics_keys.hpp"
@@ -21,6 +22,14 @@ void check_bound(Bound b, double v, const SourceLocation& where, std::string_vie
   if (!within(b, v)) {
     throw Error(where, fmt::format("{} must be a finite number {}{}, got {}", label,
                                    bound_text(b), unit.empty() ? std::string() : fmt::format(" {}", unit), v));
+  }
+  // A positive speed, acceleration, jerk or length must also be one a machine can have
+  // (core/quantity.hpp): 1e-300 passes "> 0" but makes every move take for ever.
+  if ((b == Bound::positive || b == Bound::non_negative) && v != 0.0) {
+    if (const auto r = range_for_unit(unit); r && !in_range(*r, v)) {
+      throw Error(where, fmt::format("{} must be {}{}, got {}", label, describe(*r),
+                                     b == Bound::non_negative ? " (or 0)" : "", v));
+    }
   }
 }
 

@@ -33,6 +33,9 @@ struct Expr {
   };
   Kind kind = Kind::literal;
   std::uint32_t line = 0;
+  /// Nodes on the longest path down from here, itself included (bounded by kMaxNesting, so
+  /// evaluating and destroying the tree never recurse deeper).
+  std::uint32_t depth = 1;
   Value value;
   std::string text;
   bool negated = false;  ///< `is not`

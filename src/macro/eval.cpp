@@ -79,9 +79,83 @@ class Renderer {
 
   void emit(std::string_view s, std::uint32_t line) {
     if (out_.size() + s.size() > limits_.max_output_bytes) {
-      fail(line, fmt::format("the macro's output exceeds {} bytes", limits_.max_output_bytes));
+      limit(line, fmt::format("output limit: the render writes more than {} bytes, expected at most {}",
+                              limits_.max_output_bytes, limits_.max_output_bytes));
     }
+    work(s.size(), line);
     out_ += s;
+  }
+
+  // ---- limits (RenderLimits; docs/macros.md, "Limits") ----
+  [[noreturn]] static void limit(std::uint32_t line, const std::string& msg) { throw LimitError(line, msg); }
+
+  /// Work: one per expression node, one per item or byte compared, scanned or copied.
+  void work(std::uint64_t n, std::uint32_t line) {
+    work_ += n;
+    if (work_ > limits_.max_work) {
+      limit(line, fmt::format("work limit: the render takes more than {} steps (expression nodes, items "
+                              "and bytes compared, scanned or copied), expected at most {}",
+                              limits_.max_work, limits_.max_work));
+    }
+  }
+  /// Memory: bytes of strings and lists built.
+  void allocate(std::uint64_t bytes, std::uint32_t line) {
+    allocated_ += bytes;
+    if (allocated_ > limits_.max_allocated_bytes) {
+      limit(line, fmt::format("memory limit: the render builds more than {} MiB of strings and lists, "
+                              "expected at most {} MiB",
+                              limits_.max_allocated_bytes >> 20, limits_.max_allocated_bytes >> 20));
+    }
+  }
+  void check_string_size(std::uint64_t bytes, std::uint32_t line) const {
+    if (bytes > limits_.max_string_bytes) {
+      limit(line, fmt::format("string limit: found a string of {} bytes, expected at most {}", bytes,
+                              limits_.max_string_bytes));
+    }
+  }
+  void check_list_size(std::uint64_t items, std::uint32_t line) const {
+    if (items > limits_.max_list_length) {
+      limit(line, fmt::format("list limit: found a list or dict of {} items, expected at most {}", items,
+                              limits_.max_list_length));
+    }
+  }
+  /// Every value an expression yields: within the size and nesting bounds.
+  void check_value(const Value& v, std::uint32_t line) const {
+    if (v.type() == T::string) check_string_size(v.text().size(), line);
+    if (v.type() == T::list) check_list_size(v.items().size(), line);
+    if (v.type() == T::dict) check_list_size(v.entries().items.size(), line);
+    if (v.footprint() > limits_.max_value_bytes) {
+      limit(line, fmt::format("value limit: found a value of more than {} MiB (counted as printed, a shared "
+                              "item each time), expected at most {} MiB",
+                              limits_.max_value_bytes >> 20, limits_.max_value_bytes >> 20));
+    }
+    if (v.depth() > kMaxValueDepth) {
+      limit(line, fmt::format("nesting limit: found lists or dicts nested more than {} deep, expected at "
+                              "most {}",
+                              kMaxValueDepth, kMaxValueDepth));
+    }
+  }
+  /// A copy of the items of a list (or the characters of a string, the keys of a dict), charged.
+  List copy_items(const Value& v, std::uint32_t line) {
+    std::uint64_t n = 0;
+    switch (v.type()) {
+      case T::list: n = v.items().size(); break;
+      case T::dict: n = v.entries().items.size(); break;
+      case T::string: n = v.text().size(); break;
+      default: break;
+    }
+    check_list_size(n, line);
+    work(n + v.footprint() / 16, line);
+    allocate(n * sizeof(Value) + v.footprint(), line);
+    return sequence(v, line);
+  }
+  /// str() of a value, its cost charged and its length bounded.
+  std::string str_of(const Value& v, std::uint32_t line) {
+    work(v.footprint(), line);
+    std::string s = v.str();
+    check_string_size(s.size(), line);
+    allocate(s.size(), line);
+    return s;
   }
 
   // ---- names ----
@@ -105,7 +179,11 @@ class Renderer {
       case Node::Kind::text: emit(n.text, n.line); return;
       case Node::Kind::output: {
         const Value v = eval(*n.expr);
-        emit(v.str(), n.line);
+        if (v.type() == T::string) {
+          emit(v.text(), n.line);
+        } else {
+          emit(str_of(v, n.line), n.line);
+        }
         return;
       }
       case Node::Kind::if_:
@@ -129,8 +207,14 @@ class Renderer {
       if (ns == nullptr || ns->type() != T::dict) {
         fail(n.line, fmt::format("'{}' is not a namespace", n.targets[0]));
       }
+      work(ns->entries().items.size() + 1, n.line);
+      allocate(ns->footprint(), n.line);
       Dict d = ns->entries();
-      if (v.depth() + 1 > kMaxValueDepth) fail(n.line, "lists or dicts nested too deeply");
+      if (v.depth() + 1 > kMaxValueDepth) {
+        limit(n.line, fmt::format("nesting limit: found lists or dicts nested more than {} deep, expected at "
+                                  "most {}",
+                                  kMaxValueDepth, kMaxValueDepth));
+      }
       d.set(n.targets[1], std::move(v));
       for (auto f = frames_.rbegin(); f != frames_.rend(); ++f) {
         if (f->find(n.targets[0]) != nullptr) {
@@ -150,34 +234,44 @@ class Renderer {
       return;
     }
     if (v.type() != T::list || v.items().size() != targets.size()) {
-      fail(line, fmt::format("cannot unpack {} into {} names", v.repr(), targets.size()));
+      fail(line, fmt::format("cannot unpack {} into {} names",
+                             v.footprint() > 200 ? std::string("a ") + std::string(v.type_name()) : v.repr(),
+                             targets.size()));
     }
     for (std::size_t i = 0; i < targets.size(); ++i) assign(targets[i], v.items()[i]);
   }
 
   void loop(const Node& n) {
+    // The sequence is held (a list or dict shares its items, a string is one copy) and each
+    // item made as the loop reaches it: nothing the size of the sequence is built.
     const Value seq = eval(*n.expr);
-    List items;
+    std::size_t count = 0;
     switch (seq.type()) {
       case T::undefined: break;
-      case T::list: items = seq.items(); break;
-      case T::dict:
-        for (const auto& [k, v] : seq.entries().items) items.push_back(Value::string(k));
-        break;
-      case T::string:
-        for (char c : seq.text()) items.push_back(Value::string(std::string(1, c)));
-        break;
+      case T::list: count = seq.items().size(); break;
+      case T::dict: count = seq.entries().items.size(); break;
+      case T::string: count = seq.text().size(); break;
       default: fail(n.line, fmt::format("'{}' object is not iterable", seq.type_name()));
     }
-    if (items.empty()) {
+    auto item = [&seq](std::size_t i) {
+      switch (seq.type()) {
+        case T::list: return seq.items()[i];
+        case T::dict: return Value::string(seq.entries().items[i].first);
+        default: return Value::string(std::string(1, seq.text()[i]));
+      }
+    };
+    if (count == 0) {
       run(n.else_body);
       return;
     }
-    const auto length = static_cast<std::int64_t>(items.size());
+    const auto length = static_cast<std::int64_t>(count);
     for (std::int64_t i = 0; i < length; ++i) {
       if (++iterations_ > limits_.max_loop_iterations) {
-        fail(n.line, fmt::format("more than {} loop iterations", limits_.max_loop_iterations));
+        limit(n.line, fmt::format("loop limit: the render makes more than {} loop iterations, expected at "
+                                  "most {}",
+                                  limits_.max_loop_iterations, limits_.max_loop_iterations));
       }
+      work(8, n.line);
       frames_.emplace_back();  // a loop body is a scope of its own (Jinja)
       Dict info;
       info.set("index", Value::integer(i + 1));
@@ -188,7 +282,7 @@ class Renderer {
       info.set("last", Value::boolean(i == length - 1));
       info.set("length", Value::integer(length));
       frames_.back().set("loop", Value::dict(std::move(info)));
-      unpack(n.targets, items[static_cast<std::size_t>(i)], n.line);
+      unpack(n.targets, item(static_cast<std::size_t>(i)), n.line);
       run(n.branches.front().second);
       frames_.pop_back();
     }
@@ -217,8 +311,10 @@ class Renderer {
   static constexpr std::uint32_t kMaxValueDepth = 100;
 
   Value eval(const Expr& e) {
+    work(1, e.line);
     Value v = eval_unchecked(e);
-    if (v.depth() > kMaxValueDepth) fail(e.line, "lists or dicts nested too deeply");
+    check_value(v, e.line);
+    if (v.type() == T::string) allocate(v.text().size(), e.line);  // strings are copied by value
     return v;
   }
 
@@ -249,11 +345,18 @@ class Renderer {
         if (v.as_int() == std::numeric_limits<std::int64_t>::min()) fail(e.line, "integer overflow");
         return Value::integer(-v.as_int());
       }
-      case Expr::Kind::binary: return binary(e.text, eval(*e.args[0]), eval(*e.args[1]), e.line);
+      case Expr::Kind::binary: {
+        const Value a = eval(*e.args[0]);
+        const Value b = eval(*e.args[1]);
+        return binary(e.text, a, b, e.line);
+      }
       case Expr::Kind::compare: {
         Value left = eval(*e.args[0]);
         for (std::size_t i = 0; i < e.ops.size(); ++i) {
           Value right = eval(*e.args[i + 1]);
+          work(std::min(left.footprint(), right.footprint()) +
+                   (e.ops[i] == "in" || e.ops[i] == "notin" ? right.footprint() * std::max<std::uint64_t>(1, left.footprint()) / 16 : 0),
+               e.line);
           if (!compare(e.ops[i], left, right, e.line)) return Value::boolean(false);
           left = std::move(right);
         }
@@ -270,6 +373,7 @@ class Renderer {
       case Expr::Kind::list: {
         List l;
         for (const auto& a : e.args) l.push_back(eval(*a));
+        allocate(l.size() * sizeof(Value), e.line);
         return Value::list(std::move(l), false, e.tuple);
       }
       case Expr::Kind::dict: {
@@ -349,8 +453,13 @@ class Renderer {
   }
 
   // Python arithmetic on ints (64-bit, overflow checked) and floats.
-  static Value binary(const std::string& op, const Value& a, const Value& b, std::uint32_t line) {
-    if (op == "~") return Value::string(a.str() + b.str());
+  Value binary(const std::string& op, const Value& a, const Value& b, std::uint32_t line) {
+    if (op == "~") {
+      std::string s = str_of(a, line);
+      std::string t = str_of(b, line);
+      check_string_size(s.size() + t.size(), line);
+      return Value::string(s + t);
+    }
     if (a.is_undefined()) undefined_error(a, line);
     if (b.is_undefined()) undefined_error(b, line);
     const bool ints = (a.type() == T::integer || a.type() == T::boolean) &&
@@ -395,6 +504,10 @@ class Renderer {
           for (std::int64_t k = 0; k < b.as_int(); ++k) {
             if (__builtin_mul_overflow(r, base, &r)) fail(line, "integer overflow (beyond 64 bits)");
             if (r == 0 || r == 1) break;
+            if (r == -1) {  // (-1) ** n: the sign of the parity
+              r = (b.as_int() - k - 1) % 2 == 0 ? -1 : 1;
+              break;
+            }
           }
           return Value::integer(r);
         }
@@ -405,20 +518,40 @@ class Renderer {
       }
     }
     if (op == "+" && a.type() == T::string && b.type() == T::string) {
+      check_string_size(a.text().size() + b.text().size(), line);
+      work(a.text().size() + b.text().size(), line);
       return Value::string(a.text() + b.text());
     }
     if (op == "+" && a.type() == T::list && b.type() == T::list) {
-      List l = a.items();
-      l.insert(l.end(), b.items().begin(), b.items().end());
+      check_list_size(a.items().size() + b.items().size(), line);
+      List l = copy_items(a, line);
+      List r = copy_items(b, line);
+      l.insert(l.end(), std::make_move_iterator(r.begin()), std::make_move_iterator(r.end()));
       return Value::list(std::move(l));
     }
     if (op == "*" && (a.type() == T::string || a.type() == T::list) &&
         (b.type() == T::integer || b.type() == T::boolean)) {
       const std::int64_t n = std::max<std::int64_t>(0, b.as_int());
       const std::size_t unit = a.type() == T::string ? a.text().size() : a.items().size();
-      if (static_cast<double>(n) * static_cast<double>(unit) > 1e7) fail(line, "repetition too long");
+      // An empty string or list repeated any number of times is empty: no loop of n steps
+      // that nothing else would count ('' * 10**9).
+      if (unit == 0) return a.type() == T::string ? Value::string(std::string()) : Value::list(List{});
+      const double total = static_cast<double>(n) * static_cast<double>(unit);
+      if (a.type() == T::string) check_string_size(static_cast<std::uint64_t>(std::min(total, 1e18)), line);
+      if (a.type() == T::list) {
+        check_list_size(static_cast<std::uint64_t>(std::min(total, 1e18)), line);
+        const double fp = static_cast<double>(n) * static_cast<double>(a.footprint());
+        if (fp > static_cast<double>(limits_.max_value_bytes)) {
+          limit(line, fmt::format("value limit: found a value of more than {} MiB (counted as printed), "
+                                  "expected at most {} MiB",
+                                  limits_.max_value_bytes >> 20, limits_.max_value_bytes >> 20));
+        }
+        allocate(static_cast<std::uint64_t>(fp), line);
+      }
+      work(static_cast<std::uint64_t>(std::min(total, 1e18)), line);
       if (a.type() == T::string) {
         std::string s;
+        s.reserve(static_cast<std::size_t>(total));
         for (std::int64_t k = 0; k < n; ++k) s += a.text();
         return Value::string(std::move(s));
       }
@@ -521,6 +654,7 @@ class Renderer {
       if (v.is_undefined()) undefined_error(v, e.line);
       double d = 0.0;
       if (v.is_number()) return Value::number(v.to_double());
+      if (v.type() == T::string) work(v.text().size(), e.line);
       if (v.type() == T::string && parse_python_float(v.text(), d)) return Value::number(d);
       return a[0] ? *a[0] : Value::number(0.0);
     }
@@ -535,6 +669,7 @@ class Renderer {
       if (v.type() == T::integer || v.type() == T::boolean) return Value::integer(v.as_int());
       double d = 0.0;
       if (v.type() == T::string) {
+        work(v.text().size(), e.line);
         std::int64_t i = 0;
         if (parse_python_int(v.text(), i)) return Value::integer(i);
         if (!parse_python_float(v.text(), d)) return fallback;
@@ -577,7 +712,7 @@ class Renderer {
     }
     if (f == "lower" || f == "upper" || f == "string" || f == "trim" || f == "capitalize") {
       bind(e, 1, {}, f);
-      std::string s = v.str();
+      std::string s = str_of(v, e.line);
       if (f == "trim") return Value::string(std::string(trim_ws(s)));
       if (f == "capitalize") {
         for (std::size_t i = 0; i < s.size(); ++i) {
@@ -606,25 +741,32 @@ class Renderer {
     }
     if (f == "join") {
       auto a = bind(e, 1, {"d"}, "join");
-      const std::string sep = a[0] ? a[0]->str() : "";
+      const std::string sep = a[0] ? str_of(*a[0], e.line) : "";
       std::string s;
-      const List l = sequence(v, e.line);
-      for (std::size_t i = 0; i < l.size(); ++i) s += (i ? sep : "") + l[i].str();
+      const List l = copy_items(v, e.line);
+      for (std::size_t i = 0; i < l.size(); ++i) {
+        if (i != 0) s += sep;
+        s += str_of(l[i], e.line);
+        check_string_size(s.size(), e.line);  // before the next piece: joins of huge pieces stop early
+        work(sep.size(), e.line);
+      }
+      allocate(s.size(), e.line);
       return Value::string(std::move(s));
     }
     if (f == "list") {
       bind(e, 1, {}, f);
-      return Value::list(sequence(v, e.line));
+      return Value::list(copy_items(v, e.line));
     }
     if (f == "first" || f == "last") {
       bind(e, 1, {}, f);
-      const List l = sequence(v, e.line);
+      const List l = copy_items(v, e.line);
       if (l.empty()) return Value::undefined(f + " of an empty sequence");
       return f == "first" ? l.front() : l.back();
     }
     if (f == "min" || f == "max") {
       bind(e, 1, {}, f);
-      const List l = sequence(v, e.line);
+      const List l = copy_items(v, e.line);
+      work(v.footprint(), e.line);
       if (l.empty()) return Value::undefined(f + " of an empty sequence");
       Value best = l.front();
       for (const Value& x : l) {
@@ -636,25 +778,51 @@ class Renderer {
     if (f == "sum") {
       bind(e, 1, {}, f);
       Value total = Value::integer(0);
-      for (const Value& x : sequence(v, e.line)) total = binary("+", total, x, e.line);
+      for (const Value& x : copy_items(v, e.line)) total = binary("+", total, x, e.line);
       return total;
     }
     if (f == "replace") {
       auto a = bind(e, 1, {"old", "new"}, "replace");
       if (!a[0] || !a[1]) fail(e.line, "replace needs old and new");
-      return Value::string(replace_all(v.str(), a[0]->str(), a[1]->str()));
+      return Value::string(replace_all(str_of(v, e.line), str_of(*a[0], e.line), str_of(*a[1], e.line), e.line));
     }
     fail(e.line, fmt::format("filter '{}' is not supported", f));
   }
 
-  static std::string replace_all(std::string s, const std::string& from, const std::string& to) {
-    if (from.empty()) return s;
-    std::size_t pos = 0;
-    while ((pos = s.find(from, pos)) != std::string::npos) {
-      s.replace(pos, from.size(), to);
-      pos += to.size();
+  /// Python's str.replace(old, new): every occurrence, left to right, not overlapping; an
+  /// empty `from` puts `to` before every character and at the end. The result's size is
+  /// known (and bounded) before it is built; built in one linear pass.
+  std::string replace_all(const std::string& s, const std::string& from, const std::string& to,
+                          std::uint32_t line) {
+    work(s.size() * std::max<std::uint64_t>(1, from.size()) + to.size(), line);
+    std::uint64_t count = 0;
+    if (from.empty()) {
+      count = s.size() + 1;
+    } else {
+      for (std::size_t pos = 0; (pos = s.find(from, pos)) != std::string::npos; pos += from.size()) ++count;
     }
-    return s;
+    const double size = static_cast<double>(s.size()) +
+                        static_cast<double>(count) * (static_cast<double>(to.size()) - static_cast<double>(from.size()));
+    check_string_size(static_cast<std::uint64_t>(std::min(size, 1e18)), line);
+    work(static_cast<std::uint64_t>(size), line);
+    allocate(static_cast<std::uint64_t>(size), line);
+    std::string out;
+    out.reserve(static_cast<std::size_t>(size));
+    if (from.empty()) {
+      for (char c : s) {
+        out += to;
+        out += c;
+      }
+      out += to;
+      return out;
+    }
+    std::size_t at = 0;
+    for (std::size_t pos = 0; (pos = s.find(from, at)) != std::string::npos; at = pos + from.size()) {
+      out.append(s, at, pos - at);
+      out += to;
+    }
+    out.append(s, at, std::string::npos);
+    return out;
   }
 
   static List sequence(const Value& v, std::uint32_t line) {
@@ -733,13 +901,24 @@ class Renderer {
         stop = a[0]->as_int();
       }
       if (step == 0) fail(e.line, "range() step must not be zero");
-      const double n = std::max(0.0, std::ceil((static_cast<double>(stop) - static_cast<double>(start)) /
-                                               static_cast<double>(step)));
-      if (n > static_cast<double>(limits_.max_range_length)) {
-        fail(e.line, fmt::format("range() of {} values (more than {})", n, limits_.max_range_length));
+      // Exact in 128 bits: a range near the 64-bit limits neither overflows nor loops.
+      const __int128 span = static_cast<__int128>(stop) - start;
+      const __int128 st = step;
+      __int128 count = 0;
+      if (step > 0 && span > 0) count = (span + st - 1) / st;
+      if (step < 0 && span < 0) count = (-span - st - 1) / -st;
+      if (count > static_cast<__int128>(limits_.max_range_length)) {
+        limit(e.line, fmt::format("range limit: found range() of {:.0f} values, expected at most {}",
+                                  static_cast<double>(count), limits_.max_range_length));
       }
+      const auto n = static_cast<std::size_t>(count);
+      work(n, e.line);
+      allocate(n * sizeof(Value), e.line);
       List l;
-      for (std::int64_t i = start; step > 0 ? i < stop : i > stop; i += step) l.push_back(Value::integer(i));
+      l.reserve(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        l.push_back(Value::integer(static_cast<std::int64_t>(start + static_cast<__int128>(k) * st)));
+      }
       return Value::list(std::move(l));
     }
     if (name == "namespace") {
@@ -753,7 +932,8 @@ class Renderer {
       return Value::string("");
     }
     if (name == "action_raise_error" || name == "action_emergency_stop") {
-      const std::string msg = e.args.size() > 1 ? eval(*e.args[1]).str() : name;
+      std::string msg = e.args.size() > 1 ? str_of(eval(*e.args[1]), e.line) : name;
+      if (msg.size() > 200) msg = msg.substr(0, 200) + "...";
       fail(e.line, fmt::format("{}(\"{}\"): Klipper stops the print here", name, msg));
     }
     fail(e.line, fmt::format("function '{}' is not supported", name));
@@ -770,6 +950,8 @@ class Renderer {
         return a[1] ? *a[1] : Value::none();
       }
       bind(e, 1, {}, name);
+      work(self.footprint(), e.line);
+      allocate(self.entries().items.size() * 3 * sizeof(Value) + self.footprint(), e.line);
       List l;
       for (const auto& [k, v] : self.entries().items) {
         if (name == "keys") l.push_back(Value::string(k));
@@ -784,6 +966,7 @@ class Renderer {
     const std::string& s = self.text();
     if (name == "lower" || name == "upper" || name == "capitalize" || name == "title") {
       bind(e, 1, {}, name);
+      work(s.size(), e.line);
       std::string r = s;
       bool start = true;
       for (std::size_t i = 0; i < r.size(); ++i) {
@@ -799,7 +982,8 @@ class Renderer {
     }
     if (name == "strip" || name == "lstrip" || name == "rstrip") {
       auto a = bind(e, 1, {"chars"}, name);
-      const std::string chars = a[0] ? a[0]->str() : std::string(" \t\n\r\f\v");
+      const std::string chars = a[0] ? str_of(*a[0], e.line) : std::string(" \t\n\r\f\v");
+      work(s.size() * (1 + chars.size()), e.line);
       std::size_t b = 0, en = s.size();
       if (name != "rstrip") b = std::min(s.find_first_not_of(chars), s.size());
       if (name != "lstrip") en = s.find_last_not_of(chars) == std::string::npos ? b : s.find_last_not_of(chars) + 1;
@@ -817,30 +1001,37 @@ class Renderer {
     if (name == "replace") {
       auto a = bind(e, 1, {"old", "new"}, name);
       if (!a[0] || !a[1]) fail(e.line, "replace() needs old and new");
-      return Value::string(replace_all(s, a[0]->str(), a[1]->str()));
+      return Value::string(replace_all(s, str_of(*a[0], e.line), str_of(*a[1], e.line), e.line));
     }
     if (name == "split") {
       auto a = bind(e, 1, {"sep", "maxsplit"}, name);
       const std::int64_t maxsplit = a[1] && a[1]->is_number() ? a[1]->as_int() : -1;
       List l;
+      auto add = [&](std::string piece) {
+        check_list_size(l.size() + 1, e.line);
+        allocate(sizeof(Value) + piece.size(), e.line);
+        l.push_back(Value::string(std::move(piece)));
+      };
+      work(s.size(), e.line);
       if (!a[0] || a[0]->type() == T::none) {
         std::size_t i = 0;
         while (i < s.size()) {
           while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i]))) ++i;
           const std::size_t b = i;
           while (i < s.size() && !std::isspace(static_cast<unsigned char>(s[i]))) ++i;
-          if (i > b) l.push_back(Value::string(s.substr(b, i - b)));
+          if (i > b) add(s.substr(b, i - b));
         }
       } else {
-        const std::string sep = a[0]->str();
+        const std::string sep = str_of(*a[0], e.line);
         if (sep.empty()) fail(e.line, "empty separator");
+        work(s.size() * sep.size(), e.line);
         std::size_t b = 0, at = 0;
         std::int64_t splits = 0;
         while ((maxsplit < 0 || splits++ < maxsplit) && (at = s.find(sep, b)) != std::string::npos) {
-          l.push_back(Value::string(s.substr(b, at - b)));
+          add(s.substr(b, at - b));
           b = at + sep.size();
         }
-        l.push_back(Value::string(s.substr(b)));
+        add(s.substr(b));
       }
       return Value::list(std::move(l));
     }
@@ -852,6 +1043,8 @@ class Renderer {
   Dict top_;                  // names set at the top level
   std::vector<Dict> frames_;  // loop scopes
   std::uint64_t iterations_ = 0;
+  std::uint64_t work_ = 0;       // RenderLimits::max_work
+  std::uint64_t allocated_ = 0;  // RenderLimits::max_allocated_bytes
   std::string out_;
 
  public:
@@ -895,6 +1088,10 @@ Value literal(const Expr& e) {
 }  // namespace detail
 
 Template Template::compile(std::string_view text) {
+  if (text.size() > kMaxTemplateBytes) {
+    throw LimitError(1, fmt::format("template size limit: found a template of {} bytes, expected at most {}",
+                                    text.size(), kMaxTemplateBytes));
+  }
   // Jinja drops one newline at the end of the source (keep_trailing_newline = False).
   if (!text.empty() && text.back() == '\n') text.remove_suffix(1);
   Template t;

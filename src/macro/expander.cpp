@@ -226,6 +226,9 @@ MacroExpander::MacroExpander(std::span<const ConfigSection> config, const Toolhe
     }
     try {
       m.tmpl = Template::compile(gcode->text);
+    } catch (const LimitError& e) {
+      // A bound, not a construct to skip: the run stops here, as Klipper's config check would.
+      throw Error(location(m, e.line()), fmt::format("macro {}: {}", m.name, e.what()));
     } catch (const TemplateError& e) {
       m.error = fmt::format("amctl cannot read the template at {}: {}", where(m, e.line()), e.what());
     }
@@ -233,6 +236,8 @@ MacroExpander::MacroExpander(std::span<const ConfigSection> config, const Toolhe
       if (key.rfind("variable_", 0) != 0) continue;
       try {
         m.variables.set(key.substr(9), parse_literal(value.text));
+      } catch (const LimitError& e) {
+        throw Error(value.where, fmt::format("option '{}': {}", key, e.what()));
       } catch (const TemplateError& e) {
         if (m.error.empty()) {
           m.error = fmt::format("option '{}' at {} is not a literal amctl reads: {}", key,
@@ -246,10 +251,14 @@ MacroExpander::MacroExpander(std::span<const ConfigSection> config, const Toolhe
   }
 }
 
-std::string MacroExpander::where(const Macro& m, std::uint32_t line) const {
+SourceLocation MacroExpander::location(const Macro& m, std::uint32_t line) const {
   const std::uint64_t file_line =
       line >= 1 && line <= m.gcode_lines.size() ? m.gcode_lines[line - 1] : m.gcode_at.line;
-  return fmt::format("{}:{}", m.gcode_at.file, file_line);
+  return SourceLocation{m.gcode_at.file, file_line, 0};
+}
+
+std::string MacroExpander::where(const Macro& m, std::uint32_t line) const {
+  return location(m, line).to_string();
 }
 
 gcode::Expansion MacroExpander::skip(std::size_t macro, std::uint64_t line_no, std::string reason) {
@@ -354,6 +363,8 @@ gcode::Expansion MacroExpander::set_gcode_variable(std::string_view rawparams,
       } else {
         try {
           target->variables.set(variable, parse_literal(value->text()));
+        } catch (const LimitError& e) {
+          throw Error(SourceLocation{"", line_no, 0}, fmt::format("SET_GCODE_VARIABLE VALUE: {}", e.what()));
         } catch (const TemplateError& e) {
           problem = fmt::format("unable to parse '{}' as a literal: {}", value->text(), e.what());
         }
@@ -409,6 +420,19 @@ gcode::Expansion MacroExpander::expand(const gcode::Command& cmd, std::string_vi
     return skip(id, line_no, fmt::format("Macro {} called recursively (Klipper refuses it)", m.name));
   }
   if (depth_ >= 64) return skip(id, line_no, "macros nested more than 64 deep");
+  // The work of one call with the macros it calls, and theirs, is bounded as a whole (a
+  // macro calling the next twice, 40 deep, would make 2^40 calls).
+  if (depth_ == 0) {
+    tree_calls_ = 0;
+    tree_bytes_ = 0;
+    tree_root_line_ = line_no;
+  }
+  if (++tree_calls_ > limits_.max_calls_per_expansion) {
+    throw Error(location(m, 0), fmt::format("macro {}: expansion limit: the call at G-code line {} makes more "
+                                            "than {} macro calls, expected at most {}",
+                                            m.name, tree_root_line_, limits_.max_calls_per_expansion,
+                                            limits_.max_calls_per_expansion));
+  }
   const std::string raw = raw_params(line, name);
   Dict params;
   if (is_traditional(m.name)) {
@@ -427,8 +451,18 @@ gcode::Expansion MacroExpander::expand(const gcode::Command& cmd, std::string_vi
   gcode::Expansion x;
   try {
     x.text = m.tmpl->render(globals, limits_);
+  } catch (const LimitError& e) {
+    throw Error(location(m, e.line()), fmt::format("macro {} (called at G-code line {}): {}", m.name, line_no,
+                                                   e.what()));
   } catch (const TemplateError& e) {
     return skip(id, line_no, fmt::format("at {}: {}", where(m, e.line()), e.what()));
+  }
+  tree_bytes_ += x.text.size();
+  if (tree_bytes_ > limits_.max_expansion_bytes) {
+    throw Error(location(m, 0), fmt::format("macro {}: expansion limit: the call at G-code line {} produces "
+                                            "more than {} MiB of G-code, expected at most {} MiB",
+                                            m.name, tree_root_line_, limits_.max_expansion_bytes >> 20,
+                                            limits_.max_expansion_bytes >> 20));
   }
   ++m.report.expanded;
   m.in_script = true;

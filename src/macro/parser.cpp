@@ -17,7 +17,27 @@ namespace amctl::macro {
 namespace detail {
 namespace {
 
-constexpr int kMaxDepth = 200;  // nesting of expressions and statements
+constexpr int kMaxDepth = static_cast<int>(kMaxNesting);  // nesting of expressions and statements
+
+[[noreturn]] void nesting_error(std::uint32_t line, const char* what) {
+  throw LimitError(line, fmt::format("nesting limit: found {} nested more than {} deep (a chain such as "
+                                     "a|f|f, a.b.c or 1+1+1 counts one level per link), expected at most {}",
+                                     what, kMaxNesting, kMaxNesting));
+}
+
+/// Sets e's depth from its children (whose depths are set) and enforces kMaxNesting: every
+/// node goes through here once its children are attached.
+ExprPtr seal(ExprPtr e) {
+  std::uint32_t d = 0;
+  for (const auto& a : e->args) {
+    if (a) d = std::max(d, a->depth);
+  }
+  for (const auto& kv : e->kwargs) d = std::max(d, kv.second->depth);
+  for (const auto& k : e->keys) d = std::max(d, k->depth);
+  e->depth = d + 1;
+  if (e->depth > kMaxNesting) nesting_error(e->line, "expression");
+  return e;
+}
 
 struct Token {
   enum class Kind : std::uint8_t { name, integer, number, string, op, end };
@@ -232,7 +252,7 @@ class ExprParser {
         next();
         c->args.push_back(expression());
       }
-      return c;
+      return seal(std::move(c));
     }
     return body;
   }
@@ -249,13 +269,13 @@ class ExprParser {
       if (at_end() || is_op(")")) break;  // (1,) and a trailing comma
       l->args.push_back(expression());
     }
-    return l;
+    return seal(std::move(l));
   }
 
  private:
   struct Guard {
     explicit Guard(ExprParser& p) : p_(p) {
-      if (++p_.depth_ > kMaxDepth) p_.fail("expression nested too deeply");
+      if (++p_.depth_ > kMaxDepth) nesting_error(p_.peek().line, "expression");
     }
     ~Guard() { --p_.depth_; }
     ExprParser& p_;
@@ -275,7 +295,7 @@ class ExprParser {
       e->text = "or";
       e->args.push_back(std::move(l));
       e->args.push_back(logic_and());
-      l = std::move(e);
+      l = seal(std::move(e));
     }
     return l;
   }
@@ -286,7 +306,7 @@ class ExprParser {
       e->text = "and";
       e->args.push_back(std::move(l));
       e->args.push_back(logic_not());
-      l = std::move(e);
+      l = seal(std::move(e));
     }
     return l;
   }
@@ -296,7 +316,7 @@ class ExprParser {
       ExprPtr e = make(Expr::Kind::unary, next().line);
       e->text = "not";
       e->args.push_back(logic_not());
-      return e;
+      return seal(std::move(e));
     }
     return compare();
   }
@@ -326,7 +346,7 @@ class ExprParser {
       c->ops.push_back(op);
       c->args.push_back(concat());
     }
-    return c ? std::move(c) : std::move(first);
+    return c ? seal(std::move(c)) : std::move(first);
   }
   ExprPtr binary_chain(ExprPtr (ExprParser::*sub)(), std::initializer_list<std::string_view> ops) {
     ExprPtr l = (this->*sub)();
@@ -339,7 +359,7 @@ class ExprParser {
       e->text = t.text;
       e->args.push_back(std::move(l));
       e->args.push_back((this->*sub)());
-      l = std::move(e);
+      l = seal(std::move(e));
     }
     return l;
   }
@@ -358,6 +378,7 @@ class ExprParser {
       node = make(Expr::Kind::unary, t.line);
       node->text = t.text;
       node->args.push_back(unary_with(false));
+      node = seal(std::move(node));
     } else {
       node = primary();
     }
@@ -398,7 +419,7 @@ class ExprParser {
           a->text = expect_name();
           a->args.push_back(std::move(e));
         }
-        e = std::move(a);
+        e = seal(std::move(a));
       } else if (is_op("[")) {
         const std::uint32_t line = next().line;
         ExprPtr a = make(Expr::Kind::item, line);
@@ -407,12 +428,12 @@ class ExprParser {
         a->args.push_back(expression());
         if (is_op(":")) fail("slices are not supported");
         expect_op("]");
-        e = std::move(a);
+        e = seal(std::move(a));
       } else if (is_op("(")) {
         ExprPtr c = make(Expr::Kind::call, peek().line);
         c->args.push_back(std::move(e));
         call_args(*c);
-        e = std::move(c);
+        e = seal(std::move(c));
       } else {
         return e;
       }
@@ -426,14 +447,14 @@ class ExprParser {
         ExprPtr c = make(Expr::Kind::call, peek().line);
         c->args.push_back(std::move(e));
         call_args(*c);
-        e = std::move(c);
+        e = seal(std::move(c));
       } else if (is_op("|")) {
         const std::uint32_t line = next().line;
         ExprPtr f = make(Expr::Kind::filter, line);
         f->text = expect_name();
         f->args.push_back(std::move(e));
         if (is_op("(")) call_args(*f);
-        e = std::move(f);
+        e = seal(std::move(f));
       } else if (is_name("is")) {
         const std::uint32_t line = next().line;
         ExprPtr t = make(Expr::Kind::test, line);
@@ -451,7 +472,7 @@ class ExprParser {
           arg->value = next().value;
           t->args.push_back(std::move(arg));
         }
-        e = std::move(t);
+        e = seal(std::move(t));
       } else {
         return e;
       }
@@ -509,7 +530,7 @@ class ExprParser {
             next();
           }
           expect_op("]");
-          return l;
+          return seal(std::move(l));
         }
         if (t.text == "{") {
           ExprPtr d = make(Expr::Kind::dict, next().line);
@@ -521,7 +542,7 @@ class ExprParser {
             next();
           }
           expect_op("}");
-          return d;
+          return seal(std::move(d));
         }
         break;
       case Token::Kind::end: break;
@@ -634,7 +655,7 @@ class BodyParser {
 
   /// Parses nodes until a statement whose keyword is in `stop` (left unconsumed).
   NodeList parse_until(std::initializer_list<std::string_view> stop) {
-    if (++depth_ > kMaxDepth) throw TemplateError(line(), "statements nested too deeply");
+    if (++depth_ > kMaxDepth) nesting_error(line(), "statement");
     NodeList out;
     while (i_ < p_.size()) {
       Piece& piece = p_[i_];

@@ -9,7 +9,15 @@
 
 namespace amctl::macro {
 
+namespace {
+constexpr std::size_t kIndexFrom = 16;  // items before a hash index pays off
+}  // namespace
+
 const Value* Dict::find(std::string_view key) const {
+  if (!index_.empty()) {
+    const auto it = index_.find(std::string(key));
+    return it == index_.end() ? nullptr : &items[it->second].second;
+  }
   for (const auto& [k, v] : items) {
     if (k == key) return &v;
   }
@@ -17,6 +25,16 @@ const Value* Dict::find(std::string_view key) const {
 }
 
 void Dict::set(std::string key, Value v) {
+  if (!index_.empty()) {
+    const auto it = index_.find(key);
+    if (it != index_.end()) {
+      items[it->second].second = std::move(v);
+      return;
+    }
+    index_.emplace(key, items.size());
+    items.emplace_back(std::move(key), std::move(v));
+    return;
+  }
   for (auto& [k, old] : items) {
     if (k == key) {
       old = std::move(v);
@@ -24,11 +42,23 @@ void Dict::set(std::string key, Value v) {
     }
   }
   items.emplace_back(std::move(key), std::move(v));
+  if (items.size() >= kIndexFrom) {
+    for (std::size_t i = 0; i < items.size(); ++i) index_.emplace(items[i].first, i);
+  }
 }
+
+namespace {
+
+constexpr std::uint64_t kSaturated = std::uint64_t{1} << 62;
+
+std::uint64_t add_sat(std::uint64_t a, std::uint64_t b) { return a + b >= kSaturated ? kSaturated : a + b; }
+
+}  // namespace
 
 Value Value::undefined(std::string what) {
   Value v;
   v.s_ = std::move(what);
+  v.footprint_ = add_sat(16, v.s_.size());
   return v;
 }
 Value Value::none() {
@@ -61,13 +91,17 @@ Value Value::string(std::string s) {
   Value v;
   v.type_ = Type::string;
   v.s_ = std::move(s);
+  v.footprint_ = add_sat(16, v.s_.size());
   return v;
 }
 Value Value::list(List items, bool coord, bool tuple) {
   Value v;
   v.type_ = Type::list;
   v.tuple_ = tuple || coord;
-  for (const Value& e : items) v.depth_ = std::max(v.depth_, e.depth_ + 1);
+  for (const Value& e : items) {
+    v.depth_ = std::max(v.depth_, e.depth_ + 1);
+    v.footprint_ = add_sat(v.footprint_, e.footprint_);
+  }
   if (items.empty()) v.depth_ = 1;
   v.list_ = std::make_shared<const List>(std::move(items));
   v.coord_ = coord;
@@ -77,7 +111,10 @@ Value Value::dict(Dict d) {
   Value v;
   v.type_ = Type::dict;
   v.depth_ = 1;
-  for (const auto& [k, e] : d.items) v.depth_ = std::max(v.depth_, e.depth_ + 1);
+  for (const auto& [k, e] : d.items) {
+    v.depth_ = std::max(v.depth_, e.depth_ + 1);
+    v.footprint_ = add_sat(v.footprint_, add_sat(16 + k.size(), e.footprint_));
+  }
   v.dict_ = std::make_shared<const Dict>(std::move(d));
   return v;
 }
@@ -85,6 +122,7 @@ Value Value::function(std::string name, std::shared_ptr<const Value> self) {
   Value v;
   v.type_ = Type::function;
   v.s_ = std::move(name);
+  v.footprint_ = add_sat(16, v.s_.size());
   v.self_ = std::move(self);
   return v;
 }

@@ -320,11 +320,14 @@ std::vector<EstimateRow> estimate_files(const std::vector<std::string>& inputs,
   return rows;
 }
 
-EstimateReport estimate_file(const std::string& path, const machine::Machine& machine,
+EstimateReport estimate_file(const GcodeInput& input, const machine::Machine& machine,
                              const EstimateOptions& options) {
+  // Rewindable: [exclude_object] needs a second pass (standard input and a FIFO from the copy
+  // the reader keeps; a regular file costs nothing more).
+  RewindableGcode path(input);
   PlanSource source(path, machine, options.source());
   EstimateReport r = run_estimate(source, machine, options);
-  if (!r.excluded_objects.empty() && path != "-") {
+  if (!r.excluded_objects.empty()) {
     SourceOptions all = options.source();
     all.bypass_exclusion = true;
     PlanSource again(path, machine, all);

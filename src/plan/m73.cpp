@@ -3,10 +3,12 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
 #include "amctl/gcode/parser.hpp"
@@ -23,12 +25,8 @@ bool is_m73(std::string_view line) {
 
 }  // namespace
 
-std::size_t write_m73(const std::string& input_path, const std::string& output_path,
+std::size_t write_m73(const GcodeInput& input, const std::string& output_path,
                       const EstimateReport& report) {
-  if (input_path == output_path) {
-    throw Error(SourceLocation{output_path, 0, 0},
-                "the M73 output must be a different file from the input");
-  }
   for (const char* binary : {".bgcode", ".3mf", ".gz"}) {
     if (output_path.ends_with(binary)) {
       throw Error(SourceLocation{output_path, 0, 0},
@@ -37,56 +35,43 @@ std::size_t write_m73(const std::string& input_path, const std::string& output_p
                               binary));
     }
   }
-  const std::string tmp = output_path + ".amctl-tmp";
-  std::FILE* out = std::fopen(tmp.c_str(), "wb");
-  if (out == nullptr) {
-    throw Error(SourceLocation{output_path, 0, 0},
-                fmt::format("cannot write: {}", std::strerror(errno)));
-  }
+  OutputOptions oo{"--write-m73", {input.path()}, {}};
+  if (input.file() != nullptr && input.file()->identity()) oo.input_ids.push_back(*input.file()->identity());
+  OutputFile out(output_path, oo);
   std::size_t written = 0;
   const double total = report.total_time_s;
-  try {
-    const auto reader_ptr = formats::open_gcode_reader(input_path);
-    gcode::LineReader& reader = *reader_ptr;
-    std::string_view line;
-    std::size_t next = 0;
-    const auto& cps = report.checkpoints;
-    auto put = [&](std::string_view text) {
-      if (std::fwrite(text.data(), 1, text.size(), out) != text.size()) {
-        throw Error(SourceLocation{output_path, 0, 0},
-                    fmt::format("write failed: {}", std::strerror(errno)));
-      }
-    };
-    while (reader.next(line)) {
-      const std::uint64_t n = reader.line_number();
-      while (next < cps.size() && cps[next].line <= n) {
-        if (cps[next].line == n) {
-          const double t = cps[next].time_s;
-          const double pct = total > 0 ? std::floor(100.0 * t / total) : 100.0;
-          const double rem_min = std::ceil(std::max(0.0, total - t) / 60.0);
-          put(fmt::format("M73 P{:.0f} R{:.0f}\n", pct, rem_min));
-          ++written;
-        }
-        ++next;
-      }
-      if (is_m73(line)) continue;
-      put(line);
-      put("\n");
-    }
-    put("M73 P100 R0\n");
-    ++written;
-    if (std::fclose(out) != 0) {
-      out = nullptr;
-      throw Error(SourceLocation{output_path, 0, 0}, "closing the output failed");
-    }
-    out = nullptr;
-    std::filesystem::rename(tmp, output_path);
-  } catch (...) {
-    if (out != nullptr) std::fclose(out);
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw;
+  std::unique_ptr<gcode::LineReader> own;
+  if (input.file() != nullptr) {
+    if (input.file()->position() != 0) input.file()->rewind();
+    own = formats::open_gcode_reader(*input.file());
+  } else {
+    own = formats::open_gcode_reader(input.path());
   }
+  gcode::LineReader& reader = *own;
+  std::string eol = "\n";
+  std::string_view line;
+  std::size_t next = 0;
+  const auto& cps = report.checkpoints;
+  while (reader.next(line)) {
+    const std::uint64_t n = reader.line_number();
+    while (next < cps.size() && cps[next].line <= n) {
+      if (cps[next].line == n) {
+        const double t = cps[next].time_s;
+        const double pct = total > 0 ? std::floor(100.0 * t / total) : 100.0;
+        const double rem_min = std::ceil(std::max(0.0, total - t) / 60.0);
+        out.write(fmt::format("M73 P{:.0f} R{:.0f}{}", pct, rem_min, eol));
+        ++written;
+      }
+      ++next;
+    }
+    if (!reader.terminator().empty()) eol = reader.terminator();  // the file's own line ends
+    if (is_m73(line)) continue;
+    out.write(line);
+    out.write(eol);
+  }
+  out.write(fmt::format("M73 P100 R0{}", eol));
+  ++written;
+  out.commit();
   return written;
 }
 

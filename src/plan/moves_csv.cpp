@@ -62,34 +62,16 @@ void MovesCsvSink::consume(const PlanBatch& batch) {
   rows_ += batch.moves.size();
 }
 
-MovesCsvFile::MovesCsvFile(std::string path) : path_(std::move(path)), tmp_(path_ + ".part") {
-  file_ = std::fopen(tmp_.c_str(), "wb");
-  if (file_ == nullptr) throw Error(fmt::format("cannot write CSV file '{}'", path_));
-  const std::string& h = moves_csv_header();
-  std::fwrite(h.data(), 1, h.size(), file_);
-}
-
-MovesCsvFile::~MovesCsvFile() {
-  if (file_ != nullptr) std::fclose(file_);
-  if (!committed_) std::remove(tmp_.c_str());
+MovesCsvFile::MovesCsvFile(std::string path, OutputOptions options)
+    : out_(std::move(path), std::move(options)) {
+  out_.write(moves_csv_header());
 }
 
 void MovesCsvFile::consume(const PlanBatch& batch) {
-  std::string chunk;
-  for (const PlannedMove& m : batch.moves) chunk += moves_csv_row(m, feature_of(batch, m));
-  if (std::fwrite(chunk.data(), 1, chunk.size(), file_) != chunk.size()) {
-    throw Error(fmt::format("cannot write CSV file '{}' (disk full?)", path_));
-  }
+  for (const PlannedMove& m : batch.moves) out_.write(moves_csv_row(m, feature_of(batch, m)));
   rows_ += batch.moves.size();
 }
 
-void MovesCsvFile::commit() {
-  const bool ok = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!ok || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-    throw Error(fmt::format("cannot write CSV file '{}'", path_));
-  }
-  committed_ = true;
-}
+void MovesCsvFile::commit() { out_.commit(); }
 
 }  // namespace amctl::plan

@@ -136,8 +136,9 @@ Json to_json(const FileLimitsReport& f) {
           {"values", std::move(values)}};
 }
 
-std::vector<ProfileRun> compare_profiles(const std::string& path, const machine::Machine& machine,
+std::vector<ProfileRun> compare_profiles(const GcodeInput& input, const machine::Machine& machine,
                                          bool strict) {
+  RewindableGcode path(input);
   std::vector<ProfileRun> runs;
   for (auto p : {machine::VelocityProfile::trapezoid, machine::VelocityProfile::bezier5,
                  machine::VelocityProfile::scurve7}) {

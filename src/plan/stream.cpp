@@ -2,7 +2,10 @@
 
 #include "amctl/machine/kinematics.hpp"
 
+#include <cerrno>
 #include <utility>
+
+#include <sys/stat.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
@@ -148,9 +151,30 @@ void PlanSource::Impl::close() {
   summary.final_limits = planner.limits();
 }
 
-PlanSource::PlanSource(const std::string& path, const machine::Machine& machine,
-                       SourceOptions options)
-    : impl_(std::make_unique<Impl>(formats::open_gcode_reader(path), machine, options)) {}
+namespace {
+
+std::unique_ptr<gcode::LineReader> open_reader(const GcodeInput& input) {
+  InputFile* f = input.file();
+  if (f == nullptr) return formats::open_gcode_reader(input.path());
+  if (f->position() != 0) f->rewind();
+  return formats::open_gcode_reader(*f);
+}
+
+}  // namespace
+
+RewindableGcode::RewindableGcode(const GcodeInput& input) : path_(input.path()), file_(input.file()) {
+  struct stat st {};
+  if (file_ == nullptr && path_ != "-" && ::stat(path_.c_str(), &st) != 0 && errno == ENOTDIR) {
+    return;  // a member of an archive (or an error the reader names when it opens the path)
+  }
+  if (file_ == nullptr) {
+    owned_ = std::make_unique<InputFile>(input.path(), gcode::gcode_input_options(true));
+    file_ = owned_.get();
+  }
+}
+
+PlanSource::PlanSource(const GcodeInput& input, const machine::Machine& machine, SourceOptions options)
+    : impl_(std::make_unique<Impl>(open_reader(input), machine, options)) {}
 
 PlanSource::PlanSource(std::string_view text, std::string name, const machine::Machine& machine,
                        SourceOptions options)

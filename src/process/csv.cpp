@@ -17,7 +17,9 @@
 
 #include <fmt/format.h>
 
-#include "amctl/process/atomic_file.hpp"
+#include "amctl/core/error.hpp"
+#include "amctl/core/input.hpp"
+
 
 namespace amctl::process {
 namespace {
@@ -129,7 +131,7 @@ CsvTable CsvTable::parse(std::string_view text, std::string file) {
   return t;
 }
 
-CsvTable CsvTable::read(const std::string& path) { return parse(read_file_bytes(path), path); }
+CsvTable CsvTable::read(const std::string& path) { return parse(read_file_bytes(path, "CSV table"), path); }
 
 std::optional<std::size_t> CsvTable::find(std::string_view name) const {
   for (std::size_t i = 0; i < header_.size(); ++i) {
@@ -169,19 +171,15 @@ double CsvTable::number(std::size_t row, std::size_t col) const {
   return v;
 }
 
-std::string read_file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(fmt::format("cannot open '{}': {}", path, std::strerror(errno)));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw Error(fmt::format("cannot read '{}'", path));
-  return std::move(ss).str();
+std::string read_file_bytes(const std::string& path, std::string_view what, std::uint64_t max_bytes) {
+  InputOptions o;
+  o.what = std::string(what);
+  o.max_bytes = max_bytes;
+  return read_whole_input(path, std::move(o));
 }
 
-void write_file_atomic(const std::string& path, std::string_view content) {
-  AtomicFileWriter out(path);
-  out.write(content);
-  out.commit();
+void write_file_atomic(const std::string& path, std::string_view content, const OutputOptions& options) {
+  write_output(path, content, options);
 }
 
 }  // namespace amctl::process

@@ -9,7 +9,7 @@
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
-#include "amctl/process/atomic_file.hpp"
+#include "amctl/core/output.hpp"
 
 namespace amctl::process {
 namespace {
@@ -348,7 +348,14 @@ void GcodeScaler::move(const gcode::Command& cmd, std::string_view line, std::ui
 }
 
 GcodeExtent gcode_extrusion_extent(const std::string& path) {
-  const auto reader_ptr = formats::open_gcode_reader(path);
+  InputFile input(path, gcode::gcode_input_options());
+  return gcode_extrusion_extent(input);
+}
+
+GcodeExtent gcode_extrusion_extent(InputFile& input) {
+  if (input.position() != 0) input.rewind();
+  const std::string& path = input.name();
+  const auto reader_ptr = formats::open_gcode_reader(input);
   gcode::LineReader& reader = *reader_ptr;
   GcodeScaler scan(ScaleMap{}, GcodeScaleOptions{}, path);
   std::string sink;
@@ -364,26 +371,26 @@ GcodeExtent gcode_extrusion_extent(const std::string& path) {
 
 GcodeScaleReport scale_gcode_file(const std::string& input, const std::string& output,
                                   const ScaleMap& map, const GcodeScaleOptions& options) {
+  InputFile in(input, gcode::gcode_input_options());
+  return scale_gcode_file(in, output, map, options);
+}
+
+GcodeScaleReport scale_gcode_file(InputFile& input, const std::string& output, const ScaleMap& map,
+                                  const GcodeScaleOptions& options) {
+  OutputOptions oo{"-o/--output", {input.path()}, {}};
+  if (input.identity()) oo.input_ids.push_back(*input.identity());
+  OutputFile writer(output, oo);  // first: an output that is the input fails before reading
+  if (input.position() != 0) input.rewind();
   const auto reader_ptr = formats::open_gcode_reader(input);
   gcode::LineReader& reader = *reader_ptr;
-  AtomicFileWriter writer(output);
-  GcodeScaler scaler(map, options, input);
+  GcodeScaler scaler(map, options, input.name());
   constexpr std::size_t kFlushBytes = 1u << 20;
   std::string buf;
   buf.reserve(kFlushBytes + 4096);
-  std::uint64_t consumed = reader.bytes_read();
   std::string_view line;
   while (reader.next(line)) {
-    // LineReader drops the terminator; the bytes it consumed tell which one there was (a
-    // file read from disk counts exactly its bytes).
-    const std::uint64_t bytes = reader.bytes_read() - consumed;
-    consumed = reader.bytes_read();
-    const bool newline = !reader.ended_without_newline();
-    const std::uint64_t cr = bytes - line.size() - (newline ? 1 : 0);
-    AMCTL_CHECK(cr <= 1, "LineReader consumed more than a line and its terminator");
     scaler.feed(line, reader.line_number(), buf);
-    if (cr != 0) buf += '\r';
-    if (newline) buf += '\n';
+    buf += reader.terminator();  // kept as it was (LF, CR LF, a lone CR, none at the end)
     if (buf.size() >= kFlushBytes) {
       writer.write(buf);
       buf.clear();

@@ -11,6 +11,8 @@
 namespace amctl::process {
 namespace {
 
+constexpr std::size_t kMaxJsonDepth = 64;
+
 // A character iterator that counts the newlines it has passed, so that the parser callback
 // knows on which line the token just read ends.
 struct CountingIterator {
@@ -52,7 +54,7 @@ std::string escape_token(const std::string& key) {  // RFC 6901
 
 }  // namespace
 
-JsonFile JsonFile::read(const std::string& path) { return parse(read_file_bytes(path), path); }
+JsonFile JsonFile::read(const std::string& path) { return parse(read_file_bytes(path, "JSON file", 64ull << 20), path); }
 
 JsonFile JsonFile::parse(std::string_view text, std::string name) {
   JsonFile f;
@@ -84,6 +86,14 @@ JsonFile JsonFile::parse(std::string_view text, std::string name) {
         break;
       case Json::parse_event_t::object_start:
       case Json::parse_event_t::array_start: {
+        // amctl's JSON files nest three levels; a bound keeps the memory of the paths (and the
+        // parser's) linear in the file whatever it holds.
+        if (stack.size() >= kMaxJsonDepth) {
+          throw Error(SourceLocation{f.name_, newlines + 1, 0},
+                      fmt::format("arrays and objects nested more than {} deep, expected the flat "
+                                  "structure of an amctl JSON file",
+                                  kMaxJsonDepth));
+        }
         const std::string p = slot();
         note(p, newlines + 1);
         stack.push_back(Frame{p, ev == Json::parse_event_t::array_start, 0, {}});

@@ -17,14 +17,17 @@ AxisMap::AxisMap(std::vector<double> factors, std::vector<double> breaks_mm)
                             breaks_.size(), breaks_.size() + 1, factors_.size()));
   }
   for (std::size_t i = 0; i < factors_.size(); ++i) {
-    if (!std::isfinite(factors_[i]) || factors_[i] <= 0.0) {
-      throw Error(fmt::format("scale factor {} must be a finite number > 0, got {}", i + 1,
-                              factors_[i]));
+    // A shrinkage compensation: no material shrinks or grows by half (1e300 would scale a
+    // part beyond any machine; a coordinate would overflow).
+    if (!std::isfinite(factors_[i]) || factors_[i] < kMinScaleFactor || factors_[i] > kMaxScaleFactor) {
+      throw Error(fmt::format("scale factor {} must be a number in [{}, {}] (a shrinkage "
+                              "compensation), got {}",
+                              i + 1, kMinScaleFactor, kMaxScaleFactor, factors_[i]));
     }
   }
   for (std::size_t i = 0; i < breaks_.size(); ++i) {
-    if (!std::isfinite(breaks_[i]) || breaks_[i] <= 0.0) {
-      throw Error(fmt::format("breakpoint {} must be a finite number > 0 mm, got {}", i + 1,
+    if (!std::isfinite(breaks_[i]) || breaks_[i] <= 0.0 || breaks_[i] > 1e9) {
+      throw Error(fmt::format("breakpoint {} must be a finite number in (0, 1e9] mm, got {}", i + 1,
                               breaks_[i]));
     }
     if (i > 0 && !(breaks_[i] > breaks_[i - 1])) {

@@ -1,8 +1,11 @@
 #include "amctl/process/shrink_apply.hpp"
 
+#include <cmath>
+
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/gcode/line_reader.hpp"
 #include "amctl/process/csv.hpp"
 
 namespace amctl::process {
@@ -41,6 +44,15 @@ ShrinkApplyReport shrink_apply(const ShrinkApplyRequest& q) {
   if (q.model_path.empty() == q.gcode_path.empty()) {
     throw Error("shrink apply needs exactly one of --model FILE.stl or --gcode FILE.gcode");
   }
+  if (q.origin_mm) {
+    for (const double v : *q.origin_mm) {
+      if (!std::isfinite(v) || std::fabs(v) > 1e9) {
+        throw Error(fmt::format("--origin: must be finite coordinates within 1e9 mm, got {}", v));
+      }
+    }
+  }
+  // The output first: one that cannot be written, or is the input, fails before any reading.
+  check_output(q.output_path, OutputOptions{"-o/--output", {q.model_path, q.gcode_path}, {}});
   ShrinkApplyReport rep;
   rep.input = q.model_path.empty() ? q.gcode_path : q.model_path;
   rep.output = q.output_path;
@@ -55,7 +67,8 @@ ShrinkApplyReport shrink_apply(const ShrinkApplyRequest& q) {
     const Mesh scaled = scale_mesh(mesh, rep.map);
     StlApplyReport s;
     s.format = q.stl_format.value_or(mesh.format);
-    write_file_atomic(q.output_path, serialize_stl(scaled, s.format));
+    write_file_atomic(q.output_path, serialize_stl(scaled, s.format),
+                      OutputOptions{"-o/--output", {q.model_path}, {}});
     nmin = lo;
     nmax = hi;
     cmin = scaled.min_corner();
@@ -65,16 +78,19 @@ ShrinkApplyReport shrink_apply(const ShrinkApplyRequest& q) {
     s.scaled_volume_mm3 = check_mesh(scaled).volume_mm3;
     rep.stl = s;
   } else {
+    // The extent pass and the scaling pass over one rewindable input (standard input and a
+    // FIFO are read once; the second pass reads the reader's copy).
+    InputFile input(q.gcode_path, gcode::gcode_input_options(!q.origin_mm.has_value()));
     if (q.origin_mm) {
       rep.map.origin_mm = *q.origin_mm;
     } else {
-      const auto ex = gcode_extrusion_extent(q.gcode_path);
+      const auto ex = gcode_extrusion_extent(input);
       rep.map.origin_mm = {0.5 * (ex.min_mm[0] + ex.max_mm[0]),
                            0.5 * (ex.min_mm[1] + ex.max_mm[1]), 0.0};
     }
     GcodeScaleOptions opt;
     opt.scale_extrusion = q.scale_extrusion;
-    const auto r = scale_gcode_file(q.gcode_path, q.output_path, rep.map, opt);
+    const auto r = scale_gcode_file(input, q.output_path, rep.map, opt);
     nmin = r.extrusion_min_mm;
     nmax = r.extrusion_max_mm;
     cmin = r.scaled_min_mm;

@@ -143,7 +143,7 @@ std::array<AxisMap, 3> parse_shrink_model(const std::string& text, const std::st
 }
 
 std::array<AxisMap, 3> read_shrink_model(const std::string& path) {
-  return parse_shrink_model(read_file_bytes(path), path);
+  return parse_shrink_model(read_file_bytes(path, "shrink model (JSON)", 64ull << 20), path);
 }
 
 std::array<AxisMap, 3> load_factor_maps(const std::string& spec) {

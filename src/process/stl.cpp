@@ -196,7 +196,7 @@ Mesh parse_stl(std::string_view b, const std::string& file) {
               fmt::format("not an STL file ({} bytes, too short for binary and not ASCII)", b.size()));
 }
 
-Mesh read_stl(const std::string& path) { return parse_stl(read_file_bytes(path), path); }
+Mesh read_stl(const std::string& path) { return parse_stl(read_file_bytes(path, "STL model", 2ull << 30), path); }
 
 namespace {
 // The name after "solid" ends at the line's end: a binary header may hold line breaks and

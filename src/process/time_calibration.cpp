@@ -177,7 +177,7 @@ DurationEstimator planner_duration_estimator(const machine::Machine& base,
   auto texts = std::make_shared<std::map<std::string, std::string>>();
   for (const auto& t : timings) {
     if (texts->count(t.gcode_path)) continue;
-    (*texts)[t.gcode_path] = read_file_bytes(t.gcode_path);
+    (*texts)[t.gcode_path] = read_file_bytes(t.gcode_path, "G-code file", 1ull << 30);
   }
   plan::EstimateOptions options;
   options.planner.file_limits = file_limits;

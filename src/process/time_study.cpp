@@ -48,6 +48,18 @@ EmpiricalParams parse_empirical_params(const std::string& text, const std::strin
   if (f.root().is_object() && f.root().contains("model")) at = "/model";
   const Json& j = f.root().at(Json::json_pointer(at));
   if (!j.is_object()) f.fail(at, "expected a JSON object of empirical parameters");
+  // Every key must be one amctl reads: a misspelt key silently left at its default would fit
+  // or estimate with the wrong parameters.
+  static constexpr std::string_view kKeys[] = {
+      "raster_speed_mm_s", "contour_speed_mm_s", "link_widths_mm", "link_speeds_mm_s",
+      "travel_speed_mm_s", "layer_change_s",     "retract_s",      "wipe_s",
+      "fixed_s",           "link_length_widths", "filament_diameter_mm"};
+  for (const auto& [key, value] : j.items()) {
+    if (std::find(std::begin(kKeys), std::end(kKeys), key) != std::end(kKeys)) continue;
+    std::string known;
+    for (std::string_view k : kKeys) known += (known.empty() ? "" : ", ") + std::string(k);
+    f.fail(at + "/" + key, fmt::format("unknown key '{}', expected one of {}", key, known));
+  }
   EmpiricalParams p;
   auto& m = p.model;
   auto num = [&](const char* key, double& v) {
@@ -79,7 +91,7 @@ EmpiricalParams read_empirical_params(const std::string& path) {
     p.scan.link_widths_mm = p.model.link_widths_mm;
     return p;
   }
-  return parse_empirical_params(read_file_bytes(path), path);
+  return parse_empirical_params(read_file_bytes(path, "parameters file (JSON)", 64ull << 20), path);
 }
 
 Json empirical_params_json(const EmpiricalTimeModel& m, const ScanOptions& so) {

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/dynamics/print_simulation.hpp"
 #include "amctl/plan/estimate.hpp"
 #include "amctl/plan/report_json.hpp"
@@ -284,23 +285,12 @@ std::string render_html(const Json& data) {
 ReportResult write_report(const std::string& path, const machine::Machine& machine,
                           const std::string& output_path, const ReportOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
+  // Opened first: an output that is the input, or cannot be written, fails before the work.
+  OutputFile out(output_path, OutputOptions{"-o/--output", {path}, {}});
   const Json data = report_data(path, machine, options);
   const std::string page = render_html(data);
-  const std::string tmp = output_path + ".part";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(fmt::format("cannot write report '{}'", output_path));
-    out.write(page.data(), static_cast<std::streamsize>(page.size()));
-    out.close();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw Error(fmt::format("cannot write report '{}'", output_path));
-    }
-  }
-  if (std::rename(tmp.c_str(), output_path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw Error(fmt::format("cannot rename '{}' onto '{}'", tmp, output_path));
-  }
+  out.write(page);
+  out.commit();
   ReportResult r;
   r.file = path;
   r.output = output_path;

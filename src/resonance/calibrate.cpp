@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/shaping/measures.hpp"
 #include "amctl/shaping/shaper.hpp"
 
@@ -285,6 +286,18 @@ CalibrationReport calibrate(const AccelFile& file, const std::string& source,
     }
   } else {
     r.quality = assess_record(file.record);
+    // The spectrum of a record ends at half its sample rate: a shaper recommendation needs it
+    // up to max_freq_hz (Klipper's 200 Hz). A 10 Hz record has nothing to say about a 40 Hz
+    // resonance, however confident the fit on what it has would look.
+    const double nyquist = 0.5 * r.quality->sample_rate_hz;
+    if (!(nyquist >= options.klipper.max_freq_hz)) {
+      throw Error(SourceLocation{source, 0, 0},
+                  fmt::format("sampled at {:.4g} Hz, its spectrum ends at {:.4g} Hz; a shaper recommendation "
+                              "needs it up to {:g} Hz: expected a record sampled at {:g} Hz or more "
+                              "(Klipper's ADXL345 samples at 3200 Hz)",
+                              r.quality->sample_rate_hz, nyquist, options.klipper.max_freq_hz,
+                              2.0 * options.klipper.max_freq_hz));
+    }
     r.welch = klipper_psd(file.record);
     r.psd = r.welch->table;
   }
@@ -586,33 +599,7 @@ std::string to_text(const CalibrationReport& r) {
   return s;
 }
 
-namespace {
-
-/// Writes `text` to path + ".tmp" and renames it over path: whole or not at all.
-void write_whole(const std::string& text, const std::string& path, std::string_view what) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(fmt::format("{}: cannot write the {}", path, what));
-    out << text;
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw Error(fmt::format("{}: cannot write the {}", path, what));
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(fmt::format("{}: cannot write the {} ({})", path, what, ec.message()));
-  }
-}
-
-}  // namespace
-
-void write_psd_csv(const CalibrationReport& r, const std::string& path) {
+void write_psd_csv(const CalibrationReport& r, const std::string& path, const OutputOptions& options) {
   if (!r.welch) {
     throw Error(fmt::format("{}: the input is a normalised PSD (with shapers); there is no raw "
                             "PSD to write",
@@ -624,10 +611,10 @@ void write_psd_csv(const CalibrationReport& r, const std::string& path) {
     buf += fmt::format("{},{},{},{},{}\n", t.freq_hz[k], t.psd_x[k], t.psd_y[k], t.psd_z[k],
                        t.psd_xyz[k]);
   }
-  write_whole(buf, path, "PSD CSV");
+  write_output(path, buf, options);
 }
 
-void write_response_csv(const CalibrationReport& r, const std::string& path) {
+void write_response_csv(const CalibrationReport& r, const std::string& path, const OutputOptions& options) {
   if (!r.identification) {
     throw Error(fmt::format("{}: no frequency response without --sweep", path));
   }
@@ -637,7 +624,7 @@ void write_response_csv(const CalibrationReport& r, const std::string& path) {
     buf += fmt::format("{},{},{},{},{},{}\n", b.freq_hz, b.gain, b.phase_rad, b.coherence,
                        b.used ? 1 : 0, model_gain(id.model, b.freq_hz));
   }
-  write_whole(buf, path, "response CSV");
+  write_output(path, buf, options);
 }
 
 }  // namespace amctl::resonance

@@ -496,7 +496,7 @@ SweepIdentification identify_sweep(const AccelRecord& record, char axis, const S
                                    int mode_count) {
   if (axis != 'x' && axis != 'y') throw Error(fmt::format("axis must be x or y, got '{}'", axis));
   if (mode_count < 0 || mode_count > kMaxModes) {
-    throw Error(fmt::format("--modes must be 1 to {} (or automatic), got {}", kMaxModes, mode_count));
+    throw Error(fmt::format("--modes: must be 1 to {} (or automatic), got {}", kMaxModes, mode_count));
   }
   const RecordQuality q = assess_record(record);
   const double fs = q.sample_rate_hz;

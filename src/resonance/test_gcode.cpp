@@ -21,20 +21,20 @@ constexpr std::size_t kMaxHalfPeriods = 1000000;
 
 void check_options(const TestGcodeOptions& o) {
   auto positive = [](double v, const char* name) {
-    if (!std::isfinite(v) || v <= 0.0) throw Error(fmt::format("{} must be > 0, got {}", name, v));
+    if (!std::isfinite(v) || v <= 0.0) throw Error(fmt::format("{}: must be > 0, got {}", name, v));
   };
-  if (o.axis != 'x' && o.axis != 'y') throw Error(fmt::format("--axis must be x or y, got '{}'", o.axis));
+  if (o.axis != 'x' && o.axis != 'y') throw Error(fmt::format("--axis: must be x or y, got '{}'", o.axis));
   positive(o.freq_start_hz, "--freq-start");
   positive(o.freq_end_hz, "--freq-end");
   if (o.freq_end_hz < o.freq_start_hz) {
-    throw Error(fmt::format("--freq-end ({}) must be >= --freq-start ({})", o.freq_end_hz, o.freq_start_hz));
+    throw Error(fmt::format("--freq-end: must be >= --freq-start ({1}), got {0}", o.freq_end_hz, o.freq_start_hz));
   }
   positive(o.hz_per_sec, "--hz-per-sec");
   if (o.style == TestStyle::klipper) {
     // Klipper's limits (resonance_tester.py): FREQ_START >= 1, FREQ_END <= 300, HZ_PER_SEC <= 2.
-    if (o.freq_start_hz < 1.0) throw Error(fmt::format("--freq-start must be >= 1 Hz (Klipper's limit), got {}", o.freq_start_hz));
-    if (o.freq_end_hz > 300.0) throw Error(fmt::format("--freq-end must be <= 300 Hz (Klipper's limit), got {}", o.freq_end_hz));
-    if (o.hz_per_sec > 2.0) throw Error(fmt::format("--hz-per-sec must be <= 2 (Klipper's limit), got {}", o.hz_per_sec));
+    if (o.freq_start_hz < 1.0) throw Error(fmt::format("--freq-start: must be >= 1 Hz (Klipper's limit), got {}", o.freq_start_hz));
+    if (o.freq_end_hz > 300.0) throw Error(fmt::format("--freq-end: must be <= 300 Hz (Klipper's limit), got {}", o.freq_end_hz));
+    if (o.hz_per_sec > 2.0) throw Error(fmt::format("--hz-per-sec: must be <= 2 (Klipper's limit), got {}", o.hz_per_sec));
     positive(o.accel_per_hz, "--accel-per-hz");
   } else {
     positive(o.accel_mm_s2, "--accel-mm-s2");

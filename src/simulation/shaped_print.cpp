@@ -5,6 +5,8 @@
 #include <fstream>
 #include <set>
 
+#include <sys/stat.h>
+
 #include <fmt/format.h>
 
 #include "amctl/dynamics/sample_csv.hpp"
@@ -27,14 +29,14 @@ shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double rate_hz, con
     throw Error(fmt::format("{} ({}): {}", n.type, s.source, e.what()));
   }
   if (!std::isfinite(s.freq_hz) || s.freq_hz <= 0.0) {
-    throw Error(fmt::format("{} ({}) must be a shaper frequency > 0 Hz, got {}", n.freq, s.source, s.freq_hz));
+    throw Error(fmt::format("{}: must be a shaper frequency > 0 Hz ({}), got {}", n.freq, s.source, s.freq_hz));
   }
   if (s.freq_hz >= 0.5 * rate_hz) {
     throw Error(fmt::format("{} ({}) = {} Hz is at or above the Nyquist limit {} Hz of the sample "
                             "rate (--sample-rate-hz {})", n.freq, s.source, s.freq_hz, 0.5 * rate_hz, rate_hz));
   }
   if (!std::isfinite(s.damping_ratio) || s.damping_ratio < 0.0 || s.damping_ratio >= 1.0) {
-    throw Error(fmt::format("{} ({}) must be in [0, 1), got {}", n.damping, s.source, s.damping_ratio));
+    throw Error(fmt::format("{}: must be in [0, 1) ({}), got {}", n.damping, s.source, s.damping_ratio));
   }
   try {
     return shaping::make_shaper(spec, s.freq_hz, s.damping_ratio);
@@ -43,11 +45,15 @@ shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double rate_hz, con
   }
 }
 
-std::vector<gcode::InputShapingCommand> m593_before_first_move(const std::string& path,
+std::vector<gcode::InputShapingCommand> m593_before_first_move(const plan::GcodeInput& input,
                                                               const machine::Machine& machine) {
   std::vector<gcode::InputShapingCommand> out;
-  if (path == "-") return out;
-  plan::PlanSource source(path, machine);
+  if (input.file() == nullptr) {
+    // Only a path: a second open of "-" or a FIFO would find nothing (or wait forever).
+    struct stat st {};
+    if (input.path() == "-" || ::stat(input.path().c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return out;
+  }
+  plan::PlanSource source(input, machine);
   plan::PlanBatch batch;
   while (source.next(batch)) {
     for (const plan::PlanEvent& e : batch.events) {
@@ -167,10 +173,11 @@ class ShapedSink final : public plan::Sink {
 
 }  // namespace
 
-ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::Machine& machine,
+ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input, const machine::Machine& machine,
                                         const dy::AxisModel& model_x, const dy::AxisModel& model_y,
                                         const dy::PrintSimulationOptions& options,
                                         const ShaperSettings& shapers) {
+  const std::string& path = input.path();
   const double rate = options.simulation.sample_rate_hz;
   dy::require_above_nyquist(rate, {&model_x, &model_y});
   const dy::MetricsOptions& mo = options.metrics;
@@ -189,7 +196,8 @@ ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::
 
   std::unique_ptr<dy::SampleCsvFile> csv;
   if (!options.csv_path.empty()) {
-    csv = std::make_unique<dy::SampleCsvFile>(options.csv_path, dy::csv_decimation(rate, options.csv_rate_hz));
+    csv = std::make_unique<dy::SampleCsvFile>(options.csv_path, dy::csv_decimation(rate, options.csv_rate_hz),
+                                              OutputOptions{"--csv", {path}, {}});
   }
   ShapedStreamingSimulation::RowSink rows;
   if (csv || options.rows) {
@@ -200,7 +208,7 @@ ShapedPrintResult simulate_shaped_print(const std::string& path, const machine::
   }
 
   const auto t0 = std::chrono::steady_clock::now();
-  plan::PlanSource source(path, machine);
+  plan::PlanSource source(input, machine);
   dy::SimulationOptions plain_opt = options.simulation;
   plain_opt.vibration_per_sample = false;
   dy::SimulationSink plain(model_x, model_y, plain_opt, options.metrics);

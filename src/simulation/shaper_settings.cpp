@@ -49,7 +49,7 @@ std::optional<AxisShaperSetting> from_request(const ShaperRequest& r, bool y, Sh
 }  // namespace
 
 ShaperSettings resolve_shapers(const ShaperRequest& request, const machine::Machine& machine,
-                               const std::string& path) {
+                               const plan::GcodeInput& path) {
   ShaperSettings shapers;
   shapers.x = from_request(request, false, shapers.names_x);
   shapers.y = from_request(request, true, shapers.names_y);

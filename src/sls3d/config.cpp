@@ -6,6 +6,7 @@
 #include <numbers>
 #include <set>
 
+#include "amctl/core/input.hpp"
 #include "amctl/sls3d/scan.hpp"
 
 #include <fmt/format.h>
@@ -305,9 +306,13 @@ void ScenarioConfig::validate() const {
 }
 
 ScenarioConfig load_scenario_config(const std::string& path) {
+  // Through amctl's one reader: a directory, a missing file, standard input ("-") or a FIFO
+  // behave as everywhere else.
+  const std::string text =
+      read_whole_input(path, InputOptions{"3D SLS scenario configuration (TOML)", false, 16ull << 20});
   toml::table root;
   try {
-    root = toml::parse_file(path);
+    root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     throw Error(place(path, e.source()), "TOML: " + std::string(e.description()) + ", expected valid TOML");
   }

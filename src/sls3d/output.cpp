@@ -1,13 +1,10 @@
 // JSON forms, the trace CSV and the one writer of the 3D model's files (amctl/sls3d/studies.hpp).
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <numbers>
-#include <unistd.h>
 
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/sls3d/studies.hpp"
 
 namespace amctl::sls3d {
@@ -33,23 +30,10 @@ Json mesh_json(std::uint64_t cells, std::uint64_t dofs) {
 }  // namespace
 
 void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".part" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw Error(path + ": cannot write the file");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(path + ": cannot write the file: " + ec.message());
-  }
+  // The one output writer: a regular file appears whole or not at all, every write checked.
+  OutputFile out(path);
+  out.write(text);
+  out.commit();
 }
 
 Json to_json(const SlabFluxResult& r) {

@@ -1,4 +1,4 @@
-// The steps CSV, written whole or not at all.
+// The steps CSV through amctl::OutputFile, written whole or not at all.
 #include <iterator>
 
 #include <fmt/format.h>
@@ -9,23 +9,14 @@
 namespace amctl::steppers {
 
 
-StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names)
-    : path_(std::move(path)), tmp_(path_ + ".part"), names_(std::move(names)) {
-  file_ = std::fopen(tmp_.c_str(), "wb");
-  if (file_ == nullptr) throw Error(fmt::format("cannot write CSV file '{}'", path_));
+StepsCsvFile::StepsCsvFile(std::string path, std::vector<std::string> names, OutputOptions options)
+    : out_(std::move(path), std::move(options)), names_(std::move(names)) {
   buf_ = "stepper,time_s,direction\n";
   bytes_ = buf_.size();
 }
 
-StepsCsvFile::~StepsCsvFile() {
-  if (file_ != nullptr) std::fclose(file_);
-  if (!committed_) std::remove(tmp_.c_str());
-}
-
 void StepsCsvFile::flush() {
-  if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), file_) != buf_.size()) {
-    throw Error(fmt::format("cannot write CSV file '{}' (disk full?)", path_));
-  }
+  out_.write(buf_);
   buf_.clear();
 }
 
@@ -43,12 +34,7 @@ void StepsCsvFile::write(std::span<const Step> steps) {
 
 void StepsCsvFile::commit() {
   flush();
-  const bool ok = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!ok || std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-    throw Error(fmt::format("cannot write CSV file '{}'", path_));
-  }
-  committed_ = true;
+  out_.commit();
 }
 
 }  // namespace amctl::steppers

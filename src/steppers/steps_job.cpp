@@ -40,7 +40,7 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   for (const kinematics::Motor& c : motors) names.push_back(c.name);
   plan::PlanSource source(gcode_path, m);
   std::unique_ptr<StepsCsvFile> csv;
-  if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names);
+  if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names, OutputOptions{"--csv", {gcode_path}, {}});
   std::uint64_t moves = 0;
   StepDirFilter sds(motors.size());
   std::vector<Step> passed;

@@ -14,6 +14,13 @@ void SlsBuildConfig::validate() const {
     throw Error("initial_layers must be >= 1, got " + std::to_string(initial_layers));
   if (layers_added < 0)
     throw Error("layers_added must be >= 0, got " + std::to_string(layers_added));
+  // Sizes checked before anything is allocated: a column of 2e9 layers, or a trace of 1e12
+  // rows, is no build a machine makes (a 1 m tall part is 10 000 layers of 0.1 mm).
+  if (layers_added > kMaxSlsLayers || initial_layers > kMaxSlsLayers)
+    throw Error("layers_added and initial_layers must be at most " + std::to_string(kMaxSlsLayers) + ", got " +
+                std::to_string(std::max(layers_added, initial_layers)));
+  if (cells_per_layer > 1000)
+    throw Error("cells_per_layer must be at most 1000, got " + std::to_string(cells_per_layer));
   require_positive("layer_time_s", layer_time_s);
   require_finite("initial_temp_c", initial_temp_c);
   require_finite("fresh_powder_temp_c", fresh_powder_temp_c);
@@ -35,6 +42,14 @@ void SlsBuildConfig::validate() const {
   if (cells_per_layer < 1)
     throw Error("cells_per_layer must be >= 1, got " + std::to_string(cells_per_layer));
   require_positive("dt_s (time step)", dt_s);
+  {
+    const double steps = (static_cast<double>(layers_added) + 1.0) * std::ceil(layer_time_s / dt_s);
+    if (steps > kMaxSlsSteps) {
+      throw Error("the build would take " + std::to_string(steps) + " time steps ((layers_added + 1) * "
+                  "layer_time_s / dt_s), more than " + std::to_string(kMaxSlsSteps) +
+                  "; expected fewer layers or a longer dt_s");
+    }
+  }
   if (dt_s > layer_time_s)
     throw Error("dt_s (" + std::to_string(dt_s) + ") must not exceed layer_time_s (" +
                 std::to_string(layer_time_s) + ")");

@@ -6,6 +6,7 @@
 #include <toml++/toml.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/input.hpp"
 #include "amctl/thermal/powder_bed_sim.hpp"
 
 namespace amctl::thermal {
@@ -94,9 +95,12 @@ SourceLocation validated_key_location(const std::string& path, const toml::table
 }  // namespace
 
 SlsBuildConfig load_sls_config(const std::string& path) {
+  // Through amctl's one reader: a directory, a missing file, standard input ("-") or a FIFO
+  // behave as everywhere else.
+  const std::string text = read_whole_input(path, InputOptions{"SLS configuration (TOML)", false, 16ull << 20});
   toml::table root;
   try {
-    root = toml::parse_file(path);
+    root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     throw Error(where(path, e.source()), std::string("TOML parse error: ") + std::string(e.description()));
   }

@@ -3,27 +3,35 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
+
+#include <fmt/format.h>
 
 namespace amctl::thermal {
 
 namespace {
 
-// A file opened for writing, closed on every path out.
+// A CSV written through amctl::OutputFile (whole or not at all; every write checked).
 class OutFile {
  public:
-  OutFile(const std::string& path, const char* what) : f_(std::fopen(path.c_str(), "w")) {
-    if (!f_) throw Error(std::string(what) + ": cannot open '" + path + "' for writing");
+  OutFile(const std::string& path, const char* flag, std::vector<std::string> inputs = {})
+      : out_(path, OutputOptions{flag, std::move(inputs), {}}) {}
+  template <class... A>
+  void print(fmt::format_string<A...> f, A&&... a) {
+    buf_.clear();
+    fmt::format_to(std::back_inserter(buf_), f, std::forward<A>(a)...);
+    out_.write(std::string_view(buf_.data(), buf_.size()));
   }
-  ~OutFile() { std::fclose(f_); }
-  OutFile(const OutFile&) = delete;
-  OutFile& operator=(const OutFile&) = delete;
-  std::FILE* get() const { return f_; }
+  void commit() { out_.commit(); }
 
  private:
-  std::FILE* f_;
+  OutputFile out_;
+  fmt::memory_buffer buf_;
 };
 
 }  // namespace
@@ -94,12 +102,12 @@ Json to_json(const MarginStudy& s) {
 void write_bode_csv(const std::string& path, const PowderBedTf& g, int modes) {
   const auto be = g.bode(1e-4, 1e6, 401, -1);
   const auto bn = g.bode(1e-4, 1e6, 401, modes);
-  OutFile out(path, "Bode CSV");
-  std::FILE* f = out.get();
-  std::fprintf(f, "omega_rad_s,mag_G_db,phase_G_deg,mag_GN_db,phase_GN_deg\n");
+  OutFile out(path, "--bode-csv");
+  out.print("omega_rad_s,mag_G_db,phase_G_deg,mag_GN_db,phase_GN_deg\n");
   for (std::size_t i = 0; i < be.size(); ++i)
-    std::fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g\n", be[i].omega_rad_s, be[i].magnitude_db,
+    out.print("{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", be[i].omega_rad_s, be[i].magnitude_db,
                  be[i].phase_deg, bn[i].magnitude_db, bn[i].phase_deg);
+  out.commit();
 }
 
 // ------------------------------------------------------------------------------ SLS build
@@ -136,13 +144,14 @@ Json to_json(const SlsRun& run) {
   return j;
 }
 
-void write_sls_trace_csv(const std::string& path, const SlsBuildResult& r) {
-  OutFile out(path, "SLS trace CSV");
-  std::FILE* f = out.get();
-  std::fprintf(f, "t_s,layers,depth_m,y_c,setpoint_c,flux_w_m2,disturbance_w_m2,integral_w_m2\n");
+void write_sls_trace_csv(const std::string& path, const SlsBuildResult& r,
+                         const std::vector<std::string>& inputs) {
+  OutFile out(path, "--csv", inputs);
+  out.print("t_s,layers,depth_m,y_c,setpoint_c,flux_w_m2,disturbance_w_m2,integral_w_m2\n");
   for (const auto& p : r.trace)
-    std::fprintf(f, "%.6f,%d,%.9g,%.6f,%.6f,%.6f,%.6f,%.6f\n", p.t_s, p.layers, p.depth_m, p.y_c,
+    out.print("{:.6f},{},{:.9g},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", p.t_s, p.layers, p.depth_m, p.y_c,
                  p.setpoint_c, p.flux_w_m2, p.disturbance_w_m2, p.integral_w_m2);
+  out.commit();
 }
 
 // ------------------------------------------------------------------------ FDM heater loops
@@ -274,17 +283,17 @@ Json to_json(const HeaterStudy& s) {
 }
 
 void write_heater_traces_csv(const std::string& path, const HeaterStudy& s) {
-  OutFile out(path, "heater trace CSV");
-  std::FILE* f = out.get();
-  std::fprintf(f, "t_s");
+  OutFile out(path, "--csv");
+  out.print("t_s");
   for (const auto& r : s.runs)
-    std::fprintf(f, ",%s_c,%s_duty", r.controller.c_str(), r.controller.c_str());
-  std::fprintf(f, "\n");
+    out.print(",{}_c,{}_duty", r.controller, r.controller);
+  out.print("\n");
   for (std::size_t i = 0; i < s.runs.front().t_s.size(); ++i) {
-    std::fprintf(f, "%.2f", s.runs.front().t_s[i]);
-    for (const auto& r : s.runs) std::fprintf(f, ",%.4f,%.4f", r.measured_c[i], r.duty[i]);
-    std::fprintf(f, "\n");
+    out.print("{:.2f}", s.runs.front().t_s[i]);
+    for (const auto& r : s.runs) out.print(",{:.4f},{:.4f}", r.measured_c[i], r.duty[i]);
+    out.print("\n");
   }
+  out.commit();
 }
 
 }  // namespace amctl::thermal

@@ -33,16 +33,16 @@ double machine_accel(const machine::Machine& m) {
 
 void check_model(const ModalModel& model) {
   if (!std::isfinite(model.natural_frequency_hz) || model.natural_frequency_hz <= 0.0) {
-    throw Error(fmt::format("--natural-frequency-hz must be > 0, got {}", model.natural_frequency_hz));
+    throw Error(fmt::format("--natural-frequency-hz: must be > 0, got {}", model.natural_frequency_hz));
   }
   if (!std::isfinite(model.damping_ratio) || model.damping_ratio < 0.0 || model.damping_ratio >= 1.0) {
-    throw Error(fmt::format("--damping-ratio must be in [0, 1), got {}", model.damping_ratio));
+    throw Error(fmt::format("--damping-ratio: must be in [0, 1), got {}", model.damping_ratio));
   }
 }
 
 void check_budget(double max_smoothing_mm) {
   if (!std::isfinite(max_smoothing_mm) || max_smoothing_mm <= 0.0) {
-    throw Error(fmt::format("--max-smoothing-mm must be > 0, got {}", max_smoothing_mm));
+    throw Error(fmt::format("--max-smoothing-mm: must be > 0, got {}", max_smoothing_mm));
   }
 }
 

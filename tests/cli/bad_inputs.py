@@ -97,8 +97,10 @@ SLS3D_ARGS = ["thermal", "sls3d", "--config", "s.toml", "--vtu-dir", "vtu", "--r
 SLS3D_OUTPUTS = ["vtu", "out.html", "out.csv"]
 
 
-def case(name, args, files, where, outputs=()):
-    return {"name": name, "args": args, "files": files, "where": where, "outputs": outputs}
+def case(name, args, files, where, outputs=(), dirs=(), links=None):
+    """`dirs`: directories to make; `links`: {link: target} symbolic links to make."""
+    return {"name": name, "args": args, "files": files, "where": where, "outputs": outputs,
+            "dirs": tuple(dirs), "links": dict(links or {})}
 
 
 CASES = [
@@ -357,6 +359,34 @@ CASES = [
     case("stl_given_as_gcode", ["estimate", "m.gcode"], {"m.gcode": CUBE_STL}, "m.gcode"),
     case("gzip_truncated", ["estimate", "f.gcode.gz"], {"f.gcode.gz": latin1(GZIP_HALF)},
          "f.gcode.gz"),
+    # ---- the formats decoders on the one reader: every command that reads G-code ----
+    case("bgcode_as_its_own_plan_output", ["plan", "f.bgcode", "-o", "f.bgcode"],
+         {"f.bgcode": latin1(bgcode(GOOD_GCODE))}, "f.bgcode"),
+    case("gzip_as_its_own_plan_output", ["plan", "f.gcode.gz", "-o", "f.gcode.gz"],
+         {"f.gcode.gz": latin1(GZIP_HALF)}, "f.gcode.gz"),
+    case("gzip_truncated_plan", ["plan", "f.gcode.gz", "-o", "out.csv"],
+         {"f.gcode.gz": latin1(GZIP_HALF)}, "f.gcode.gz", ["out.csv"]),
+    case("gzip_truncated_m73", ["estimate", "f.gcode.gz", "--write-m73", "out.gcode"],
+         {"f.gcode.gz": latin1(GZIP_HALF)}, "f.gcode.gz", ["out.gcode"]),
+    case("gzip_truncated_report", ["report", "f.gcode.gz", "-o", "out.html"],
+         {"f.gcode.gz": latin1(GZIP_HALF)}, "f.gcode.gz", ["out.html"]),
+    case("bgcode_bad_line_m73", ["estimate", "f.bgcode", "--write-m73", "out.gcode"],
+         {"f.bgcode": latin1(bgcode(GOOD_GCODE + "G1 Xq\n"))}, "f.bgcode:7:5", ["out.gcode"]),
+    case("bgcode_bad_line_compare", ["compare", "f.bgcode", "--natural-frequency-hz", "40",
+                                     "--damping-ratio", "0.1"],
+         {"f.bgcode": latin1(bgcode(GOOD_GCODE + "G1 Xq\n"))}, "f.bgcode:7:5"),
+    case("gcode3mf_bad_line_scale", ["shrink", "apply", "--gcode", "f.gcode.3mf", "--factors", "x=1.01,y=1.01,z=1.01",
+                                     "-o", "out.gcode"],
+         {"f.gcode.3mf": latin1(make_3mf.sliced_3mf([(GOOD_GCODE + "G1 Xq\n").encode()]))},
+         "f.gcode.3mf:7:5", ["out.gcode"]),
+    case("stl_given_to_plan", ["plan", "m.gcode", "-o", "out.csv"], {"m.gcode": CUBE_STL}, "m.gcode",
+         ["out.csv"]),
+    case("configuration_h_tiny_feedrate", ["machine", "show", "Configuration.h"],
+         {"Configuration.h": CONFIGURATION_H.replace("{ 500, 500, 5, 25 }", "{ 1e-305, 500, 5, 25 }")},
+         "Configuration.h:3:39"),
+    case("m503_tiny_feedrate", ["estimate", "f.gcode", "-m", "m503.txt"],
+         {"f.gcode": GOOD_GCODE, "m503.txt": M503.replace("X500.00 Y500.00 Z5.00", "X0.0000000000000000001 Y500.00 Z5.00")},
+         "m503.txt:2:14"),
     # ---- Marlin machines: M503 output, Configuration.h; empty machine files ----
     case("m503_malformed_number", ["estimate", "f.gcode", "-m", "m503.txt"],
          {"f.gcode": GOOD_GCODE, "m503.txt": M503.replace("Y500.00 Z5.00", "Y5o0.00 Z5.00")},
@@ -432,6 +462,301 @@ CASES = [
 ]
 
 
+# ---- round two (outputs that never destroy, inputs read once, bounded macros, physical ranges) ----
+MACRO_CFG = GOOD_CFG + "[gcode_macro FOO]\ngcode:\n  G4 P0\n  {body}\n"
+
+
+def macro_case(name, body, where="p.cfg:8", extra=""):
+    return case(name, ["estimate", "f.gcode", "-m", "p.cfg"],
+                {"f.gcode": "G28\nFOO\n", "p.cfg": MACRO_CFG.replace("{body}", body) + extra}, where)
+
+
+R2 = []
+# Every writer refuses its own input as the output (by path, through a symbolic link or a hard
+# link), and the input is left as it was.
+for cmd, out_flag in (
+        (["plan", "f.gcode"], "-o"), (["report", "f.gcode"], "-o"),
+        (["simulate", "f.gcode", "--natural-frequency-hz", "40"], "--csv"),
+        (["compensate", "f.gcode", "--natural-frequency-hz", "40"], "--csv"),
+        (["steps", "f.gcode", "-m", "p.cfg"], "--csv"),
+        (["estimate", "f.gcode"], "--write-m73"),
+        (["shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01"], "-o")):
+    files = {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG}
+    name = cmd[0] if cmd[0] != "shrink" else "shrink_apply"
+    R2.append(case(f"{name}_output_is_the_input", cmd + [out_flag, "f.gcode"], files, "f.gcode"))
+    R2.append(case(f"{name}_output_links_to_the_input", cmd + [out_flag, "l.gcode"], files, "l.gcode",
+                   links={"l.gcode": "f.gcode"}))
+    R2.append(case(f"{name}_output_is_a_directory", cmd + [out_flag, "d"], files, "d", dirs=["d"]))
+    R2.append(case(f"{name}_output_in_a_missing_directory", cmd + [out_flag, "nowhere/out"], files,
+                   "nowhere/out"))
+R2 += [
+    case("compensate_gcode_output_is_the_input",
+         ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv", "--gcode", "f.gcode"],
+         {"f.gcode": GOOD_GCODE}, "f.gcode", ["o.csv"]),
+    case("compensate_two_outputs_one_file",
+         ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv", "--gcode", "o.csv"],
+         {"f.gcode": GOOD_GCODE}, "--gcode", ["o.csv"]),
+    case("resonance_psd_csv_is_the_record",
+         ["resonance", "calibrate", "a.csv", "--axis", "x", "--csv", "a.csv"],
+         {"a.csv": RAW_HEADER + RAW_ROWS}, "a.csv"),
+    case("resonance_psd_csv_to_a_directory",
+         ["resonance", "calibrate", "a.csv", "--axis", "x", "--csv", "d"],
+         {"a.csv": RAW_HEADER + RAW_ROWS}, "d", dirs=["d"]),
+    case("calibrate_time_save_over_the_timings",
+         ["calibrate-time", "t.csv", "--save", "t.csv"],
+         {"t.csv": "gcode,duration_s\nf.gcode,12\n", "f.gcode": GOOD_GCODE}, "t.csv"),
+    case("sls_trace_over_the_config", ["thermal", "sls", "--config", "s.toml", "--csv", "s.toml"],
+         {"s.toml": "[build]\nlayers_added = 1\n"}, "s.toml"),
+    case("thermal_hotend_csv_to_a_directory", ["thermal", "hotend", "--csv", "d"], {}, "d", dirs=["d"]),
+    case("thermal_margins_bode_to_a_directory", ["thermal", "sls-margins", "--bode-csv", "d"], {}, "d", dirs=["d"]),
+    case("test_gcode_to_a_directory", ["resonance", "test-gcode", "--axis", "x", "-o", "d"], {}, "d", dirs=["d"]),
+    case("test_gcode_to_a_missing_directory", ["resonance", "test-gcode", "--axis", "x", "-o", "no/t.gcode"],
+         {}, "no/t.gcode"),
+    case("stepper_sweep_csv_to_a_directory", ["stepper", "sweep", "-m", "p.cfg", "--csv", "d"],
+         {"p.cfg": STEPPER_CFG}, "d", dirs=["d"]),
+    case("shrink_apply_stl_over_the_model", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01",
+                                             "-o", "m.stl"],
+         {"m.stl": "solid t\n" + CUBE_FACET + "endsolid t\n"}, "m.stl"),
+    case("plan_json_with_the_csv_on_stdout", ["plan", "f.gcode", "-o", "-", "--json"],
+         {"f.gcode": GOOD_GCODE}, "--json"),
+    case("m73_to_stdout_with_json", ["estimate", "f.gcode", "--write-m73", "-", "--json"],
+         {"f.gcode": GOOD_GCODE}, "--write-m73"),
+]
+# Inputs that cannot be read as asked: a directory, a missing file, binary G-code, for every
+# command that reads one.
+GCODE_COMMANDS = {
+    "estimate": ["estimate", "{}"], "estimate_empirical": ["estimate", "{}", "--mode", "empirical"],
+    "plan": ["plan", "{}"], "report": ["report", "{}", "-o", "r.html"],
+    "simulate": ["simulate", "{}", "--natural-frequency-hz", "40"],
+    "compensate": ["compensate", "{}", "--natural-frequency-hz", "40", "--csv", "o.csv"],
+    "compare": ["compare", "{}", "--natural-frequency-hz", "40"],
+    "steps": ["steps", "{}", "-m", "p.cfg"],
+    "shrink_apply": ["shrink", "apply", "--gcode", "{}", "--factors", "x=1.01", "-o", "o.gcode"],
+    "compare_profiles": ["estimate", "{}", "--compare-profiles"],
+    "stepper_simulate": ["stepper", "simulate", "{}", "-m", "p.cfg"],
+}
+for name, args in GCODE_COMMANDS.items():
+    fill = lambda v: [a.replace("{}", v) for a in args]
+    outs = ["o.csv", "o.gcode", "r.html"]
+    R2.append(case(f"{name}_input_is_a_directory", fill("d.gcode"), {"p.cfg": STEPPER_CFG}, "d.gcode",
+                   outs, dirs=["d.gcode"]))
+    R2.append(case(f"{name}_input_is_missing", fill("none.gcode"), {"p.cfg": STEPPER_CFG}, "none.gcode", outs))
+    R2.append(case(f"{name}_input_is_binary_gcode", fill("b.gcode"),
+                   {"b.gcode": "GCDE\x01\x00\x00\x00\x00\x00\x00\x00", "p.cfg": STEPPER_CFG}, "b.gcode", outs))
+R2 += [
+    case("machine_file_is_a_directory", ["estimate", "f.gcode", "-m", "d.cfg"], {"f.gcode": GOOD_GCODE},
+         "d.cfg", dirs=["d.cfg"]),
+    case("machine_show_directory", ["machine", "show", "d.toml"], {}, "d.toml", dirs=["d.toml"]),
+    case("include_is_a_directory", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG + "[include sub]\n", "sub/x.cfg": "\n"}, "p.cfg:5:1"),
+    case("timings_gcode_is_a_directory", ["calibrate-time", "t.csv"],
+         {"t.csv": "gcode,duration_s\nd.gcode,12\n"}, "d.gcode", dirs=["d.gcode"]),
+    case("timings_gcode_is_missing", ["calibrate-time", "t.csv"],
+         {"t.csv": "gcode,duration_s\nnone.gcode,12\n"}, "none.gcode"),
+    case("accel_record_is_a_directory", ["resonance", "calibrate", "d.csv", "--axis", "x"], {}, "d.csv",
+         dirs=["d.csv"]),
+    case("stl_is_a_directory", ["shrink", "apply", "--model", "d.stl", "--factors", "x=1.01", "-o", "o.stl"],
+         {}, "d.stl", ["o.stl"], dirs=["d.stl"]),
+    case("params_json_is_a_directory", ["estimate", "f.gcode", "--mode", "empirical", "--params", "d.json"],
+         {"f.gcode": GOOD_GCODE}, "d.json", dirs=["d.json"]),
+    case("shrink_csv_is_a_directory", ["shrink", "fit", "d.csv"], {}, "d.csv", dirs=["d.csv"]),
+    case("sls_config_is_a_directory", ["thermal", "sls", "--config", "d.toml", "--csv", ""], {}, "d.toml",
+         dirs=["d.toml"]),
+    case("sls_config_is_missing", ["thermal", "sls", "--config", "none.toml", "--csv", ""], {}, "none.toml"),
+    # CR-only line ends: each CR ends a line (the error is on line 3, not on line 1).
+    case("gcode_cr_only_line_ends", ["estimate", "f.gcode"], {"f.gcode": "G28\rG1 X10 F6000\rG1 Xq\r"},
+         "f.gcode:3:5"),
+    case("gcode_mixed_line_ends", ["estimate", "f.gcode"], {"f.gcode": "G28\r\nG1 X10 F6000\rG1 Y5\nG1 Yq\n"},
+         "f.gcode:4:5"),
+    case("gcode_cr_only_plan_not_left_behind", ["plan", "f.gcode", "-o", "o.csv"],
+         {"f.gcode": "G28\rG1 X10 F6000\rG1 Xq\r"}, "f.gcode:3:5", ["o.csv"]),
+    case("gcode_nul_byte_in_a_word", ["estimate", "f.gcode"], {"f.gcode": "G1 X10\nG1 X\x00\n"}, "f.gcode:2:5"),
+]
+# The macro engine: every bound an error at the macro's printer.cfg line, naming the bound.
+R2 += [
+    macro_case("macro_filter_chain", "{ 1" + "|abs" * 3000 + " }"),
+    macro_case("macro_attribute_chain", "{ printer" + ".a" * 3000 + " }"),
+    macro_case("macro_item_chain", "{ printer" + "['a']" * 3000 + " }"),
+    macro_case("macro_plus_chain", "{ 1" + " + 1" * 3000 + " }"),
+    macro_case("macro_concat_chain", "{ 'a'" + " ~ 'a'" * 3000 + " }"),
+    macro_case("macro_and_chain", "{ 1" + " and 1" * 3000 + " }"),
+    macro_case("macro_call_chain", "{ range" + "(1)" * 3000 + " }"),
+    macro_case("macro_not_chain", "{ " + "not " * 3000 + "1 }"),
+    macro_case("macro_parentheses", "{ " + "(" * 3000 + "1" + ")" * 3000 + " }"),
+    macro_case("macro_statements_nested", "{% if 1 %}" * 300 + "{% endif %}" * 300),
+    macro_case("macro_string_doubling", "{% set ns = namespace(s='x') %}{% for i in range(64) %}"
+               "{% set ns.s = ns.s ~ ns.s %}{% endfor %}", "p.cfg:8"),
+    macro_case("macro_list_doubling", "{% set ns = namespace(l=[1]) %}{% for i in range(64) %}"
+               "{% set ns.l = ns.l + ns.l %}{% endfor %}", "p.cfg:8"),
+    macro_case("macro_shared_list_doubling", "{% set ns = namespace(l=[1]) %}{% for i in range(90) %}"
+               "{% set ns.l = [ns.l, ns.l] %}{% endfor %}{ ns.l }", "p.cfg:8"),
+    macro_case("macro_replace_amplification", "{ ('x' * 1000)|replace('x', 'y' * 100000) }", "p.cfg:8"),
+    macro_case("macro_join_amplification", "{ (['y' * 100000] * 1000)|join('z' * 100000) }", "p.cfg:8"),
+    macro_case("macro_repetition", "{ 'x' * 9000000000000000000 }", "p.cfg:8"),
+    macro_case("macro_range_near_int64", "{ range(-9223372036854775807, 9223372036854775807)|length }", "p.cfg:8"),
+    macro_case("macro_loop_iterations", "{% for i in range(1000000) %}{% for j in range(10) %}{% endfor %}"
+               "{% endfor %}", "p.cfg:8"),
+    macro_case("macro_work", "{% set s = 'x' * 1000000 %}{% for i in range(1000000) %}{% if 'y' in s %}"
+               "{% endif %}{% endfor %}", "p.cfg:8"),
+    case("macro_calls_fan_out", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": "G28\nFAN0\n", "p.cfg": GOOD_CFG + "".join(
+             f"[gcode_macro FAN{i}]\ngcode:\n  FAN{i + 1}\n  FAN{i + 1}\n" for i in range(40)) +
+          "[gcode_macro FAN40]\ngcode:\n  G4 P0\n"}, "p.cfg:{rows}"),
+    case("macro_template_too_long", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": "G28\n", "p.cfg": MACRO_CFG.replace("{body}", "M117 " + "x" * 1100000)}, "p.cfg:6"),
+    case("macro_variable_nested_literal", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": "G28\n", "p.cfg": GOOD_CFG + "[gcode_macro FOO]\nvariable_x: " + "[" * 300 + "]" * 300 +
+          "\ngcode:\n  G4\n"}, "p.cfg:6:13"),
+]
+# Physical ranges: a positive value a machine cannot have is refused where it is written.
+TINY = "0." + "0" * 310 + "1"  # below 1e-300, as a G-code word writes it (no exponent)
+HUGE = "1" + "0" * 300
+for name, line, col in (
+        ("feedrate_tiny", f"G1 X10 F{TINY}", 8), ("m204_tiny", f"M204 S{TINY}", 6),
+        ("velocity_limit_1e-300", "SET_VELOCITY_LIMIT VELOCITY=1e-300", 20),
+        ("accel_limit_1e-300", "SET_VELOCITY_LIMIT ACCEL=1e-300", 20),
+        ("scv_1e-300", "SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY=1e-300", 20),
+        ("m220_tiny", f"M220 S{TINY}", 6), ("m221_tiny", f"M221 S{TINY}", 6),
+        ("m201_tiny", f"M201 X{TINY}", 6), ("m203_tiny", f"M203 X{TINY}", 6),
+        ("gcode_offset_speed_1e-300", "SET_GCODE_OFFSET Z=1 MOVE=1 MOVE_SPEED=1e-300", 18),
+        ("m207_tiny", f"M207 S1 F{TINY}", 9), ("m208_tiny", f"M208 F{TINY}", 6),
+        ("dwell_huge", f"G4 P{HUGE}", 4), ("retract_speed_1e-300", "SET_RETRACTION RETRACT_SPEED=1e-300", 16),
+        ("feedrate_huge", f"G1 X10 F{HUGE}", 8), ("m220_huge", f"M220 S{HUGE}", 6),
+        ("feedrate_1e-300_reads_as_f1_e-300", "G1 X10 F1e-300", 0)):
+    if col == 0:  # F1e-300 is F1 and E-300 in G-code: a valid move (no error), not listed here
+        continue
+    R2.append(case(f"gcode_{name}", ["estimate", "f.gcode"], {"f.gcode": f"G28\n{line}\nG1 X20 Y20\n"},
+                   f"f.gcode:2:{col}"))
+R2 += [
+    case("toml_max_velocity_1e-300", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nmax_velocity = 1e-300\n'}, "m.toml:2:16"),
+    case("toml_max_accel_1e-300", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nmax_accel = 1e-300\n'}, "m.toml:2:13"),
+    case("toml_marlin_feedrate_1e-300", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": '[printer]\nfirmware = "marlin"\n[marlin]\n'
+                                           'max_feedrate = [1e-300, 300, 10, 50]\n'}, "m.toml:4:17"),
+    case("cfg_max_velocity_1e-300", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("max_velocity: 300", "max_velocity: 1e-300")},
+         "p.cfg:3:15"),
+    case("cfg_max_accel_1e-300", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("max_accel: 3000", "max_accel: 1e-300")},
+         "p.cfg:4:12"),
+    case("set_max_velocity_1e-300", ["estimate", "f.gcode", "--set", "printer.max_velocity=1e-300"],
+         {"f.gcode": GOOD_GCODE}, "--set printer.max_velocity=1e-300"),
+    case("set_max_accel_1e-300", ["estimate", "f.gcode", "--set", "printer.max_accel=1e-300"],
+         {"f.gcode": GOOD_GCODE}, "--set printer.max_accel=1e-300"),
+    case("set_max_jerk_1e-300", ["estimate", "f.gcode", "--set", "printer.max_jerk=1e-300"],
+         {"f.gcode": GOOD_GCODE}, "--set printer.max_jerk=1e-300"),
+    case("simulate_sample_rate_1e12", ["simulate", "f.gcode", "--natural-frequency-hz", "40",
+                                       "--sample-rate-hz", "1e12"], {"f.gcode": GOOD_GCODE}, "--sample-rate-hz"),
+    case("report_sample_rate_1e12", ["report", "f.gcode", "--natural-frequency-hz", "40",
+                                     "--sample-rate-hz", "1e12", "-o", "r.html"],
+         {"f.gcode": GOOD_GCODE}, "--sample-rate-hz", ["r.html"]),
+    case("compare_sample_rate_1e12", ["compare", "f.gcode", "--natural-frequency-hz", "40",
+                                      "--sample-rate-hz", "1e12"], {"f.gcode": GOOD_GCODE}, "--sample-rate-hz"),
+    case("compensate_sample_rate_1e12", ["compensate", "f.gcode", "--natural-frequency-hz", "40",
+                                         "--sample-rate-hz", "1e12", "--csv", "o.csv"],
+         {"f.gcode": GOOD_GCODE}, "--sample-rate-hz", ["o.csv"]),
+    case("compensate_lead_in_1e9", ["compensate", "f.gcode", "--natural-frequency-hz", "40",
+                                    "--lead-in-s", "1e9", "--csv", "o.csv"],
+         {"f.gcode": GOOD_GCODE}, "--lead-in-s", ["o.csv"]),
+    case("sls_layers_2e9", ["thermal", "sls", "--layers", "2000000000", "--csv", ""], {}, "--layers"),
+    case("sls_layers_negative", ["thermal", "sls", "--layers", "-5", "--csv", ""], {}, "--layers"),
+    case("shrink_factor_1e300", ["shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1e300", "-o", "o.gcode"],
+         {"f.gcode": GOOD_GCODE}, "--factors", ["o.gcode"]),
+    case("shrink_factor_tiny", ["shrink", "apply", "--gcode", "f.gcode", "--factors", "y=1e-300", "-o", "o.gcode"],
+         {"f.gcode": GOOD_GCODE}, "--factors", ["o.gcode"]),
+    case("params_unknown_key", ["estimate", "f.gcode", "--mode", "empirical", "--params", "p.json"],
+         {"f.gcode": GOOD_GCODE, "p.json": '{"raster_speed_mm_s": 60,\n "rastr_speed_mm_s": 70}\n'}, "p.json:2"),
+    case("params_nested_deep", ["estimate", "f.gcode", "--mode", "empirical", "--params", "p.json"],
+         {"f.gcode": GOOD_GCODE, "p.json": "[" * 100000 + "]" * 100000}, "p.json:1"),
+    case("accel_record_at_10_hz", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": RAW_HEADER + "".join(f"{i / 10:.1f},{(i % 5) - 2},{(i % 3) - 1},9800\n" for i in range(3000))},
+         "a.csv"),
+]
+
+# Numeric flags of every command: negative, NaN, infinite or absurd values are refused naming
+# the flag, before any work.
+# A closed mesh (four facets, outward normals): what shrink apply accepts.
+TETRAHEDRON = "solid t\n" + "".join(
+    f"facet normal 0 0 0\n outer loop\n  vertex {a}\n  vertex {b}\n  vertex {c}\n endloop\nendfacet\n"
+    for a, b, c in (("0 0 0", "0 1 0", "1 0 0"), ("0 0 0", "1 0 0", "0 0 1"), ("0 0 0", "0 0 1", "0 1 0"),
+                    ("1 0 0", "0 1 0", "0 0 1"))) + "endsolid t\n"
+FLAG_CASES = [
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "-40"], "--natural-frequency-hz"),
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "nan"], "--natural-frequency-hz"),
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "40", "--csv-rate-hz", "-1", "--csv", "o.csv"],
+     "--csv-rate-hz"),
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "40", "--worst", "-1"], "--worst"),
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "40", "--corner-window-s", "-1"],
+     "--corner-window-s"),
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "40", "--t-begin", "nan"], "--t-begin"),
+    ("simulate", ["simulate", "f.gcode", "--natural-frequency-hz", "40", "--shaper", "mzv",
+                  "--shaper-freq-hz", "-5"], "--shaper-freq-hz"),
+    ("simulate", ["simulate", "f.gcode", "--mass-kg", "-1", "--stiffness-n-per-m", "1000"], "--mass-kg"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--knot-spacing-s", "0",
+                    "--method", "fbf", "--csv", "o.csv"], "--knot-spacing-s"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--degree", "0",
+                    "--method", "fbf", "--csv", "o.csv"], "--degree"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--window-s", "-1",
+                    "--method", "lpfbf", "--csv", "o.csv"], "--window-s"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--max-base-accel-mm-s2", "0",
+                    "--csv", "o.csv"], "--max-base-accel-mm-s2"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--lead-in-s", "-1",
+                    "--csv", "o.csv"], "--lead-in-s"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--plant-damping-ratio", "-0.5",
+                    "--csv", "o.csv"], "--plant-damping-ratio"),
+    ("compare", ["compare", "f.gcode", "--natural-frequency-hz", "0"], "--natural-frequency-hz"),
+    ("compare", ["compare", "f.gcode", "--natural-frequency-hz", "40", "--damping-ratio", "inf"], "--damping-ratio"),
+    ("compare", ["compare", "f.gcode", "--natural-frequency-hz", "40", "--sample-rate-hz", "0"], "--sample-rate-hz"),
+    ("report", ["report", "f.gcode", "-o", "r.html", "--natural-frequency-hz", "-3"], "--natural-frequency-hz"),
+    ("sweep", ["sweep", "--square-corner-velocity", "-1"], "--square-corner-velocity"),
+    ("estimate", ["estimate", "f.gcode", "--write-m73", "o.gcode", "--m73-interval", "0"], "--m73-interval"),
+    ("estimate", ["estimate", "f.gcode", "--write-m73", "o.gcode", "--m73-interval", "-60"], "--m73-interval"),
+    ("plan", ["plan", "f.gcode", "--t-begin", "nan"], "--t-begin"),
+    ("plan", ["plan", "f.gcode", "--t-end", "-inf"], "--t-end"),
+    ("plan", ["plan", "f.gcode", "--layer-begin", "5", "--layer-end", "2"], "--layer-end"),
+    ("thermal_sls_margins", ["thermal", "sls-margins", "--kp", "-1"], "--kp"),
+    ("thermal_sls_margins", ["thermal", "sls-margins", "--ti", "0"], "--ti"),
+    ("thermal_sls_margins", ["thermal", "sls-margins", "--length-mm", "-2"], "--length-mm"),
+    ("thermal_sls_margins", ["thermal", "sls-margins", "--rho", "nan"], "--rho"),
+    ("thermal_sls_margins", ["thermal", "sls-margins", "--modes", "0"], "--modes"),
+    ("thermal_hotend", ["thermal", "hotend", "--target", "nan"], "--target"),
+    ("thermal_hotend", ["thermal", "hotend", "--noise", "-1"], "--noise"),
+    ("thermal_hotend", ["thermal", "hotend", "--cycles", "0"], "--cycles"),
+    ("thermal_hotend", ["thermal", "hotend", "--power-w", "-40"], "--power-w"),
+    ("thermal_bed", ["thermal", "bed", "--capacity-j-k", "0"], "--capacity-j-k"),
+    ("shaper", ["shaper", "show", "--type", "mzv", "--freq-hz", "0", "--damping-ratio", "0.1"], "--freq-hz"),
+    ("shaper", ["shaper", "show", "--type", "mzv", "--freq-hz", "40", "--damping-ratio", "1"], "--damping-ratio"),
+    ("shaper", ["shaper", "show", "--type", "zv", "--freq-hz", "1e300", "--damping-ratio", "0.1"], "--freq-hz"),
+    ("resonance_recommend", ["resonance", "recommend", "--natural-frequency-hz", "-40", "--damping-ratio", "0.1"],
+     "--natural-frequency-hz"),
+    ("resonance_recommend", ["resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "2"],
+     "--damping-ratio"),
+    ("resonance_recommend", ["resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "0.1",
+                             "--max-smoothing-mm", "-1"], "--max-smoothing-mm"),
+    ("test_gcode", ["resonance", "test-gcode", "--axis", "x", "--freq-start", "-5"], "--freq-start"),
+    ("test_gcode", ["resonance", "test-gcode", "--axis", "x", "--freq-end", "1e12"], "--freq-end"),
+    ("test_gcode", ["resonance", "test-gcode", "--axis", "x", "--hz-per-sec", "0"], "--hz-per-sec"),
+    ("test_gcode", ["resonance", "test-gcode", "--axis", "x", "--point", "nan,1,1"], "--point"),
+    ("stepper", ["stepper", "simulate", "--scenario", "seed003", "-m", "p.cfg", "--speed-mm-s", "-5"],
+     "--speed-mm-s"),
+    ("shrink_fit", ["shrink", "fit", "s.csv", "--confidence", "2"], "--confidence"),
+    ("shrink_fit", ["shrink", "fit", "s.csv", "--breaks", "-1"], "--breaks"),
+    ("shrink_apply", ["shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01", "-o", "o.gcode",
+                      "--origin", "nan,0,0"], "--origin"),
+    ("shrink_apply", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01", "-o", "o.stl",
+                      "--layer-mm", "-0.2"], "--layer-mm"),
+]
+for i, (name, args, where) in enumerate(FLAG_CASES):
+    R2.append(case(f"flag_{name}_{i}", args,
+                   {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG,
+                    "s.csv": "nominal_mm,measured_mm\n10,10.1\n15,15.1\n20,20.2\n",
+                    "m.stl": TETRAHEDRON}, where,
+                   ["o.csv", "o.gcode", "o.stl", "r.html"]))
+CASES += R2
+
+
 def says_found_and_expected(message):
     """'..., expected ...' or '... must be ..., got/found ...'."""
     if "expected" in message:
@@ -446,6 +771,11 @@ def run_case(amctl, c):
             os.makedirs(os.path.dirname(p), exist_ok=True)
             with open(p, "wb") as f:
                 f.write(text.encode("latin-1"))
+        for rel in c.get("dirs", ()):
+            os.makedirs(os.path.join(d, rel), exist_ok=True)
+        for link, target in c.get("links", {}).items():
+            os.symlink(target, os.path.join(d, link))
+        before = {rel: open(os.path.join(d, rel), "rb").read() for rel in c["files"]}
         r = subprocess.run([amctl] + c["args"], cwd=d, capture_output=True, timeout=60)
         problems = []
         if r.returncode != 2:
@@ -465,10 +795,14 @@ def run_case(amctl, c):
         for out in c["outputs"]:
             if os.path.exists(os.path.join(d, out)):
                 problems.append(f"left {out} behind")
-        leftovers = [f for f in os.listdir(d) if f not in c["files"] and
+        made = set(c["files"]) | set(c.get("dirs", ())) | set(c.get("links", {}))
+        leftovers = [f for f in os.listdir(d) if f not in made and
                      not any(f == o for o in c["outputs"]) and f not in {"sub"}]
         if leftovers:
             problems.append(f"left files behind: {leftovers}")
+        for rel, text in before.items():  # an input is never changed, whatever the output
+            if open(os.path.join(d, rel), "rb").read() != text:
+                problems.append(f"changed the input {rel}")
         return problems, first
 
 

@@ -9,11 +9,14 @@
 
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <zlib.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/formats/sources.hpp"
+#include "amctl/gcode/line_reader.hpp"
 
 namespace amctl::formats {
 namespace {
@@ -105,6 +108,31 @@ TEST_F(Input, GzipIsInflatedAsAStream) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
   }
+  // The decoder sits on the project's one reader: a rewindable input is decoded again from its
+  // first byte on the second pass (M73, the scaler), a regular file and a FIFO alike.
+  const std::string path = write("b.gcode.gz", gz);
+  InputFile file(path, gcode::gcode_input_options(true));
+  GcodeFormat format = GcodeFormat::text;
+  EXPECT_EQ(read_all(*decode_gcode(file, {}, &format)), text);
+  EXPECT_EQ(format, GcodeFormat::gzip);
+  file.rewind();
+  EXPECT_EQ(read_all(*decode_gcode(file)), text);
+  const std::string fifo = (dir_ / "in.fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::ofstream w(fifo, std::ios::binary);
+    w.write(gz.data(), static_cast<std::streamsize>(gz.size()));
+    w.close();
+    ::_exit(0);
+  }
+  InputFile piped(fifo, gcode::gcode_input_options(true));
+  EXPECT_EQ(read_all(*decode_gcode(piped)), text);
+  piped.rewind();  // from the reader's own copy: the pipe is read once
+  EXPECT_EQ(read_all(*decode_gcode(piped)), text);
+  int status = 0;
+  ::waitpid(child, &status, 0);
 }
 
 TEST_F(Input, ModelsAreToBeSlicedFirstWhateverTheirName) {
@@ -125,8 +153,8 @@ TEST_F(Input, ModelsAreToBeSlicedFirstWhateverTheirName) {
 }
 
 TEST_F(Input, MissingFilesAndDirectoriesAreClearErrors) {
-  EXPECT_NE(error_of((dir_ / "nothere.gcode").string()).find("cannot open G-code file"), std::string::npos);
-  EXPECT_NE(error_of(dir_.string()).find("found a directory, expected a G-code file"), std::string::npos);
+  EXPECT_NE(error_of((dir_ / "nothere.gcode").string()).find("no such file; expected a G-code file"), std::string::npos);
+  EXPECT_NE(error_of(dir_.string()).find("is a directory; expected a G-code file"), std::string::npos);
   // A member path under a file that is not a zip.
   const std::string text = write("t.gcode", "G28\n");
   EXPECT_NE(error_of(text + "/Metadata/plate_1.gcode").find("is not a zip archive"), std::string::npos);

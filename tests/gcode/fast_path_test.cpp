@@ -134,7 +134,8 @@ TEST(InterpreterFastPath, RandomProgramsMeanTheSameThroughBothParsers) {
         char letter = letters[static_cast<std::size_t>(k)];
         if (pick(rng) < 10) letter = static_cast<char>(letter - 'A' + 'a');
         std::string number = random_number(rng);
-        if ((letter == 'F' || letter == 'f') && (number[0] == '-' || from_chars_value(number) <= 0.0)) {
+        // A feedrate the machine can have (kFeedRange: F0.06 and up; F0.02 is an error).
+        if ((letter == 'F' || letter == 'f') && (number[0] == '-' || from_chars_value(number) < 0.1)) {
           number = "1500";
         }
         l += pick(rng) < 15 ? "  " : " ";
@@ -219,8 +220,8 @@ TEST(InterpreterFastPath, ErrorsAreReportedByTheGeneralParserWithTheirColumn) {
     const char* says;
   };
   const Case cases[] = {
-      {"G1 X1 F0\n", 1, 7, "feedrate F must be > 0"},
-      {"G1 X1 F-60\n", 1, 7, "feedrate F must be > 0"},
+      {"G1 X1 F0\n", 1, 7, "feedrate F must be a feedrate in [0.06"},
+      {"G1 X1 F-60\n", 1, 7, "feedrate F must be a feedrate in [0.06"},
       {"G1 X10 F600\nG1 Y10 E", 2, 9, "expected a number after 'E'"},
       {"G1 X1.2.3\n", 1, 8, "malformed number"},
       {"G1 X1 Q5\n", 1, 0, ""},  // Q is not a move word: the general parser takes the line

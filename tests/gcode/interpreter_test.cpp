@@ -177,7 +177,9 @@ TEST(Interpreter, CoordinatesBeyondAThousandKilometresAreErrors) {
   expect_range_error("G20\nG1 X1" + zeros(308) + " F100\n", 2, 4);         // 25.4 * 1e308 = inf
   expect_range_error("G91\nG1 X17" + zeros(307) + " F100\nG1 X17" + zeros(307) + "\n", 2, 4);  // beyond 1e9 already
   expect_range_error("G1 X1 F60\nG92 X-15" + zeros(307) + "\nG1 X15" + zeros(307) + "\n", 3, 4);  // v - offset = inf
-  expect_range_error("M221 S1" + zeros(308) + "\nM83\nG1 X10 E1" + zeros(10) + " F100\n", 3, 8);
+  // M221 is refused itself now (a factor of 1e308 % is no machine's: docs/machine.md,
+  // "Physical ranges"); a large but physical factor still puts E beyond the bound.
+  expect_range_error("M221 S1" + zeros(6) + "\nM83\nG1 X10 E1" + zeros(6) + " F100\n", 3, 8);
   // An arc through 2e300 mm is refused for its segment count before any point is emitted.
   EXPECT_THROW(run("G1 X1 F60\nG2 X1 Y0 I1" + zeros(300) + " J0\n"), Error);
   // The bound itself is accepted: 1e9 mm.
@@ -190,8 +192,10 @@ TEST(Interpreter, AbsurdlyLargeLimitsAreErrors) {
   EXPECT_THROW(run("SET_VELOCITY_LIMIT ACCEL=1e10\n"), Error);
   EXPECT_THROW(run("M203 X1" + zeros(300) + "\n"), Error);
   EXPECT_THROW(run("M204 S2" + zeros(9) + "\n"), Error);
-  // Extended commands take Python float() syntax (Klipper), exponents included.
-  EXPECT_EQ(run("SET_VELOCITY_LIMIT VELOCITY=1e9 ACCEL=1e9\nM204 S1" + zeros(9) + "\n").limits.size(), 2u);
+  // Extended commands take Python float() syntax (Klipper), exponents included. The bounds
+  // are the physical ranges: 1e6 mm/s, 1e9 mm/s^2 (docs/machine.md, "Physical ranges").
+  EXPECT_EQ(run("SET_VELOCITY_LIMIT VELOCITY=1e6 ACCEL=1e9\nM204 S1" + zeros(9) + "\n").limits.size(), 2u);
+  EXPECT_THROW(run("SET_VELOCITY_LIMIT VELOCITY=1.1e6\n"), Error);
 }
 
 TEST(Interpreter, LenientModeCountsSkippedLines) {
@@ -286,7 +290,7 @@ TEST(LineReader, StreamsFilesInBoundedBufferAndFlagsMissingNewline) {
     std::fputs("G1 X9", f);
     std::fclose(f);
   }
-  LineReader reader(path, 4096);
+  LineReader reader(std::make_unique<InputFile>(path, gcode_input_options()), path, 4096);
   std::string_view line;
   std::uint64_t n = 0;
   while (reader.next(line)) {
@@ -296,7 +300,7 @@ TEST(LineReader, StreamsFilesInBoundedBufferAndFlagsMissingNewline) {
   EXPECT_EQ(n, 20001u);
   EXPECT_EQ(line, "G1 X9");
   EXPECT_TRUE(reader.ended_without_newline());
-  EXPECT_THROW(LineReader("/nonexistent/file.gcode"), Error);
+  EXPECT_THROW(InputFile("/nonexistent/file.gcode", gcode_input_options()), Error);
 }
 
 }  // namespace

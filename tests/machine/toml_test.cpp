@@ -155,8 +155,8 @@ TEST(MachineToml, ToTomlRoundTripsEveryFieldExactly) {
   m.max_accel_mm_s2 = 12345.678901234567;
   m.square_corner_velocity_mm_s = 0;
   m.minimum_cruise_ratio = 1.0 / 3.0;
-  m.max_z_velocity_mm_s = 1e-7;
-  m.max_jerk_mm_s3 = 1e20;
+  m.max_z_velocity_mm_s = 1.0000001e-3;  // just above the speed range's floor, 0.001 mm/s
+  m.max_jerk_mm_s3 = 9.87654321e14;       // just below the jerk range's ceiling, 1e15 mm/s^3
   m.max_feedrate_mm_s = {1.5, 2.25, 3.125, 4.0625};
   m.jerk_mm_s = {0, 0, 0, 0};
   m.block_buffer_size = 64;

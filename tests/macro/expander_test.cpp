@@ -53,8 +53,8 @@ struct Outcome {
 };
 
 Outcome run(const std::vector<ConfigSection>& cfg, const std::string& gcode_text,
-        ToolheadInfo th = {}) {
-  MacroExpander x(cfg, th);
+        ToolheadInfo th = {}, RenderLimits limits = {}) {
+  MacroExpander x(cfg, th, limits);
   gcode::Interpreter interp(gcode::InterpreterOptions{}, "t.gcode");
   interp.set_expander(&x);
   gcode::LineReader reader(gcode_text, "t.gcode");
@@ -218,6 +218,69 @@ TEST(MacroExpander, WhatKlipperRefusesAtStartIsAnError) {
   no_gcode.options.erase("gcode");
   EXPECT_THROW(load({no_gcode}), Error);
   EXPECT_THROW(load({macro_section("x", "G4"), macro_section("X", "G4")}), Error);
+}
+
+// Each macro calls the next twice, 40 deep: 2^40 calls. The work of one call with the
+// macros it calls is bounded: an amctl::Error at the macro's printer.cfg line naming the
+// bound, in well under a second, not a run that never ends.
+TEST(MacroExpander, AFanOutOfCallsIsStoppedByTheWorkBoundOfOneExpansion) {
+  std::vector<ConfigSection> cfg;
+  for (int i = 0; i < 40; ++i) {
+    cfg.push_back(macro_section("fan_" + std::to_string(i),
+                                "FAN_" + std::to_string(i + 1) + "\nFAN_" + std::to_string(i + 1), {},
+                                10 + 10 * static_cast<std::uint64_t>(i)));
+  }
+  cfg.push_back(macro_section("fan_40", "G4 P0", {}, 500));
+  // The bound lowered to 5000 calls to keep the test fast; the default (10^5) stops the same
+  // way (the row macro_calls_fan_out of tests/cli/bad_inputs.py).
+  RenderLimits lim;
+  lim.max_calls_per_expansion = 5000;
+  try {
+    (void)run(cfg, "G28\nFAN_0\n", {}, lim);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().file, "printer.cfg");
+    EXPECT_NE(std::string(e.what()).find("expansion limit: the call at G-code line 2 makes more than 5000 "
+                                         "macro calls"),
+              std::string::npos)
+        << e.what();
+  }
+  // A fan-out within the bound runs: 2^10 leaves.
+  std::vector<ConfigSection> small;
+  for (int i = 0; i < 10; ++i) {
+    small.push_back(macro_section("leaf_" + std::to_string(i),
+                                  "LEAF_" + std::to_string(i + 1) + "\nLEAF_" + std::to_string(i + 1), {},
+                                  10 + 10 * static_cast<std::uint64_t>(i)));
+  }
+  small.push_back(macro_section("leaf_10", "G4 P0", {}, 500));
+  EXPECT_NO_THROW((void)run(small, "LEAF_0\n", {}, lim));
+}
+
+// A bound of one render is an error of the run at the macro's line (not a skipped call):
+// Klipper would not get through it either.
+TEST(MacroExpander, ARenderLimitIsAnErrorAtTheMacrosLine) {
+  const auto cfg = {macro_section("boom", "G4 P0\n{% set ns = namespace(s='x') %}{% for i in range(64) %}"
+                                          "{% set ns.s = ns.s ~ ns.s %}{% endfor %}")};
+  try {
+    (void)run(cfg, "G28\nBOOM\n");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().file, "printer.cfg");
+    EXPECT_EQ(e.where().line, 12u);  // the template's second line
+    EXPECT_NE(std::string(e.what()).find("macro BOOM (called at G-code line 2)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("limit"), std::string::npos) << e.what();
+  }
+  // Nesting beyond the bound fails when the config is read, at the macro.
+  EXPECT_THROW(load({macro_section("deep", "{ 1" + std::string(3000, '+') + " }")}), Error);
+  std::string chain = "{ 1";
+  for (int i = 0; i < 1000; ++i) chain += "|abs";
+  try {
+    load({macro_section("deep", "G4\n" + chain + " }")});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().line, 12u);
+    EXPECT_NE(std::string(e.what()).find("nested more than 200 deep"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

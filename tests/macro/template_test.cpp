@@ -112,16 +112,17 @@ TEST(Template, LoopsAndOutputAreBounded) {
   RenderLimits lim;
   lim.max_loop_iterations = 1000;
   EXPECT_EQ(error_of("{% for i in range(10) %}{% for j in range(200) %}{% endfor %}{% endfor %}", lim),
-            "1: more than 1000 loop iterations");
+            "1: loop limit: the render makes more than 1000 loop iterations, expected at most 1000");
   EXPECT_EQ(error_of("{ range(100000000)|length }"),
-            "1: range() of 100000000 values (more than 1000000)");
+            "1: range limit: found range() of 100000000 values, expected at most 1000000");
   lim = {};
   lim.max_output_bytes = 100;
   EXPECT_EQ(error_of("{% for i in range(100) %}G1 X{i}\n{% endfor %}", lim),
-            "1: the macro's output exceeds 100 bytes");
+            "1: output limit: the render writes more than 100 bytes, expected at most 100");
   // Deep nesting is an error, not a stack overflow.
   EXPECT_EQ(error_of("{ " + std::string(5000, '(') + "1" + std::string(5000, ')') + " }"),
-            "1: expression nested too deeply, found '('");
+            "1: nesting limit: found expression nested more than 200 deep (a chain such as a|f|f, "
+            "a.b.c or 1+1+1 counts one level per link), expected at most 200");
   EXPECT_EQ(error_of("{ 2 ** 64 }"), "1: integer overflow (beyond 64 bits)");
 }
 
@@ -164,7 +165,125 @@ TEST(Template, MutatedTemplatesRenderOrFailWithATemplateError) {
 TEST(Template, AListBuiltIntoItselfIsBounded) {
   EXPECT_EQ(error_of("{% set ns = namespace(v=[]) %}{% for i in range(100000) %}"
                      "{% set ns.v = [ns.v] %}{% endfor %}{ ns.v }"),
-            "1: lists or dicts nested too deeply");
+            "1: nesting limit: found lists or dicts nested more than 100 deep, expected at most 100");
+}
+
+/// The kind of a failure: "limit" (LimitError), "template" (another TemplateError) or "none".
+std::string failure_kind(const std::string& text, RenderLimits lim = {}) {
+  try {
+    (void)render(text, {}, lim);
+  } catch (const LimitError&) {
+    return "limit";
+  } catch (const TemplateError&) {
+    return "template";
+  }
+  return "none";
+}
+
+std::string repeat(const std::string& s, int n) {
+  std::string out;
+  for (int i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+// Chains the parser builds in loops (filters, attribute lookups, items, calls, + terms, and,
+// or, comparisons' operands) count one nesting level per link: 100 000 links are a
+// LimitError at the template line, not a stack overflow when the tree is evaluated or freed.
+TEST(TemplateLimits, LongChainsInOneExpressionAreANestingError) {
+  const std::vector<std::string> chains = {
+      "{ 1" + repeat("|abs", 100000) + " }",
+      "{ x" + repeat(".a", 100000) + " }",
+      "{ x" + repeat("[0]", 100000) + " }",
+      "{ 1" + repeat(" + 1", 100000) + " }",
+      "{ 1" + repeat(" ~ 1", 100000) + " }",
+      "{ 1" + repeat(" and 1", 100000) + " }",
+      "{ 1" + repeat(" or 1", 100000) + " }",
+      "{ 2" + repeat(" ** 2", 100000) + " }",
+      "{ range" + repeat("(1)", 100000) + " }",
+      "{ 1" + repeat(" is number", 100000) + " }",
+      "{ " + repeat("not ", 100000) + "1 }",
+      "{ " + repeat("-", 100000) + "1 }",
+      "{ " + repeat("[", 100000) + repeat("]", 100000) + " }",
+      "{% set x = 1" + repeat("|abs", 100000) + " %}",
+      "{% if 1 %}" + repeat("{% if 1 %}", 300) + repeat("{% endif %}", 301),
+  };
+  for (const std::string& t : chains) {
+    try {
+      (void)Template::compile("G1\n" + t);
+      ADD_FAILURE() << t.substr(0, 40) << ": compiled";
+    } catch (const LimitError& e) {
+      EXPECT_EQ(e.line(), 2u) << t.substr(0, 40);
+      EXPECT_NE(std::string(e.what()).find("nested more than 200 deep"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("nesting limit"), std::string::npos) << e.what();
+    }
+  }
+  // Just within the bound: evaluates.
+  EXPECT_EQ(render("{ 1" + repeat("|abs", 150) + " }"), "1");
+  EXPECT_EQ(render("{ 0" + repeat(" + 1", 150) + " }"), "150");
+}
+
+TEST(TemplateLimits, AHugeTemplateIsRefusedBeforeItIsParsed) {
+  EXPECT_THROW((void)Template::compile(std::string(kMaxTemplateBytes + 1, 'x')), LimitError);
+  EXPECT_NO_THROW((void)Template::compile(std::string(100000, 'x')));
+}
+
+// Doubling a string or a list in a loop, amplifying with replace or join, or a list shared
+// into itself: each stops at its bound with a LimitError, never bad_alloc.
+TEST(TemplateLimits, AnEmptyValueRepeatedIsEmptyAtOnce) {
+  // Found by fuzzing: '' * n looped n times with nothing counted (13 s for n near 1e9).
+  EXPECT_EQ(render("{ ('' * 4000000000000000000)|length } { ([] * 4000000000000000000)|length }"), "0 0");
+  EXPECT_EQ(render("{ (undefined_name|lower * 928809768)|length }"), "0");
+}
+
+TEST(TemplateLimits, StringsListsAndMemoryAreBounded) {
+  EXPECT_EQ(failure_kind("{% set ns = namespace(s='x') %}{% for i in range(64) %}"
+                         "{% set ns.s = ns.s ~ ns.s %}{% endfor %}{ ns.s|length }"),
+            "limit");
+  EXPECT_EQ(failure_kind("{% set ns = namespace(s='x') %}{% for i in range(64) %}"
+                         "{% set ns.s = ns.s + ns.s %}{% endfor %}"),
+            "limit");
+  EXPECT_EQ(failure_kind("{% set ns = namespace(l=[1]) %}{% for i in range(64) %}"
+                         "{% set ns.l = ns.l + ns.l %}{% endfor %}"),
+            "limit");
+  EXPECT_EQ(failure_kind("{% set ns = namespace(l=[1]) %}{% for i in range(64) %}"
+                         "{% set ns.l = [ns.l, ns.l] %}{% endfor %}{ ns.l }"),
+            "limit");
+  EXPECT_EQ(failure_kind("{ ('x' * 1000)|replace('x', 'y' * 100000) }"), "limit");
+  EXPECT_EQ(failure_kind("{ ('x' * 1000).replace('x', 'y' * 100000) }"), "limit");
+  EXPECT_EQ(failure_kind("{ ['y' * 1000000] * 1000000 }"), "limit");
+  EXPECT_EQ(failure_kind("{ (['y' * 100000] * 1000)|join('z' * 100000) }"), "limit");
+  EXPECT_EQ(failure_kind("{ 'x' * 100000000 }"), "limit");
+  EXPECT_EQ(failure_kind("{% for i in range(100000) %}{% set s = 'x' * 10000 %}{% endfor %}"), "limit");
+  // Within the bounds, the same operations give Python's answers.
+  EXPECT_EQ(render("{ 'abc'|replace('', '-') }"), "-a-b-c-");
+  EXPECT_EQ(render("{ 'aaa'.replace('a', 'bb') }"), "bbbbbb");
+  EXPECT_EQ(render("{ ('ab' * 3)|length }"), "6");
+  EXPECT_EQ(render("{ ([1, 2] * 2)|join(',') }"), "1,2,1,2");
+}
+
+TEST(TemplateLimits, RangesNearTheIntegerLimitsAreExactOrRefused) {
+  EXPECT_EQ(render("{ range(9223372036854775800, 9223372036854775807)|list|length }"), "7");
+  EXPECT_EQ(render("{ range(9223372036854775806, 9223372036854775807, 5)|list }"), "[9223372036854775806]");
+  EXPECT_EQ(render("{ range(-9223372036854775807, -9223372036854775804)|list }"),
+            "[-9223372036854775807, -9223372036854775806, -9223372036854775805]");
+  EXPECT_EQ(render("{ range(5, -5, -3)|list }"), "[5, 2, -1, -4]");
+  EXPECT_EQ(failure_kind("{ range(-9223372036854775807, 9223372036854775807)|length }"), "limit");
+  EXPECT_EQ(failure_kind("{ range(0, 9223372036854775807, 2) }"), "limit");
+  EXPECT_EQ(render("{ (-1) ** 3 }|{ (-1) ** 4 }|{ (-1) ** 9223372036854775807 }"), "-1|1|-1");
+}
+
+TEST(TemplateLimits, WorkIsBounded) {
+  // A million iterations each scanning a long string: the work bound, not minutes of CPU.
+  EXPECT_EQ(failure_kind("{% set s = 'x' * 1000000 %}{% for i in range(1000000) %}"
+                         "{% if 'y' in s %}{% endif %}{% endfor %}"),
+            "limit");
+  EXPECT_EQ(failure_kind("{% set l = range(1000000)|list %}{% for i in range(1000) %}"
+                         "{% if l == l %}{% endif %}{% endfor %}"),
+            "limit");
+  RenderLimits lim;
+  lim.max_work = 1000;
+  EXPECT_EQ(failure_kind("{% for i in range(500) %}{ i }{% endfor %}", lim), "limit");
+  EXPECT_EQ(failure_kind("{% for i in range(20) %}{ i }{% endfor %}", lim), "none");
 }
 
 TEST(Template, LiteralsAreReadAsPythonsLiteralEval) {

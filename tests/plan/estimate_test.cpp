@@ -316,10 +316,12 @@ TEST(Estimate, HugeLimitsAndFeedratesNeverGiveNanTimes) {
   EXPECT_THROW(estimate_text("SET_VELOCITY_LIMIT VELOCITY=1e308 ACCEL=1e308\nG1 X10 F1" + std::string(308, '0') + "\n",
                              "t", simple()),
                Error);
-  // F1e308 alone is capped by max_velocity (300 mm/s). Reaching 300 mm/s at 5000 mm/s^2
+  // F1e308 is no feedrate (docs/machine.md, "Physical ranges": at most 6e7 mm/min); the
+  // largest one is capped by max_velocity (300 mm/s). Reaching 300 mm/s at 5000 mm/s^2
   // takes 300^2 / (2 5000) = 9 mm each way, more than half of 10 mm: a triangle with peak
   // sqrt(5000 * 10) = 223.6 mm/s and time 2 sqrt(10 / 5000).
-  auto r = estimate_text("G1 X10 F1" + std::string(308, '0') + "\n", "t", simple());
+  EXPECT_THROW(estimate_text("G1 X10 F1" + std::string(308, '0') + "\n", "t", simple()), Error);
+  auto r = estimate_text("G1 X10 F60000000\n", "t", simple());
   EXPECT_NEAR(r.total_time_s, 2 * std::sqrt(10.0 / 5000.0), 1e-12);
 }
 

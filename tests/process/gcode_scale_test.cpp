@@ -89,10 +89,10 @@ TEST(GcodeScale, AbsoluteMovesAreMappedAboutTheOrigin) {
 
 TEST(GcodeScale, RelativeModesScaleDeltas) {
   const std::string in = "G91\nM83\nG1 X10 E1\nG1 Z5\nG1 Z5\nG1 E-0.8\n";
-  const auto map = make_map("x=2,z=1:5:3", {0, 0, 0});
-  // Z deltas: 0..5 maps to 0..5, 5..10 maps to 5..20, so the second +5 becomes +15. The
+  const auto map = make_map("x=2,z=1:5:2", {0, 0, 0});
+  // Z deltas: 0..5 maps to 0..5, 5..10 maps to 5..15, so the second +5 becomes +10. The
   // retraction does not extrude and keeps its text.
-  EXPECT_EQ(scale_text(in, map), "G91\nM83\nG1 X20 E2\nG1 Z5\nG1 Z15\nG1 E-0.8\n");
+  EXPECT_EQ(scale_text(in, map), "G91\nM83\nG1 X20 E2\nG1 Z5\nG1 Z10\nG1 E-0.8\n");
 }
 
 TEST(GcodeScale, G91MakesERelativeLikeTheInterpreter) {

@@ -107,7 +107,7 @@ TEST(Reader, EmptyAndBinaryFilesAreNamed) {
     (void)read_accel_file("/nonexistent/dir/x.csv");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "/nonexistent/dir/x.csv: cannot open the file");
+    EXPECT_STREQ(e.what(), "/nonexistent/dir/x.csv: no such file; expected an accelerometer CSV");
   }
 }
 

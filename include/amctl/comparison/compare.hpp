@@ -16,6 +16,7 @@
 
 #include "amctl/core/json.hpp"
 #include "amctl/machine/machine.hpp"
+#include "amctl/plan/stream.hpp"
 
 namespace amctl::comparison {
 
@@ -82,7 +83,7 @@ struct ComparisonResult {
 };
 
 /// Runs the study. Throws amctl::Error as validate() and as the runs it makes.
-[[nodiscard]] ComparisonResult compare_file(const std::string& path, const machine::Machine& machine,
+[[nodiscard]] ComparisonResult compare_file(const plan::GcodeInput& input, const machine::Machine& machine,
                                             const ComparisonOptions& options);
 
 /// {"file", "layer" (null: all), "model": {natural_frequency_hz, damping_ratio, sample_rate_hz},

@@ -19,15 +19,19 @@
 //    overlapping windows so that the cost grows linearly with the path.
 // Every command is checked by simulating it (dynamics::Simulator on the sampled command,
 // linear between samples) through the plant model; the reported errors are the simulated ones.
+#include <cstdint>
+#include <functional>
 #include <limits>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "amctl/core/json.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/dynamics/model.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
+#include "amctl/plan/stream.hpp"
 
 namespace amctl::compensation {
 
@@ -76,7 +80,27 @@ struct CompensationOptions {
   int max_solver_iterations = 500;  ///< collocation: IPOPT's iteration limit per window
   /// Also sample the plan's Z and E at the command's samples (for write_gcode).
   bool sample_z_e = false;
+  /// The methods other than LPFBF hold the whole command in memory (docs/compensation.md,
+  /// "Memory"): told, before anything is allocated for it, how much that will be. A command
+  /// beyond max_memory_bytes (0: what /proc/meminfo says is available) is an amctl::Error
+  /// saying how much it would take.
+  std::function<void(const struct MemoryEstimate&)> on_memory_estimate;
+  std::uint64_t max_memory_bytes = 0;
 };
+
+/// What compensate() will hold for the command before it computes it.
+struct MemoryEstimate {
+  std::string method;
+  std::uint64_t samples = 0;  ///< command samples (lead-in and tail included)
+  std::uint64_t bytes = 0;    ///< samples * kCompensationBytesPerSample, plus the plan
+};
+
+/// Memory per command sample of the in-memory methods: the command, the desired path, the
+/// simulated nozzle and their Z/E and acceleration columns, the check simulation's copies
+/// (measured: docs/compensation.md, "Memory").
+inline constexpr std::uint64_t kCompensationBytesPerSample = 240;
+/// Longest lead-in or tail a command may be given [s].
+inline constexpr double kMaxLeadTail_s = 600.0;
 
 struct CompensationResult {
   std::string method;
@@ -133,17 +157,20 @@ CompensationResult compensate(std::span<const plan::PlannedMove> moves,
                               const CompensationOptions& options);
 
 /// Plans `path` for `machine` and compensates the whole plan.
-CompensationResult compensate_file(const std::string& path, const machine::Machine& machine,
+CompensationResult compensate_file(const plan::GcodeInput& input, const machine::Machine& machine,
                                    const CompensationOptions& options);
 
 /// LPFBF over the plan stream of `path` in bounded memory: the command and its check written
-/// progressively to `csv_path`.part (the CSV columns of write_csv), renamed to `csv_path` at
-/// the end (removed on error). The result's sample arrays stay empty (see `samples`); the
+/// progressively to `csv_path` (the CSV columns of write_csv) through amctl::OutputFile (a
+/// regular file appears at the end, whole or not at all; the OutputFile form leaves commit()
+/// to the caller). The result's sample arrays stay empty (see `samples`); the
 /// check simulates the plant exactly for the command linear between samples, and the
 /// uncompensated error is that of the plan sampled on the same grid.
 CompensationResult compensate_file_streaming(const std::string& path, const machine::Machine& machine,
                                              const CompensationOptions& options,
                                              const std::string& csv_path);
+CompensationResult compensate_file_streaming(const plan::GcodeInput& input, const machine::Machine& machine,
+                                             const CompensationOptions& options, OutputFile& csv);
 
 /// Simulates a sampled XY command (uniform step, linear between samples: constant-velocity
 /// moves through dynamics::Simulator) on the plant and returns the nozzle at the sample times.
@@ -163,16 +190,19 @@ void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector
 /// The summary as JSON (no sample arrays). Non-finite numbers are null.
 Json to_json(const CompensationResult& r);
 
-/// time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm; written to a temporary file
-/// and renamed (whole or not at all).
+/// time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm, through amctl::OutputFile
+/// (a regular file whole or not at all). The OutputFile form leaves commit() to the caller.
 void write_csv(const CompensationResult& r, const std::string& path);
+void write_csv(const CompensationResult& r, OutputFile& out);
 
 /// The command as dense G-code for firmware without shaping (docs/compensation.md, "Dense
 /// G-code"): one G1 per sample step (X, Y from the command, Z and E from the plan, relative E,
 /// F the segment's speed), rests as G4, an M204 at the command's peak acceleration, and a
 /// header saying what the firmware must allow. Needs r.z_des_mm / r.e_des_mm
 /// (CompensationOptions::sample_z_e); throws amctl::Error naming --gcode otherwise, or when
-/// the command is unbounded. Written to a temporary file and renamed.
+/// the command is unbounded. Written through amctl::OutputFile (commit() left to the caller in
+/// the OutputFile form).
 void write_gcode(const CompensationResult& r, const std::string& path);
+void write_gcode(const CompensationResult& r, OutputFile& out);
 
 }  // namespace amctl::compensation

@@ -82,7 +82,7 @@ struct PrintSimulationResult {
 /// Plans `path` on `machine` (its profile and max_jerk decide the ramps) and simulates it.
 /// Throws amctl::Error on bad input (file:line:col), a sample rate at or below the models'
 /// Nyquist limit, an empty measuring range, or a file without moves.
-[[nodiscard]] PrintSimulationResult simulate_print(const std::string& path,
+[[nodiscard]] PrintSimulationResult simulate_print(const plan::GcodeInput& input,
                                                    const machine::Machine& machine,
                                                    const AxisModel& model_x,
                                                    const AxisModel& model_y,

@@ -1,13 +1,14 @@
 #pragma once
 // The per-sample CSV of a simulation (`amctl simulate --csv`):
 //   t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,line
-// one row every `decimation`-th sample inside the measured range, written to "<path>.part"
-// and renamed into place by commit(): an error never leaves half a CSV behind.
+// one row every `decimation`-th sample inside the measured range, written through
+// amctl::OutputFile: a regular file appears at commit() whole or not at all (an error never
+// leaves half a CSV behind); "-", a device or a FIFO is streamed.
 #include <cstddef>
-#include <fstream>
 #include <optional>
 #include <string>
 
+#include "amctl/core/output.hpp"
 #include "amctl/dynamics/simulate.hpp"
 
 namespace amctl::dynamics {
@@ -18,8 +19,7 @@ namespace amctl::dynamics {
 
 class SampleCsvFile {
  public:
-  SampleCsvFile(const std::string& path, std::size_t decimation);
-  ~SampleCsvFile();
+  SampleCsvFile(const std::string& path, std::size_t decimation, OutputOptions options = {});
   SampleCsvFile(const SampleCsvFile&) = delete;
   SampleCsvFile& operator=(const SampleCsvFile&) = delete;
 
@@ -33,11 +33,9 @@ class SampleCsvFile {
   void commit();
 
  private:
-  std::string path_, tmp_;
+  OutputFile out_;
   std::size_t decimation_;
   std::size_t k_ = 0;
-  std::ofstream out_;
-  bool committed_ = false;
 };
 
 }  // namespace amctl::dynamics

@@ -62,6 +62,17 @@ std::unique_ptr<gcode::ByteSource> decode_gzip(gcode::ByteSource& raw, std::stri
 std::unique_ptr<gcode::ByteSource> decode_sliced_3mf(gcode::ByteSource& raw, std::string name,
                                                      const ArchiveLimits& limits = {});
 
+/// The G-code text of an input already open by the project's reader (core/input.hpp), by its
+/// content as open_gcode_input() reads a path: a view of `file` for text, else a decoder over
+/// it (`file` must outlive what is returned). A rewindable file read a second time is decoded
+/// again from its first byte (call file.rewind() first). `format`, when given, is set.
+std::unique_ptr<gcode::ByteSource> decode_gcode(InputFile& file, const InputLimits& limits = {},
+                                                GcodeFormat* format = nullptr);
+/// decode_gcode() wrapped in a line reader (the M73 writer's and the scaler's second pass).
+std::unique_ptr<gcode::LineReader> open_gcode_reader(
+    InputFile& file, const InputLimits& limits = {},
+    std::size_t buffer_bytes = gcode::LineReader::kDefaultBufferBytes);
+
 /// open_gcode_input() wrapped in a line reader.
 std::unique_ptr<gcode::LineReader> open_gcode_reader(
     const std::string& path, const InputLimits& limits = {},

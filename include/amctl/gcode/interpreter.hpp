@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "amctl/gcode/command.hpp"
@@ -117,7 +118,11 @@ struct ExcludedObject {
   std::uint64_t first_line = 0;  ///< line of its first exclusion
 };
 
-/// One entry per distinct unknown command name: first place seen and how often.
+/// One entry per distinct unknown command name: first place seen and how often. At most
+/// kMaxUnknownCommandNames names are kept; the names beyond are counted together under
+/// kOtherUnknownCommands (memory stays bounded whatever the file).
+inline constexpr std::size_t kMaxUnknownCommandNames = 10000;
+inline constexpr std::string_view kOtherUnknownCommands = "(other unknown commands)";
 struct UnknownCommand {
   std::string name;
   std::uint64_t first_line = 0;
@@ -174,7 +179,7 @@ class Interpreter {
   /// G10 (`retract`) or G11 (retraction.cpp).
   void firmware_retraction(bool retract, const Params& p, std::uint64_t line_no, EventSink& sink);
   /// M207 or M208 (`code`): firmware retraction settings (retraction.cpp).
-  void set_firmware_retraction(int code, const Params& p);
+  void set_firmware_retraction(int code, const Params& p, std::uint64_t line_no);
   void emit_move(const std::array<double, 4>& target, double speed_mm_s, std::uint64_t line_no,
                  EventSink& sink, bool from_arc, bool from_retract = false, bool clamped = false);
   /// Clamps `target` into the soft endstops on the homed axes; the file's coordinates
@@ -272,6 +277,7 @@ class Interpreter {
   bool general_path_only_ = false;  // the expander may take G0/G1
   Annotations notes_;
   std::vector<UnknownCommand> unknown_;
+  std::unordered_map<std::string, std::size_t> unknown_index_;  // name -> unknown_ (constant-time)
   std::map<std::string, std::uint64_t> ignored_;
   std::uint64_t skipped_lines_ = 0;
   Command cmd_;

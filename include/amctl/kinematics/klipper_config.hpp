@@ -12,6 +12,7 @@
 
 #include "amctl/core/config_section.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 
 namespace amctl::kinematics {
 
@@ -21,6 +22,8 @@ struct Limits {
   std::optional<double> maxval = std::nullopt;
   std::optional<double> above = std::nullopt;
   std::optional<double> below = std::nullopt;
+  /// amctl's physical range of the quantity (core/quantity.hpp), for a value other than 0.
+  std::optional<PhysicalRange> physical = std::nullopt;
 };
 
 /// One section (possibly absent) of a printer.cfg.

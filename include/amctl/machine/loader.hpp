@@ -2,6 +2,7 @@
 // Building a Machine: from a preset compiled into the library, a TOML file, or a Klipper
 // printer.cfg; then command-line overrides (`--set section.key=value`) and validation.
 // Every key, its unit and default are listed in docs/machine.md.
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -9,6 +10,10 @@
 #include "amctl/machine/machine.hpp"
 
 namespace amctl::machine {
+
+/// The largest machine file (.toml, printer.cfg, each [include]) amctl reads: a real one is a
+/// few tens of KiB.
+inline constexpr std::uint64_t kMaxMachineFileBytes = 16ull << 20;
 
 /// Resolves `spec` to a validated Machine:
 ///  - "" or a preset name ("default", "voron24", "prusa-mk3s", "ender3", see preset_names());

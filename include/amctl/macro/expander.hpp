@@ -7,8 +7,10 @@
 // template is rendered once per call and its lines run in place of the call. SET_GCODE_VARIABLE
 // changes a variable; `rename_existing` keeps the built-in command under a new name. A macro
 // calling itself, directly or not, is refused as Klipper refuses it. A call amctl cannot
-// evaluate is skipped and reported with the reason, never an error of the run
-// (docs/macros.md).
+// evaluate is skipped and reported with the reason, never an error of the run; a template or a
+// call beyond amctl's bounds (template.hpp: kMaxTemplateBytes, kMaxNesting, RenderLimits, the
+// work of one call with the macros it calls) is an amctl::Error at the macro's file:line naming
+// the bound (docs/macros.md, "Limits").
 #include <array>
 #include <cstdint>
 #include <map>
@@ -85,8 +87,9 @@ class MacroExpander final : public gcode::CommandExpander {
   gcode::Expansion skip(std::size_t macro, std::uint64_t line_no, std::string reason);
   gcode::Expansion set_gcode_variable(std::string_view rawparams, std::uint64_t line_no);
   [[nodiscard]] Value printer_object(const gcode::InterpreterState& state) const;
-  /// "file:line" of template line `line` of macro `m`.
+  /// "file:line" of template line `line` of macro `m` (0: the gcode: option).
   [[nodiscard]] std::string where(const Macro& m, std::uint32_t line) const;
+  [[nodiscard]] SourceLocation location(const Macro& m, std::uint32_t line) const;
 
   std::vector<Macro> macros_;
   std::map<std::string, std::size_t, std::less<>> by_name_;
@@ -98,6 +101,9 @@ class MacroExpander final : public gcode::CommandExpander {
   RenderLimits limits_;
   std::vector<std::size_t> call_order_;
   std::size_t depth_ = 0;
+  std::uint64_t tree_calls_ = 0;      // renders since the last top-level call
+  std::uint64_t tree_bytes_ = 0;      // G-code text they produced
+  std::uint64_t tree_root_line_ = 0;  // that call's G-code line
   bool expands_moves_ = false;
 };
 

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -14,12 +15,17 @@ namespace amctl::macro {
 class Value;
 using List = std::vector<Value>;
 
-/// A Python dict: insertion order kept, string keys (all macros use).
+/// A Python dict: insertion order kept, string keys (all macros use). Lookups are constant
+/// time: beyond a few items a hash index of the keys is kept beside them (so a printer.cfg
+/// with thousands of sections or macros costs linear time to read, not quadratic).
 struct Dict {
-  std::vector<std::pair<std::string, Value>> items;
+  std::vector<std::pair<std::string, Value>> items;  ///< change only through set()
   [[nodiscard]] const Value* find(std::string_view key) const;
   /// Inserts or replaces.
   void set(std::string key, Value v);
+
+ private:
+  std::unordered_map<std::string, std::size_t> index_;  // key -> position, once items are many
 };
 
 class Value {
@@ -67,6 +73,11 @@ class Value {
   /// Nesting of lists and dicts (0 for a scalar): the evaluator bounds it, so printing,
   /// comparing and destroying a value never recurse deeply.
   [[nodiscard]] std::uint32_t depth() const { return depth_; }
+  /// Size as it would print: string bytes plus 16 per value, lists and dicts summed over
+  /// their items (an item shared by several lists counted each time), saturating. The
+  /// evaluator bounds it (RenderLimits::max_value_bytes), so printing, comparing and copying
+  /// a value costs at most that much.
+  [[nodiscard]] std::uint64_t footprint() const { return footprint_; }
   [[nodiscard]] const Value* self() const { return self_.get(); }
 
   /// Python truth value (undefined is false).
@@ -87,6 +98,7 @@ class Value {
   bool coord_ = false;
   bool tuple_ = false;
   std::uint32_t depth_ = 0;
+  std::uint64_t footprint_ = 16;
   std::int64_t i_ = 0;
   double d_ = 0.0;
   std::string s_;

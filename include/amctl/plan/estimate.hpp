@@ -101,8 +101,8 @@ struct EstimateReport {
   /// Klipper [exclude_object]: the objects EXCLUDE_OBJECT excluded (each once, in order of
   /// first exclusion), the moves that were therefore not made, and the print time that saved:
   /// total_time_s of the same file with every move made, less total_time_s (estimate_file /
-  /// estimate_text plan the file a second time for it, only when an object was excluded;
-  /// unset from standard input or a bare EstimateSink).
+  /// estimate_text plan the file a second time for it, only when an object was excluded, from
+  /// the copy the reader kept for standard input or a FIFO; unset from a bare EstimateSink).
   std::vector<gcode::ExcludedObject> excluded_objects;
   std::uint64_t excluded_moves = 0;
   std::optional<double> exclusion_time_saved_s;
@@ -150,9 +150,10 @@ class EstimateSink final : public Sink {
   bool layer_has_z_ = false;
 };
 
-/// Estimates a G-code file ("-" = standard input). Throws amctl::Error on bad input with
+/// Estimates a G-code file ("-" = standard input), or an input already open (rewindable;
+/// a later write_m73 then reads the same bytes again). Throws amctl::Error on bad input with
 /// "file:line:col: ..." in the message.
-EstimateReport estimate_file(const std::string& path, const machine::Machine& machine,
+EstimateReport estimate_file(const GcodeInput& input, const machine::Machine& machine,
                              const EstimateOptions& options = {});
 
 /// One file of a batch (`amctl estimate A B ...`, the fleet's table): its report, or the
@@ -181,12 +182,14 @@ EstimateReport estimate_text(std::string_view gcode, const std::string& name,
 
 namespace amctl::plan {
 
-/// Writes `input_path` to `output_path` with firmware progress lines "M73 P<percent>
+/// Writes the input to `output_path` with firmware progress lines "M73 P<percent>
 /// R<minutes remaining>" inserted before the moves that start at each checkpoint of
 /// `report` (estimate with options.checkpoint_interval_s > 0), and "M73 P100 R0" at the end.
-/// Existing M73 lines are dropped. Writes to a temporary file renamed into place, so a failure
-/// never leaves a half-written output. Returns the number of M73 lines written.
-std::size_t write_m73(const std::string& input_path, const std::string& output_path,
+/// Existing M73 lines are dropped; every other line is copied with its own line end. Give the
+/// rewindable InputFile the estimate read (standard input and FIFOs are read once). Written
+/// through amctl::OutputFile (a regular file whole or not at all; never over the input).
+/// Returns the number of M73 lines written.
+std::size_t write_m73(const GcodeInput& input, const std::string& output_path,
                       const EstimateReport& report);
 
 }  // namespace amctl::plan

@@ -13,6 +13,7 @@
 #include <ostream>
 #include <string>
 
+#include "amctl/core/output.hpp"
 #include "amctl/plan/stream.hpp"
 
 namespace amctl::plan {
@@ -34,13 +35,12 @@ class MovesCsvSink final : public Sink {
   std::uint64_t rows_ = 0;
 };
 
-/// Writes the moves CSV to a file atomically: rows go to "<path>.part", renamed to `path`
-/// by commit() (call it after the pipeline ran); destroyed without commit, the partial file
-/// is removed, so an error never leaves half a CSV behind.
+/// Writes the moves CSV through amctl::OutputFile: a regular file appears at commit() (call it
+/// after the pipeline ran) whole or not at all, so an error never leaves half a CSV behind;
+/// "-", a device or a FIFO is streamed.
 class MovesCsvFile final : public Sink {
  public:
-  explicit MovesCsvFile(std::string path);
-  ~MovesCsvFile() override;
+  explicit MovesCsvFile(std::string path, OutputOptions options = {});
   MovesCsvFile(const MovesCsvFile&) = delete;
   MovesCsvFile& operator=(const MovesCsvFile&) = delete;
   void consume(const PlanBatch& batch) override;
@@ -48,10 +48,8 @@ class MovesCsvFile final : public Sink {
   [[nodiscard]] std::uint64_t rows() const { return rows_; }
 
  private:
-  std::string path_, tmp_;
-  std::FILE* file_ = nullptr;
+  OutputFile out_;
   std::uint64_t rows_ = 0;
-  bool committed_ = false;
 };
 
 }  // namespace amctl::plan

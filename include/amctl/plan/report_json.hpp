@@ -34,8 +34,8 @@ struct ProfileRun {
 };
 
 /// Plans the file with trapezoid, bezier5 and scurve7 (jerk: machine.max_jerk_mm_s3), one
-/// streaming pass each.
-[[nodiscard]] std::vector<ProfileRun> compare_profiles(const std::string& path,
+/// streaming pass each (over one rewindable input: standard input and FIFOs are read once).
+[[nodiscard]] std::vector<ProfileRun> compare_profiles(const GcodeInput& input,
                                                        const machine::Machine& machine,
                                                        bool strict = true);
 

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "amctl/gcode/events.hpp"
+#include "amctl/core/input.hpp"
 #include "amctl/gcode/interpreter.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/macro/expander.hpp"
@@ -135,12 +136,46 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m);
 /// What a macro sees of the machine as printer.toolhead (limits and axis ranges).
 macro::ToolheadInfo toolhead_info(const machine::Machine& m);
 
+/// The G-code a job reads: a path ("-" = standard input), opened by each PlanSource over it,
+/// or an input already open (amctl::InputFile), which a job that plans the file more than once
+/// opens rewindable: each PlanSource over it starts again at its first byte, so standard input
+/// and a FIFO are read once (core/input.hpp). Converts from a path.
+class GcodeInput {
+ public:
+  GcodeInput(const std::string& path) : path_(path) {}  // NOLINT: a path is an input
+  GcodeInput(const char* path) : path_(path) {}         // NOLINT
+  GcodeInput(InputFile& file) : path_(file.path()), file_(&file) {}  // NOLINT
+  [[nodiscard]] const std::string& path() const { return path_; }
+  [[nodiscard]] InputFile* file() const { return file_; }
+
+ private:
+  std::string path_;
+  InputFile* file_ = nullptr;
+};
+
+/// An input open for several passes: `input`'s InputFile when it has one, else `input`'s path
+/// opened rewindable here; a plate named inside a 3MF archive ("a.gcode.3mf/Metadata/
+/// plate_2.gcode") stays a path, which each pass opens again (the archive is a regular file).
+class RewindableGcode {
+ public:
+  explicit RewindableGcode(const GcodeInput& input);
+  RewindableGcode(const RewindableGcode&) = delete;
+  RewindableGcode& operator=(const RewindableGcode&) = delete;
+  operator GcodeInput() { return file_ != nullptr ? GcodeInput(*file_) : GcodeInput(path_); }  // NOLINT
+
+ private:
+  std::string path_;
+  std::unique_ptr<InputFile> owned_;
+  InputFile* file_ = nullptr;
+};
+
 /// G-code + machine -> planned moves, batch by batch. Every amctl::Error raised while
 /// reading, interpreting or planning carries the source's file name.
 class PlanSource {
  public:
-  /// Reads the file at `path` ("-" = standard input).
-  PlanSource(const std::string& path, const machine::Machine& machine, SourceOptions options = {});
+  /// Reads the file at `input.path()` ("-" = standard input), or the open input from its first
+  /// byte (rewinding it when a pass before read some of it).
+  PlanSource(const GcodeInput& input, const machine::Machine& machine, SourceOptions options = {});
   /// Reads `text` from memory; `name` appears in messages.
   PlanSource(std::string_view text, std::string name, const machine::Machine& machine,
              SourceOptions options = {});

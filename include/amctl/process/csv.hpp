@@ -3,11 +3,13 @@
 // separated by commas; surrounding whitespace is trimmed; "#" starts a comment line; fields
 // may be wrapped in double quotes. Every error names file:line:col.
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "amctl/core/output.hpp"
 #include "amctl/core/error.hpp"
 
 namespace amctl::process {
@@ -42,12 +44,17 @@ class CsvTable {
   std::uint64_t header_line_ = 0;
 };
 
-/// Writes `content` to `path` atomically: into a temporary file in the same directory,
-/// flushed, then renamed over `path`. On any failure the temporary is removed, `path` is left
-/// untouched and amctl::Error is thrown.
-void write_file_atomic(const std::string& path, std::string_view content);
+/// Writes `content` to `path` through amctl::OutputFile (core/output.hpp): a regular file
+/// atomically (on any failure `path` is left untouched and amctl::Error is thrown), "-", a
+/// device or a FIFO streamed.
+void write_file_atomic(const std::string& path, std::string_view content,
+                       const OutputOptions& options = {});
 
-/// Reads a whole file as bytes (amctl::Error naming the path when it cannot be read).
-[[nodiscard]] std::string read_file_bytes(const std::string& path);
+/// Reads a whole file as bytes through amctl's one input reader (core/input.hpp): "-" is
+/// standard input; amctl::Error naming the path when it cannot be read, is a directory, or is
+/// larger than `max_bytes` (checked before reading when the size is known). `what` names the
+/// kind of file in messages.
+[[nodiscard]] std::string read_file_bytes(const std::string& path, std::string_view what = "file",
+                                          std::uint64_t max_bytes = 256ull << 20);
 
 }  // namespace amctl::process

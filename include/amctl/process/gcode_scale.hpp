@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "amctl/core/input.hpp"
 #include "amctl/gcode/command.hpp"
 #include "amctl/gcode/parser.hpp"
 #include "amctl/gcode/words.hpp"
@@ -99,12 +100,17 @@ struct GcodeExtent {
   std::array<double, 3> min_mm{}, max_mm{};
 };
 [[nodiscard]] GcodeExtent gcode_extrusion_extent(const std::string& path);
+/// Same over an input already open (rewound first when read before).
+[[nodiscard]] GcodeExtent gcode_extrusion_extent(InputFile& input);
 
-/// Streams `input` through a GcodeScaler into `output`, which appears only when everything
-/// was written (temporary file renamed). Line terminators (LF, CR LF, none at the end) are
-/// kept as they were.
+/// Streams `input` through a GcodeScaler into `output` (amctl::OutputFile: a regular file
+/// appears only when everything was written; never over the input). Line terminators (LF,
+/// CR LF, a lone CR, none at the end) are kept as they were.
 GcodeScaleReport scale_gcode_file(const std::string& input, const std::string& output,
                                   const ScaleMap& map, const GcodeScaleOptions& options);
+/// Same over an input already open (rewound first when read before: the extent pass).
+GcodeScaleReport scale_gcode_file(InputFile& input, const std::string& output, const ScaleMap& map,
+                                  const GcodeScaleOptions& options);
 
 /// Formats a coordinate with at most `decimals` decimals, trailing zeros removed ("-0" -> "0").
 [[nodiscard]] std::string format_coord(double v, int decimals);

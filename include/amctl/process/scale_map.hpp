@@ -39,6 +39,10 @@ class AxisMap {
   std::vector<double> knots_;  // g(breaks_[i])
 };
 
+/// The scale factors a shrinkage compensation may use (AxisMap refuses others).
+inline constexpr double kMinScaleFactor = 0.5;
+inline constexpr double kMaxScaleFactor = 2.0;
+
 /// X, Y, Z maps and the origin they scale about.
 struct ScaleMap {
   std::array<AxisMap, 3> axes{};

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "amctl/core/json.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/resonance/record.hpp"
 #include "amctl/resonance/sweep.hpp"
 
@@ -160,15 +161,17 @@ struct CalibrationReport {
 [[nodiscard]] std::string to_text(const CalibrationReport& report);
 
 /// Writes the unnormalised PSD (the Welch PSD of a record, or the table read from a PSD file)
-/// as Klipper's `freq,psd_x,psd_y,psd_z,psd_xyz` CSV with round-trip precision: to a
-/// temporary file beside `path`, renamed over it once complete (whole or not at all).
+/// as Klipper's `freq,psd_x,psd_y,psd_z,psd_xyz` CSV with round-trip precision, through
+/// amctl::OutputFile (a regular file whole or not at all; "-", a device or a FIFO streamed).
 /// Throws amctl::Error naming the path when it cannot be written, or when the report only
 /// holds a normalised table.
-void write_psd_csv(const CalibrationReport& report, const std::string& path);
+void write_psd_csv(const CalibrationReport& report, const std::string& path,
+                   const OutputOptions& options = {});
 
 /// Writes the measured frequency response of a --sweep identification as CSV
 /// `freq_hz,gain,phase_rad,coherence,used,model_gain`, whole or not at all
 /// (as write_psd_csv). Throws amctl::Error when the report has no identification.
-void write_response_csv(const CalibrationReport& report, const std::string& path);
+void write_response_csv(const CalibrationReport& report, const std::string& path,
+                        const OutputOptions& options = {});
 
 }  // namespace amctl::resonance

@@ -12,6 +12,8 @@
 // Bad input throws amctl::Error "FILE:LINE: what was found, expected what"; an empty or
 // binary file throws an error naming the file.
 #include <cstddef>
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -92,6 +94,20 @@ struct AccelFile {
 /// Reads any of the formats above (told apart by the header); "-" reads standard input.
 /// Throws amctl::Error.
 [[nodiscard]] AccelFile read_accel_file(const std::string& path);
+
+/// Memory a calibration takes per sample of a raw record: the record (time and three axes,
+/// 32 bytes) and the intervals of the quality check (8). Measured on a 10-million-row record
+/// (docs/resonance.md, "Memory").
+inline constexpr std::uint64_t kRecordBytesPerSample = 40;
+
+/// What reading a record will take, from its size and its first rows, before reading it.
+struct RecordSizeEstimate {
+  std::uint64_t bytes = 0;         ///< the file
+  std::uint64_t samples = 0;       ///< rows, about
+  std::uint64_t memory_bytes = 0;  ///< samples * kRecordBytesPerSample
+};
+/// None for standard input or a FIFO (no size to go by) or an empty file.
+[[nodiscard]] std::optional<RecordSizeEstimate> estimate_record_size(const std::string& path);
 /// Same from text already in memory; `source` names it in messages.
 [[nodiscard]] AccelFile parse_accel_text(std::string_view text, const std::string& source);
 

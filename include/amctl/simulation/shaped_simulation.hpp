@@ -35,6 +35,7 @@
 #include "amctl/gcode/events.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
+#include "amctl/plan/stream.hpp"
 #include "amctl/shaping/shaper.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 
@@ -177,9 +178,11 @@ struct ShaperSettings {
 [[nodiscard]] shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double sample_rate_hz,
                                                const ShaperParamNames& names = {});
 
-/// The M593 commands of `path` (planned on `machine`) that come before its first move: a
-/// pre-pass over the first batch of the plan stream. Empty for standard input ("-").
-[[nodiscard]] std::vector<gcode::InputShapingCommand> m593_before_first_move(const std::string& path,
+/// The M593 commands of the input (planned on `machine`) that come before its first move: a
+/// pre-pass over the first batch of the plan stream. Give the rewindable InputFile the
+/// simulation then reads (standard input and FIFOs are read once); given only a path that is
+/// not a regular file ("-", a FIFO), there is no second pass to make: empty.
+[[nodiscard]] std::vector<gcode::InputShapingCommand> m593_before_first_move(const plan::GcodeInput& input,
                                                                             const machine::Machine& machine);
 
 /// Marlin's input shaping after `commands` (M593, in order), from Marlin's M593.cpp: the
@@ -214,7 +217,7 @@ struct ShaperRequest {
 /// Resolution warnings (an M593 overridden, ignored words) are in `warnings`.
 [[nodiscard]] ShaperSettings resolve_shapers(const ShaperRequest& request,
                                              const machine::Machine& machine,
-                                             const std::string& path);
+                                             const plan::GcodeInput& input);
 
 struct ShapedPrintResult {
   dynamics::PrintSimulationResult shaped;   ///< the shaped nozzle against the planned path
@@ -230,7 +233,7 @@ struct ShapedPrintResult {
 /// pass over the plan). The CSV of `options` gets the shaped run. An M593 after the first
 /// move is reported in `warnings` (a change of shaping mid-print is not modelled). Throws amctl::Error as
 /// dynamics::simulate_print, and for bad shaper settings (make_axis_shaper, command_taps).
-[[nodiscard]] ShapedPrintResult simulate_shaped_print(const std::string& path,
+[[nodiscard]] ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input,
                                                       const machine::Machine& machine,
                                                       const dynamics::AxisModel& model_x,
                                                       const dynamics::AxisModel& model_y,

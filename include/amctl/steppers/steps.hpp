@@ -19,6 +19,7 @@
 #include <string_view>
 #include <vector>
 
+#include "amctl/core/output.hpp"
 #include "amctl/core/json.hpp"
 #include "amctl/kinematics/kinematics.hpp"
 #include "amctl/machine/machine.hpp"
@@ -141,12 +142,11 @@ class StepSink final : public plan::Sink {
   double end_time_s_ = 0.0;
 };
 
-/// The steps CSV (header `stepper,time_s,direction`), written to "<path>.part" and renamed to
-/// `path` by commit(); destroyed without commit, the partial file is removed.
+/// The steps CSV (header `stepper,time_s,direction`) through amctl::OutputFile: a regular file
+/// appears at commit() whole or not at all; a device, FIFO or "-" is streamed.
 class StepsCsvFile {
  public:
-  StepsCsvFile(std::string path, std::vector<std::string> names);
-  ~StepsCsvFile();
+  StepsCsvFile(std::string path, std::vector<std::string> names, OutputOptions options = {});
   StepsCsvFile(const StepsCsvFile&) = delete;
   StepsCsvFile& operator=(const StepsCsvFile&) = delete;
   void write(std::span<const Step> steps);
@@ -156,13 +156,11 @@ class StepsCsvFile {
 
  private:
   void flush();
-  std::string path_, tmp_;
+  OutputFile out_;
   std::vector<std::string> names_;
-  std::FILE* file_ = nullptr;
   std::string buf_;
   std::uint64_t rows_ = 0;
   std::uint64_t bytes_ = 0;
-  bool committed_ = false;
 };
 
 /// Which steps `amctl steps` writes: amctl's exact ones, or what Klipper sends its MCU after

@@ -101,6 +101,10 @@ struct SetpointChange {
   double setpoint_c = 0.0;
 };
 
+/// The largest build simulate_sls_build runs (validate() refuses larger ones before allocating).
+inline constexpr int kMaxSlsLayers = 100000;
+inline constexpr double kMaxSlsSteps = 2e8;
+
 /// A full build: material, geometry, controller, actuator limits, disturbance, numerics.
 struct SlsBuildConfig {
   PowderMaterial material{};

@@ -66,7 +66,9 @@ struct SlsRun {
 /// The `sls --json` summary object.
 [[nodiscard]] Json to_json(const SlsRun& r);
 /// The trace: t_s,layers,depth_m,y_c,setpoint_c,flux_w_m2,disturbance_w_m2,integral_w_m2.
-void write_sls_trace_csv(const std::string& path, const SlsBuildResult& r);
+/// `inputs`: files the trace must never overwrite (the configuration).
+void write_sls_trace_csv(const std::string& path, const SlsBuildResult& r,
+                         const std::vector<std::string>& inputs = {});
 
 // ------------------------------------------------------------------------ FDM heater loops
 

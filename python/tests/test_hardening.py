@@ -1,0 +1,189 @@
+"""The Python API under bad input (docs/architecture.md, "Inputs and outputs"; docs/macros.md,
+"Limits"; docs/machine.md, "Physical ranges"): every case raises amctl.Error naming where,
+never crashes the interpreter, never hangs, never writes over an input or leaves a partial
+file. The same rules as the command line (tests/cli/bad_inputs.py), through the same code."""
+
+import json
+import os
+import stat
+import subprocess
+import sys
+import threading
+
+import pytest
+
+import amctl
+from amctl import fleet
+
+GOOD = "G28\nG90\nM82\nG1 X10 Y10 F6000\nG1 X20 E1\nG1 Y20 E2\n"
+CFG = "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n"
+TINY = "0." + "0" * 310 + "1"
+
+
+@pytest.fixture
+def gfile(tmp_path):
+    p = tmp_path / "f.gcode"
+    p.write_text(GOOD)
+    return p
+
+
+def macro_machine(tmp_path, body):
+    p = tmp_path / "p.cfg"
+    p.write_text(CFG + "[gcode_macro FOO]\ngcode:\n  G4 P0\n  " + body + "\n")
+    return amctl.Machine.load(p)
+
+
+@pytest.mark.parametrize("body", [
+    "{ 1" + "|abs" * 5000 + " }",
+    "{ printer" + ".a" * 5000 + " }",
+    "{ 1" + " + 1" * 5000 + " }",
+    "{ " + "(" * 5000 + "1" + ")" * 5000 + " }",
+], ids=["filters", "attributes", "plus", "parentheses"])
+def test_a_long_chain_in_a_macro_is_an_error_not_a_crash(tmp_path, body):
+    # In the same interpreter: a stack overflow would take pytest down with it.
+    g = tmp_path / "f.gcode"
+    g.write_text("G28\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.estimate(g, macro_machine(tmp_path, body))
+    assert e.value.file.endswith("p.cfg") and e.value.line == 8
+    assert "nesting limit" in str(e.value)
+
+
+@pytest.mark.parametrize("body,words", [
+    ("{% set ns = namespace(s='x') %}{% for i in range(64) %}{% set ns.s = ns.s ~ ns.s %}{% endfor %}",
+     "string limit"),
+    ("{% set ns = namespace(l=[1]) %}{% for i in range(90) %}{% set ns.l = [ns.l, ns.l] %}{% endfor %}{ ns.l }",
+     "value limit"),
+    ("{ range(-9223372036854775807, 9223372036854775807)|length }", "range limit"),
+], ids=["string", "shared_list", "range"])
+def test_macro_memory_bounds_are_errors_at_the_macros_line(tmp_path, body, words):
+    m = macro_machine(tmp_path, body)
+    g = tmp_path / "f.gcode"
+    g.write_text("G28\nFOO\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.estimate(g, m)
+    assert e.value.file.endswith("p.cfg") and e.value.line == 8
+    assert words in str(e.value)
+
+
+def test_a_fan_out_of_macro_calls_stops(tmp_path):
+    cfg = CFG + "".join(f"[gcode_macro FAN{i}]\ngcode:\n  FAN{i + 1}\n  FAN{i + 1}\n" for i in range(40))
+    cfg += "[gcode_macro FAN40]\ngcode:\n  G4 P0\n"
+    (tmp_path / "p.cfg").write_text(cfg)
+    (tmp_path / "f.gcode").write_text("FAN0\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.estimate(tmp_path / "f.gcode", amctl.Machine.load(tmp_path / "p.cfg"))
+    assert "expansion limit" in str(e.value) and e.value.file.endswith("p.cfg")
+
+
+@pytest.mark.parametrize("line,col", [
+    (f"G1 X10 F{TINY}", 8), (f"M204 S{TINY}", 6), ("SET_VELOCITY_LIMIT VELOCITY=1e-300", 20),
+    (f"M220 S{TINY}", 6), (f"M203 X{TINY}", 6), ("SET_GCODE_OFFSET Z=1 MOVE=1 MOVE_SPEED=1e-300", 18),
+    (f"M207 S1 F{TINY}", 9),
+], ids=["F", "M204", "SET_VELOCITY_LIMIT", "M220", "M203", "SET_GCODE_OFFSET", "M207"])
+def test_positive_values_no_machine_has_are_refused(tmp_path, line, col):
+    g = tmp_path / "f.gcode"
+    g.write_text(f"G28\n{line}\nG1 X20 Y20\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.estimate(g)
+    assert (e.value.line, e.value.column) == (2, col)
+
+
+def test_tiny_machine_limits_are_refused():
+    with pytest.raises(amctl.Error):
+        amctl.Machine.load(None, set={"printer.max_velocity": 1e-300})
+    with pytest.raises(amctl.Error):
+        amctl.Machine.load(None, set={"printer.max_accel": 1e-300})
+
+
+def test_a_directory_or_a_missing_file_is_an_error_naming_it(tmp_path):
+    d = tmp_path / "d.gcode"
+    d.mkdir()
+    for call in (lambda p: amctl.estimate(p), lambda p: amctl.simulate(p, natural_frequency_hz=40),
+                 lambda p: amctl.plan(p)):
+        with pytest.raises(amctl.Error) as e:
+            call(d)
+        assert e.value.file == str(d) and "directory" in str(e.value)
+        with pytest.raises(amctl.Error) as e:
+            call(tmp_path / "none.gcode")
+        assert e.value.file == str(tmp_path / "none.gcode")
+
+
+def test_cr_only_line_ends_are_lines(tmp_path):
+    g = tmp_path / "cr.gcode"
+    g.write_text(GOOD.replace("\n", "\r"), newline="")
+    r = amctl.estimate(g)
+    lf = tmp_path / "lf.gcode"
+    lf.write_text(GOOD)
+    assert r["moves"] == amctl.estimate(lf)["moves"] == 3
+    assert r["total_time_s"] == amctl.estimate(lf)["total_time_s"]
+
+
+def test_a_fifo_is_read_once_by_simulate(tmp_path):
+    # simulate reads the file twice (M593 before the first move, then the print): a FIFO
+    # can be read only once; the second pass reads the reader's own copy.
+    fifo = tmp_path / "in.fifo"
+    os.mkfifo(fifo)
+    writer = threading.Thread(target=lambda: fifo.write_text(GOOD))
+    writer.start()
+    r = amctl.simulate(fifo, natural_frequency_hz=40)
+    writer.join()
+    assert r["moves"] == 3
+
+
+def test_outputs_never_replace_the_input_or_a_device(tmp_path, gfile):
+    before = gfile.read_text()
+    with pytest.raises(amctl.Error) as e:
+        amctl.report(gfile, output=gfile)
+    assert "input" in str(e.value)
+    with pytest.raises(amctl.Error):
+        amctl.compensate(gfile, natural_frequency_hz=40, csv=gfile)
+    assert gfile.read_text() == before
+    fifo = tmp_path / "out.fifo"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader.start()
+    cfg = tmp_path / "s.cfg"
+    cfg.write_text(CFG + "".join(f"[{n}]\nrotation_distance: {r}\nmicrosteps: 16\nposition_max: 200\n"
+                                 for n, r in (("stepper_x", 40), ("stepper_y", 40), ("stepper_z", 8))) +
+                   "[extruder]\nrotation_distance: 33.5\nmicrosteps: 16\nnozzle_diameter: 0.4\n"
+                   "filament_diameter: 1.75\n")
+    amctl.steps(gfile, amctl.Machine.load(cfg), csv=fifo)
+    reader.join()
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    assert got[0].startswith("stepper,time_s,direction\n")
+    assert sorted(os.listdir(tmp_path)) == ["f.gcode", "out.fifo", "s.cfg"]  # no temporary left
+
+
+def test_a_10_hz_record_gets_no_shaper_recommendation(tmp_path):
+    a = tmp_path / "a.csv"
+    a.write_text("#time,accel_x,accel_y,accel_z\n" +
+                 "".join(f"{i / 10:.1f},{(i % 5) - 2},{(i % 3) - 1},9800\n" for i in range(3000)))
+    with pytest.raises(amctl.Error) as e:
+        amctl.resonance_calibrate(a, axis="x")
+    assert "sampled at 10 Hz" in str(e.value)
+
+
+def test_fleet_csv_to_a_bad_path_is_an_error_not_a_traceback(tmp_path, gfile):
+    r = subprocess.run([sys.executable, "-m", "amctl.fleet", str(gfile), "--workers", "0",
+                        "--csv", str(tmp_path / "no" / "such" / "dir" / "out.csv")],
+                       capture_output=True, text=True, env=os.environ)
+    assert r.returncode == 2
+    assert r.stderr.startswith("amctl.fleet: error: ") and "Traceback" not in r.stderr
+    r = subprocess.run([sys.executable, "-m", "amctl.fleet", str(gfile), "--workers", "0",
+                        "--csv", str(tmp_path)], capture_output=True, text=True, env=os.environ)
+    assert r.returncode == 2 and "directory" in r.stderr
+
+
+def test_fleet_json_has_no_infinity(tmp_path, gfile):
+    rows = fleet.run([str(gfile)], ["default"], workers=0)
+    json.dumps(rows, allow_nan=False)
+
+
+def test_messages_keep_what_follows_a_nul_byte(tmp_path):
+    g = tmp_path / "f.gcode"
+    g.write_bytes(b"G1 X10\nG1 X\x00Y\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.estimate(g)
+    assert "x00Y' in G1" in str(e.value) and e.value.line == 2  # the text after the NUL is kept
