@@ -177,6 +177,26 @@ void ShapedStepGenerator::record(std::uint32_t c, double t, int dir) {
   State& st = state_[c];
   StepperStats& stats = stats_[c];
   t = std::max(t, st.last_step_s);
+  // A level touched at a turning point (or where two pieces meet) can give a step and its step
+  // back at one instant, a root-finding artefact rather than motion: the two cancel. (Within
+  // 1 ns no motor reverses; Klipper's filter would drop the pair anyway.)
+  constexpr double kSameInstantS = 1e-9;
+  std::vector<Step>& mine = scratch_[c];
+  if (!mine.empty() && mine.back().direction == -dir && t - st.last_step_s <= kSameInstantS) {
+    mine.pop_back();
+    st.n += dir;
+    --stats.steps;
+    if (dir < 0) --stats.steps_positive;
+    else --stats.steps_negative;
+    st.last_step_s = st.before_last_step_s;
+    stats.min_interval_s = st.before_min_interval_s;
+    stats.peak_time_s = st.before_peak_time_s;
+    stats.position_steps = st.n;
+    return;
+  }
+  st.before_last_step_s = st.last_step_s;
+  st.before_min_interval_s = stats.min_interval_s;
+  st.before_peak_time_s = stats.peak_time_s;
   st.n += dir;
   const double interval = t - st.last_step_s;
   if (interval < stats.min_interval_s) {

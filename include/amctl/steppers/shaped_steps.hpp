@@ -44,6 +44,11 @@ class ShapedStepGenerator {
     double origin = 0.0;  ///< motor position of step 0
     std::int64_t n = 0;
     double last_step_s = -std::numeric_limits<double>::infinity();
+    /// Before the last recorded step: its predecessor's time and the stats' peak then (to take
+    /// back a step that the next one cancels at the same instant).
+    double before_last_step_s = -std::numeric_limits<double>::infinity();
+    double before_min_interval_s = std::numeric_limits<double>::infinity();
+    double before_peak_time_s = 0.0;
   };
   void step_pieces(std::vector<Step>& out);
   void linear_piece(std::uint32_t c, const shaping::AxisPiece& piece);
