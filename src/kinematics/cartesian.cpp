@@ -1,45 +1,12 @@
 // stepper_x = X, stepper_y = Y, stepper_z* = Z (kin_cartesian.c).
 #include "amctl/kinematics/cartesian.hpp"
 
+#include "rail_kinematics.hpp"
+
 namespace amctl::kinematics {
 namespace {
 
-constexpr std::array<double, 4> kRowX{1, 0, 0, 0}, kRowY{0, 1, 0, 0}, kRowZ{0, 0, 1, 0};
-
-class CartesianKinematics final : public Kinematics {
- public:
-  CartesianKinematics(const Cartesian& p, const Context& ctx) : p_(p), th_(ctx.toolhead) {
-    detail::check_rails(p.rails);
-    detail::check_dual_carriage(p.rails, p.dual_carriage);
-  }
-  std::string_view name() const override { return Cartesian::kName; }
-  std::vector<Motor> motors(const std::vector<std::string>& keys,
-                            std::vector<std::string>& missing) const override {
-    return detail::cartesian_motors(keys, kRowX, kRowY, kRowZ, missing);
-  }
-  MoveRules move_rules() const override { return detail::cartesian_move_rules(p_.rails, th_); }
-  std::vector<IdexPair> idex_pairs() const override {
-    if (!p_.dual_carriage || p_.dual_carriage->axis.empty()) return {};
-    return {detail::idex_pair(p_.rails, *p_.dual_carriage)};
-  }
-  Homing homing() const override {
-    Homing h = detail::cartesian_homing(p_.rails);
-    // G28 puts the first carriage of an IDEX axis at its endstop.
-    if (p_.dual_carriage && !p_.dual_carriage->axis.empty()) {
-      const IdexPair d = detail::idex_pair(p_.rails, *p_.dual_carriage);
-      h.position_mm[static_cast<std::size_t>(d.axis)] = d.position_endstop_mm[0];
-    }
-    return h;
-  }
-  std::optional<LinearMap> linear_map() const override {
-    std::vector<std::string> missing;
-    return detail::linear_map_of(motors({"x", "y", "z"}, missing));
-  }
-
- private:
-  Cartesian p_;
-  Toolhead th_;
-};
+constexpr detail::MotorRows kRows{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
 
 }  // namespace
 
@@ -47,25 +14,12 @@ std::vector<KlipperStepper> Cartesian::klipper_steppers(const KlipperConfig& cfg
   return detail::axis_steppers(cfg, "xyz");
 }
 
-Cartesian Cartesian::from_klipper(const KlipperConfig& cfg) {
-  Cartesian k;
-  for (const KlipperStepper& s : klipper_steppers(cfg)) detail::read_rail(cfg.section(s.section), k.rails, s.key);
-  k.dual_carriage = detail::read_dual_carriage(cfg);
-  return k;
-}
+Cartesian Cartesian::from_klipper(const KlipperConfig& cfg) { return detail::rails_from_klipper<Cartesian>(cfg); }
 
-std::span<const ParamKey<Cartesian>> Cartesian::keys() {
-  static const std::vector<ParamKey<Cartesian>> keys = [] {
-    std::vector<ParamKey<Cartesian>> k;
-    detail::add_rail_keys(k);
-    detail::add_dual_carriage_keys(k);
-    return k;
-  }();
-  return keys;
-}
+std::span<const ParamKey<Cartesian>> Cartesian::keys() { return detail::rail_keys<Cartesian>(); }
 
 std::unique_ptr<Kinematics> make_kinematics(const Cartesian& p, const Context& ctx) {
-  return std::make_unique<CartesianKinematics>(p, ctx);
+  return std::make_unique<detail::RailKinematics<Cartesian>>(p, ctx, kRows);
 }
 
 }  // namespace amctl::kinematics
