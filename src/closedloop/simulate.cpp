@@ -785,6 +785,7 @@ Json axis_json(const AxisResult& a) {
   x["accel_lead_dropped_moves"] = a.accel_lead_dropped_moves;
   x["load_limited_periods"] = a.load_limited_periods;
   x["slips_inferred"] = a.slips_inferred;
+  x["lead_capped_periods"] = a.lead_capped_periods;
   if (a.fall_back_time_s >= 0.0) x["fall_back_time_s"] = json_number(a.fall_back_time_s);
   x["commands_reached"] = a.commands_reached;
   x["commands_left"] = a.commands_left;
