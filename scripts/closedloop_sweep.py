@@ -11,9 +11,9 @@ figures the closed loop is held to:
 
 Usage: scripts/closedloop_sweep.py [--amctl PATH] [--jobs N] [--csv OUT] [--prints P ...]
        [--machines M ...] [--controllers C ...] [--head-lines N]
---head-lines N runs every print longer than N lines on its first N lines only (a copy in a
-temporary directory; the CSV's print column says "first N lines"), for a sweep that must fit a
-time budget.
+--head-lines N runs every corpus print longer than N lines on its first N lines only (a copy in
+a temporary directory; the CSV's print column says "first N lines"), for a sweep that must fit a
+time budget; the bundled examples always run whole.
 Defaults: build/release/apps/amctl/amctl, 2 jobs, no CSV, every print, machine and controller.
 Exit status 1 when a figure fails (the failures are listed), 0 otherwise. Machines without
 stepper sections run on the default drive train (the simulation says so in its notes); a
@@ -70,7 +70,7 @@ def main():
         for g in prints:
             with open(g, "rb") as f:
                 lines = list(itertools.islice(f, a.head_lines + 1))
-            if len(lines) <= a.head_lines:
+            if len(lines) <= a.head_lines or os.path.abspath(g).startswith(os.path.join(ROOT, "examples")):
                 headed.append(g)
                 continue
             h = os.path.join(tmp, os.path.basename(g))

@@ -565,8 +565,9 @@ void add_notes(SimulationResult& r, bool governor) {
     if (a.gain_scale < 1.0) {
       r.notes.push_back(fmt::format(
           "axis {}: the default {} gains scaled by {:.3f} (kp and ki) to keep its linearised loop "
-          "stable with a gain margin of {:.0f} up to the governor's design load angle",
-          a.name, r.controller, a.gain_scale, kGainMargin));
+          "stable with a gain margin of {:g} up to the governor's design load angle, the carriage "
+          "mass and belt stiffness {:.0f} % off",
+          a.name, r.controller, a.gain_scale, kGainMargin, 100.0 * kModelUncertainty));
     }
     if (a.degraded_moves > 0) {
       r.notes.push_back(fmt::format(
