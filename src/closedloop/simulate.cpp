@@ -539,7 +539,9 @@ SimulationResult simulate_file(const std::string& gcode_path, const machine::Mac
 SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
                                 const machine::Machine& m, const SimulationOptions& options) {
   if (moves.empty()) throw Error("simulate_moves: no moves to simulate");
-  LazyClosedLoop lazy(m, options);
+  std::vector<std::string> notes;
+  const machine::Machine mm = with_default_drive_train(m, notes);
+  LazyClosedLoop lazy(mm, options);
   plan::PlanBatch b;
   b.moves.assign(moves.begin(), moves.end());
   lazy.consume(b);
@@ -548,6 +550,7 @@ SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
   lazy.finish(s);
   SimulationResult r = lazy.result();
   r.source = "moves";
+  r.notes.insert(r.notes.begin(), notes.begin(), notes.end());
   return r;
 }
 
