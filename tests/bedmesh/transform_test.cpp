@@ -67,21 +67,24 @@ TEST(BedMeshTransform, SplitsWhereTheMeshRisesBySplitDeltaZAndAddsItsZToEveryPie
   // 40 mm and at its end.
   Recorder r;
   MeshTransform t(plane_settings(0.05, 0.004, 0.0), r);
-  t.on_set_position({3, 50, 0.3, 0}, 1);
+  t.on_set_position({3, 50, 0, 0}, 1);
   t.on_bed_mesh(load("default"));
+  t.on_move(move({3, 50, 0, 0}, {3, 50, 0.3, 0}));  // Z only: no split, the mesh's z added
+  ASSERT_EQ(r.moves.size(), 1u);
+  EXPECT_NEAR(r.moves[0].end_mm[2], 0.3 + 0.05 + 0.004 * 3, 1e-12);
   t.on_move(move({3, 50, 0.3, 0}, {50, 50, 0.3, 4.7}));
-  ASSERT_EQ(r.moves.size(), 5u);
+  ASSERT_EQ(r.moves.size(), 6u);
   const double xs[5] = {13, 23, 33, 43, 50};
   for (std::size_t k = 0; k < 5; ++k) {
-    EXPECT_NEAR(r.moves[k].end_mm[0], xs[k], 1e-12);
-    EXPECT_NEAR(r.moves[k].end_mm[2], 0.3 + 0.05 + 0.004 * xs[k], 1e-12);
-    EXPECT_NEAR(r.moves[k].end_mm[3], 4.7 * (xs[k] - 3) / 47, 1e-12);  // E shared by length
-    EXPECT_EQ(r.moves[k].start_mm, k == 0 ? (std::array<double, 4>{3, 50, 0.3 + 0.05 + 0.004 * 3, 0})
-                                          : r.moves[k - 1].end_mm);
-    EXPECT_EQ(r.moves[k].line, 9u);
+    const gcode::MoveRequest& m = r.moves[k + 1];
+    EXPECT_NEAR(m.end_mm[0], xs[k], 1e-12);
+    EXPECT_NEAR(m.end_mm[2], 0.3 + 0.05 + 0.004 * xs[k], 1e-12);
+    EXPECT_NEAR(m.end_mm[3], 4.7 * (xs[k] - 3) / 47, 1e-12);  // E shared by length
+    EXPECT_EQ(m.start_mm, r.moves[k].end_mm);
+    EXPECT_EQ(m.line, 9u);
   }
-  EXPECT_EQ(t.stats().moves_in, 1u);
-  EXPECT_EQ(t.stats().pieces_out, 5u);
+  EXPECT_EQ(t.stats().moves_in, 2u);
+  EXPECT_EQ(t.stats().pieces_out, 6u);
 }
 
 TEST(BedMeshTransform, AFlatMeshOnlyShiftsZAndAMoveAlongAContourIsNotSplit) {
@@ -218,7 +221,7 @@ TEST(BedMeshStream, BadMeshInputNamesFileLineAndColumn) {
     (void)plan_text(m, "G1 X1\nBED_MESH_PROFILE LOAD=flat\n");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("in.gcode:2:18: bed_mesh: Unknown profile [flat]", 0), 0u) << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind("in.gcode:2:23: bed_mesh: Unknown profile [flat]", 0), 0u) << e.what();
   }
 }
 
