@@ -3,7 +3,8 @@
 (README.md, "Bed mesh"; docs/bedmesh.md).
 
 Usage (Debian's python3; Klipper needs python3-greenlet, -cffi, -serial, -jinja2):
-    /usr/bin/python3 bedmesh_crosscheck.py KLIPPER_DIR CORPUS_GCODE_DIR AMCTL [times|steps]...
+    /usr/bin/python3 bedmesh_crosscheck.py KLIPPER_DIR CORPUS_GCODE_DIR AMCTL [times|steps]... \
+        [--no-runout KLIPPER_COPY_DIR]
 
 Each case is a printer.cfg of this directory, a preamble (SET_KINEMATIC_POSITION and the mesh
 load: PRINT_START, a macro of the cfg, or BED_MESH_PROFILE LOAD=default) and an input (a file
@@ -12,9 +13,14 @@ SET_KINEMATIC_POSITION X=0 Y=0 Z=0 as batch mode has no endstops). The text both
 read is input_text() below (tests/bedmesh/klipper_bedmesh_test.cpp builds the same).
 
 - times: batch_time.motion_time (a REPORT_PRINT_TIME mark before and after) -> stdout as
-  klipper_times_bedmesh.json
+  klipper_times_bedmesh.json: `motion_stock_s` from KLIPPER_DIR; with --no-runout, a copy of
+  the checkout whose toolhead.py makes no buffer-runout flush (_handle_step_flush returns at
+  once, the priming timer flushes nothing: README.md), `motion_s` with the mesh and
+  `motion_no_mesh_s` without its load (the preamble's PRINT_START / BED_MESH_PROFILE line
+  left out), so that the mesh's own effect on Klipper's time is known
 - steps: scripts/klipper_steps_crosscheck.py's compare() (Klipper's queue_step stream decoded,
-  amctl steps --step-filter klipper beside it) -> klipper_steps_bedmesh.json in this directory
+  amctl steps --step-filter klipper beside it) -> klipper_steps_bedmesh.json in this directory;
+  with --no-runout the copy is the Klipper run (a runout stop shifts every later step)
 Nothing of Klipper is copied: klippy.py is run from the checkout given.
 """
 import json
@@ -68,8 +74,14 @@ def input_text(corpus, preamble, source, head):
 
 
 def main():
-    klipper, corpus, amctl = sys.argv[1:4]
-    what = sys.argv[4:] or ["times", "steps"]
+    args = sys.argv[1:]
+    norunout = None
+    if "--no-runout" in args:
+        i = args.index("--no-runout")
+        norunout = args[i + 1]
+        del args[i:i + 2]
+    klipper, corpus, amctl = args[:3]
+    what = args[3:] or ["times", "steps"]
     dictionary = os.path.join(klipper, "out", "klipper.dict")
     commit = subprocess.run(["git", "-C", klipper, "rev-parse", "HEAD"], capture_output=True,
                             text=True).stdout.strip()
@@ -80,7 +92,14 @@ def main():
             k = batch_time.motion_time(klipper, dictionary, os.path.join(HERE, cfg), text, label=key)
             out[key] = {"motion_stock_s": k, "cfg": cfg, "preamble": pre, "input": source,
                         "head_lines": head}
-            print(key, k, file=sys.stderr)
+            if norunout:
+                nd = os.path.join(norunout, "out", "klipper.dict")
+                out[key]["motion_s"] = batch_time.motion_time(norunout, nd, os.path.join(HERE, cfg), text,
+                                                              label=key)
+                plain = input_text(corpus, HOME, source, head)
+                out[key]["motion_no_mesh_s"] = batch_time.motion_time(norunout, nd, os.path.join(HERE, cfg),
+                                                                      plain, label=key)
+            print(key, out[key], file=sys.stderr)
         json.dump(out, sys.stdout, indent=1, sort_keys=True)
         print()
     if "steps" in what:
@@ -91,7 +110,8 @@ def main():
                 gcode = os.path.join(tmp, key.replace("/", "_") + ".gcode")
                 with open(gcode, "w") as f:
                     f.write(input_text(corpus, pre, source, head))
-                r = kx.compare(klipper, amctl, os.path.join(HERE, cfg), gcode, "/usr/bin/python3")
+                r = kx.compare(norunout or klipper, amctl, os.path.join(HERE, cfg), gcode, "/usr/bin/python3")
+                r["klipper_batch_mode"] = "no buffer-runout flush" if norunout else "stock"
                 r.update({"case": key, "preamble": pre, "input": source, "head_lines": head})
                 results.append(r)
                 counts = " ".join("%s=%d/%d%s" % (s["stepper"], s["klipper_steps"], s["amctl_steps_filtered"],
