@@ -9,6 +9,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <fstream>
 
 #include <fmt/format.h>
 
@@ -65,6 +66,19 @@ std::array<double, 2> read_pair(const KlipperSection& s, std::string_view key, b
   return {out[0], out[1]};
 }
 
+/// The 1-based file column of `offset` in `piece` (a trimmed piece of a value on `line`):
+/// the reader keeps each piece trimmed, so the piece is found again in the file's line (an
+/// error path only). Falls back to the offset in the piece when the file cannot be read.
+std::uint32_t file_column(const std::string& file, std::uint64_t line, std::string_view piece,
+                          std::size_t offset) {
+  std::ifstream in(file, std::ios::binary);
+  std::string text;
+  for (std::uint64_t n = 0; n < line && std::getline(in, text); ++n) {
+  }
+  const std::size_t at = in ? text.find(piece) : std::string::npos;
+  return static_cast<std::uint32_t>((at == std::string::npos ? 0 : at) + offset + 1);
+}
+
 /// A profile's `points`: rows separated by line breaks, values by commas.
 std::vector<std::vector<double>> read_points(const KlipperSection& s, const ConfigValue& v) {
   std::vector<std::vector<double>> rows;
@@ -75,7 +89,6 @@ std::vector<std::vector<double>> read_points(const KlipperSection& s, const Conf
     const std::size_t nl = text.find('\n', pos);
     const std::string_view row = text.substr(pos, nl == std::string_view::npos ? text.npos : nl - pos);
     const std::uint64_t line = piece < v.lines.size() ? v.lines[piece] : v.where.line;
-    const std::uint32_t base_col = piece == 0 ? v.where.column : 1;
     pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
     ++piece;
     if (trim(row).empty()) continue;
@@ -88,7 +101,7 @@ std::vector<std::vector<double>> read_points(const KlipperSection& s, const Conf
       if (!parse_double(item, x) || !std::isfinite(x)) {
         const std::size_t lead = row.substr(at).find_first_not_of(" \t");
         const std::size_t c = at + (lead == std::string_view::npos ? 0 : lead);
-        throw Error(SourceLocation{v.where.file, line, base_col + static_cast<std::uint32_t>(c)},
+        throw Error(SourceLocation{v.where.file, line, file_column(v.where.file, line, trim(row), c)},
                     fmt::format("[{}] points: found '{}' in row {}, expected a finite number (the "
                                 "probed z in mm)",
                                 s.name(), item, rows.size()));
@@ -106,8 +119,17 @@ Profile read_profile(const KlipperSection& s, std::string name) {
   p.name = std::move(name);
   p.where = s.where();
   MeshParams& m = p.params;
+  // ProfileManager reads every key SAVE_CONFIG writes, without a default.
+  for (std::string_view key : {"points", "min_x", "max_x", "min_y", "max_y", "x_count", "y_count",
+                               "mesh_x_pps", "mesh_y_pps", "algo", "tension"}) {
+    if (!s.has(key)) {
+      throw Error(s.where(), fmt::format("[{}] has no '{}', expected every key a saved profile has "
+                                         "(points, min_x, max_x, min_y, max_y, x_count, y_count, "
+                                         "mesh_x_pps, mesh_y_pps, algo, tension)",
+                                         s.name(), key));
+    }
+  }
   const ConfigValue* pts = s.raw("points");
-  if (pts == nullptr) throw s.missing("points");
   const auto rows = read_points(s, *pts);
   m.min_x_mm = s.require_float("min_x");
   m.max_x_mm = s.require_float("max_x");
@@ -156,6 +178,7 @@ Profile read_profile(const KlipperSection& s, std::string name) {
   for (std::size_t j = 0; j < rows.size(); ++j) {
     if (rows[j].size() != static_cast<std::size_t>(m.x_count)) {
       std::uint64_t line = pts->where.line;
+      std::string_view row_text;
       std::size_t seen = 0;
       std::string_view text = pts->text;
       std::size_t pos = 0, piece = 0;
@@ -164,12 +187,13 @@ Profile read_profile(const KlipperSection& s, std::string name) {
         const std::string_view r = text.substr(pos, nl == std::string_view::npos ? text.npos : nl - pos);
         if (!trim(r).empty() && seen++ == j) {
           line = piece < pts->lines.size() ? pts->lines[piece] : line;
+          row_text = trim(r);
           break;
         }
         pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
         ++piece;
       }
-      throw Error(SourceLocation{pts->where.file, line, 1},
+      throw Error(SourceLocation{pts->where.file, line, file_column(pts->where.file, line, row_text, 0)},
                   fmt::format("[{}] points: row {} has {} values, expected x_count = {}", s.name(), j,
                               rows[j].size(), m.x_count));
     }
