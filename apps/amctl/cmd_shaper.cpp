@@ -77,6 +77,12 @@ void register_shaper(CLI::App& app) {
     ratio("--damping-ratio", o.damping_ratio);
     if (test_dr->count() > 0) ratio("--test-damping-ratio", a->test_damping_ratio);
     for (const double f : o.residual_at_hz) require_range_flag("--residual-at-hz", kFrequencyRange, f);
+    try {  // the type under its flag's name
+      (void)(o.firmware ? shaping::parse_shaper_spec(o.type, *o.firmware, o.marlin_sample_rate_hz)
+                        : shaping::parse_shaper_spec(o.type));
+    } catch (const Error& e) {
+      throw Error(fmt::format("--type: {}", e.what()));
+    }
     const shaping::ShaperReport r = shaping::shaper_report(o);
     if (a->json) {
       std::cout << shaping::to_json(r).dump(2) << "\n";

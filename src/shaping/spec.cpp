@@ -109,7 +109,7 @@ Firmware parse_firmware(std::string_view text) {
   const std::string t = lower(trim(text));
   if (t == "klipper") return Firmware::klipper;
   if (t == "marlin") return Firmware::marlin;
-  throw Error(fmt::format("firmware '{}' has no shaper definitions here; valid: klipper, marlin", text));
+  throw Error(fmt::format("found '{}', expected klipper or marlin (whose shaper definitions)", text));
 }
 
 std::string_view to_string(Firmware firmware) {
@@ -134,14 +134,14 @@ ShaperSpec parse_shaper_spec(std::string_view text, Firmware firmware, double sa
   const std::string name = lower(trim(trim(text).substr(0, trim(text).find('('))));
   if (std::find(names.begin(), names.end(), name) == names.end()) {
     const Firmware other = firmware == Firmware::marlin ? Firmware::klipper : Firmware::marlin;
-    throw Error(fmt::format("type '{}' is not a {} shaper; {} offers {}; {} offers {}", text,
-                            to_string(firmware), to_string(firmware),
-                            fmt::join(names, ", "), to_string(other),
+    throw Error(fmt::format("type '{}' is not a {} shaper: found '{}', expected one of {} ({} offers {})",
+                            text, to_string(firmware), name, fmt::join(names, ", "), to_string(other),
                             fmt::join(shaper_type_names(other), ", ")));
   }
   if (firmware == Firmware::marlin && spec.type == ShaperType::mzv &&
       (spec.mzv_n != 3 || spec.mzv_t != 0.75)) {
-    bad_parameter(text, "Marlin's mzv takes no parameters (mzv(n, t) is Klipper's generalisation)");
+    bad_parameter(text, "found parameters, expected none: Marlin's mzv takes no parameters (mzv(n, t) is "
+                        "Klipper's generalisation)");
   }
   if (firmware == Firmware::klipper &&
       (spec.type == ShaperType::two_hump_ei || spec.type == ShaperType::three_hump_ei) &&
