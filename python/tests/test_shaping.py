@@ -245,3 +245,18 @@ def test_firmware_that_lacks_the_type_is_refused():
         amctl.shaper_show("zvdd", 40.0, 0.1, firmware="klipper")
     with pytest.raises(amctl.Error, match="found 'prusa', expected klipper or marlin"):
         amctl.shaper_show("zv", 40.0, 0.1, firmware="prusa")
+
+
+def test_simulate_applies_the_firmware_asked_for(source_dir):
+    # The corner file with an M593 (Marlin's stepper ZV); shaper_firmware='marlin' puts its
+    # impulse times on FT_MOTION's 1 kHz grid, and the same with the CLI flag.
+    g = str(source_dir / "tests/simulation/m593_corner.gcode")
+    plain = amctl.simulate(g, natural_frequency_hz=40.0, damping_ratio=0.05)
+    assert plain["shaper"]["x"]["firmware"] == "marlin"
+    assert plain["shaper"]["x"]["marlin_sample_rate_hz"] is None
+    grid = amctl.simulate(g, natural_frequency_hz=40.0, damping_ratio=0.05, shaper_firmware="marlin")
+    assert grid["shaper"]["x"]["marlin_sample_rate_hz"] == 1000.0
+    d = grid["shaper"]["x"]["duration_s"]
+    assert abs(d * 1000.0 - round(d * 1000.0)) < 1e-9  # whole milliseconds
+    with pytest.raises(amctl.Error, match="shaper_firmware: found 'rrf'"):
+        amctl.simulate(g, natural_frequency_hz=40.0, shaper_firmware="rrf")

@@ -61,7 +61,7 @@ ShaperSettings resolve_shapers(const ShaperRequest& request, const machine::Mach
   }
   if (request.none) {
     if (request.firmware) {
-      throw Error(fmt::format("{} and --shaper-firmware contradict each other", request.none_name));
+      throw Error(fmt::format("{} and {} contradict each other", request.none_name, request.firmware_name));
     }
     return shapers;
   }

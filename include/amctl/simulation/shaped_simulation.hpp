@@ -248,7 +248,7 @@ struct ShaperRequest {
   std::string type_name = "--shaper", type_x_name = "--shaper-x", type_y_name = "--shaper-y";
   std::string freq_name = "--shaper-freq-hz", freq_x_name = "--shaper-freq-x-hz",
               freq_y_name = "--shaper-freq-y-hz", damping_name = "--shaper-damping-ratio",
-              none_name = "--no-shaper";
+              none_name = "--no-shaper", firmware_name = "--shaper-firmware";
   [[nodiscard]] bool any() const {
     return type || type_x || type_y || freq_hz || freq_x_hz || freq_y_hz;
   }
