@@ -161,6 +161,9 @@ void do_simulate(const SimulateArgs& a) {
   require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
   const dy::AxisModel mx = build_model(a.model, false, a.rate_hz), my = build_model(a.model, true, a.rate_hz);
   dy::PrintSimulationOptions o;
+  if (!(a.shaper_damping >= 0.0 && a.shaper_damping < 1.0)) {
+    throw Error(fmt::format("--shaper-damping-ratio: must be in [0, 1) (flags), got {}", a.shaper_damping));
+  }
   for (const auto& [flag, f] : {std::pair{"--shaper-freq-hz", a.shaper_freq}, std::pair{"--shaper-freq-x-hz", a.shaper_freq_x},
                                 std::pair{"--shaper-freq-y-hz", a.shaper_freq_y}}) {
     if (f) require_range_flag(flag, kFrequencyRange, *f);

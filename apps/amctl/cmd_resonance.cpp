@@ -72,8 +72,15 @@ void run_test_gcode(const TestGcodeArgs& a) {
   if (a.style != "marlin" && a.accel) throw Error("--accel-mm-s2 applies to --style marlin; use --accel-per-hz");
   if (a.freq_start) o.freq_start_hz = *a.freq_start;
   if (a.freq_end) o.freq_end_hz = *a.freq_end;
-  if (a.accel_per_hz) o.accel_per_hz = *a.accel_per_hz;
-  if (a.accel) o.accel_mm_s2 = *a.accel;
+  if (a.accel_per_hz) {
+    // Klipper's accel_per_hz times the highest frequency is the test's largest acceleration.
+    require_range_flag("--accel-per-hz", PhysicalRange{"acceleration per Hz", "mm/s^2/Hz", 1e-3, 1e5}, *a.accel_per_hz);
+    o.accel_per_hz = *a.accel_per_hz;
+  }
+  if (a.accel) {
+    require_range_flag("--accel-mm-s2", kAccelRange, *a.accel);
+    o.accel_mm_s2 = *a.accel;
+  }
   if (a.hz_per_sec) o.hz_per_sec = *a.hz_per_sec;
   if (!a.point.empty()) {
     double v[3];

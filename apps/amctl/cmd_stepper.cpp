@@ -32,6 +32,7 @@ struct StepperArgs {
 };
 
 void run_simulate(const StepperArgs& a) {
+  require_range_flag("--speed-mm-s", kSpeedRange, a.req.speed_mm_s);
   const machine::Machine m = resolve_machine(a.machine);
   closedloop::SimulateRequest req = a.req;
   req.load = !a.no_load;

@@ -238,7 +238,7 @@ def test_write_m73_on_a_plate_of_a_3mf_writes_its_text(tmp_path):
     text = out.read_text()
     lines = [ln for ln in text.splitlines() if not ln.startswith("M73 ")]
     assert lines == plate2.decode().splitlines()  # the plate's own lines, in order, nothing else
-    assert text.splitlines()[-1] == "M73 P100 R0" and n == text.count("M73 ")
+    assert text.splitlines()[-1] == "M73 P100 R0" and n["lines"] == text.count("M73 ")
     assert p.read_bytes() == before
     r = subprocess.run([os.environ.get("AMCTL_CLI", "amctl"), "estimate", f"{p}/Metadata/plate_2.gcode",
                         "--write-m73", str(tmp_path / "cli.gcode")], capture_output=True, text=True)

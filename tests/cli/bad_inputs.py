@@ -845,7 +845,11 @@ for base, flag, value in (
         (("resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "0.1"),
          "--natural-frequency-hz", "1e19"),
         (("resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "0.1"),
-         "--natural-frequency-hz", "1e-300")):
+         "--natural-frequency-hz", "1e-300"),
+        (("resonance", "test-gcode", "--axis", "x", "-o", "t.gcode"), "--accel-per-hz", "1e308"),
+        (("resonance", "test-gcode", "--axis", "x", "--style", "marlin", "-o", "t.gcode"), "--accel-mm-s2", "1e19"),
+        (("stepper", "simulate", "f.gcode", "-m", "p.cfg"), "--speed-mm-s", "1e308"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--shaper-damping-ratio", "1e308")):
     args = list(base)
     if flag in args:
         args[args.index(flag) + 1] = value
