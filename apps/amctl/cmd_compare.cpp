@@ -78,7 +78,7 @@ void run_compare(const CompareArgs& a) {
   for (const double p : o.plant_offsets_pct) {
     // The plant's frequency F (1 + p/100) must be a mode the simulation can sample too.
     const double f = a.f_hz * (1.0 + p / 100.0);
-    if (!(p > -100.0) || f >= 0.5 * a.rate_hz) {
+    if (p > -100.0 && f >= 0.5 * a.rate_hz) {  // -100 % or less: comparison::validate names it
       throw Error(fmt::format("--plant-offsets: must be above -100 % and keep the plant below half the "
                               "sample rate ({} Hz), got {} % ({} Hz)",
                               0.5 * a.rate_hz, p, f));

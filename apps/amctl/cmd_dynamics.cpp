@@ -166,7 +166,7 @@ void do_simulate(const SimulateArgs& a) {
   }
   for (const auto& [flag, f] : {std::pair{"--shaper-freq-hz", a.shaper_freq}, std::pair{"--shaper-freq-x-hz", a.shaper_freq_x},
                                 std::pair{"--shaper-freq-y-hz", a.shaper_freq_y}}) {
-    if (f) require_range_flag(flag, kFrequencyRange, *f);
+    if (f && *f > 0.0) require_range_flag(flag, kFrequencyRange, *f);  // <= 0: the shaper's own message
   }
   if (a.csv_rate_hz) require_range_flag("--csv-rate-hz", kSampleRateRange, *a.csv_rate_hz);
   // CLI11 reads "-1" for an unsigned flag as 2^64 - 1: a count beyond any file is refused.

@@ -46,8 +46,8 @@ void refuse_non_finite_flags(CLI::App& app) {
           const double v = std::strtod(item.c_str(), &stop);
           if (stop != item.c_str() &&
               (!std::isfinite(v) || (v != 0.0 && std::fabs(v) < std::numeric_limits<double>::min()))) {
-            return fmt::format("found '{}', expected a finite number (and none closer to 0 than {:g})",
-                               item, std::numeric_limits<double>::min());
+            return fmt::format("must be a finite number (and none closer to 0 than {:g}), got '{}'",
+                               std::numeric_limits<double>::min(), item);
           }
           start = end + 1;
         }
