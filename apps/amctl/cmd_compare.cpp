@@ -72,6 +72,18 @@ void run_compare(const CompareArgs& a) {
   o.natural_frequency_hz = a.f_hz;
   o.damping_ratio = a.zeta;
   require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
+  require_mode_frequency_flag("--natural-frequency-hz", a.f_hz, a.rate_hz);
+  require_damping_ratio_flag("--damping-ratio", a.zeta);
+  if (a.max_base_accel_mm_s2) require_range_flag("--max-base-accel-mm-s2", kAccelRange, *a.max_base_accel_mm_s2);
+  for (const double p : o.plant_offsets_pct) {
+    // The plant's frequency F (1 + p/100) must be a mode the simulation can sample too.
+    const double f = a.f_hz * (1.0 + p / 100.0);
+    if (p > -100.0 && f >= 0.5 * a.rate_hz) {  // -100 % or less: comparison::validate names it
+      throw Error(fmt::format("--plant-offsets: must be above -100 % and keep the plant below half the "
+                              "sample rate ({} Hz), got {} % ({} Hz)",
+                              0.5 * a.rate_hz, p, f));
+    }
+  }
   o.sample_rate_hz = a.rate_hz;
   o.layer = a.layer;
   comparison::validate(o);

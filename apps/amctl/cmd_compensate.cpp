@@ -55,19 +55,18 @@ void run_compensate(const CompensateArgs& a) {
     o.model_x = o.model_y = dynamics::AxisModel::from_modes(modes);
   } else {
     if (!a.f_hz) throw Error("--natural-frequency-hz is required (or --mode F,Z[,G])");
-    if (!(*a.f_hz > 0.0))
-      throw Error(fmt::format("--natural-frequency-hz: must be > 0, got {}", *a.f_hz));
+    require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
+    require_mode_frequency_flag("--natural-frequency-hz", *a.f_hz, a.rate_hz);
     const double z = a.zeta.value_or(0.1);
-    if (!(z >= 0.0)) throw Error(fmt::format("--damping-ratio: must be >= 0, got {}", z));
+    require_damping_ratio_flag("--damping-ratio", z);
     o.model_x = o.model_y = dynamics::AxisModel::belt(*a.f_hz, z);
   }
   o.plant_x = o.model_x;
   o.plant_y = o.model_y;
   if (a.plant_f_hz || a.plant_zeta) {
-    if (a.plant_f_hz && !(*a.plant_f_hz > 0.0))
-      throw Error(fmt::format("--plant-natural-frequency-hz: must be > 0, got {}", *a.plant_f_hz));
-    if (a.plant_zeta && !(*a.plant_zeta >= 0.0))
-      throw Error(fmt::format("--plant-damping-ratio: must be >= 0, got {}", *a.plant_zeta));
+    require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
+    if (a.plant_f_hz) require_mode_frequency_flag("--plant-natural-frequency-hz", *a.plant_f_hz, a.rate_hz);
+    if (a.plant_zeta) require_damping_ratio_flag("--plant-damping-ratio", *a.plant_zeta);
     if (o.model_x.modes().size() != 1)
       throw Error("--plant-natural-frequency-hz needs a one-mode model (--natural-frequency-hz)");
     const dynamics::Mode& m = o.model_x.modes()[0];
@@ -76,8 +75,9 @@ void run_compensate(const CompensateArgs& a) {
   }
   require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
   o.sample_rate_hz = a.rate_hz;
-  if (a.knot_spacing_s && !(*a.knot_spacing_s > 0.0))
-    throw Error(fmt::format("--knot-spacing-s: must be > 0, got {}", *a.knot_spacing_s));
+  if (a.knot_spacing_s && !(*a.knot_spacing_s > 0.0 && *a.knot_spacing_s <= 1.0))
+    throw Error(fmt::format("--knot-spacing-s: must be in (0, 1] s (a B-spline knot every so many seconds), got {}",
+                            *a.knot_spacing_s));
   if (a.lead_in_s && !(*a.lead_in_s >= 0.0))
     throw Error(fmt::format("--lead-in-s: must be >= 0, got {}", *a.lead_in_s));
   o.knot_spacing_s = a.knot_spacing_s.value_or(-1.0);
@@ -86,11 +86,12 @@ void run_compensate(const CompensateArgs& a) {
   if ((a.window_s || a.overlap_s) && o.method != cp::Method::lpfbf && o.method != cp::Method::collocation)
     throw Error("--window-s and --overlap-s are options of --method lpfbf and collocation");
   if (a.max_base_accel_mm_s2) {
-    if (!(*a.max_base_accel_mm_s2 > 0.0) || !std::isfinite(*a.max_base_accel_mm_s2))
-      throw Error(fmt::format("--max-base-accel-mm-s2: must be > 0, got {}", *a.max_base_accel_mm_s2));
+    require_range_flag("--max-base-accel-mm-s2", kAccelRange, *a.max_base_accel_mm_s2);
     o.max_base_accel_mm_s2 = *a.max_base_accel_mm_s2;
   }
   o.judge_machine_accel = !a.ignore_machine_limits;
+  if (!(std::isfinite(a.effort_weight_s2) && a.effort_weight_s2 >= 0.0 && a.effort_weight_s2 <= 1.0))
+    throw Error(fmt::format("--effort-weight-s2: must be in [0, 1] s^2, got {}", a.effort_weight_s2));
   o.effort_weight_s2 = a.effort_weight_s2;
   o.max_solver_iterations = a.max_iterations;
   if (a.window_s && !(*a.window_s > 0.0))

@@ -38,7 +38,7 @@ struct ModelFlags {
   std::vector<std::string> modes;  ///< "f_hz,zeta[,participation]" for both axes
 };
 
-dy::AxisModel build_model(const ModelFlags& m, bool y_axis) {
+dy::AxisModel build_model(const ModelFlags& m, bool y_axis, double sample_rate_hz) {
   if (!m.modes.empty()) {
     if (m.f_hz || m.mass_kg) throw Error("--mode replaces the belt flags; give one or the other");
     std::vector<dy::Mode> modes;
@@ -47,15 +47,23 @@ dy::AxisModel build_model(const ModelFlags& m, bool y_axis) {
   }
   const auto f = y_axis && m.f_hz_y ? m.f_hz_y : m.f_hz;
   const auto z = y_axis && m.zeta_y ? m.zeta_y : m.zeta;
-  if (f) require_positive_flag(y_axis && m.f_hz_y ? "--natural-frequency-y-hz" : "--natural-frequency-hz", *f);
-  if (z) require_non_negative_flag(y_axis && m.zeta_y ? "--damping-ratio-y" : "--damping-ratio", *z);
+  if (f) require_mode_frequency_flag(y_axis && m.f_hz_y ? "--natural-frequency-y-hz" : "--natural-frequency-hz", *f, sample_rate_hz);
+  if (z) require_damping_ratio_flag(y_axis && m.zeta_y ? "--damping-ratio-y" : "--damping-ratio", *z);
+  if (m.damping && !m.mass_kg) throw Error("--damping-n-s-per-m: given without --mass-kg and --stiffness-n-per-m, expected the three together");
   if (m.mass_kg || m.stiffness) {
     if (!m.mass_kg || !m.stiffness) {
       throw Error("--mass-kg and --stiffness-n-per-m must be given together");
     }
-    require_positive_flag("--mass-kg", *m.mass_kg);
-    require_positive_flag("--stiffness-n-per-m", *m.stiffness);
-    if (m.damping) require_non_negative_flag("--damping-n-s-per-m", *m.damping);
+    require_range_flag("--mass-kg", kMassRange, *m.mass_kg);
+    require_range_flag("--stiffness-n-per-m", kStiffnessRange, *m.stiffness);
+    if (m.damping) require_range_flag("--damping-n-s-per-m", kViscousDampingRange, *m.damping);
+    // The natural frequency they give must be one the simulation can sample.
+    const double f_n = std::sqrt(*m.stiffness / *m.mass_kg) / (2.0 * std::numbers::pi);
+    if (f_n >= 0.5 * sample_rate_hz) {
+      throw Error(fmt::format("--stiffness-n-per-m: with --mass-kg {} gives a natural frequency of {:g} Hz, "
+                              "expected one below half the sample rate ({} Hz at --sample-rate-hz {})",
+                              *m.mass_kg, f_n, 0.5 * sample_rate_hz, sample_rate_hz));
+    }
     return dy::AxisModel::belt(dy::BeltParameters{*m.mass_kg, *m.stiffness, m.damping.value_or(0.0)});
   }
   if (!f) throw Error("give the belt model: --natural-frequency-hz (with --damping-ratio) or --mass-kg and --stiffness-n-per-m");
@@ -153,16 +161,23 @@ void do_simulate(const SimulateArgs& a) {
   // look-ahead with that profile's reachable speeds), exactly as --set printer.profile=P.
   if (!a.profile.empty()) mach.profile = parse_profile(a.profile);
   if (a.jerk) {
-    require_positive_flag("--jerk", *a.jerk);
+    require_range_flag("--jerk", kJerkRange, *a.jerk);
     mach.max_jerk_mm_s3 = *a.jerk;
   }
-  const dy::AxisModel mx = build_model(a.model, false), my = build_model(a.model, true);
-  dy::PrintSimulationOptions o;
   require_range_flag("--sample-rate-hz", kSampleRateRange, a.rate_hz);
+  const dy::AxisModel mx = build_model(a.model, false, a.rate_hz), my = build_model(a.model, true, a.rate_hz);
+  dy::PrintSimulationOptions o;
+  if (!(a.shaper_damping >= 0.0 && a.shaper_damping < 1.0)) {
+    throw Error(fmt::format("--shaper-damping-ratio: must be in [0, 1) (flags), got {}", a.shaper_damping));
+  }
+  for (const auto& [flag, f] : {std::pair{"--shaper-freq-hz", a.shaper_freq}, std::pair{"--shaper-freq-x-hz", a.shaper_freq_x},
+                                std::pair{"--shaper-freq-y-hz", a.shaper_freq_y}}) {
+    if (f && *f > 0.0) require_range_flag(flag, kFrequencyRange, *f);  // <= 0: the shaper's own message
+  }
   if (a.csv_rate_hz) require_range_flag("--csv-rate-hz", kSampleRateRange, *a.csv_rate_hz);
   // CLI11 reads "-1" for an unsigned flag as 2^64 - 1: a count beyond any file is refused.
   if (a.worst > 1000000) throw Error(fmt::format("--worst: must be a count in [0, 1000000], got {}", a.worst));
-  require_non_negative_flag("--corner-window-s", a.corner_window_s);
+  require_range_flag("--corner-window-s", kDurationRange, a.corner_window_s);
   // A range bound is a time of the print: finite (an open end is simply not given).
   if (a.t_begin && !std::isfinite(*a.t_begin)) throw Error(fmt::format("--t-begin: must be a finite time [s], got {}", *a.t_begin));
   if (a.t_end && !std::isfinite(*a.t_end)) throw Error(fmt::format("--t-end: must be a finite time [s], got {}", *a.t_end));
@@ -228,7 +243,7 @@ void do_simulate(const SimulateArgs& a) {
 
 // ------------------------------------------------------------------------------ sweep
 void do_sweep(bool json_out, double scv) {
-  require_non_negative_flag("--square-corner-velocity", scv);
+  if (scv != 0.0) require_range_flag("--square-corner-velocity", kSpeedRange, scv);
   const std::vector<dy::Seed000Row> rows = dy::seed000_sweep(scv);
   if (json_out) {
     std::cout << dy::to_json(rows, scv).dump(2) << "\n";

@@ -192,15 +192,17 @@ void run_estimate(const EstimateArgs& a) {
     opt.checkpoint_interval_s = a.m73_interval_s;
   }
   // --write-m73 reads the file twice: one rewindable input (standard input and a FIFO are
-  // read once, the second pass reads the reader's own copy), and the output checked first.
-  std::optional<InputFile> input;
+  // read once, the second pass reads the reader's own copy; a plate named inside a 3MF is
+  // opened again from the archive), and the output checked first.
+  std::optional<plan::RewindableGcode> input;
   if (!a.m73_out.empty()) {
     if (a.m73_out == "-" && (a.json || a.brief)) {
       throw Error("--write-m73: standard output would hold the G-code and the report, expected a file");
     }
-    input.emplace(a.file, gcode::gcode_input_options(true));
+    input.emplace(plan::GcodeInput(a.file));
     OutputOptions oo{"--write-m73", {a.file}, {}};
-    if (input->identity()) oo.input_ids.push_back(*input->identity());
+    const plan::GcodeInput in = *input;
+    if (in.file() != nullptr && in.file()->identity()) oo.input_ids.push_back(*in.file()->identity());
     check_output(a.m73_out, oo);
   }
   const auto t0 = std::chrono::steady_clock::now();

@@ -198,8 +198,10 @@ void register_shrink_apply(CLI::App& shrink) {
     }
     // 0 (the default) means no sliced-height prediction; a negative thickness is a typo, not
     // "off".
-    require_non_negative_flag("--layer-mm", o->layer_mm);
-    if (o->first_layer_mm) require_positive_flag("--first-layer-mm", *o->first_layer_mm);
+    // A printed layer: 1 um to 10 mm (0 for --layer-mm: no slicing prediction).
+    constexpr PhysicalRange kLayerRange{"layer thickness", "mm", 1e-3, 10.0};
+    if (o->layer_mm != 0.0) require_range_flag("--layer-mm", kLayerRange, o->layer_mm);
+    if (o->first_layer_mm) require_range_flag("--first-layer-mm", kLayerRange, *o->first_layer_mm);
     if (!(o->plane_fraction > 0.0 && o->plane_fraction <= 1.0)) {
       throw Error(fmt::format("--plane-fraction: must be in (0, 1], got {}", o->plane_fraction));
     }
@@ -249,7 +251,7 @@ void register_calibrate_time(CLI::App& app) {
   cmd->add_flag("--json", o->json, "print one JSON object");
   cmd->callback([o, file_limits] {
     // The output first: a path that cannot be written (or is an input) fails before the fit.
-    if (!o->save.empty()) check_output(o->save, OutputOptions{"--save", {o->file, o->params}, {}});
+    if (!o->save.empty()) check_output(o->save, OutputOptions{"--save", {o->file, o->params, o->machine.spec}, {}});
     pr::TimeCalibration c;
     if (o->mode == "empirical") {
       c = pr::calibrate_empirical_time({o->file, o->params, o->fix, o->separate_contour});

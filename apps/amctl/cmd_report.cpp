@@ -39,7 +39,7 @@ void run_report(const ReportArgs& a) {
   o.file_limits = file_limits_policy(a.file_limits);
   o.sample_rate_hz = a.rate_hz;
   if (a.zeta && !a.f_hz) throw Error("--damping-ratio needs --natural-frequency-hz");
-  if (a.f_hz) require_range_flag("--natural-frequency-hz", kFrequencyRange, *a.f_hz);
+  if (a.f_hz) require_mode_frequency_flag("--natural-frequency-hz", *a.f_hz, a.rate_hz);
   if (a.zeta && !(*a.zeta >= 0.0 && *a.zeta < 1.0)) {
     throw Error(fmt::format("--damping-ratio: must be in [0, 1), got {}", *a.zeta));
   }

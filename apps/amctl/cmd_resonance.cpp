@@ -72,8 +72,15 @@ void run_test_gcode(const TestGcodeArgs& a) {
   if (a.style != "marlin" && a.accel) throw Error("--accel-mm-s2 applies to --style marlin; use --accel-per-hz");
   if (a.freq_start) o.freq_start_hz = *a.freq_start;
   if (a.freq_end) o.freq_end_hz = *a.freq_end;
-  if (a.accel_per_hz) o.accel_per_hz = *a.accel_per_hz;
-  if (a.accel) o.accel_mm_s2 = *a.accel;
+  if (a.accel_per_hz) {
+    // Klipper's accel_per_hz times the highest frequency is the test's largest acceleration.
+    require_range_flag("--accel-per-hz", PhysicalRange{"acceleration per Hz", "mm/s^2/Hz", 1e-3, 1e5}, *a.accel_per_hz);
+    o.accel_per_hz = *a.accel_per_hz;
+  }
+  if (a.accel) {
+    if (*a.accel > 0.0) require_range_flag("--accel-mm-s2", kAccelRange, *a.accel);  // <= 0: the library's message
+    o.accel_mm_s2 = *a.accel;
+  }
   if (a.hz_per_sec) o.hz_per_sec = *a.hz_per_sec;
   if (!a.point.empty()) {
     double v[3];
@@ -197,9 +204,12 @@ void register_resonance(CLI::App& app) {
       rec = tuning::recommend({fit.natural_frequency_hz, fit.damping_ratio}, m, ro, r.klipper.recommended);
     }
     require_distinct_outputs(a->csv, "--csv", a->response_csv, "--response-csv");
-    if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv, OutputOptions{"--csv", a->files, {}});
+    // The records and the machine file named (read only with --recommend) are never outputs.
+    std::vector<std::string> inputs = a->files;
+    inputs.push_back(a->machine.spec);
+    if (!a->csv.empty()) resonance::write_psd_csv(r, a->csv, OutputOptions{"--csv", inputs, {}});
     if (!a->response_csv.empty()) {
-      resonance::write_response_csv(r, a->response_csv, OutputOptions{"--response-csv", a->files, {}});
+      resonance::write_response_csv(r, a->response_csv, OutputOptions{"--response-csv", inputs, {}});
     }
     if (a->csv == "-" || a->response_csv == "-") return;  // standard output holds the CSV
     if (a->json) {
@@ -228,6 +238,10 @@ void register_resonance(CLI::App& app) {
                  "Smoothing budget [mm] (Klipper's measure at the machine's accel, scv 5; default 0.12)");
   rc->add_flag("--json", ra->json, "Print one JSON object");
   rc->callback([ra] {
+    // A machine's resonance (Klipper tests 5-200 Hz); the simulation samples 30 per period, so
+    // 10 kHz is also the highest its 1 MHz sample-rate bound allows.
+    require_range_flag("--natural-frequency-hz", PhysicalRange{"resonance frequency", "Hz", 1.0, 1e4},
+                       ra->natural_frequency_hz);
     const machine::Machine m = resolve_machine(ra->machine);
     const tuning::ModalModel model{ra->natural_frequency_hz, ra->damping_ratio};
     const tuning::RecommendOptions ro = recommend_options(ra->max_smoothing_mm);

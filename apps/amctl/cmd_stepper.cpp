@@ -13,6 +13,7 @@
 
 #include "amctl/closedloop/simulate.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/process/atomic_file.hpp"
 #include "amctl/report/line_chart.hpp"
 #include "amctl/report/stepper_sweep_chart.hpp"
@@ -31,6 +32,7 @@ struct StepperArgs {
 };
 
 void run_simulate(const StepperArgs& a) {
+  require_range_flag("--speed-mm-s", kSpeedRange, a.req.speed_mm_s);
   const machine::Machine m = resolve_machine(a.machine);
   closedloop::SimulateRequest req = a.req;
   req.load = !a.no_load;
@@ -83,6 +85,12 @@ struct SweepArgs {
 };
 
 void run_sweep(const SweepArgs& a) {
+  // The outputs checked before the work: never the machine file, never one file twice.
+  const OutputOptions csv_oo{"--csv", {a.machine.spec}, {}};
+  const OutputOptions svg_oo{"--svg", {a.machine.spec}, {}};
+  if (!a.csv.empty() && !a.svg.empty()) require_distinct_outputs(a.csv, "--csv", a.svg, "--svg");
+  if (!a.csv.empty()) check_output(a.csv, csv_oo);
+  if (!a.svg.empty()) check_output(a.svg, svg_oo);
   const machine::Machine m = resolve_machine(a.machine);
   const auto rows = closedloop::stepper_sweep(m, !a.no_load);
   const std::string csv = closedloop::sweep_csv(rows);
@@ -93,17 +101,15 @@ void run_sweep(const SweepArgs& a) {
   } else if (a.csv.empty()) {
     std::cout << csv;
   }
-  auto write = [](const std::string& path, const std::string& text) {
-    process::AtomicFileWriter w(path);
-    w.write(text);
-    w.commit();
+  auto write = [](const std::string& path, const std::string& text, const OutputOptions& oo) {
+    write_output(path, text, oo);
   };
   if (!a.csv.empty()) {
-    write(a.csv, csv);
+    write(a.csv, csv, csv_oo);
     if (!a.json) std::cout << fmt::format("{} rows written to {}\n", rows.size(), a.csv);
   }
   if (!a.svg.empty()) {
-    write(a.svg, svg);
+    write(a.svg, svg, svg_oo);
     if (!a.json) std::cout << fmt::format("chart written to {}\n", a.svg);
   }
 }

@@ -4,15 +4,16 @@
 
 #include <CLI/CLI.hpp>
 
-namespace amctl {
-struct PhysicalRange;
-}
+#include "amctl/core/quantity.hpp"
 
 namespace amctl::cli {
 // One register function per subcommand family, defined in cmd_<family>.cpp. Each adds its
 // subcommand(s) to `app` with a callback that does the work (callbacks run inside app.parse,
 // so amctl::Error thrown there reaches main's handler).
 void register_all(CLI::App& app);
+/// Adds to every FLOAT option of `app` and its subcommands a check refusing NaN, infinities and
+/// subnormal numbers, naming the flag (called by register_all).
+void refuse_non_finite_flags(CLI::App& app);
 
 /// `amctl estimate` (cmd_estimate.cpp): the main job.
 void register_estimate(CLI::App& app);
@@ -56,4 +57,28 @@ void require_positive_flag(std::string_view flag, double value);
 void require_non_negative_flag(std::string_view flag, double value);
 /// "--sample-rate-hz: must be a sample rate in [1, 1e+06] Hz, got 1e+12" (core/quantity.hpp).
 void require_range_flag(std::string_view flag, const PhysicalRange& range, double value);
+/// A mode's natural frequency flag: a frequency (core/quantity.hpp) below half the sample rate
+/// (the Nyquist limit of the simulation at --sample-rate-hz), named as the user gave it.
+void require_mode_frequency_flag(std::string_view flag, double f_hz, double sample_rate_hz);
+/// Ranges of command-line quantities that are not machine keys (core/quantity.hpp has those):
+/// a moving mass from 1 mg to 1 t, a belt or frame stiffness, a viscous damping.
+inline constexpr PhysicalRange kMassRange{"mass", "kg", 1e-6, 1e3};
+inline constexpr PhysicalRange kStiffnessRange{"stiffness", "N/m", 1e-3, 1e12};
+inline constexpr PhysicalRange kViscousDampingRange{"viscous damping", "N s/m", 0.0, 1e9};
+/// Heater models (thermal hotend/bed): a heater power, a heat capacity, a thermal conductance,
+/// a time constant or delay, a temperature (above absolute zero, below any heater's reach).
+inline constexpr PhysicalRange kPowerRange{"power", "W", 1e-3, 1e6};
+inline constexpr PhysicalRange kHeatCapacityRange{"heat capacity", "J/K", 1e-6, 1e9};
+inline constexpr PhysicalRange kConductanceRange{"thermal conductance", "W/K", 1e-9, 1e6};
+inline constexpr PhysicalRange kTimeConstantRange{"time constant", "s", 1e-6, 1e6};
+inline constexpr PhysicalRange kTemperatureRange{"temperature", "C", -273.15, 3000.0};
+/// The SLS powder bed's PI study: gains, an integral time, a depth, the material's properties.
+inline constexpr PhysicalRange kHeatTransferGainRange{"gain", "W/(m^2 K)", 1e-9, 1e9};
+inline constexpr PhysicalRange kDensityRange{"density", "kg/m^3", 1e-3, 1e5};
+inline constexpr PhysicalRange kSpecificHeatRange{"specific heat", "J/(kg K)", 1e-3, 1e6};
+inline constexpr PhysicalRange kConductivityRange{"conductivity", "W/(m K)", 1e-6, 1e4};
+
+/// A damping ratio of a physical mode: [0, 10] (0 undamped, 1 critical; beyond 10 no belt or
+/// frame is, and the model's poles spread over six decades).
+void require_damping_ratio_flag(std::string_view flag, double zeta);
 }  // namespace amctl::cli

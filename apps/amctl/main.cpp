@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/run_inputs.hpp"
 #include "commands.hpp"
 
 namespace {
@@ -167,6 +168,9 @@ std::string command_line_message(const CLI::App& app, const CLI::ParseError& e) 
 }  // namespace
 
 int main(int argc, char** argv) {
+  // One run of one command: no file it reads (G-code, machine, includes, records) may be
+  // replaced by one of its outputs.
+  amctl::protect_inputs_of_this_run();
   CLI::App app{"amctl: plan, simulate and control 3D printers", "amctl"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "amctl 0.1.0");

@@ -1,8 +1,10 @@
 """Argument checks shared by the modules: a wrong type is a TypeError naming the parameter
 (before any C++ runs); values are range-checked by the library (amctl.Error)."""
 
+import math
 import numbers
 import os
+import sys
 
 from ._amctl import Machine
 
@@ -22,11 +24,22 @@ def optional_path(value, param):
 
 
 def number(value, param, unit=""):
-    """A real number (int or float, not bool) -> float."""
+    """A real number (int or float, not bool) -> float. NaN, an infinity, a subnormal number
+    (0 < |v| < 2.2e-308) or an int beyond a double is never a physical value or a count, for
+    any parameter: amctl.Error naming the parameter, as the command line refuses it for every
+    numeric flag. Each parameter's own range is checked by the library."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         what = f" [{unit}]" if unit else ""
         raise TypeError(f"{param} must be a number{what}, got {type(value).__name__}")
-    return float(value)
+    try:
+        v = float(value)
+    except OverflowError:
+        v = math.inf
+    if not math.isfinite(v) or (v != 0.0 and abs(v) < sys.float_info.min):
+        from ._errors import Error
+        raise Error(f"{param}: found {value!r}, expected a finite number (and none closer to 0 than "
+                    f"{sys.float_info.min:g})", detail=f"found {value!r}, expected a finite number")
+    return v
 
 
 def optional_number(value, param, unit=""):

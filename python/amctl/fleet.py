@@ -280,7 +280,7 @@ def _parse_set(items):
     return out
 
 
-def _write_csv(rows, path):
+def _write_csv(rows, path, inputs=()):
     """The rows as CSV through amctl's one output writer (a regular file whole or not at all;
     '-', a device or a FIFO streamed; amctl.Error naming the path when it cannot be written)."""
     from . import _amctl
@@ -290,7 +290,7 @@ def _write_csv(rows, path):
     for row in rows:
         w.writerow([json.dumps(row[k], sort_keys=True) if k == "set" else
                     ("" if row[k] is None else row[k]) for k in ROW_KEYS])
-    _amctl._write_output(path, fh.getvalue(), "--csv")
+    _amctl._write_output(path, fh.getvalue(), "--csv", list(inputs))
 
 
 def _hms(s):
@@ -322,10 +322,12 @@ def main(argv=None):
     p.add_argument("--progress", action="store_true", help="progress bar even when stderr is not a terminal")
     a = p.parse_args(argv)
     try:
+        files = expand_inputs(a.inputs)
+        # What the runs read (the G-code files, the machine files) is never the output.
+        inputs = list(files) + [m for m in (a.machine or []) if os.path.exists(m)]
         if a.csv:
             from . import _amctl
-            _amctl._check_output(a.csv, "--csv")  # a path that cannot be written fails before the runs
-        files = expand_inputs(a.inputs)
+            _amctl._check_output(a.csv, "--csv", inputs)  # fails before the runs
         rows = run(files, a.machine or ["default"], overrides=_parse_set(a.set) or None,
                    workers=a.workers, scheduler=a.scheduler, batch=a.batch,
                    progress=a.progress or sys.stderr.isatty(), file_limits=a.file_limits)
@@ -337,7 +339,7 @@ def main(argv=None):
         sys.stdout.write("\n")
     elif a.csv:
         try:
-            _write_csv(rows, a.csv)
+            _write_csv(rows, a.csv, inputs)
         except Error as e:
             print(f"amctl.fleet: error: {e}", file=sys.stderr)
             return 2

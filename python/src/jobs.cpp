@@ -10,6 +10,9 @@
 #include <pybind11/stl.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/input.hpp"
+#include "amctl/core/output.hpp"
+#include "amctl/plan/stream.hpp"
 #include "amctl/dynamics/seed000_sweep.hpp"
 #include "amctl/plan/estimate.hpp"
 #include "amctl/plan/report_json.hpp"
@@ -38,8 +41,17 @@ py::object write_m73(const std::string& path, const MachineValue& mv, const std:
   Json j;
   {
     py::gil_scoped_release nogil;
-    const plan::EstimateReport r = plan::estimate_file(path, mv.m, o);
-    const std::size_t lines = plan::write_m73(path, output, r);
+    // One rewindable input for both passes, as the command line reads it (standard input and
+    // a FIFO once; a plate of a 3MF opened again from the archive); the output checked first.
+    plan::RewindableGcode input{plan::GcodeInput(path)};
+    {
+      const plan::GcodeInput in = input;
+      OutputOptions oo{"output", {path}, {}};
+      if (in.file() != nullptr && in.file()->identity()) oo.input_ids.push_back(*in.file()->identity());
+      check_output(output, oo);
+    }
+    const plan::EstimateReport r = plan::estimate_file(input, mv.m, o);
+    const std::size_t lines = plan::write_m73(input, output, r);
     j = Json{{"file", path}, {"output", output}, {"lines", lines}, {"total_time_s", r.total_time_s}};
   }
   return to_python(j);

@@ -265,20 +265,22 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
         "amctl estimate --json (plan::estimate_file + plan::to_json); see amctl.estimate.");
   m.def(
       "_write_output",
-      [](const std::string& path, const std::string& text, const std::string& flag) {
+      [](const std::string& path, const std::string& text, const std::string& flag,
+         const std::vector<std::string>& inputs) {
         py::gil_scoped_release nogil;
-        amctl::write_output(path, text, amctl::OutputOptions{flag, {}, {}});
+        amctl::write_output(path, text, amctl::OutputOptions{flag, inputs, {}});
       },
-      py::arg("path"), py::arg("text"), py::arg("flag") = "",
+      py::arg("path"), py::arg("text"), py::arg("flag") = "", py::arg("inputs") = std::vector<std::string>{},
       "amctl's one output writer (core/output.hpp): a regular file whole or not at all, '-', a "
       "device or a FIFO streamed; amctl.Error naming the path when it cannot be written.");
   m.def(
       "_check_output",
-      [](const std::string& path, const std::string& flag) {
-        amctl::check_output(path, amctl::OutputOptions{flag, {}, {}});
+      [](const std::string& path, const std::string& flag, const std::vector<std::string>& inputs) {
+        amctl::check_output(path, amctl::OutputOptions{flag, inputs, {}});
       },
-      py::arg("path"), py::arg("flag") = "",
-      "The checks of _write_output without writing (amctl.Error when the path cannot be written).");
+      py::arg("path"), py::arg("flag") = "", py::arg("inputs") = std::vector<std::string>{},
+      "The checks of _write_output without writing (amctl.Error when the path cannot be written);\n"
+      "inputs: paths the output must never be (a G-code or machine file read by the caller).");
   m.def("_gcode_inputs",
         [](const std::vector<std::string>& inputs) { return amctl::formats::expand_gcode_inputs(inputs); },
         py::arg("inputs"), "formats::expand_gcode_inputs; see amctl.gcode_inputs.");

@@ -187,3 +187,84 @@ def test_messages_keep_what_follows_a_nul_byte(tmp_path):
     with pytest.raises(amctl.Error) as e:
         amctl.estimate(g)
     assert "x00Y' in G1" in str(e.value) and e.value.line == 2  # the text after the NUL is kept
+
+
+# ---- round three: numbers that are no values, outputs over any input, plates ----
+NOT_VALUES = [float("nan"), float("inf"), float("-inf"), 1e-320, 10 ** 400]
+
+
+@pytest.mark.parametrize("value", NOT_VALUES, ids=["nan", "inf", "-inf", "subnormal", "int_beyond_a_double"])
+@pytest.mark.parametrize("call,param", [
+    (lambda g, v: amctl.plan(g, t_begin=v), "t_begin"),
+    (lambda g, v: amctl.plan(g, t_end=v), "t_end"),
+    (lambda g, v: amctl.simulate(g, natural_frequency_hz=v), "natural_frequency_hz"),
+    (lambda g, v: amctl.simulate(g, natural_frequency_hz=40, shaper_damping_ratio=v), "shaper_damping_ratio"),
+    (lambda g, v: amctl.report(g, sample_rate_hz=v), "sample_rate_hz"),
+    (lambda g, v: amctl.report(g, damping_ratio=v), "damping_ratio"),
+    (lambda g, v: amctl.compensate(g, natural_frequency_hz=v), "natural_frequency_hz"),
+    (lambda g, v: amctl.hotend(core_to_block_w_k=v), "core_to_block_w_k"),
+    (lambda g, v: amctl.bed(noise_k=v), "noise_k"),
+    (lambda g, v: amctl.sls_margins(kp=v), "kp"),
+    (lambda g, v: amctl.shaper_show("mzv", v), "freq_hz"),
+    (lambda g, v: amctl.write_m73(g, str(g) + ".m73", interval_s=v), "interval_s"),
+], ids=["plan_t_begin", "plan_t_end", "simulate_f", "simulate_shaper_damping", "report_rate", "report_zeta",
+        "compensate_f", "hotend_core", "bed_noise", "sls_margins_kp", "shaper_show_f", "write_m73_interval"])
+def test_numbers_that_are_no_values_are_errors_naming_the_parameter(gfile, call, param, value):
+    # Whether the function would use the value or not (a flag of a model not asked for).
+    with pytest.raises(amctl.Error) as e:
+        call(gfile, value)
+    assert param in str(e.value) and "expected a finite number" in str(e.value)
+    assert sorted(os.listdir(gfile.parent)) == ["f.gcode"]
+
+
+@pytest.mark.parametrize("value", [None, "1", [1.0], b"1", True], ids=["None", "str", "list", "bytes", "bool"])
+def test_wrong_types_are_type_errors_naming_the_parameter(gfile, value):
+    with pytest.raises(TypeError) as e:
+        amctl.plan(gfile, t_begin=value) if value is not None else amctl.shaper_show("mzv", value)
+    assert ("t_begin" if value is not None else "freq_hz") in str(e.value)
+
+
+def test_write_m73_on_a_plate_of_a_3mf_writes_its_text(tmp_path):
+    # An expert names the plate and gets that plate's G-code with M73 lines, as text (a printer
+    # reads text; rewriting the archive would change a project file the slicer owns).
+    sys.path.insert(0, os.path.join(os.environ.get("AMCTL_SOURCE_DIR", "."), "tests", "reference"))
+    import make_3mf
+    plate2 = (GOOD * 3).encode()
+    p = tmp_path / "p.gcode.3mf"
+    p.write_bytes(make_3mf.sliced_3mf([GOOD.encode(), plate2]))
+    before = p.read_bytes()
+    out = tmp_path / "plate2.gcode"
+    n = amctl.write_m73(f"{p}/Metadata/plate_2.gcode", out)
+    text = out.read_text()
+    lines = [ln for ln in text.splitlines() if not ln.startswith("M73 ")]
+    assert lines == plate2.decode().splitlines()  # the plate's own lines, in order, nothing else
+    assert text.splitlines()[-1] == "M73 P100 R0" and n["lines"] == text.count("M73 ")
+    assert p.read_bytes() == before
+    r = subprocess.run([os.environ.get("AMCTL_CLI", "amctl"), "estimate", f"{p}/Metadata/plate_2.gcode",
+                        "--write-m73", str(tmp_path / "cli.gcode")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "cli.gcode").read_text() == text
+
+
+def test_fleet_csv_never_replaces_what_it_reads(tmp_path, gfile):
+    cfg = tmp_path / "p.cfg"
+    cfg.write_text(CFG)
+    for target in (gfile, cfg):
+        before = target.read_bytes()
+        r = subprocess.run([sys.executable, "-m", "amctl.fleet", str(gfile), "-m", str(cfg), "--workers", "0",
+                            "--csv", str(target)], capture_output=True, text=True, env=os.environ)
+        assert r.returncode == 2 and "is an input" in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert target.read_bytes() == before
+
+
+@pytest.mark.skipif(os.geteuid() != 0 and not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_fleet_csv_on_a_full_disk_and_read_only(tmp_path, gfile):
+    r = subprocess.run([sys.executable, "-m", "amctl.fleet", str(gfile), "--workers", "0", "--csv", "/dev/full"],
+                       capture_output=True, text=True, env=os.environ)
+    assert r.returncode == 2 and "No space left" in r.stderr and "Traceback" not in r.stderr
+    ro = tmp_path / "ro.csv"
+    ro.write_text("keep\n")
+    ro.chmod(0o444)
+    r = subprocess.run([sys.executable, "-m", "amctl.fleet", str(gfile), "--workers", "0", "--csv", str(ro)],
+                       capture_output=True, text=True, env=os.environ)
+    assert r.returncode == 2 and "read-only" in r.stderr and ro.read_text() == "keep\n"

@@ -1,5 +1,7 @@
 // The one input reader (include/amctl/core/input.hpp).
 #include "amctl/core/input.hpp"
+#include "amctl/core/run_inputs.hpp"
+#include "amctl/core/text_input.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -92,6 +94,7 @@ InputFile::InputFile(const std::string& path, InputOptions options)
   }
   identity_ = FileIdentity{static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
   regular_ = S_ISREG(st.st_mode);
+  if (regular_) note_input_of_this_run(*identity_);  // a device or a pipe is not replaced anyway
   if (regular_) {
     // Standard input redirected from a file may start past its beginning.
     const off_t at_open = ::lseek(fd_, 0, SEEK_CUR);
@@ -359,6 +362,20 @@ std::string read_whole_input(const std::string& path, InputOptions options) {
   if (in.size()) out.reserve(static_cast<std::size_t>(*in.size()));
   char buf[1 << 16];
   for (std::size_t got = 0; (got = in.read(buf, sizeof buf)) != 0;) out.append(buf, got);
+  return out;
+}
+
+std::string read_whole_text(const std::string& path, InputOptions options) {
+  std::string out = read_whole_input(path, std::move(options));
+  // A UTF-8 byte-order mark (an editor on Windows) is not part of the first line (whose
+  // columns then count as the editor shows them); UTF-16 is refused, not misread.
+  if (out.starts_with("\xEF\xBB\xBF")) {
+    out.erase(0, 3);
+  } else if (out.starts_with("\xFF\xFE") || out.starts_with("\xFE\xFF")) {
+    throw Error(SourceLocation{path == "-" ? std::string("<stdin>") : path, 1, 1},
+                "found UTF-16 text (byte-order mark FF FE or FE FF), expected ASCII or UTF-8 "
+                "(convert it: iconv -f UTF-16 -t UTF-8)");
+  }
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
@@ -17,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/run_inputs.hpp"
 
 namespace amctl {
 namespace {
@@ -140,11 +142,46 @@ constexpr std::size_t kBufferBytes = 1u << 18;
 
 }  // namespace
 
+namespace {
+std::atomic<bool> g_protect_inputs{false};
+std::mutex g_inputs_mutex;
+std::vector<FileIdentity>& run_inputs() {
+  static std::vector<FileIdentity> ids;
+  return ids;
+}
+}  // namespace
+
+void protect_inputs_of_this_run() { g_protect_inputs = true; }
+
+void note_input_of_this_run(const FileIdentity& id) {
+  if (!g_protect_inputs) return;
+  const std::lock_guard<std::mutex> lock(g_inputs_mutex);
+  std::vector<FileIdentity>& ids = run_inputs();
+  if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
+}
+
+std::vector<FileIdentity> inputs_of_this_run() {
+  if (!g_protect_inputs) return {};
+  const std::lock_guard<std::mutex> lock(g_inputs_mutex);
+  return run_inputs();
+}
+
 std::optional<FileIdentity> identify_file(const std::string& path) {
   if (path.empty() || path == "-") return std::nullopt;
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
-  return FileIdentity{static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
+  if (::stat(path.c_str(), &st) == 0) {
+    return FileIdentity{static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
+  }
+  if (errno != ENOTDIR) return std::nullopt;
+  // A path inside a regular file: a member of an archive ("a.gcode.3mf/Metadata/plate_2.gcode")
+  // is read from that file, so it is that file an output must not be.
+  for (std::size_t slash = path.find('/', 1); slash != std::string::npos; slash = path.find('/', slash + 1)) {
+    if (::stat(path.substr(0, slash).c_str(), &st) != 0) return std::nullopt;
+    if (S_ISREG(st.st_mode)) {
+      return FileIdentity{static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
+    }
+  }
+  return std::nullopt;
 }
 
 OutputFile::OutputFile(std::string path, OutputOptions options)
@@ -162,6 +199,7 @@ OutputFile::OutputFile(std::string path, OutputOptions options, bool only_check)
   for (const std::string& in : options.inputs) {
     if (const auto id = identify_file(in)) inputs.push_back(*id);
   }
+  for (const FileIdentity& id : inputs_of_this_run()) inputs.push_back(id);
   auto refuse_if_input = [&](const struct stat& st) {
     const FileIdentity id{static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
     for (const FileIdentity& in : inputs) {
@@ -186,6 +224,14 @@ OutputFile::OutputFile(std::string path, OutputOptions options, bool only_check)
     if (exists) {
       if (S_ISREG(st.st_mode)) {
         refuse_if_input(st);
+        // A file nobody may write (chmod a-w) is one its owner protects: the rename would
+        // replace it all the same (it needs only the directory), so it is refused here, as
+        // the user's own open() would refuse it (root included, which ignores the bits).
+        if ((st.st_mode & 0222) == 0 || ::access(path_.c_str(), W_OK) != 0) {
+          throw Error(at, fmt::format("{}is a read-only file (mode {:04o}); expected a writable file or "
+                                      "a new name (an output never replaces a protected file)",
+                                      named, st.st_mode & 07777));
+        }
         mode_ = st.st_mode & 07777;
       } else if (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode)) {
         refuse_if_input(st);
@@ -316,6 +362,21 @@ void OutputFile::commit() {
     fd_ = -1;
     committed_ = true;
     return;
+  }
+  // An output opened before the work (as the commands do) may name a file the work read
+  // afterwards (a machine's [include], an accelerometer record): checked again here, before
+  // the rename could replace it.
+  if (const auto target = identify_file(target_)) {
+    for (const FileIdentity& id : inputs_of_this_run()) {
+      if (id == *target) {
+        discard();
+        failed_ = true;
+        throw Error(SourceLocation{path_, 0, 0},
+                    fmt::format("{}is an input of this command; expected a different output file (an "
+                                "input is never overwritten)",
+                                flag_.empty() ? std::string() : flag_ + " "));
+      }
+    }
   }
   // fsync: the rename must not reach the disk before the data (a crash would leave an empty
   // file where the old one was). EINVAL: a file system without fsync.

@@ -287,7 +287,26 @@ std::unique_ptr<gcode::ByteSource> decode_gcode(InputFile& file, const InputLimi
   GcodeFormat f = GcodeFormat::text;
   std::unique_ptr<gcode::ByteSource> out;
   switch (detect_content(prefix, file.size().value_or(0))) {
-    case ContentKind::gcode_text: out = std::make_unique<BorrowedSource>(file); break;
+    case ContentKind::gcode_text:
+      if (prefix.starts_with("\xFF\xFE") || prefix.starts_with("\xFE\xFF")) {
+        // Notepad's "Unicode": every other byte a NUL, no command would read right.
+        throw Error(SourceLocation{name, 1, 1},
+                    "found UTF-16 text (byte-order mark FF FE or FE FF), expected ASCII or UTF-8 "
+                    "G-code (convert it: iconv -f UTF-16 -t UTF-8)");
+      }
+      if (prefix.starts_with("\xEF\xBB\xBF")) {
+        // A UTF-8 byte-order mark (an editor on Windows): not part of the first line. The
+        // columns of line 1 then count as an editor shows them.
+        char bom[3];
+        std::size_t got = 0;
+        while (got < 3) {
+          const std::size_t n = file.read(bom + got, 3 - got);
+          if (n == 0) break;
+          got += n;
+        }
+      }
+      out = std::make_unique<BorrowedSource>(file);
+      break;
     case ContentKind::binary_gcode:
       f = GcodeFormat::binary_gcode;
       out = decode_bgcode(file, name, limits.bgcode);

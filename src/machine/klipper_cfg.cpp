@@ -23,6 +23,7 @@
 #include "amctl/core/config_section.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/core/input.hpp"
+#include "amctl/core/text_input.hpp"
 #include "amctl/core/quantity.hpp"
 #include "amctl/kinematics/klipper_config.hpp"
 #include "amctl/machine/loader.hpp"
@@ -70,7 +71,7 @@ std::string read_file(const fs::path& path, const SourceLocation& where) {
   o.what = "config file";
   o.max_bytes = kMaxMachineFileBytes;
   try {
-    return read_whole_input(path.string(), std::move(o));
+    return read_whole_text(path.string(), std::move(o));
   } catch (const Error& e) {
     throw Error(where, fmt::format("include: {}", e.what()));
   }
@@ -328,7 +329,7 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
 
   CfgSection* printer_section = doc.find("printer");
   if (printer_section == nullptr) {
-    throw Error(file_loc, "no [printer] section: not a Klipper printer.cfg");
+    throw Error(file_loc, "found no [printer] section, expected a Klipper printer.cfg (which has one)");
   }
   const Section printer(printer_section, "printer", file_loc);
   m.kinematics = read_kinematics(printer);

@@ -8,6 +8,7 @@
 #include <toml++/toml.h>
 
 #include "amctl/core/input.hpp"
+#include "amctl/core/text_input.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/machine/marlin.hpp"
 #include "schema.hpp"
@@ -57,6 +58,28 @@ Machine parse_toml_file(const std::string& text, const std::string& spec) {
   return parse_machine_toml(text, spec);
 }
 
+/// Every machine file is text (TOML, printer.cfg, M503 output, Configuration.h): a NUL byte is
+/// damage (a capture from a serial console, a file cut and padded), refused at its line and
+/// column before the format is told by the content (the TOML parser would otherwise be the one
+/// to meet it and name the wrong format).
+void refuse_nul_bytes(std::string_view text, const std::string& spec) {
+  const std::size_t at = text.find('\0');
+  if (at == std::string_view::npos) return;
+  const std::string_view before = text.substr(0, at);
+  std::size_t line = 1;
+  std::size_t line_start = 0;
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    // Lines end at LF, CRLF or a lone CR, as the line reader counts them.
+    if (before[i] == '\n' || (before[i] == '\r' && (i + 1 >= text.size() || text[i + 1] != '\n'))) {
+      ++line;
+      line_start = i + 1;
+    }
+  }
+  throw Error(SourceLocation{spec, line, static_cast<std::uint32_t>(at - line_start + 1)},
+              "found a NUL byte, expected text (a machine file is TOML, a Klipper printer.cfg, "
+              "Marlin's M503 output or its Configuration.h)");
+}
+
 /// Configuration.h, with Configuration_adv.h from the same directory when there is one.
 Machine load_marlin_configuration(const fs::path& path, const std::string& text,
                                   const std::string& spec) {
@@ -79,7 +102,8 @@ Machine load_file(const fs::path& path, const std::string& spec) {
   InputOptions o;
   o.what = "machine file (.toml or Klipper printer.cfg)";
   o.max_bytes = kMaxMachineFileBytes;
-  const std::string text = read_whole_input(spec, std::move(o));
+  const std::string text = read_whole_text(spec, std::move(o));
+  refuse_nul_bytes(text, spec);
   const std::string ext = lowercase(path.extension().string());
   if (ext == ".toml") return parse_toml_file(text, spec);
   if (ext == ".cfg" || ext == ".conf" || ext == ".ini") return parse_klipper_cfg(text, spec);

@@ -19,6 +19,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/core/input.hpp"
+#include "amctl/core/text_input.hpp"
 
 
 namespace amctl::process {
@@ -127,11 +128,15 @@ CsvTable CsvTable::parse(std::string_view text, std::string file) {
     }
     if (eol == text.size()) break;
   }
-  if (!have_header) throw Error(SourceLocation{t.file_, 0, 0}, "empty CSV file (no header row)");
+  if (!have_header) throw Error(SourceLocation{t.file_, 0, 0}, "found an empty file, expected a CSV table with a header row");
   return t;
 }
 
-CsvTable CsvTable::read(const std::string& path) { return parse(read_file_bytes(path, "CSV table"), path); }
+CsvTable CsvTable::read(const std::string& path) {
+  InputOptions o;
+  o.what = "CSV table";
+  return parse(read_whole_text(path, std::move(o)), path);
+}
 
 std::optional<std::size_t> CsvTable::find(std::string_view name) const {
   for (std::size_t i = 0; i < header_.size(); ++i) {

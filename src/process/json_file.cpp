@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/core/text_input.hpp"
 #include "amctl/process/csv.hpp"
 
 namespace amctl::process {
@@ -54,7 +55,9 @@ std::string escape_token(const std::string& key) {  // RFC 6901
 
 }  // namespace
 
-JsonFile JsonFile::read(const std::string& path) { return parse(read_file_bytes(path, "JSON file", 64ull << 20), path); }
+JsonFile JsonFile::read(const std::string& path) {
+  return parse(read_whole_text(path, InputOptions{"JSON file", false, 64ull << 20}), path);
+}
 
 JsonFile JsonFile::parse(std::string_view text, std::string name) {
   JsonFile f;

@@ -1,4 +1,5 @@
 #include "amctl/process/shrink_model.hpp"
+#include "amctl/core/text_input.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -143,7 +144,7 @@ std::array<AxisMap, 3> parse_shrink_model(const std::string& text, const std::st
 }
 
 std::array<AxisMap, 3> read_shrink_model(const std::string& path) {
-  return parse_shrink_model(read_file_bytes(path, "shrink model (JSON)", 64ull << 20), path);
+  return parse_shrink_model(read_whole_text(path, InputOptions{"shrink model (JSON)", false, 64ull << 20}), path);
 }
 
 std::array<AxisMap, 3> load_factor_maps(const std::string& spec) {

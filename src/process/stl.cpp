@@ -193,7 +193,7 @@ Mesh parse_stl(std::string_view b, const std::string& file) {
                             b.size(), n, 84 + 50 * static_cast<std::uint64_t>(n)));
   }
   throw Error(SourceLocation{file, 0, 0},
-              fmt::format("not an STL file ({} bytes, too short for binary and not ASCII)", b.size()));
+              fmt::format("found {} bytes, too short for a binary STL and not ASCII STL text; expected an STL model", b.size()));
 }
 
 Mesh read_stl(const std::string& path) { return parse_stl(read_file_bytes(path, "STL model", 2ull << 30), path); }

@@ -1,4 +1,5 @@
 #include "amctl/process/time_study.hpp"
+#include "amctl/core/text_input.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -91,7 +92,7 @@ EmpiricalParams read_empirical_params(const std::string& path) {
     p.scan.link_widths_mm = p.model.link_widths_mm;
     return p;
   }
-  return parse_empirical_params(read_file_bytes(path, "parameters file (JSON)", 64ull << 20), path);
+  return parse_empirical_params(read_whole_text(path, InputOptions{"parameters file (JSON)", false, 64ull << 20}), path);
 }
 
 Json empirical_params_json(const EmpiricalTimeModel& m, const ScanOptions& so) {

@@ -97,10 +97,11 @@ SLS3D_ARGS = ["thermal", "sls3d", "--config", "s.toml", "--vtu-dir", "vtu", "--r
 SLS3D_OUTPUTS = ["vtu", "out.html", "out.csv"]
 
 
-def case(name, args, files, where, outputs=(), dirs=(), links=None):
-    """`dirs`: directories to make; `links`: {link: target} symbolic links to make."""
+def case(name, args, files, where, outputs=(), dirs=(), links=None, modes=None):
+    """`dirs`: directories to make; `links`: {link: target} symbolic links to make; `modes`:
+    {file: mode} permissions to set on files of `files` (0o444: read-only)."""
     return {"name": name, "args": args, "files": files, "where": where, "outputs": outputs,
-            "dirs": tuple(dirs), "links": dict(links or {})}
+            "dirs": tuple(dirs), "links": dict(links or {}), "modes": dict(modes or {})}
 
 
 CASES = [
@@ -809,6 +810,230 @@ CASES += [
 ]
 
 
+# ---- round three: every numeric flag, every output over any input, text encodings ----
+R3 = []
+R3_FILES = {"f.gcode": GOOD_GCODE, "p.cfg": STEPPER_CFG, "a.csv": RAW_HEADER + RAW_ROWS,
+            "s.csv": "nominal_mm,measured_mm\n10,10.1\n15,15.1\n20,20.2\n", "m.stl": TETRAHEDRON}
+R3_OUTS = ["o.csv", "o.gcode", "o.stl", "r.html", "t.gcode"]
+# NaN, an infinity or a subnormal number is refused for every numeric flag of every command,
+# naming the flag, before any work (a flag the command would not use included).
+NUMERIC_FLAGS = {
+    ("estimate", "f.gcode"): ["--m73-interval"],
+    ("plan", "f.gcode", "-o", "o.csv"): ["--t-begin", "--t-end"],
+    ("report", "f.gcode", "-o", "r.html"): ["--natural-frequency-hz", "--damping-ratio", "--sample-rate-hz"],
+    ("simulate", "f.gcode", "--natural-frequency-hz", "40"): [
+        "--natural-frequency-hz", "--damping-ratio", "--natural-frequency-y-hz", "--damping-ratio-y", "--mass-kg",
+        "--stiffness-n-per-m", "--damping-n-s-per-m", "--sample-rate-hz", "--csv-rate-hz", "--t-begin", "--t-end",
+        "--jerk", "--corner-window-s", "--shaper-freq-hz", "--shaper-freq-x-hz", "--shaper-freq-y-hz",
+        "--shaper-damping-ratio"],
+    ("sweep",): ["--square-corner-velocity"],
+    ("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"): [
+        "--natural-frequency-hz", "--damping-ratio", "--plant-natural-frequency-hz", "--plant-damping-ratio",
+        "--knot-spacing-s", "--window-s", "--overlap-s", "--max-base-accel-mm-s2", "--effort-weight-s2",
+        "--lead-in-s", "--sample-rate-hz"],
+    ("compare", "f.gcode", "--natural-frequency-hz", "40"): [
+        "--natural-frequency-hz", "--damping-ratio", "--max-base-accel-mm-s2", "--sample-rate-hz"],
+    ("thermal", "sls-margins"): ["--kp", "--ti", "--length-mm", "--rho", "--cp", "--k", "--beta"],
+    ("thermal", "hotend"): ["--target", "--noise", "--power-w", "--capacity-j-k", "--loss-w-k", "--fan-loss-w-k",
+                            "--sensor-tau-s", "--sensor-delay-s", "--core-capacity-j-k", "--core-to-block-w-k"],
+    ("thermal", "bed"): ["--target", "--power-w", "--core-to-block-w-k"],
+    ("shrink", "fit", "s.csv"): ["--confidence"],
+    ("shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01", "-o", "o.gcode"): [
+        "--layer-mm", "--first-layer-mm", "--plane-fraction"],
+    ("shaper", "show", "--type", "mzv", "--freq-hz", "40"): [
+        "--freq-hz", "--damping-ratio", "--residual-at-hz", "--test-damping-ratio"],
+    ("resonance", "calibrate", "a.csv", "--axis", "x"): ["--max-smoothing-mm"],
+    ("resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "0.1"): [
+        "--natural-frequency-hz", "--damping-ratio", "--max-smoothing-mm"],
+    ("resonance", "test-gcode", "--axis", "x", "-o", "t.gcode"): [
+        "--freq-start", "--freq-end", "--accel-per-hz", "--accel-mm-s2", "--hz-per-sec"],
+    ("stepper", "simulate", "f.gcode", "-m", "p.cfg"): [
+        "--speed-mm-s", "--drag-n", "--backlash-mm", "--run-current-a", "--kp", "--encoder-rate-hz",
+        "--corrupt-probability"],
+}
+for base, flags in NUMERIC_FLAGS.items():
+    for flag in flags:
+        for value in ("nan", "inf", "1e-320"):
+            args = list(base)
+            if flag in args:
+                args[args.index(flag) + 1] = value
+            else:
+                args += [flag, value]
+            name = "_".join(w for w in base[:2] if not w.endswith((".gcode", ".csv")))
+            R3.append(case(f"flag_{name}_{flag[2:]}_{value}", args, R3_FILES, flag, R3_OUTS))
+# Values a machine cannot have, refused by the flag's physical range (they ended deep inside
+# a model, "extra_settle_s must be finite", "state space: A(0, 2) must be finite", or ran).
+for base, flag, value in (
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--natural-frequency-hz", "1e19"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--natural-frequency-hz", "600"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--damping-ratio", "1e19"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--jerk", "1e-300"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--shaper-freq-hz", "1e-300"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--corner-window-s", "1e19"),
+        (("simulate", "f.gcode"), "--damping-n-s-per-m", "3"),
+        (("simulate", "f.gcode", "--mass-kg", "0.5"), "--stiffness-n-per-m", "1e12"),
+        (("sweep",), "--square-corner-velocity", "1e19"),
+        (("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"), "--natural-frequency-hz", "1e308"),
+        (("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"), "--damping-ratio", "1e308"),
+        (("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"), "--plant-damping-ratio", "1e19"),
+        (("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"), "--knot-spacing-s", "1e19"),
+        (("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"), "--max-base-accel-mm-s2", "1e19"),
+        (("compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv", "o.csv"), "--effort-weight-s2", "1e19"),
+        (("compare", "f.gcode", "--natural-frequency-hz", "40"), "--natural-frequency-hz", "1e19"),
+        (("compare", "f.gcode", "--natural-frequency-hz", "40"), "--max-base-accel-mm-s2", "1e308"),
+        (("compare", "f.gcode", "--natural-frequency-hz", "40"), "--plant-offsets", "3000"),
+        (("thermal", "sls-margins"), "--kp", "1e19"), (("thermal", "sls-margins"), "--ti", "1e308"),
+        (("thermal", "sls-margins"), "--length-mm", "1e19"), (("thermal", "sls-margins"), "--rho", "1e308"),
+        (("thermal", "sls-margins"), "--cp", "1e19"), (("thermal", "sls-margins"), "--k", "1e308"),
+        (("thermal", "hotend"), "--target", "1e19"), (("thermal", "hotend"), "--target", "30"),
+        (("thermal", "hotend"), "--noise", "1e308"), (("thermal", "hotend"), "--power-w", "1e19"),
+        (("thermal", "hotend"), "--power-w", "1"), (("thermal", "hotend"), "--capacity-j-k", "1e19"),
+        (("thermal", "hotend"), "--loss-w-k", "1e308"), (("thermal", "hotend"), "--fan-loss-w-k", "1e19"),
+        (("thermal", "hotend"), "--sensor-tau-s", "1e19"), (("thermal", "hotend"), "--sensor-delay-s", "1e308"),
+        (("thermal", "hotend"), "--core-capacity-j-k", "1e19"), (("thermal", "bed"), "--target", "1e308"),
+        (("thermal", "bed"), "--capacity-j-k", "1e19"), (("thermal", "bed"), "--sensor-tau-s", "1e-300"),
+        (("shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01", "-o", "o.gcode"), "--layer-mm", "1e308"),
+        (("shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01", "-o", "o.gcode"), "--first-layer-mm", "1e19"),
+        (("resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "0.1"),
+         "--natural-frequency-hz", "1e19"),
+        (("resonance", "recommend", "--natural-frequency-hz", "40", "--damping-ratio", "0.1"),
+         "--natural-frequency-hz", "1e-300"),
+        (("resonance", "test-gcode", "--axis", "x", "-o", "t.gcode"), "--accel-per-hz", "1e308"),
+        (("resonance", "test-gcode", "--axis", "x", "--style", "marlin", "-o", "t.gcode"), "--accel-mm-s2", "1e19"),
+        (("stepper", "simulate", "f.gcode", "-m", "p.cfg"), "--speed-mm-s", "1e308"),
+        (("simulate", "f.gcode", "--natural-frequency-hz", "40"), "--shaper-damping-ratio", "1e308")):
+    args = list(base)
+    if flag in args:
+        args[args.index(flag) + 1] = value
+    else:
+        args += [flag, value]
+    name = "_".join(w for w in base[:2] if not w.endswith((".gcode", ".csv")))
+    R3.append(case(f"range_{name}_{flag[2:]}_{value}", args, R3_FILES, flag, R3_OUTS))
+
+# Every output refuses every file the command reads, not only its G-code: the machine file
+# (and a file it includes), the accelerometer record, the timings; and a read-only file.
+INC_CFG = STEPPER_CFG.replace("[printer]", "[include inc.cfg]\n[printer]", 1)
+WRITERS = {
+    "estimate_m73": (["estimate", "f.gcode", "--write-m73"], []),
+    "plan": (["plan", "f.gcode", "-o"], []),
+    "report": (["report", "f.gcode", "-o"], []),
+    "simulate": (["simulate", "f.gcode", "--natural-frequency-hz", "40", "--csv"], []),
+    "compensate": (["compensate", "f.gcode", "--natural-frequency-hz", "40", "--csv"], []),
+    "steps": (["steps", "f.gcode", "--csv"], []),
+    "resonance_calibrate": (["resonance", "calibrate", "a.csv", "--axis", "x", "--csv"], []),
+    "test_gcode": (["resonance", "test-gcode", "--axis", "x", "-o"], []),
+    "stepper_sweep": (["stepper", "sweep", "--csv"], []),
+    "stepper_simulate": (["stepper", "simulate", "f.gcode", "--csv"], []),
+    "calibrate_time": (["calibrate-time", "t.csv", "--save"], []),
+}
+W_FILES = dict(R3_FILES, **{"t.csv": "gcode,duration_s\n" + "".join(
+    f"g{i}.gcode,{5 + 7 * i}\n" for i in range(1, 5)), "inc.cfg": "\n"},
+    **{f"g{i}.gcode": "G28\nG90\nM82\n" + "".join(f"G1 X{10 + 30 * (k % 2)} Y{5 * k} F{1500 * i}\n"
+                                                   for k in range(10 * i)) for i in range(1, 5)})
+for name, (args, _) in WRITERS.items():
+    R3.append(case(f"{name}_output_is_the_machine_file", args + ["p.cfg", "-m", "p.cfg"], W_FILES, "p.cfg"))
+    if name != "resonance_calibrate":  # reads the machine only with --recommend: no include known
+        R3.append(case(f"{name}_output_is_an_include_of_the_machine", args + ["inc.cfg", "-m", "i.cfg"],
+                       dict(W_FILES, **{"i.cfg": INC_CFG}), "inc.cfg"))
+    R3.append(case(f"{name}_output_is_read_only", args + ["ro.out", "-m", "p.cfg"],
+                   dict(W_FILES, **{"ro.out": "keep\n"}), "ro.out", modes={"ro.out": 0o444}))
+R3 += [
+    case("report_output_is_the_accelerometer_record", ["report", "f.gcode", "--accel", "a.csv", "-o", "a.csv"],
+         R3_FILES, "a.csv"),
+    case("stepper_sweep_csv_and_svg_one_file", ["stepper", "sweep", "-m", "p.cfg", "--csv", "o.csv", "--svg", "o.csv"],
+         R3_FILES, "--svg", ["o.csv"]),
+    case("shrink_apply_read_only_output", ["shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01",
+                                           "-o", "ro.gcode"],
+         dict(R3_FILES, **{"ro.gcode": "keep\n"}), "ro.gcode", modes={"ro.gcode": 0o444}),
+    case("shrink_apply_stl_read_only_output", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01",
+                                               "-o", "ro.stl"],
+         dict(R3_FILES, **{"ro.stl": "keep\n"}), "ro.stl", modes={"ro.stl": 0o444}),
+    case("thermal_hotend_read_only_csv", ["thermal", "hotend", "--csv", "ro.csv"], {"ro.csv": "keep\n"}, "ro.csv",
+         modes={"ro.csv": 0o444}),
+    case("thermal_sls_read_only_csv", ["thermal", "sls", "--csv", "ro.csv"], {"ro.csv": "keep\n"}, "ro.csv",
+         modes={"ro.csv": 0o444}),
+    case("sls_margins_read_only_bode", ["thermal", "sls-margins", "--bode-csv", "ro.csv"], {"ro.csv": "keep\n"},
+         "ro.csv", modes={"ro.csv": 0o444}),
+]
+# A full disk: every writer's error names the output, exit 2.
+for name, (args, _) in WRITERS.items():
+    R3.append(case(f"{name}_output_on_a_full_disk", args + ["/dev/full", "-m", "p.cfg"], W_FILES, "/dev/full"))
+R3 += [
+    case("shrink_apply_output_on_a_full_disk", ["shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01",
+                                                "-o", "/dev/full"], R3_FILES, "/dev/full"),
+    case("thermal_sls_csv_on_a_full_disk", ["thermal", "sls", "--csv", "/dev/full"], {}, "/dev/full"),
+    case("thermal_bed_csv_on_a_full_disk", ["thermal", "bed", "--csv", "/dev/full"], {}, "/dev/full"),
+]
+# --write-m73 on a plate of a 3MF writes text; over the archive itself (through a link) it is
+# refused as an input; a 3MF of several plates must name one.
+PLATES = latin1(make_3mf.sliced_3mf([GOOD_GCODE.encode(), (GOOD_GCODE * 2).encode()]))
+R3 += [
+    case("m73_plate_output_links_to_the_archive",
+         ["estimate", "p.gcode.3mf/Metadata/plate_2.gcode", "--write-m73", "l.gcode"],
+         {"p.gcode.3mf": PLATES}, "l.gcode", links={"l.gcode": "p.gcode.3mf"}),
+    case("m73_several_plates_none_named", ["estimate", "p.gcode.3mf", "--write-m73", "o.gcode"],
+         {"p.gcode.3mf": PLATES}, "--write-m73", ["o.gcode"]),
+    case("m73_plate_into_a_3mf_name", ["estimate", "p.gcode.3mf/Metadata/plate_1.gcode", "--write-m73", "o.gcode.3mf"],
+         {"p.gcode.3mf": PLATES}, "o.gcode.3mf", ["o.gcode.3mf"]),
+    case("m73_plate_bad_line", ["estimate", "p.gcode.3mf/Metadata/plate_2.gcode", "--write-m73", "o.gcode"],
+         {"p.gcode.3mf": latin1(make_3mf.sliced_3mf([GOOD_GCODE.encode(), (GOOD_GCODE + "G1 Xq\n").encode()]))},
+         "p.gcode.3mf/Metadata/plate_2.gcode:7:5", ["o.gcode"]),
+]
+# A NUL byte in a machine file: refused at its line and column, whatever the format.
+M503_NUL = M503.replace("M203 X500.00", "M203 X500.00\x00", 1)
+R3 += [
+    case("m503_nul_byte_at_the_start", ["estimate", "f.gcode", "-m", "m503.txt"],
+         {"f.gcode": GOOD_GCODE, "m503.txt": "\x00" + M503}, "m503.txt:1:1"),
+    case("m503_nul_byte_in_a_value", ["estimate", "f.gcode", "-m", "m503.txt"],
+         {"f.gcode": GOOD_GCODE, "m503.txt": M503_NUL}, f"m503.txt:2:{M503_NUL.split(chr(10))[1].index(chr(0)) + 1}"),
+    case("m503_nul_byte_machine_show", ["machine", "show", "m503.txt"],
+         {"m503.txt": M503.replace("M92", "M9\x002", 1)}, "m503.txt:1:10"),
+    case("toml_nul_byte", ["estimate", "f.gcode", "-m", "m.toml"],
+         {"f.gcode": GOOD_GCODE, "m.toml": GOOD_TOML.replace('"t"', '"t\x00"')}, "m.toml:2:10"),
+    case("cfg_nul_byte", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": GOOD_CFG.replace("300", "3\x0000")}, "p.cfg:3:16"),
+    case("configuration_h_nul_byte", ["machine", "show", "Configuration.h"],
+         {"Configuration.h": CONFIGURATION_H.replace("500, 500", "500,\x00 500", 1)},
+         f"Configuration.h:3:{CONFIGURATION_H.split(chr(10))[2].index('500, 500') + 5}"),
+]
+# Text encodings: UTF-16 is refused at 1:1 naming it; a UTF-8 byte-order mark is not part of
+# the first line (the column counts as an editor shows it).
+UTF16 = latin1("G28\nG1 X10 F600\n".encode("utf-16"))
+BOM = "\xef\xbb\xbf"
+R3 += [
+    case("gcode_utf16_estimate", ["estimate", "u.gcode"], {"u.gcode": UTF16}, "u.gcode:1:1"),
+    case("gcode_utf16_plan", ["plan", "u.gcode", "-o", "o.csv"], {"u.gcode": UTF16}, "u.gcode:1:1", ["o.csv"]),
+    case("gcode_utf16_simulate", ["simulate", "u.gcode", "--natural-frequency-hz", "40"], {"u.gcode": UTF16},
+         "u.gcode:1:1"),
+    case("gcode_utf16_big_endian", ["estimate", "u.gcode"],
+         {"u.gcode": "\xfe\xff" + latin1("G28\n".encode("utf-16-be"))}, "u.gcode:1:1"),
+    case("gcode_bom_then_a_bad_word", ["estimate", "f.gcode"], {"f.gcode": BOM + "G1 Xq\n"}, "f.gcode:1:5"),
+    case("cfg_utf16", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": latin1(GOOD_CFG.encode("utf-16"))}, "p.cfg:1:1"),
+    case("toml_utf16", ["machine", "show", "m.toml"], {"m.toml": latin1(GOOD_TOML.encode("utf-16"))}, "m.toml:1:1"),
+    case("cfg_bom_then_a_bad_value", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": BOM + GOOD_CFG.replace("max_velocity: 300", "max_velocity: nan")},
+         "p.cfg:3:15"),
+    case("accel_csv_utf16", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": latin1((RAW_HEADER + RAW_ROWS[:200]).encode("utf-16"))}, "a.csv"),
+    case("shrink_csv_utf16", ["shrink", "fit", "s.csv"],
+         {"s.csv": latin1("nominal_mm,measured_mm\n10,10.1\n".encode("utf-16"))}, "s.csv:1:1"),
+    case("params_json_utf16", ["estimate", "f.gcode", "--mode", "empirical", "--params", "p.json"],
+         {"f.gcode": GOOD_GCODE, "p.json": latin1('{"raster_speed_mm_s": 60}'.encode("utf-16"))}, "p.json:1:1"),
+    case("gcode_line_of_two_mebibytes", ["estimate", "f.gcode"], {"f.gcode": "G1 X1 ;" + "x" * (2 << 20) + "\n"},
+         "f.gcode:1"),
+    case("gcode_number_of_two_mebibytes", ["plan", "f.gcode", "-o", "o.csv"],
+         {"f.gcode": "G28\nG1 X" + "1" * (2 << 20) + "\n"}, "f.gcode:2", ["o.csv"]),
+    case("empty_shrink_csv", ["shrink", "fit", "s.csv"], {"s.csv": ""}, "s.csv"),
+    case("empty_timings_csv", ["calibrate-time", "t.csv"], {"t.csv": ""}, "t.csv"),
+    case("empty_stl", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01", "-o", "o.stl"], {"m.stl": ""},
+         "m.stl", ["o.stl"]),
+    case("cfg_without_printer_section", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": GOOD_GCODE, "p.cfg": "[mcu]\nserial: /dev/x\n"}, "p.cfg"),
+]
+CASES += R3
+
+
 def says_found_and_expected(message):
     """'..., expected ...' or '... must be ..., got/found ...'."""
     if "expected" in message:
@@ -827,6 +1052,8 @@ def run_case(amctl, c):
             os.makedirs(os.path.join(d, rel), exist_ok=True)
         for link, target in c.get("links", {}).items():
             os.symlink(target, os.path.join(d, link))
+        for rel, mode in c.get("modes", {}).items():
+            os.chmod(os.path.join(d, rel), mode)
         before = {rel: open(os.path.join(d, rel), "rb").read() for rel in c["files"]}
         r = subprocess.run([amctl] + c["args"], cwd=d, capture_output=True, timeout=60)
         problems = []

@@ -1,6 +1,7 @@
 // The one input reader (core/input.hpp): line ends, streams read once, rewinding, and the
 // inputs that cannot be read.
 #include "amctl/core/input.hpp"
+#include "amctl/core/text_input.hpp"
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -180,6 +181,24 @@ TEST_F(InputTest, WhatCannotBeReadIsAnErrorNamingIt) {
   EXPECT_THROW(InputFile(path("big.txt"), InputOptions{"text", false, 4096}), Error);
   EXPECT_THROW((void)read_whole_input(path("big.txt"), InputOptions{"text", false, 4096}), Error);
   EXPECT_EQ(read_whole_input(path("big.txt")).size(), 5000u);
+}
+
+TEST_F(InputTest, TextDropsAUtf8ByteOrderMarkAndRefusesUtf16) {
+  std::ofstream(path("bom.cfg"), std::ios::binary) << "\xEF\xBB\xBF[printer]\n";
+  EXPECT_EQ(read_whole_text(path("bom.cfg")), "[printer]\n");
+  EXPECT_EQ(read_whole_input(path("bom.cfg")).size(), 13u);  // bytes as they are (binary formats)
+  for (const char* bom : {"\xFF\xFE", "\xFE\xFF"}) {
+    std::ofstream(path("u16.cfg"), std::ios::binary) << bom << std::string("[\0p\0", 4);
+    try {
+      (void)read_whole_text(path("u16.cfg"));
+      ADD_FAILURE();
+    } catch (const Error& e) {
+      EXPECT_EQ(e.where().file, path("u16.cfg"));
+      EXPECT_EQ(e.where().line, 1u);
+      EXPECT_EQ(e.where().column, 1u);
+      EXPECT_NE(std::string(e.what()).find("found UTF-16 text"), std::string::npos);
+    }
+  }
 }
 
 }  // namespace

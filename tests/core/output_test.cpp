@@ -19,6 +19,8 @@
 #include <gtest/gtest.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/input.hpp"
+#include "amctl/core/run_inputs.hpp"
 
 namespace amctl {
 namespace {
@@ -244,6 +246,74 @@ TEST_F(OutputTest, TwoOutputsOfOneCommandMustDiffer) {
   EXPECT_THROW(require_distinct_outputs("-", "--csv", "-", "--gcode"), Error);
   EXPECT_NO_THROW(require_distinct_outputs(a, "--csv", path("c.csv"), "--gcode"));
   EXPECT_NO_THROW(require_distinct_outputs(a, "--csv", "", "--gcode"));
+}
+
+TEST_F(OutputTest, AReadOnlyFileIsRefusedNotReplaced) {
+  // The rename would replace it (it needs only the directory), and root ignores the bits:
+  // a file nobody may write is its owner's protection, kept.
+  const std::string p = path("ro.csv");
+  spit(p, "keep");
+  ASSERT_EQ(::chmod(p.c_str(), 0444), 0);
+  try {
+    write_output(p, "new", OutputOptions{"--csv", {}, {}});
+    FAIL() << "a read-only file was replaced";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().file, p);
+    EXPECT_NE(std::string(e.what()).find("--csv is a read-only file (mode 0444); expected"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(slurp(p), "keep");
+  EXPECT_EQ(entries(), 1u);
+}
+
+TEST_F(OutputTest, APlateOfAnArchiveIsIdentifiedAsTheArchive) {
+  const std::string archive = path("p.gcode.3mf");
+  spit(archive, "PK");
+  const auto whole = identify_file(archive);
+  ASSERT_TRUE(whole.has_value());
+  EXPECT_EQ(identify_file(archive + "/Metadata/plate_2.gcode"), whole);
+  EXPECT_FALSE(identify_file(path("none.gcode.3mf") + "/Metadata/plate_1.gcode").has_value());
+  // So an output through a link to the archive is refused as the input.
+  ASSERT_EQ(::symlink(archive.c_str(), path("l.gcode").c_str()), 0);
+  EXPECT_THROW(write_output(path("l.gcode"), "x", OutputOptions{"--write-m73", {archive + "/Metadata/plate_2.gcode"}, {}}),
+               Error);
+  EXPECT_EQ(slurp(archive), "PK");
+}
+
+TEST_F(OutputTest, WithTheRunsInputsProtectedNoFileItReadCanBeAnOutput) {
+  // The executable's mode (core/run_inputs.hpp), process-wide: tried in a child process so
+  // the other tests of this binary keep the library's default (off).
+  const std::string cfg = path("p.cfg");
+  const std::string other = path("o.csv");
+  spit(cfg, "[printer]\n");
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    int code = 0;
+    try {
+      (void)read_whole_input(cfg);  // before protection: not noted
+      write_output(other, "1");
+      protect_inputs_of_this_run();
+      (void)read_whole_input(cfg);
+      try {
+        write_output(cfg, "replaced", OutputOptions{"--csv", {}, {}});
+        code = 10;
+      } catch (const Error& e) {
+        if (std::string(e.what()).find("is an input of this command") == std::string::npos) code = 11;
+      }
+      write_output(other, "2");  // any other file is written as before
+    } catch (...) {
+      code = 12;
+    }
+    ::_exit(code);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(slurp(cfg), "[printer]\n");
+  EXPECT_EQ(slurp(other), "2");
+  EXPECT_TRUE(inputs_of_this_run().empty());  // this process: off
 }
 
 }  // namespace

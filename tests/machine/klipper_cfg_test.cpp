@@ -107,7 +107,7 @@ TEST(KlipperCfg, RequiredOptionsAreNamed) {
   EXPECT_EQ(cfg_error("[mcu]\nserial: /dev/x\n\n[printer]\nkinematics: corexy\nmax_velocity: 300\n"),
             "printer.cfg:4:1: option 'max_accel' in section [printer] must be specified");
   EXPECT_EQ(cfg_error("[mcu]\nserial: /dev/x\n"),
-            "printer.cfg: no [printer] section: not a Klipper printer.cfg");
+            "printer.cfg: found no [printer] section, expected a Klipper printer.cfg (which has one)");
 }
 
 TEST(KlipperCfg, MisspeltPrinterOptionIsAnErrorWithASuggestion) {
