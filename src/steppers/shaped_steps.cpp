@@ -139,6 +139,10 @@ shaping::AxisShapers axis_shapers(const machine::InputShaper& config) {
     s.xyz[1] = shaping::make_shaper(config.shaper_type_y, config.shaper_freq_y_hz,
                                     config.damping_ratio_y);
   }
+  if (config.shaper_freq_z_hz > 0.0) {
+    s.xyz[2] = shaping::make_shaper(config.shaper_type_z, config.shaper_freq_z_hz,
+                                    config.damping_ratio_z);
+  }
   return s;
 }
 
@@ -164,6 +168,62 @@ ShapedStepGenerator::ShapedStepGenerator(std::vector<kinematics::Motor> motors,
 void ShapedStepGenerator::add_move(const plan::PlannedMove& move, std::vector<Step>& out) {
   pieces_.clear();
   stream_.push(move, pieces_);
+  remember(move);
+  step_pieces(out);
+}
+
+void ShapedStepGenerator::remember(const plan::PlannedMove& move) {
+  Kept k{move, stream_.advance_s()};
+  for (std::size_t a = 0; a < 4; ++a) k.move.start_mm[a] += stream_.offset_mm()[a];
+  history_.push_back(k);
+  const double end = move.end_time_s();
+  while (history_.size() > 1 && history_.front().move.end_time_s() < end - kHistoryS) history_.pop_front();
+}
+
+void ShapedStepGenerator::reconfigure(const shaping::AxisShapers& shapers,
+                                      const shaping::PressureAdvance& pa, double from_s,
+                                      bool advance_all, std::vector<Step>& out) {
+  if (!stream_.started()) {  // no move yet: the new settings from the start
+    stream_ = shaping::ShapedPieceStream(shapers, pa);
+    return;
+  }
+  pieces_.clear();
+  stream_.finish(pieces_);
+  step_pieces(out);
+  stream_ = shaping::ShapedPieceStream(shapers, pa);
+  stream_.set_output_start(from_s);
+  pieces_.clear();
+  for (const Kept& k : history_) {
+    stream_.set_advance(advance_all ? pa.advance_s : k.advance_s);
+    stream_.push(k.move, pieces_);
+  }
+  stream_.set_advance(pa.advance_s);
+  step_pieces(out);
+}
+
+void ShapedStepGenerator::continue_from(const StepGenerator& plain,
+                                        std::span<const plan::PlannedMove> history, double from_s,
+                                        std::vector<Step>& out) {
+  stream_.set_output_start(from_s);
+  pieces_.clear();
+  for (const plan::PlannedMove& m : history) {
+    stream_.push(m, pieces_);
+    remember(m);
+  }
+  const std::array<double, 4>& end = stream_.end_mm();
+  for (std::size_t c = 0; c < motors_.size(); ++c) {
+    const StepGenerator::MotorState p = plain.motor_state(c);
+    if (!p.started) continue;
+    const kinematics::Motor& m = motors_[c];
+    const double q = m.linear() ? m.row[0] * end[0] + m.row[1] * end[1] + m.row[2] * end[2] + m.row[3] * end[3]
+                                : m.curve->position(kinematics::Vec3{end[0], end[1], end[2]});
+    State& st = state_[c];
+    st.started = true;
+    st.origin = q - (p.last_end_mm - p.origin_mm);
+    st.n = p.n;
+    st.last_step_s = p.last_step_s;
+  }
+  stats_ = plain.stats();
   step_pieces(out);
 }
 
@@ -394,6 +454,91 @@ void ShapedStepSink::consume(const plan::PlanBatch& batch) {
 void ShapedStepSink::finish(const plan::StreamSummary&) {
   buf_.clear();
   gen_.finish(buf_);
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+shaping::AxisShapers axis_shapers(const std::array<gcode::AxisShaperSetting, 3>& s) {
+  shaping::AxisShapers out;
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (s[a].freq_hz > 0.0) out.xyz[a] = shaping::make_shaper(s[a].type, s[a].freq_hz, s[a].damping_ratio);
+  }
+  return out;
+}
+
+TunedStepSink::TunedStepSink(std::vector<kinematics::Motor> motors, const machine::Machine& m,
+                             Callback on_steps)
+    : motors_(std::move(motors)), pa_(pressure_advance(m)), on_steps_(std::move(on_steps)) {
+  const machine::InputShaper& is = m.input_shaper;
+  shapers_[0] = {is.shaper_type_x, is.shaper_freq_x_hz, is.damping_ratio_x};
+  shapers_[1] = {is.shaper_type_y, is.shaper_freq_y_hz, is.damping_ratio_y};
+  shapers_[2] = {is.shaper_type_z, is.shaper_freq_z_hz, is.damping_ratio_z};
+  if (is.active() || pa_.active()) {
+    shaped_.emplace(motors_, axis_shapers(shapers_), pa_);
+  } else {
+    plain_.emplace(motors_);
+  }
+}
+
+const std::vector<StepperStats>& TunedStepSink::stats() const {
+  return shaped_ ? shaped_->stats() : plain_->stats();
+}
+
+void TunedStepSink::on_move(const plan::PlannedMove& m) {
+  buf_.clear();
+  if (shaped_) {
+    shaped_->add_move(m, buf_);
+  } else {
+    plain_->add_move(m, buf_);
+    history_.push_back(m);
+    const double end = m.end_time_s();
+    while (history_.size() > 1 && history_.front().end_time_s() < end - ShapedStepGenerator::kHistoryS) {
+      history_.pop_front();
+    }
+  }
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+void TunedStepSink::on_tuning(const plan::PlanEvent& e) {
+  const gcode::StepTuningCommand& c = e.tuning;
+  const bool advance = c.kind == gcode::StepTuningCommand::Kind::pressure_advance;
+  if (advance) {
+    if (c.extruder != "extruder") return;  // a stepper amctl does not step
+    pa_ = shaping::PressureAdvance{c.pressure_advance_s, c.smooth_time_s};
+    if (!c.flush) {
+      if (shaped_) shaped_->set_advance(c.pressure_advance_s);
+      return;
+    }
+  } else {
+    shapers_ = c.shapers;
+  }
+  buf_.clear();
+  const shaping::AxisShapers shapers = axis_shapers(shapers_);
+  if (shaped_) {
+    shaped_->reconfigure(shapers, pa_, e.time_s, advance, buf_);
+  } else {
+    bool any = pa_.active();
+    for (const auto& s : shapers.xyz) any = any || s.has_value();
+    if (!any) return;
+    shaped_.emplace(motors_, shapers, pa_);
+    const std::vector<plan::PlannedMove> history(history_.begin(), history_.end());
+    shaped_->continue_from(*plain_, history, e.time_s, buf_);
+    history_.clear();
+  }
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+void TunedStepSink::consume(const plan::PlanBatch& batch) {
+  plan::for_each_in_order(
+      batch, [&](const plan::PlannedMove& m) { on_move(m); },
+      [&](const plan::PlanEvent& e) {
+        if (e.kind == plan::PlanEvent::Kind::step_tuning) on_tuning(e);
+      });
+}
+
+void TunedStepSink::finish(const plan::StreamSummary&) {
+  if (!shaped_) return;
+  buf_.clear();
+  shaped_->finish(buf_);
   if (!buf_.empty() && on_steps_) on_steps_(buf_);
 }
 

@@ -23,6 +23,7 @@
 #include <array>
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include "amctl/plan/planned_move.hpp"
@@ -59,6 +60,19 @@ class ShapedPieceStream {
   void push(const plan::PlannedMove& move, std::vector<AxisPiece>& out);
   /// The pieces left once no move follows (the tool rests after the last move), to `out`.
   void finish(std::vector<AxisPiece>& out);
+
+  /// The pressure advance of the moves pushed from now on (Klipper's SET_PRESSURE_ADVANCE with
+  /// the same smoothing time: each move keeps the advance in force when it was queued).
+  void set_advance(double advance_s) { pa_.advance_s = advance_s; }
+  /// No piece before t_s: a stream that takes over from another at t_s is given the moves
+  /// before (they shape its position from t_s on) but outputs from t_s.
+  void set_output_start(double t_s) { output_from_s_ = t_s; }
+  /// Every axis at the end of the last move pushed, and the offset added to the plan's
+  /// positions (G92 and homing jumps absorbed), in the stream's coordinates.
+  [[nodiscard]] const std::array<double, 4>& end_mm() const { return end_mm_; }
+  [[nodiscard]] const std::array<double, 4>& offset_mm() const { return offset_mm_; }
+  [[nodiscard]] bool started() const { return started_; }
+  [[nodiscard]] double advance_s() const { return pa_.advance_s; }
 
   /// Largest look-behind delay (>= 0) and the most negative look-ahead delay (<= 0) [s].
   [[nodiscard]] double max_delay_s() const { return max_delay_s_; }
@@ -105,6 +119,7 @@ class ShapedPieceStream {
   std::size_t base_ = 0;     ///< absolute index of sources_.front()
   bool started_ = false;
   double out_t_s_ = 0.0;     ///< start of the next shaped piece
+  double output_from_s_ = -std::numeric_limits<double>::infinity();
   std::array<double, 4> offset_mm_{};
   std::array<double, 4> end_mm_{};  ///< every axis at the end of the last source
   std::array<plan::PathPiece, 7> pieces_{};

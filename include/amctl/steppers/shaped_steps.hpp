@@ -11,10 +11,13 @@
 //  - a non-linear motor q = curve(x_s) is sampled for turning points every kCurveSampleS (and
 //    at least 8 times a piece), each sign change of its slope bisected, then stepped as above.
 #include <cstdint>
+#include <deque>
+#include <span>
 #include <vector>
 
 #include "amctl/kinematics/kinematics.hpp"
 #include "amctl/plan/planned_move.hpp"
+#include "amctl/plan/stream.hpp"
 #include "amctl/shaping/shaped_pieces.hpp"
 #include "amctl/steppers/steps.hpp"
 
@@ -34,6 +37,26 @@ class ShapedStepGenerator {
   /// The steps left at the end of the plan.
   void finish(std::vector<Step>& out);
 
+  /// Klipper's SET_PRESSURE_ADVANCE with an unchanged smoothing time: the moves added from now
+  /// on are advanced by `advance_s` (extruder.py's look-ahead callback).
+  void set_advance(double advance_s) { stream_.set_advance(advance_s); }
+  /// Klipper's SET_INPUT_SHAPER or a new smoothing time, after its step-generation flush: the
+  /// steps of the settings so far to `out` (every move has ended), then the new settings from
+  /// `from_s` (the generator's restart), applied to the moves before as well (Klipper keeps
+  /// them and its new position reads them: where the new shaper or smoothing reaches back
+  /// into motion the motors step to the new position at `from_s`). `advance_all`: the moves
+  /// before take the new advance too (a new smoothing time: kin_extruder.c's new
+  /// pressure-advance entry is active from time 0).
+  void reconfigure(const shaping::AxisShapers& shapers, const shaping::PressureAdvance& pa,
+                   double from_s, bool advance_all, std::vector<Step>& out);
+  /// Takes over from a plain generator at `from_s` (after every move of `history`, the moves
+  /// that generator was given, the latest last, has ended): its motors' positions and counts
+  /// go on, and the shaped position from `from_s` reads `history`.
+  void continue_from(const StepGenerator& plain, std::span<const plan::PlannedMove> history,
+                     double from_s, std::vector<Step>& out);
+  /// How far back the moves kept for reconfigure() reach [s].
+  static constexpr double kHistoryS = 2.0;
+
   [[nodiscard]] const std::vector<kinematics::Motor>& motors() const { return motors_; }
   [[nodiscard]] const std::vector<StepperStats>& stats() const { return stats_; }
   [[nodiscard]] const shaping::ShapedPieceStream& stream() const { return stream_; }
@@ -51,6 +74,12 @@ class ShapedStepGenerator {
     double before_peak_time_s = 0.0;
   };
   void step_pieces(std::vector<Step>& out);
+  void remember(const plan::PlannedMove& move);
+  struct Kept {
+    plan::PlannedMove move;  ///< in the stream's coordinates (its offset added)
+    double advance_s = 0.0;
+  };
+  std::deque<Kept> history_;
   void linear_piece(std::uint32_t c, const shaping::AxisPiece& piece);
   void curve_piece(std::uint32_t c, const shaping::AxisPiece& piece);
   void record(std::uint32_t c, double t, int dir);
@@ -81,6 +110,38 @@ class ShapedStepSink final : public plan::Sink {
 
  private:
   ShapedStepGenerator gen_;
+  Callback on_steps_;
+  std::vector<Step> buf_;
+};
+
+/// The shapers of Klipper's per-axis settings (X, Y, Z; frequency 0: the axis unshaped).
+[[nodiscard]] shaping::AxisShapers axis_shapers(const std::array<gcode::AxisShaperSetting, 3>& s);
+
+/// The step sink of `amctl steps`: the plain generator while neither input shaping nor
+/// pressure advance is on (its output as it always was), the shaped one from the start when
+/// the machine has either, or from the first SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE that
+/// turns one on (it takes the plain generator's motors over), and every later change as
+/// Klipper applies it (plan::PlanEvent::Kind::step_tuning; docs/steppers.md section 8). The
+/// stepped extruder is Klipper's "extruder"; the others' SET_PRESSURE_ADVANCE only time.
+class TunedStepSink final : public plan::Sink {
+ public:
+  using Callback = std::function<void(std::span<const Step>)>;
+  TunedStepSink(std::vector<kinematics::Motor> motors, const machine::Machine& m, Callback on_steps);
+  void consume(const plan::PlanBatch& batch) override;
+  void finish(const plan::StreamSummary& summary) override;
+  [[nodiscard]] const std::vector<StepperStats>& stats() const;
+  /// Whether the shaped generator ran (from the start or from a command on).
+  [[nodiscard]] bool shaped() const { return shaped_.has_value(); }
+
+ private:
+  void on_move(const plan::PlannedMove& m);
+  void on_tuning(const plan::PlanEvent& e);
+  std::vector<kinematics::Motor> motors_;
+  std::array<gcode::AxisShaperSetting, 3> shapers_{};
+  shaping::PressureAdvance pa_;
+  std::optional<StepGenerator> plain_;
+  std::optional<ShapedStepGenerator> shaped_;
+  std::deque<plan::PlannedMove> history_;  ///< the plain generator's moves of the last kHistoryS
   Callback on_steps_;
   std::vector<Step> buf_;
 };
