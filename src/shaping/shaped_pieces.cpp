@@ -82,7 +82,7 @@ void ShapedPieceStream::push(const plan::PlannedMove& move, std::vector<AxisPiec
     append_rest(move.start_time_s - span - 1.0, move.start_time_s);
     base_ = 0;
     for (Tap& t : taps_) t.index = 0;
-    out_t_s_ = std::max(move.start_time_s + min_delay_s_, output_from_s_);
+    out_t_s_ = move.start_time_s + min_delay_s_;
   } else {
     for (std::size_t a = 0; a < 4; ++a) {
       const double p = move.start_mm[a] + offset_mm_[a];

@@ -168,63 +168,43 @@ ShapedStepGenerator::ShapedStepGenerator(std::vector<kinematics::Motor> motors,
 void ShapedStepGenerator::add_move(const plan::PlannedMove& move, std::vector<Step>& out) {
   pieces_.clear();
   stream_.push(move, pieces_);
-  remember(move);
   step_pieces(out);
 }
 
-void ShapedStepGenerator::remember(const plan::PlannedMove& move) {
-  Kept k{move, stream_.advance_s()};
-  for (std::size_t a = 0; a < 4; ++a) k.move.start_mm[a] += stream_.offset_mm()[a];
-  history_.push_back(k);
-  const double end = move.end_time_s();
-  while (history_.size() > 1 && history_.front().move.end_time_s() < end - kHistoryS) history_.pop_front();
+double ShapedStepGenerator::motor_position(std::size_t c, const std::array<double, 4>& x) const {
+  const kinematics::Motor& m = motors_[c];
+  if (m.linear()) return m.row[0] * x[0] + m.row[1] * x[1] + m.row[2] * x[2] + m.row[3] * x[3];
+  return m.curve->position(kinematics::Vec3{x[0], x[1], x[2]});
 }
 
 void ShapedStepGenerator::reconfigure(const shaping::AxisShapers& shapers,
-                                      const shaping::PressureAdvance& pa, double from_s,
-                                      bool advance_all, std::vector<Step>& out) {
-  if (!stream_.started()) {  // no move yet: the new settings from the start
-    stream_ = shaping::ShapedPieceStream(shapers, pa);
-    return;
+                                      const shaping::PressureAdvance& pa, std::vector<Step>& out) {
+  if (stream_.started()) {
+    pieces_.clear();
+    stream_.finish(pieces_);
+    step_pieces(out);
+    for (std::size_t c = 0; c < motors_.size(); ++c) {
+      State& st = state_[c];
+      if (!st.started) continue;
+      st.resume = true;
+      st.resume_mm = motor_position(c, stream_.end_mm()) - st.origin;
+    }
   }
-  pieces_.clear();
-  stream_.finish(pieces_);
-  step_pieces(out);
   stream_ = shaping::ShapedPieceStream(shapers, pa);
-  stream_.set_output_start(from_s);
-  pieces_.clear();
-  for (const Kept& k : history_) {
-    stream_.set_advance(advance_all ? pa.advance_s : k.advance_s);
-    stream_.push(k.move, pieces_);
-  }
-  stream_.set_advance(pa.advance_s);
-  step_pieces(out);
 }
 
-void ShapedStepGenerator::continue_from(const StepGenerator& plain,
-                                        std::span<const plan::PlannedMove> history, double from_s,
-                                        std::vector<Step>& out) {
-  stream_.set_output_start(from_s);
-  pieces_.clear();
-  for (const plan::PlannedMove& m : history) {
-    stream_.push(m, pieces_);
-    remember(m);
-  }
-  const std::array<double, 4>& end = stream_.end_mm();
+void ShapedStepGenerator::continue_from(const StepGenerator& plain) {
   for (std::size_t c = 0; c < motors_.size(); ++c) {
     const StepGenerator::MotorState p = plain.motor_state(c);
     if (!p.started) continue;
-    const kinematics::Motor& m = motors_[c];
-    const double q = m.linear() ? m.row[0] * end[0] + m.row[1] * end[1] + m.row[2] * end[2] + m.row[3] * end[3]
-                                : m.curve->position(kinematics::Vec3{end[0], end[1], end[2]});
     State& st = state_[c];
     st.started = true;
-    st.origin = q - (p.last_end_mm - p.origin_mm);
+    st.resume = true;
+    st.resume_mm = p.last_end_mm - p.origin_mm;
     st.n = p.n;
     st.last_step_s = p.last_step_s;
   }
   stats_ = plain.stats();
-  step_pieces(out);
 }
 
 void ShapedStepGenerator::finish(std::vector<Step>& out) {
@@ -313,9 +293,10 @@ void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) 
            r[3] * piece.c[3][kk];
     if (k > 0 && p[k] != 0.0) deg = k;
   }
-  if (!st.started) {
+  if (!st.started || st.resume) {
+    st.origin = p[0] - (st.resume ? st.resume_mm : 0.0);
     st.started = true;
-    st.origin = p[0];
+    st.resume = false;
   }
   if (deg == 0) return;
   const double L = piece.duration_s;
@@ -360,9 +341,10 @@ void ShapedStepGenerator::curve_piece(std::uint32_t c, const AxisPiece& piece) {
     return v;
   };
   const double q0 = q(0.0);
-  if (!st.started) {
+  if (!st.started || st.resume) {
+    st.origin = q0 - (st.resume ? st.resume_mm : 0.0);
     st.started = true;
-    st.origin = q0;
+    st.resume = false;
   }
   bool moves = false;
   for (std::size_t a = 0; a < 3 && !moves; ++a) {
@@ -489,11 +471,6 @@ void TunedStepSink::on_move(const plan::PlannedMove& m) {
     shaped_->add_move(m, buf_);
   } else {
     plain_->add_move(m, buf_);
-    history_.push_back(m);
-    const double end = m.end_time_s();
-    while (history_.size() > 1 && history_.front().end_time_s() < end - ShapedStepGenerator::kHistoryS) {
-      history_.pop_front();
-    }
   }
   if (!buf_.empty() && on_steps_) on_steps_(buf_);
 }
@@ -514,15 +491,13 @@ void TunedStepSink::on_tuning(const plan::PlanEvent& e) {
   buf_.clear();
   const shaping::AxisShapers shapers = axis_shapers(shapers_);
   if (shaped_) {
-    shaped_->reconfigure(shapers, pa_, e.time_s, advance, buf_);
+    shaped_->reconfigure(shapers, pa_, buf_);
   } else {
     bool any = pa_.active();
     for (const auto& s : shapers.xyz) any = any || s.has_value();
     if (!any) return;
     shaped_.emplace(motors_, shapers, pa_);
-    const std::vector<plan::PlannedMove> history(history_.begin(), history_.end());
-    shaped_->continue_from(*plain_, history, e.time_s, buf_);
-    history_.clear();
+    shaped_->continue_from(*plain_);
   }
   if (!buf_.empty() && on_steps_) on_steps_(buf_);
 }

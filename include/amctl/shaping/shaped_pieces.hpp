@@ -64,9 +64,6 @@ class ShapedPieceStream {
   /// The pressure advance of the moves pushed from now on (Klipper's SET_PRESSURE_ADVANCE with
   /// the same smoothing time: each move keeps the advance in force when it was queued).
   void set_advance(double advance_s) { pa_.advance_s = advance_s; }
-  /// No piece before t_s: a stream that takes over from another at t_s is given the moves
-  /// before (they shape its position from t_s on) but outputs from t_s.
-  void set_output_start(double t_s) { output_from_s_ = t_s; }
   /// Every axis at the end of the last move pushed, and the offset added to the plan's
   /// positions (G92 and homing jumps absorbed), in the stream's coordinates.
   [[nodiscard]] const std::array<double, 4>& end_mm() const { return end_mm_; }
@@ -119,7 +116,6 @@ class ShapedPieceStream {
   std::size_t base_ = 0;     ///< absolute index of sources_.front()
   bool started_ = false;
   double out_t_s_ = 0.0;     ///< start of the next shaped piece
-  double output_from_s_ = -std::numeric_limits<double>::infinity();
   std::array<double, 4> offset_mm_{};
   std::array<double, 4> end_mm_{};  ///< every axis at the end of the last source
   std::array<plan::PathPiece, 7> pieces_{};

@@ -41,21 +41,15 @@ class ShapedStepGenerator {
   /// on are advanced by `advance_s` (extruder.py's look-ahead callback).
   void set_advance(double advance_s) { stream_.set_advance(advance_s); }
   /// Klipper's SET_INPUT_SHAPER or a new smoothing time, after its step-generation flush: the
-  /// steps of the settings so far to `out` (every move has ended), then the new settings from
-  /// `from_s` (the generator's restart), applied to the moves before as well (Klipper keeps
-  /// them and its new position reads them: where the new shaper or smoothing reaches back
-  /// into motion the motors step to the new position at `from_s`). `advance_all`: the moves
-  /// before take the new advance too (a new smoothing time: kin_extruder.c's new
-  /// pressure-advance entry is active from time 0).
+  /// steps of the settings so far to `out` (every move has ended), then the new settings for
+  /// the moves added from now on. Klipper's flush moves every finished move out of the motion
+  /// queue its position reads (trapq_finalize_moves up to the last move's end), so the new
+  /// position starts at rest where the toolhead stands: no motor jumps.
   void reconfigure(const shaping::AxisShapers& shapers, const shaping::PressureAdvance& pa,
-                   double from_s, bool advance_all, std::vector<Step>& out);
-  /// Takes over from a plain generator at `from_s` (after every move of `history`, the moves
-  /// that generator was given, the latest last, has ended): its motors' positions and counts
-  /// go on, and the shaped position from `from_s` reads `history`.
-  void continue_from(const StepGenerator& plain, std::span<const plan::PlannedMove> history,
-                     double from_s, std::vector<Step>& out);
-  /// How far back the moves kept for reconfigure() reach [s].
-  static constexpr double kHistoryS = 2.0;
+                   std::vector<Step>& out);
+  /// Takes over from a plain generator (after a flush: every move it was given has ended):
+  /// its motors' positions, counts and statistics go on.
+  void continue_from(const StepGenerator& plain);
 
   [[nodiscard]] const std::vector<kinematics::Motor>& motors() const { return motors_; }
   [[nodiscard]] const std::vector<StepperStats>& stats() const { return stats_; }
@@ -72,14 +66,13 @@ class ShapedStepGenerator {
     double before_last_step_s = -std::numeric_limits<double>::infinity();
     double before_min_interval_s = std::numeric_limits<double>::infinity();
     double before_peak_time_s = 0.0;
+    /// After a change of settings: the next piece's start is `resume_mm` past step 0's position.
+    bool resume = false;
+    double resume_mm = 0.0;
   };
   void step_pieces(std::vector<Step>& out);
-  void remember(const plan::PlannedMove& move);
-  struct Kept {
-    plan::PlannedMove move;  ///< in the stream's coordinates (its offset added)
-    double advance_s = 0.0;
-  };
-  std::deque<Kept> history_;
+  /// Motor c's position at the toolhead point x (X, Y, Z, E).
+  [[nodiscard]] double motor_position(std::size_t c, const std::array<double, 4>& x) const;
   void linear_piece(std::uint32_t c, const shaping::AxisPiece& piece);
   void curve_piece(std::uint32_t c, const shaping::AxisPiece& piece);
   void record(std::uint32_t c, double t, int dir);
@@ -141,7 +134,6 @@ class TunedStepSink final : public plan::Sink {
   shaping::PressureAdvance pa_;
   std::optional<StepGenerator> plain_;
   std::optional<ShapedStepGenerator> shaped_;
-  std::deque<plan::PlannedMove> history_;  ///< the plain generator's moves of the last kHistoryS
   Callback on_steps_;
   std::vector<Step> buf_;
 };
