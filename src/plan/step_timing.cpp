@@ -109,16 +109,16 @@ void StepTiming::apply(const gcode::StepTuningCommand& c) {
     } catch (const Error&) {
     }
     if (!max_zeta) {
-      throw Error(at, fmt::format("SET_INPUT_SHAPER: shaper type of {} '{}' is not one Klipper "
-                                  "defines (zv, mzv, zvd, ei, 2hump_ei, 3hump_ei, optionally with "
-                                  "parameters as mzv(n=4, t=0.9); Klipper: \"Unsupported shaper "
+      throw Error(at, fmt::format("SET_INPUT_SHAPER shaper type of {}: found '{}', expected one of "
+                                  "Klipper's zv, mzv, zvd, ei, 2hump_ei, 3hump_ei, optionally with "
+                                  "parameters as mzv(n=4, t=0.9) (Klipper: \"Unsupported shaper "
                                   "type: {}\")", axis, s.type, s.type));
     }
     if (s.damping_ratio > *max_zeta) {
       throw Error(SourceLocation{"", c.line, c.damping_column[a] ? c.damping_column[a] : c.type_column[a]},
-                  fmt::format("SET_INPUT_SHAPER: damping ratio of {} {:g} is above {:g}, the most "
-                              "Klipper accepts for {} (\"Too high value of damping_ratio\")",
-                              axis, s.damping_ratio, *max_zeta, s.type));
+                  fmt::format("SET_INPUT_SHAPER damping ratio of {} must be at most {:g} for {} "
+                              "(Klipper's limit: \"Too high value of damping_ratio\"), found {:g}",
+                              axis, *max_zeta, s.type, s.damping_ratio));
     }
     if (!(s.freq_hz > 0.0)) {
       shaper_reach_s_[a] = 0.0;
