@@ -143,7 +143,9 @@ Json to_json(const StepsReport& r) {
   const Json shaper = is.active() ? Json{{"x", axis_shaper(is.shaper_type_x, is.shaper_freq_x_hz,
                                                           is.damping_ratio_x)},
                                          {"y", axis_shaper(is.shaper_type_y, is.shaper_freq_y_hz,
-                                                          is.damping_ratio_y)}}
+                                                          is.damping_ratio_y)},
+                                         {"z", axis_shaper(is.shaper_type_z, is.shaper_freq_z_hz,
+                                                          is.damping_ratio_z)}}
                                   : Json(nullptr);
   const Json advance = r.pressure_advance_s > 0.0
                            ? Json{{"advance_s", json_number(r.pressure_advance_s)},
