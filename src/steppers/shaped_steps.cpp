@@ -162,13 +162,42 @@ ShapedStepGenerator::ShapedStepGenerator(std::vector<kinematics::Motor> motors,
       scratch_(motors_.size()) {
   for (const kinematics::Motor& m : motors_) {
     AMCTL_CHECK(m.step_distance.value > 0.0, "step distance must be positive");
+    AMCTL_CHECK(!m.linear() || m.row[3] == 0.0 || (m.row[0] == 0.0 && m.row[1] == 0.0 && m.row[2] == 0.0),
+                "a motor moves with the toolhead or with the extruder, not both");
   }
+  make_streams(shapers, pa);
+}
+
+void ShapedStepGenerator::make_streams(const shaping::AxisShapers& shapers,
+                                       const shaping::PressureAdvance& pa) {
+  // With pressure advance the extruder is stepped on pieces of its own: the toolhead's pieces
+  // break at every plan break shifted by each shaper delay, the extruder's by -h, 0 and +h;
+  // one stream for both would give every motor the breaks of both.
+  e_stream_.reset();
+  if (pa.active()) {
+    stream_ = shaping::ShapedPieceStream(shapers, shaping::PressureAdvance{0.0, pa.smooth_time_s});
+    e_stream_.emplace(shaping::AxisShapers{}, pa);
+  } else {
+    stream_ = shaping::ShapedPieceStream(shapers, pa);
+  }
+  front_s_ = e_front_s_ = -std::numeric_limits<double>::infinity();
+}
+
+bool ShapedStepGenerator::on_extruder_stream(std::size_t c) const {
+  return e_stream_.has_value() && motors_[c].linear() && motors_[c].row[3] != 0.0;
+}
+
+void ShapedStepGenerator::set_advance(double advance_s) {
+  if (e_stream_) e_stream_->set_advance(advance_s);
+  else stream_.set_advance(advance_s);
 }
 
 void ShapedStepGenerator::add_move(const plan::PlannedMove& move, std::vector<Step>& out) {
   pieces_.clear();
   stream_.push(move, pieces_);
-  step_pieces(out);
+  e_pieces_.clear();
+  if (e_stream_) e_stream_->push(move, e_pieces_);
+  step_pieces(out, false);
 }
 
 double ShapedStepGenerator::motor_position(std::size_t c, const std::array<double, 4>& x) const {
@@ -180,9 +209,7 @@ double ShapedStepGenerator::motor_position(std::size_t c, const std::array<doubl
 void ShapedStepGenerator::reconfigure(const shaping::AxisShapers& shapers,
                                       const shaping::PressureAdvance& pa, std::vector<Step>& out) {
   if (stream_.started()) {
-    pieces_.clear();
-    stream_.finish(pieces_);
-    step_pieces(out);
+    finish(out);
     for (std::size_t c = 0; c < motors_.size(); ++c) {
       State& st = state_[c];
       if (!st.started) continue;
@@ -190,7 +217,7 @@ void ShapedStepGenerator::reconfigure(const shaping::AxisShapers& shapers,
       st.resume_mm = motor_position(c, stream_.end_mm()) - st.origin;
     }
   }
-  stream_ = shaping::ShapedPieceStream(shapers, pa);
+  make_streams(shapers, pa);
 }
 
 void ShapedStepGenerator::continue_from(const StepGenerator& plain) {
@@ -210,7 +237,9 @@ void ShapedStepGenerator::continue_from(const StepGenerator& plain) {
 void ShapedStepGenerator::finish(std::vector<Step>& out) {
   pieces_.clear();
   stream_.finish(pieces_);
-  step_pieces(out);
+  e_pieces_.clear();
+  if (e_stream_) e_stream_->finish(e_pieces_);
+  step_pieces(out, true);
 }
 
 void ShapedStepGenerator::record(std::uint32_t c, double t, int dir) {
@@ -251,33 +280,45 @@ void ShapedStepGenerator::record(std::uint32_t c, double t, int dir) {
   stats.position_steps = st.n;
 }
 
-void ShapedStepGenerator::step_pieces(std::vector<Step>& out) {
-  if (pieces_.empty()) return;
-  for (auto& s : scratch_) s.clear();
+void ShapedStepGenerator::step_pieces(std::vector<Step>& out, bool final) {
+  if (pieces_.empty() && e_pieces_.empty() && !final) return;
   for (const AxisPiece& piece : pieces_) {
     for (std::uint32_t c = 0; c < motors_.size(); ++c) {
+      if (on_extruder_stream(c)) continue;
       if (motors_[c].linear()) linear_piece(c, piece);
       else curve_piece(c, piece);
     }
   }
+  for (const AxisPiece& piece : e_pieces_) {
+    for (std::uint32_t c = 0; c < motors_.size(); ++c) {
+      if (on_extruder_stream(c)) linear_piece(c, piece);
+    }
+  }
+  if (!pieces_.empty()) front_s_ = pieces_.back().t0_s + pieces_.back().duration_s;
+  if (!e_pieces_.empty()) e_front_s_ = e_pieces_.back().t0_s + e_pieces_.back().duration_s;
+  // Steps go out in time order: with two streams, only those before both streams' ends (the
+  // rest wait for the other stream's next pieces).
+  const double release = final || !e_stream_ ? std::numeric_limits<double>::infinity()
+                                             : std::min(front_s_, e_front_s_);
   // k-way merge by time (ties: motor order).
-  std::size_t total = 0;
-  for (const auto& s : scratch_) total += s.size();
-  out.reserve(out.size() + total);
-  std::vector<std::size_t> head(motors_.size(), 0);
-  for (std::size_t k = 0; k < total; ++k) {
+  head_.assign(motors_.size(), 0);
+  while (true) {
     std::size_t best = motors_.size();
     double best_t = 0.0;
     for (std::size_t c = 0; c < motors_.size(); ++c) {
-      if (head[c] < scratch_[c].size()) {
-        const double t = scratch_[c][head[c]].time_s;
-        if (best == motors_.size() || t < best_t) {
+      if (head_[c] < scratch_[c].size()) {
+        const double t = scratch_[c][head_[c]].time_s;
+        if (t <= release && (best == motors_.size() || t < best_t)) {
           best = c;
           best_t = t;
         }
       }
     }
-    out.push_back(scratch_[best][head[best]++]);
+    if (best == motors_.size()) break;
+    out.push_back(scratch_[best][head_[best]++]);
+  }
+  for (std::size_t c = 0; c < motors_.size(); ++c) {
+    scratch_[c].erase(scratch_[c].begin(), scratch_[c].begin() + static_cast<std::ptrdiff_t>(head_[c]));
   }
 }
 

@@ -39,7 +39,7 @@ class ShapedStepGenerator {
 
   /// Klipper's SET_PRESSURE_ADVANCE with an unchanged smoothing time: the moves added from now
   /// on are advanced by `advance_s` (extruder.py's look-ahead callback).
-  void set_advance(double advance_s) { stream_.set_advance(advance_s); }
+  void set_advance(double advance_s);
   /// Klipper's SET_INPUT_SHAPER or a new smoothing time, after its step-generation flush: the
   /// steps of the settings so far to `out` (every move has ended), then the new settings for
   /// the moves added from now on. Klipper's flush moves every finished move out of the motion
@@ -70,7 +70,12 @@ class ShapedStepGenerator {
     bool resume = false;
     double resume_mm = 0.0;
   };
-  void step_pieces(std::vector<Step>& out);
+  /// Steps the new pieces of both streams and hands out, in time order, the steps before both
+  /// streams' ends (all when `final`).
+  void step_pieces(std::vector<Step>& out, bool final);
+  void make_streams(const shaping::AxisShapers& shapers, const shaping::PressureAdvance& pa);
+  /// Motor c is the extruder stepped on the pressure-advance stream.
+  [[nodiscard]] bool on_extruder_stream(std::size_t c) const;
   /// Motor c's position at the toolhead point x (X, Y, Z, E).
   [[nodiscard]] double motor_position(std::size_t c, const std::array<double, 4>& x) const;
   void linear_piece(std::uint32_t c, const shaping::AxisPiece& piece);
@@ -80,8 +85,11 @@ class ShapedStepGenerator {
   std::vector<kinematics::Motor> motors_;
   std::vector<State> state_;
   std::vector<StepperStats> stats_;
-  shaping::ShapedPieceStream stream_;
-  std::vector<shaping::AxisPiece> pieces_;
+  shaping::ShapedPieceStream stream_;  ///< the toolhead (and the extruder without pressure advance)
+  std::optional<shaping::ShapedPieceStream> e_stream_;  ///< the extruder with pressure advance
+  std::vector<shaping::AxisPiece> pieces_, e_pieces_;
+  double front_s_ = 0.0, e_front_s_ = 0.0;  ///< end of each stream's last piece
+  std::vector<std::size_t> head_;
   std::vector<std::vector<Step>> scratch_;
   std::vector<double> bounds_;
 };
