@@ -300,26 +300,26 @@ void ShapedStepGenerator::step_pieces(std::vector<Step>& out, bool final) {
   // rest wait for the other stream's next pieces).
   const double release = final || !e_stream_ ? std::numeric_limits<double>::infinity()
                                              : std::min(front_s_, e_front_s_);
-  // k-way merge by time (ties: motor order).
-  head_.assign(motors_.size(), 0);
-  while (true) {
-    std::size_t best = motors_.size();
-    double best_t = 0.0;
-    for (std::size_t c = 0; c < motors_.size(); ++c) {
-      if (head_[c] < scratch_[c].size()) {
-        const double t = scratch_[c][head_[c]].time_s;
-        if (t <= release && (best == motors_.size() || t < best_t)) {
-          best = c;
-          best_t = t;
-        }
-      }
-    }
-    if (best == motors_.size()) break;
-    out.push_back(scratch_[best][head_[best]++]);
-  }
+  // Merge by time, ties in motor order: each motor's released steps merged into the motors'
+  // before it (std::merge takes the first range's element first on a tie).
+  const auto by_time = [](const Step& a, const Step& b) { return a.time_s < b.time_s; };
+  merged_.clear();
   for (std::size_t c = 0; c < motors_.size(); ++c) {
-    scratch_[c].erase(scratch_[c].begin(), scratch_[c].begin() + static_cast<std::ptrdiff_t>(head_[c]));
+    std::vector<Step>& s = scratch_[c];
+    const auto end = release == std::numeric_limits<double>::infinity()
+                         ? s.end()
+                         : std::upper_bound(s.begin(), s.end(), Step{release, 0, 0}, by_time);
+    if (end == s.begin()) continue;
+    if (merged_.empty()) {
+      merged_.assign(s.begin(), end);
+    } else {
+      merge_tmp_.resize(merged_.size() + static_cast<std::size_t>(end - s.begin()));
+      std::merge(merged_.begin(), merged_.end(), s.begin(), end, merge_tmp_.begin(), by_time);
+      merged_.swap(merge_tmp_);
+    }
+    s.erase(s.begin(), end);
   }
+  out.insert(out.end(), merged_.begin(), merged_.end());
 }
 
 void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) {

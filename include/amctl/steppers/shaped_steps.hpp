@@ -89,7 +89,7 @@ class ShapedStepGenerator {
   std::optional<shaping::ShapedPieceStream> e_stream_;  ///< the extruder with pressure advance
   std::vector<shaping::AxisPiece> pieces_, e_pieces_;
   double front_s_ = 0.0, e_front_s_ = 0.0;  ///< end of each stream's last piece
-  std::vector<std::size_t> head_;
+  std::vector<Step> merged_, merge_tmp_;
   std::vector<std::vector<Step>> scratch_;
   std::vector<double> bounds_;
 };
