@@ -91,6 +91,17 @@ struct StepTuningCommand {
   std::array<std::uint32_t, 3> type_column{}, damping_column{};
 };
 
+/// Klipper's [bed_mesh] commands (klippy/extras/bed_mesh.py), passed on only for a printer.cfg
+/// with [bed_mesh] (InterpreterOptions::bed_mesh); the bedmesh module applies them.
+struct BedMeshCommand {
+  enum class Kind : std::uint8_t { load, save, remove, clear, offset };
+  Kind kind = Kind::load;
+  std::string profile;  ///< load, save, remove: the name as written
+  std::optional<double> x_mm, y_mm, zfade_mm;  ///< offset: BED_MESH_OFFSET X= Y= ZFADE=
+  std::uint64_t line = 0;
+  std::uint32_t column = 0;  ///< of the argument (the command's for clear)
+};
+
 class EventSink {
  public:
   virtual ~EventSink() = default;
@@ -125,6 +136,8 @@ class EventSink {
   /// Klipper's SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE (step generation; a flush one is a
   /// step-generation flush with the step generator's new restart delay).
   virtual void on_step_tuning(const StepTuningCommand& cmd) { (void)cmd; }
+  /// BED_MESH_PROFILE, BED_MESH_CLEAR, BED_MESH_OFFSET on a printer with [bed_mesh].
+  virtual void on_bed_mesh(const BedMeshCommand& cmd) { (void)cmd; }
 };
 
 }  // namespace amctl::gcode

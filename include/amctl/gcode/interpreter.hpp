@@ -118,6 +118,9 @@ struct InterpreterOptions {
     std::vector<Extruder> extruders;
   };
   std::optional<StepTuning> step_tuning;
+  /// Klipper's [bed_mesh] is configured: BED_MESH_PROFILE, BED_MESH_CLEAR and BED_MESH_OFFSET
+  /// reach the sink as EventSink::on_bed_mesh (otherwise they are counted as ignored).
+  bool bed_mesh = false;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -215,6 +218,7 @@ class Interpreter {
   // EXCLUDE_OBJECT_* (the move transform) and SET_DUAL_CARRIAGE / *_DUAL_CARRIAGE_STATE.
   /// True when `name` is one of those commands and it was handled.
   bool handle_klipper_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void handle_bed_mesh(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void save_gcode_state(const Command& cmd, std::uint64_t line_no);
   void restore_gcode_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void set_gcode_offset(const Command& cmd, std::uint64_t line_no, EventSink& sink);
