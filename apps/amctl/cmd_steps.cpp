@@ -51,6 +51,7 @@ void run_steps(const StepsArgs& a) {
     };
     axis("X", is.shaper_type_x, is.shaper_freq_x_hz, is.damping_ratio_x);
     axis("Y", is.shaper_type_y, is.shaper_freq_y_hz, is.damping_ratio_y);
+    axis("Z", is.shaper_type_z, is.shaper_freq_z_hz, is.damping_ratio_z);
     if (r.pressure_advance_s > 0.0) {
       line += fmt::format(" extruder with pressure advance {:g} s (smooth time {:g} s),",
                           r.pressure_advance_s, r.pressure_advance_smooth_time_s);

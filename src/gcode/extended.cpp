@@ -34,6 +34,7 @@ void Interpreter::handle_extended(const Command& cmd, std::uint64_t line_no, Eve
     return v;
   };
   if (handle_klipper_state(cmd, line_no, sink)) return;  // klipper_state.cpp
+  if (handle_step_tuning(cmd, line_no, sink)) return;    // step_tuning.cpp
   if (iequals(name, "SET_VELOCITY_LIMIT")) {
     LimitsCommand lc;
     lc.source = LimitsCommand::Source::set_velocity_limit;

@@ -399,18 +399,21 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     fr.unretract_speed_mm_s = r.get_float("unretract_speed", 10.0, {.minval = 1.0});
   }
   if (CfgSection* is = doc.find("input_shaper")) {
-    // input_shaper.py (84104bbb): shaper_type (mzv) is the default of shaper_type_x/_y, taken
-    // as written; damping_ratio_x/_y 0.1 in [0, 1]; shaper_freq_x/_y 0 (off), >= 0. amctl
+    // input_shaper.py (84104bbb): shaper_type (mzv) is the default of shaper_type_x/_y/_z, taken
+    // as written; damping_ratio_x/_y/_z 0.1 in [0, 1]; shaper_freq_x/_y/_z 0 (off), >= 0. amctl
     // also needs damping < 1 (a shaper is not defined at 1).
     const Section sh(is, "input_shaper", file_loc);
     InputShaper& in = m.input_shaper;
     const std::string both = shaper_type(sh, "shaper_type", "mzv");
     in.shaper_type_x = shaper_type(sh, "shaper_type_x", both);
     in.shaper_type_y = shaper_type(sh, "shaper_type_y", both);
+    in.shaper_type_z = shaper_type(sh, "shaper_type_z", both);
     in.shaper_freq_x_hz = sh.get_float("shaper_freq_x", 0.0, {.minval = 0.0});
     in.shaper_freq_y_hz = sh.get_float("shaper_freq_y", 0.0, {.minval = 0.0});
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});
     in.damping_ratio_y = sh.get_float("damping_ratio_y", 0.1, {.minval = 0.0, .below = 1.0});
+    in.shaper_freq_z_hz = sh.get_float("shaper_freq_z", 0.0, {.minval = 0.0});
+    in.damping_ratio_z = sh.get_float("damping_ratio_z", 0.1, {.minval = 0.0, .below = 1.0});
   }
   // The kinematics' own options of [printer] and of its sections, then each of its motors'
   // drive train (stepper.py), in file order.

@@ -202,6 +202,15 @@ const std::vector<KeyDef>& key_table() {
     add({"input_shaper", "damping_ratio_y", Kind::number, Bound::ratio, "",
          "Damping ratio the Y shaper is designed for (Klipper damping_ratio_y).",
          AMCTL_NUM(input_shaper.damping_ratio_y)});
+    add({"input_shaper", "shaper_type_z", Kind::text, Bound::finite, "",
+         "Input shaper of Z (Klipper shaper_type_z).", nullptr, nullptr, nullptr, nullptr,
+         [](Machine& m) -> std::string& { return m.input_shaper.shaper_type_z; }});
+    add({"input_shaper", "shaper_freq_z", Kind::number, Bound::non_negative, "Hz",
+         "Input shaper frequency of Z; 0 = Z not shaped (Klipper shaper_freq_z).",
+         AMCTL_NUM(input_shaper.shaper_freq_z_hz)});
+    add({"input_shaper", "damping_ratio_z", Kind::number, Bound::ratio, "",
+         "Damping ratio the Z shaper is designed for (Klipper damping_ratio_z).",
+         AMCTL_NUM(input_shaper.damping_ratio_z)});
     return k;
   }();
   return keys;

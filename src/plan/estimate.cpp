@@ -12,6 +12,7 @@
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/machine/kinematics.hpp"
+#include "step_timing.hpp"
 
 namespace amctl::plan {
 namespace {
@@ -133,6 +134,7 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   o.exclude_object = m.exclude_object              ? ExcludeMode::active
                      : !m.klipper_config.empty()   ? ExcludeMode::unknown
                                                    : ExcludeMode::ignored;
+  o.step_tuning = detail::step_tuning_of(m);
   if (m.firmware == machine::Firmware::klipper) {
     // IDEX pairs (idex_modes.py): [dual_carriage] on cartesian and hybrid printers, the
     // [dual_carriage NAME] of a generic_cartesian.
@@ -242,6 +244,7 @@ void EstimateSink::add_event(const PlanEvent& e) {
     case PlanEvent::Kind::progress:
     case PlanEvent::Kind::fan:
     case PlanEvent::Kind::input_shaping:  // no effect on print time
+    case PlanEvent::Kind::step_tuning:    // its flush is timed by the planner
       break;
   }
 }

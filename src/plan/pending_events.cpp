@@ -58,6 +58,14 @@ PendingEvent PendingEvent::make_range_error(const RangeError& r) {
   return e;
 }
 
+PendingEvent PendingEvent::make_step_tuning(const gcode::StepTuningCommand& cmd) {
+  PendingEvent e;
+  e.kind = Kind::step_tuning;
+  e.tuning = cmd;
+  e.line = cmd.line;
+  return e;
+}
+
 void PendingEvents::release(std::uint64_t through_seq, double time_s, PlanSink& sink) {
   while (!queue_.empty() && queue_.front().after_seq <= through_seq) {
     queue_.front().fire(time_s, sink);
@@ -73,6 +81,7 @@ void PendingEvent::fire(double time_s, PlanSink& sink) const {
     case Kind::layer: sink.on_layer_change(time_s, layer, line); break;
     case Kind::untimed: sink.on_untimed(time_s, name, line); break;
     case Kind::input_shaping: sink.on_input_shaping(time_s, shaping); break;
+    case Kind::step_tuning: sink.on_step_tuning(time_s, tuning); break;
     case Kind::range_error: {
       RangeError r = range;
       r.at_s = time_s;

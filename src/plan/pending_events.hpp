@@ -16,7 +16,7 @@
 namespace amctl::plan::detail {
 
 struct PendingEvent {
-  enum class Kind : std::uint8_t { heater, fan, progress, layer, untimed, input_shaping, range_error } kind = Kind::heater;
+  enum class Kind : std::uint8_t { heater, fan, progress, layer, untimed, input_shaping, range_error, step_tuning } kind = Kind::heater;
   std::uint64_t after_seq = 0;  // released once the move with this seq has been emitted
   gcode::HeaterCommand heater{};
   gcode::ProgressMarker progress{};
@@ -26,6 +26,7 @@ struct PendingEvent {
   std::string name;
   gcode::InputShapingCommand shaping{};
   RangeError range{};  ///< range_error: at_s is set when fired
+  gcode::StepTuningCommand tuning{};
 
   static PendingEvent make_heater(const gcode::HeaterCommand& cmd);
   static PendingEvent make_fan(double fraction, std::uint64_t line);
@@ -34,6 +35,7 @@ struct PendingEvent {
   static PendingEvent make_untimed(std::string_view name, std::uint64_t line);
   static PendingEvent make_input_shaping(const gcode::InputShapingCommand& cmd);
   static PendingEvent make_range_error(const RangeError& e);
+  static PendingEvent make_step_tuning(const gcode::StepTuningCommand& cmd);
 
   /// Hands the event to the sink as taking effect at print time time_s.
   void fire(double time_s, PlanSink& sink) const;

@@ -313,19 +313,45 @@ void PlannerCore::on_dwell(double duration_s, std::uint64_t line) {
   timeline_.dwell(duration_s, line);
 }
 
+double PlannerCore::last_move_end_s() const {
+  // Tracked by on_dwell, so plain moves pay nothing for this.
+  return diag_.moves == rest_moves_ ? rest_from_s_ : timeline_.print_time_s();
+}
+
+void PlannerCore::wait_step_restart(double before, double after, std::uint64_t line) {
+  // motion_queuing.py: after flush_all_steps the step generator has run to the last move's
+  // end + kin_flush_delay (the one in force when the moves were queued), and
+  // toolhead._calc_print_time restarts no earlier than that + kin_flush_delay (the one in
+  // force now). The wait is at rest, counted with the dwells.
+  if (!klipper_ || diag_.moves == 0) return;
+  const double wait_s = last_move_end_s() + before + after - timeline_.print_time_s();
+  if (wait_s > 0.0) on_dwell(wait_s, line);
+}
+
 void PlannerCore::step_flush(std::uint64_t line) {
   full_stop();
-  // motion_queuing.py: after flush_all_steps the step generator has run to the last move's
-  // end + kin_flush_delay, and toolhead._calc_print_time restarts no earlier than that +
-  // kin_flush_delay again; kin_flush_delay is SDS_CHECK_TIME (1 ms) without pressure advance
-  // or input shaping (their scan windows would lengthen it; not modelled). The wait is at
-  // rest, counted with the dwells.
-  // The end of the last move is the print time unless dwells came after it (tracked by
-  // on_dwell, so plain moves pay nothing for this).
-  if (!klipper_ || diag_.moves == 0) return;
-  const double last_move_end_s = diag_.moves == rest_moves_ ? rest_from_s_ : timeline_.print_time_s();
-  const double wait_s = last_move_end_s + 2.0 * kKlipperSdsCheckTime_s - timeline_.print_time_s();
-  if (wait_s > 0.0) on_dwell(wait_s, line);
+  const double d = step_timing_.flush_delay_s();
+  wait_step_restart(d, d, line);
+}
+
+void PlannerCore::on_step_tuning(const gcode::StepTuningCommand& cmd) {
+  if (!klipper_) return;
+  if (!cmd.flush) {
+    // extruder.py: a new ADVANCE alone (same smoothing) is a look-ahead callback: it applies
+    // from the end of the moves queued before it, with no stop.
+    step_timing_.apply(cmd);
+    post(PendingEvent::make_step_tuning(cmd));
+    return;
+  }
+  // input_shaper.py / extruder.py: flush_step_generation, then the new values, whose scan
+  // windows set the restart delay (check_step_generation_scan_windows).
+  full_stop();
+  const double before = step_timing_.flush_delay_s();
+  step_timing_.apply(cmd);
+  const double after = step_timing_.flush_delay_s();
+  const double from_s = diag_.moves == 0 ? timeline_.print_time_s() : last_move_end_s() + before;
+  timeline_.fire_at(PendingEvent::make_step_tuning(cmd), from_s);
+  wait_step_restart(before, after, cmd.line);
 }
 
 void PlannerCore::on_axis_range(int axis, double min_mm, double max_mm) {
@@ -351,6 +377,7 @@ void Planner::on_move(const gcode::MoveRequest& move) { core_->on_move(move); }
 void Planner::on_dwell(double duration_s, std::uint64_t line) { core_->on_dwell(duration_s, line); }
 void Planner::on_wait_moves(std::uint64_t /*line*/) { core_->full_stop(); }
 void Planner::on_step_flush(std::uint64_t line) { core_->step_flush(line); }
+void Planner::on_step_tuning(const gcode::StepTuningCommand& cmd) { core_->on_step_tuning(cmd); }
 void Planner::on_set_position(const std::array<double, 4>& /*pos_mm*/, std::uint64_t /*line*/) {
   core_->full_stop();
 }

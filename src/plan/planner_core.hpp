@@ -17,6 +17,7 @@
 #include "marlin_buffer.hpp"
 #include "move_queue.hpp"
 #include "pending_events.hpp"
+#include "step_timing.hpp"
 #include "ramp_shape.hpp"
 #include "timeline.hpp"
 
@@ -42,8 +43,8 @@ class PlannerCore {
   void on_axis_range(int axis, double min_mm, double max_mm);
   /// Klipper's flush_step_generation: a full stop and the step generator's restart gap.
   void step_flush(std::uint64_t line);
-  /// Klipper motion_queuing.py SDS_CHECK_TIME [s], the smallest kin_flush_delay.
-  static constexpr double kKlipperSdsCheckTime_s = 0.001;
+  /// Klipper's SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE (step_timing.hpp).
+  void on_step_tuning(const gcode::StepTuningCommand& cmd);
   void on_heater(const gcode::HeaterCommand& cmd);
   /// Queues a non-motion event behind the moves queued so far.
   void post(PendingEvent&& e);
@@ -101,7 +102,14 @@ class PlannerCore {
   // Where the toolhead came to rest for the first dwell after the move numbered rest_moves_
   // (diag_.moves then): step_flush's "end of the last move".
   std::uint64_t rest_moves_ = 0;
-  double rest_from_s_ = 0.0;          // any limit set (and the firmware uses it)
+  double rest_from_s_ = 0.0;
+  /// Klipper's step-generation restart delay and what sets it.
+  StepTiming step_timing_;
+  /// The end of the last move (the print time unless dwells came after it).
+  [[nodiscard]] double last_move_end_s() const;
+  /// The rest step_flush waits for: the generator's restart `before` after the last move's end
+  /// and `after` more (the delays before and after a change).
+  void wait_step_restart(double before, double after, std::uint64_t line);          // any limit set (and the firmware uses it)
   gcode::MoveRequest range_scratch_;   // a clamped copy of the current move (Marlin)
   /// Klipper: posts the first out-of-range move. Marlin: clamps into `scratch` and returns it.
   const gcode::MoveRequest& apply_range(const gcode::MoveRequest& r, gcode::MoveRequest& scratch);

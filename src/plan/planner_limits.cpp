@@ -40,6 +40,7 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
       timeline_(sink, ramps_.jerk_limited()),
       lookahead_(ramps_, timeline_),
       buffer_(ramps_, timeline_, buffer_size_of(m, options)),
+      step_timing_(m),
       machine_(m) {
   classic_jerk_ = m.junction == machine::JunctionPolicy::classic_jerk;
   const bool klipper = m.firmware == Firmware::klipper;

@@ -45,6 +45,9 @@ class BatchWriter final : public PlanSink {
   void on_input_shaping(double time_s, const gcode::InputShapingCommand& cmd) override {
     event(PlanEvent::Kind::input_shaping, time_s, cmd.line).shaping = cmd;
   }
+  void on_step_tuning(double time_s, const gcode::StepTuningCommand& cmd) override {
+    event(PlanEvent::Kind::step_tuning, time_s, cmd.line).tuning = cmd;
+  }
 
  private:
   PlanEvent& event(PlanEvent::Kind kind, double time_s, std::uint64_t line) {

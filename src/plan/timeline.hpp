@@ -24,6 +24,7 @@ class Timeline {
 
   /// An event with no move left to wait for takes effect now.
   void fire_now(const PendingEvent& e) { e.fire(print_time_s_, sink_); }
+  void fire_at(const PendingEvent& e, double time_s) { e.fire(time_s, sink_); }
   void release_all_events() { events_.release(PendingEvents::kAll, print_time_s_, sink_); }
   [[nodiscard]] PendingEvents& events() { return events_; }
 

@@ -139,6 +139,10 @@ shaping::AxisShapers axis_shapers(const machine::InputShaper& config) {
     s.xyz[1] = shaping::make_shaper(config.shaper_type_y, config.shaper_freq_y_hz,
                                     config.damping_ratio_y);
   }
+  if (config.shaper_freq_z_hz > 0.0) {
+    s.xyz[2] = shaping::make_shaper(config.shaper_type_z, config.shaper_freq_z_hz,
+                                    config.damping_ratio_z);
+  }
   return s;
 }
 
@@ -158,19 +162,84 @@ ShapedStepGenerator::ShapedStepGenerator(std::vector<kinematics::Motor> motors,
       scratch_(motors_.size()) {
   for (const kinematics::Motor& m : motors_) {
     AMCTL_CHECK(m.step_distance.value > 0.0, "step distance must be positive");
+    AMCTL_CHECK(!m.linear() || m.row[3] == 0.0 || (m.row[0] == 0.0 && m.row[1] == 0.0 && m.row[2] == 0.0),
+                "a motor moves with the toolhead or with the extruder, not both");
   }
+  make_streams(shapers, pa);
+}
+
+void ShapedStepGenerator::make_streams(const shaping::AxisShapers& shapers,
+                                       const shaping::PressureAdvance& pa) {
+  // With pressure advance the extruder is stepped on pieces of its own: the toolhead's pieces
+  // break at every plan break shifted by each shaper delay, the extruder's by -h, 0 and +h;
+  // one stream for both would give every motor the breaks of both.
+  e_stream_.reset();
+  if (pa.active()) {
+    stream_ = shaping::ShapedPieceStream(shapers, shaping::PressureAdvance{0.0, pa.smooth_time_s});
+    e_stream_.emplace(shaping::AxisShapers{}, pa);
+  } else {
+    stream_ = shaping::ShapedPieceStream(shapers, pa);
+  }
+  front_s_ = e_front_s_ = -std::numeric_limits<double>::infinity();
+}
+
+bool ShapedStepGenerator::on_extruder_stream(std::size_t c) const {
+  return e_stream_.has_value() && motors_[c].linear() && motors_[c].row[3] != 0.0;
+}
+
+void ShapedStepGenerator::set_advance(double advance_s) {
+  if (e_stream_) e_stream_->set_advance(advance_s);
+  else stream_.set_advance(advance_s);
 }
 
 void ShapedStepGenerator::add_move(const plan::PlannedMove& move, std::vector<Step>& out) {
   pieces_.clear();
   stream_.push(move, pieces_);
-  step_pieces(out);
+  e_pieces_.clear();
+  if (e_stream_) e_stream_->push(move, e_pieces_);
+  step_pieces(out, false);
+}
+
+double ShapedStepGenerator::motor_position(std::size_t c, const std::array<double, 4>& x) const {
+  const kinematics::Motor& m = motors_[c];
+  if (m.linear()) return m.row[0] * x[0] + m.row[1] * x[1] + m.row[2] * x[2] + m.row[3] * x[3];
+  return m.curve->position(kinematics::Vec3{x[0], x[1], x[2]});
+}
+
+void ShapedStepGenerator::reconfigure(const shaping::AxisShapers& shapers,
+                                      const shaping::PressureAdvance& pa, std::vector<Step>& out) {
+  if (stream_.started()) {
+    finish(out);
+    for (std::size_t c = 0; c < motors_.size(); ++c) {
+      State& st = state_[c];
+      if (!st.started) continue;
+      st.resume = true;
+      st.resume_mm = motor_position(c, stream_.end_mm()) - st.origin;
+    }
+  }
+  make_streams(shapers, pa);
+}
+
+void ShapedStepGenerator::continue_from(const StepGenerator& plain) {
+  for (std::size_t c = 0; c < motors_.size(); ++c) {
+    const StepGenerator::MotorState p = plain.motor_state(c);
+    if (!p.started) continue;
+    State& st = state_[c];
+    st.started = true;
+    st.resume = true;
+    st.resume_mm = p.last_end_mm - p.origin_mm;
+    st.n = p.n;
+    st.last_step_s = p.last_step_s;
+  }
+  stats_ = plain.stats();
 }
 
 void ShapedStepGenerator::finish(std::vector<Step>& out) {
   pieces_.clear();
   stream_.finish(pieces_);
-  step_pieces(out);
+  e_pieces_.clear();
+  if (e_stream_) e_stream_->finish(e_pieces_);
+  step_pieces(out, true);
 }
 
 void ShapedStepGenerator::record(std::uint32_t c, double t, int dir) {
@@ -211,34 +280,46 @@ void ShapedStepGenerator::record(std::uint32_t c, double t, int dir) {
   stats.position_steps = st.n;
 }
 
-void ShapedStepGenerator::step_pieces(std::vector<Step>& out) {
-  if (pieces_.empty()) return;
-  for (auto& s : scratch_) s.clear();
+void ShapedStepGenerator::step_pieces(std::vector<Step>& out, bool final) {
+  if (pieces_.empty() && e_pieces_.empty() && !final) return;
   for (const AxisPiece& piece : pieces_) {
     for (std::uint32_t c = 0; c < motors_.size(); ++c) {
+      if (on_extruder_stream(c)) continue;
       if (motors_[c].linear()) linear_piece(c, piece);
       else curve_piece(c, piece);
     }
   }
-  // k-way merge by time (ties: motor order).
-  std::size_t total = 0;
-  for (const auto& s : scratch_) total += s.size();
-  out.reserve(out.size() + total);
-  std::vector<std::size_t> head(motors_.size(), 0);
-  for (std::size_t k = 0; k < total; ++k) {
-    std::size_t best = motors_.size();
-    double best_t = 0.0;
-    for (std::size_t c = 0; c < motors_.size(); ++c) {
-      if (head[c] < scratch_[c].size()) {
-        const double t = scratch_[c][head[c]].time_s;
-        if (best == motors_.size() || t < best_t) {
-          best = c;
-          best_t = t;
-        }
-      }
+  for (const AxisPiece& piece : e_pieces_) {
+    for (std::uint32_t c = 0; c < motors_.size(); ++c) {
+      if (on_extruder_stream(c)) linear_piece(c, piece);
     }
-    out.push_back(scratch_[best][head[best]++]);
   }
+  if (!pieces_.empty()) front_s_ = pieces_.back().t0_s + pieces_.back().duration_s;
+  if (!e_pieces_.empty()) e_front_s_ = e_pieces_.back().t0_s + e_pieces_.back().duration_s;
+  // Steps go out in time order: with two streams, only those before both streams' ends (the
+  // rest wait for the other stream's next pieces).
+  const double release = final || !e_stream_ ? std::numeric_limits<double>::infinity()
+                                             : std::min(front_s_, e_front_s_);
+  // Merge by time, ties in motor order: each motor's released steps merged into the motors'
+  // before it (std::merge takes the first range's element first on a tie).
+  const auto by_time = [](const Step& a, const Step& b) { return a.time_s < b.time_s; };
+  merged_.clear();
+  for (std::size_t c = 0; c < motors_.size(); ++c) {
+    std::vector<Step>& s = scratch_[c];
+    const auto end = release == std::numeric_limits<double>::infinity()
+                         ? s.end()
+                         : std::upper_bound(s.begin(), s.end(), Step{release, 0, 0}, by_time);
+    if (end == s.begin()) continue;
+    if (merged_.empty()) {
+      merged_.assign(s.begin(), end);
+    } else {
+      merge_tmp_.resize(merged_.size() + static_cast<std::size_t>(end - s.begin()));
+      std::merge(merged_.begin(), merged_.end(), s.begin(), end, merge_tmp_.begin(), by_time);
+      merged_.swap(merge_tmp_);
+    }
+    s.erase(s.begin(), end);
+  }
+  out.insert(out.end(), merged_.begin(), merged_.end());
 }
 
 void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) {
@@ -253,9 +334,10 @@ void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) 
            r[3] * piece.c[3][kk];
     if (k > 0 && p[k] != 0.0) deg = k;
   }
-  if (!st.started) {
+  if (!st.started || st.resume) {
+    st.origin = p[0] - (st.resume ? st.resume_mm : 0.0);
     st.started = true;
-    st.origin = p[0];
+    st.resume = false;
   }
   if (deg == 0) return;
   const double L = piece.duration_s;
@@ -300,9 +382,10 @@ void ShapedStepGenerator::curve_piece(std::uint32_t c, const AxisPiece& piece) {
     return v;
   };
   const double q0 = q(0.0);
-  if (!st.started) {
+  if (!st.started || st.resume) {
+    st.origin = q0 - (st.resume ? st.resume_mm : 0.0);
     st.started = true;
-    st.origin = q0;
+    st.resume = false;
   }
   bool moves = false;
   for (std::size_t a = 0; a < 3 && !moves; ++a) {
@@ -394,6 +477,84 @@ void ShapedStepSink::consume(const plan::PlanBatch& batch) {
 void ShapedStepSink::finish(const plan::StreamSummary&) {
   buf_.clear();
   gen_.finish(buf_);
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+shaping::AxisShapers axis_shapers(const std::array<gcode::AxisShaperSetting, 3>& s) {
+  shaping::AxisShapers out;
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (s[a].freq_hz > 0.0) out.xyz[a] = shaping::make_shaper(s[a].type, s[a].freq_hz, s[a].damping_ratio);
+  }
+  return out;
+}
+
+TunedStepSink::TunedStepSink(std::vector<kinematics::Motor> motors, const machine::Machine& m,
+                             Callback on_steps)
+    : motors_(std::move(motors)), pa_(pressure_advance(m)), on_steps_(std::move(on_steps)) {
+  const machine::InputShaper& is = m.input_shaper;
+  shapers_[0] = {is.shaper_type_x, is.shaper_freq_x_hz, is.damping_ratio_x};
+  shapers_[1] = {is.shaper_type_y, is.shaper_freq_y_hz, is.damping_ratio_y};
+  shapers_[2] = {is.shaper_type_z, is.shaper_freq_z_hz, is.damping_ratio_z};
+  if (is.active() || pa_.active()) {
+    shaped_.emplace(motors_, axis_shapers(shapers_), pa_);
+  } else {
+    plain_.emplace(motors_);
+  }
+}
+
+const std::vector<StepperStats>& TunedStepSink::stats() const {
+  return shaped_ ? shaped_->stats() : plain_->stats();
+}
+
+void TunedStepSink::on_move(const plan::PlannedMove& m) {
+  buf_.clear();
+  if (shaped_) {
+    shaped_->add_move(m, buf_);
+  } else {
+    plain_->add_move(m, buf_);
+  }
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+void TunedStepSink::on_tuning(const plan::PlanEvent& e) {
+  const gcode::StepTuningCommand& c = e.tuning;
+  const bool advance = c.kind == gcode::StepTuningCommand::Kind::pressure_advance;
+  if (advance) {
+    if (c.extruder != "extruder") return;  // a stepper amctl does not step
+    pa_ = shaping::PressureAdvance{c.pressure_advance_s, c.smooth_time_s};
+    if (!c.flush) {
+      if (shaped_) shaped_->set_advance(c.pressure_advance_s);
+      return;
+    }
+  } else {
+    shapers_ = c.shapers;
+  }
+  buf_.clear();
+  const shaping::AxisShapers shapers = axis_shapers(shapers_);
+  if (shaped_) {
+    shaped_->reconfigure(shapers, pa_, buf_);
+  } else {
+    bool any = pa_.active();
+    for (const auto& s : shapers.xyz) any = any || s.has_value();
+    if (!any) return;
+    shaped_.emplace(motors_, shapers, pa_);
+    shaped_->continue_from(*plain_);
+  }
+  if (!buf_.empty() && on_steps_) on_steps_(buf_);
+}
+
+void TunedStepSink::consume(const plan::PlanBatch& batch) {
+  plan::for_each_in_order(
+      batch, [&](const plan::PlannedMove& m) { on_move(m); },
+      [&](const plan::PlanEvent& e) {
+        if (e.kind == plan::PlanEvent::Kind::step_tuning) on_tuning(e);
+      });
+}
+
+void TunedStepSink::finish(const plan::StreamSummary&) {
+  if (!shaped_) return;
+  buf_.clear();
+  shaped_->finish(buf_);
   if (!buf_.empty() && on_steps_) on_steps_(buf_);
 }
 

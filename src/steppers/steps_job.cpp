@@ -64,17 +64,11 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   // With [input_shaper] every motor follows the shaped toolhead and with pressure advance the
   // extruder its advanced, smoothed position (shaped_steps.hpp); without either the plain
   // generator, whose output the shaped one equals then.
-  std::optional<StepSink> plain;
-  std::optional<ShapedStepSink> shaped;
-  plan::Sink* sink = nullptr;
+  // SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE in the G-code change them as Klipper does.
   const shaping::PressureAdvance pa = pressure_advance(m);
-  if (m.input_shaper.active() || pa.active()) {
-    sink = &shaped.emplace(motors, axis_shapers(m.input_shaper), pa, on_steps);
-  } else {
-    sink = &plain.emplace(motors, on_steps);
-  }
+  TunedStepSink tuned(motors, m, on_steps);
   plan::CallbackSink counter([&](const PlannedMove&) { ++moves; });
-  plan::Sink* sinks[] = {sink, &counter};
+  plan::Sink* sinks[] = {&tuned, &counter};
   const plan::StreamSummary& summary = plan::run_pipeline(source, sinks);
   if (filter == StepFilter::klipper) {
     passed.clear();
@@ -104,7 +98,7 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
     r.stats = sds.stats();
     r.filtered_pairs = sds.pairs_removed();
   } else {
-    r.stats = shaped ? shaped->generator().stats() : plain->generator().stats();
+    r.stats = tuned.stats();
     r.filtered_pairs.assign(motors.size(), 0);
   }
   return r;
@@ -149,7 +143,9 @@ Json to_json(const StepsReport& r) {
   const Json shaper = is.active() ? Json{{"x", axis_shaper(is.shaper_type_x, is.shaper_freq_x_hz,
                                                           is.damping_ratio_x)},
                                          {"y", axis_shaper(is.shaper_type_y, is.shaper_freq_y_hz,
-                                                          is.damping_ratio_y)}}
+                                                          is.damping_ratio_y)},
+                                         {"z", axis_shaper(is.shaper_type_z, is.shaper_freq_z_hz,
+                                                          is.damping_ratio_z)}}
                                   : Json(nullptr);
   const Json advance = r.pressure_advance_s > 0.0
                            ? Json{{"advance_s", json_number(r.pressure_advance_s)},

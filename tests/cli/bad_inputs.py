@@ -769,6 +769,22 @@ for i, (name, args, where) in enumerate(FLAG_CASES):
                    ["o.csv", "o.gcode", "o.stl", "r.html"]))
 CASES += R2
 
+# Klipper's SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE (docs/steppers.md section 8): what Klipper
+# refuses stops at its place, for `steps` and `estimate` alike.
+SHAPED_CFG = STEPPER_CFG + "[input_shaper]\nshaper_freq_x: 40\nshaper_freq_y: 40\n"
+for i, (line, col) in enumerate([
+        ("SET_INPUT_SHAPER SHAPER_TYPE_X=foo", 32),
+        ("SET_INPUT_SHAPER SHAPER_TYPE=zvdd", 30),
+        ("SET_INPUT_SHAPER SHAPER_FREQ_X=-40", 32),
+        ("SET_INPUT_SHAPER SHAPER_TYPE_Y=3hump_ei DAMPING_RATIO_Y=0.25", 57),
+        ("SET_PRESSURE_ADVANCE ADVANCE=-0.02", 30),
+        ("SET_PRESSURE_ADVANCE SMOOTH_TIME=0.25", 34),
+        ("SET_PRESSURE_ADVANCE EXTRUDER=extruder1 ADVANCE=0.05", 31)]):
+    for cmd in ("steps", "estimate"):
+        CASES.append(case(f"step_tuning_{cmd}_{i}", [cmd, "f.gcode", "-m", "p.cfg"],
+                          {"f.gcode": GOOD_GCODE + line + "\nG1 X30 E3\n", "p.cfg": SHAPED_CFG},
+                          f"f.gcode:7:{col}"))
+
 # ---- Klipper [bed_mesh] (docs/bedmesh.md): a saved profile that does not fill its grid, a
 # value that is not a finite number, a key missing, fade_end at or below fade_start, an unknown
 # profile loaded and a mesh taller than its fade distance.

@@ -121,7 +121,9 @@ TEST(KlipperSteps, ShapedAndPressureAdvanceHaveKlippersStepCountsAndTimes) {
     }
     ++files;
   }
-  EXPECT_EQ(files, 12);  // 7 synthetic inputs x 2 printers, less the two with a stop
+  // 9 synthetic inputs (2 of them changing the shaper and the pressure advance mid-print with
+  // SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE) x 2 printers, less the two with a stop.
+  EXPECT_EQ(files, 16);
 }
 
 // generic_cartesian, polar and rotary_delta (klipper_steps_kinematics.json, the same script on

@@ -62,6 +62,35 @@ struct InputShapingCommand {
   std::uint64_t line = 0;
 };
 
+/// One axis's input shaper as Klipper's [input_shaper] / SET_INPUT_SHAPER set it: the type as
+/// written (lower case; optionally with parameters, `mzv(n=4, t=0.9)`), the frequency [Hz]
+/// (0 = the axis is not shaped) and the damping ratio it is designed for.
+struct AxisShaperSetting {
+  std::string type = "mzv";
+  double freq_hz = 0.0;
+  double damping_ratio = 0.1;
+  bool operator==(const AxisShaperSetting&) const = default;
+};
+
+/// Klipper's SET_INPUT_SHAPER (input_shaper.py) and SET_PRESSURE_ADVANCE (extruder.py), with
+/// the settings in force after the command (every axis, the extruder's pair). `flush`: Klipper
+/// flushes the step generation first (SET_INPUT_SHAPER with parameters; a pressure advance
+/// whose smoothing time in force changes, pressure advance 0 counting as no smoothing) and the
+/// new values apply from the step generator's restart; otherwise (a new ADVANCE with the same
+/// smoothing) they apply to the moves after the command, from the end of the queued moves.
+struct StepTuningCommand {
+  enum class Kind : std::uint8_t { input_shaper, pressure_advance };
+  Kind kind = Kind::input_shaper;
+  std::array<AxisShaperSetting, 3> shapers{};  ///< input_shaper: X, Y, Z
+  std::string extruder = "extruder";           ///< pressure_advance: the extruder's name
+  double pressure_advance_s = 0.0;
+  double smooth_time_s = 0.040;
+  bool flush = false;
+  std::uint64_t line = 0;
+  /// 1-based columns of the type and damping ratio each axis took from the command (0: kept).
+  std::array<std::uint32_t, 3> type_column{}, damping_column{};
+};
+
 /// Klipper's [bed_mesh] commands (klippy/extras/bed_mesh.py), passed on only for a printer.cfg
 /// with [bed_mesh] (InterpreterOptions::bed_mesh); the bedmesh module applies them.
 struct BedMeshCommand {
@@ -104,6 +133,9 @@ class EventSink {
   virtual void on_untimed(std::string_view name, std::uint64_t line) { (void)name; (void)line; }
   /// M593 (input shaping). Also counted in Interpreter::ignored_commands(): no effect on time.
   virtual void on_input_shaping(const InputShapingCommand& cmd) { (void)cmd; }
+  /// Klipper's SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE (step generation; a flush one is a
+  /// step-generation flush with the step generator's new restart delay).
+  virtual void on_step_tuning(const StepTuningCommand& cmd) { (void)cmd; }
   /// BED_MESH_PROFILE, BED_MESH_CLEAR, BED_MESH_OFFSET on a printer with [bed_mesh].
   virtual void on_bed_mesh(const BedMeshCommand& cmd) { (void)cmd; }
 };

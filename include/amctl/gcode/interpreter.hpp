@@ -101,6 +101,23 @@ struct InterpreterOptions {
   std::function<std::string(const std::map<std::string, std::string, std::less<>>& now,
                             const std::string& stepper, const std::string& expr, bool full)>
       check_stepper_carriages;
+  /// Klipper's SET_INPUT_SHAPER and SET_PRESSURE_ADVANCE (input_shaper.py, extruder.py):
+  /// the settings in force at the start; unset (not Klipper), both are counted as ignored.
+  struct StepTuning {
+    /// SET_INPUT_SHAPER is a command (the printer has [input_shaper]); else it is ignored.
+    bool input_shaper = false;
+    std::array<AxisShaperSetting, 3> shapers{};  ///< X, Y, Z
+    /// The steppers SET_PRESSURE_ADVANCE EXTRUDER= names ([extruder], [extruderN],
+    /// [extruder_stepper NAME]) with their pressure advance and smoothing time; empty:
+    /// no extruder, the command is ignored.
+    struct Extruder {
+      std::string name;
+      double pressure_advance_s = 0.0;
+      double smooth_time_s = 0.040;
+    };
+    std::vector<Extruder> extruders;
+  };
+  std::optional<StepTuning> step_tuning;
   /// Klipper's [bed_mesh] is configured: BED_MESH_PROFILE, BED_MESH_CLEAR and BED_MESH_OFFSET
   /// reach the sink as EventSink::on_bed_mesh (otherwise they are counted as ignored).
   bool bed_mesh = false;
@@ -218,6 +235,8 @@ class Interpreter {
   /// Klipper's get_kin_range for the axis of a pair, sent to the sink as its range.
   void send_carriage_range(std::size_t pair, std::uint64_t line_no, EventSink& sink);
   void update_path_choice();
+  /// SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE (step_tuning.cpp): true when handled.
+  bool handle_step_tuning(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void note_unknown(std::string_view name, std::uint64_t line_no);
   void note_ignored(std::string_view name);
   [[noreturn]] void fail(std::uint64_t line_no, std::uint32_t col, const std::string& msg) const;

@@ -109,8 +109,14 @@ struct InputShaper {
   double shaper_freq_y_hz = 0.0;
   double damping_ratio_x = 0.1;
   double damping_ratio_y = 0.1;
+  /// Z (Klipper's input_shaper.py shapes Z too: shaper_type_z, shaper_freq_z, damping_ratio_z).
+  std::string shaper_type_z = "mzv";
+  double shaper_freq_z_hz = 0.0;
+  double damping_ratio_z = 0.1;
   /// true when any axis has a frequency > 0.
-  [[nodiscard]] bool active() const { return shaper_freq_x_hz > 0.0 || shaper_freq_y_hz > 0.0; }
+  [[nodiscard]] bool active() const {
+    return shaper_freq_x_hz > 0.0 || shaper_freq_y_hz > 0.0 || shaper_freq_z_hz > 0.0;
+  }
   bool operator==(const InputShaper&) const = default;
 };
 

@@ -73,6 +73,12 @@ class PlanSink {
   virtual void on_input_shaping(double time_s, const gcode::InputShapingCommand& cmd) {
     (void)time_s; (void)cmd;
   }
+  /// Klipper's SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE, in force for the step generator from
+  /// `time_s`: the step generator's restart after a flush (the last move's end + the restart
+  /// delay before the command), else the end of the moves before it.
+  virtual void on_step_tuning(double time_s, const gcode::StepTuningCommand& cmd) {
+    (void)time_s; (void)cmd;
+  }
 };
 
 struct PlannerOptions {
@@ -124,6 +130,7 @@ class Planner final : public gcode::EventSink {
   void on_heater(const gcode::HeaterCommand& cmd) override;
   void on_fan(double fraction, std::uint64_t line) override;
   void on_input_shaping(const gcode::InputShapingCommand& cmd) override;
+  void on_step_tuning(const gcode::StepTuningCommand& cmd) override;
   void on_progress(const gcode::ProgressMarker& m) override;
   void on_layer_change(std::int32_t layer, std::uint64_t line) override;
   void on_untimed(std::string_view name, std::uint64_t line) override;

@@ -36,7 +36,7 @@ namespace amctl::plan {
 
 /// A non-motion event of the plan, at its print time.
 struct PlanEvent {
-  enum class Kind : std::uint8_t { dwell, heater, progress, untimed, layer, fan, input_shaping, range_error };
+  enum class Kind : std::uint8_t { dwell, heater, progress, untimed, layer, fan, input_shaping, range_error, step_tuning };
   Kind kind = Kind::dwell;
   /// Number of the batch's moves that come before this event (events sit between moves).
   std::size_t before_move = 0;
@@ -50,6 +50,9 @@ struct PlanEvent {
   std::string name;             ///< untimed command (G28, probing, ...)
   gcode::InputShapingCommand shaping{};  ///< input_shaping (M593)
   RangeError range{};           ///< range_error (Klipper "Move out of range"), at_s == time_s
+  /// step_tuning: Klipper's SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE, for the step generator
+  /// from time_s (PlanSink::on_step_tuning).
+  gcode::StepTuningCommand tuning{};
 };
 
 /// One piece of the stream: moves in time order and the events between them.

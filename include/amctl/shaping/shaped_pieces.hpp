@@ -23,6 +23,7 @@
 #include <array>
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include "amctl/plan/planned_move.hpp"
@@ -59,6 +60,16 @@ class ShapedPieceStream {
   void push(const plan::PlannedMove& move, std::vector<AxisPiece>& out);
   /// The pieces left once no move follows (the tool rests after the last move), to `out`.
   void finish(std::vector<AxisPiece>& out);
+
+  /// The pressure advance of the moves pushed from now on (Klipper's SET_PRESSURE_ADVANCE with
+  /// the same smoothing time: each move keeps the advance in force when it was queued).
+  void set_advance(double advance_s) { pa_.advance_s = advance_s; }
+  /// Every axis at the end of the last move pushed, and the offset added to the plan's
+  /// positions (G92 and homing jumps absorbed), in the stream's coordinates.
+  [[nodiscard]] const std::array<double, 4>& end_mm() const { return end_mm_; }
+  [[nodiscard]] const std::array<double, 4>& offset_mm() const { return offset_mm_; }
+  [[nodiscard]] bool started() const { return started_; }
+  [[nodiscard]] double advance_s() const { return pa_.advance_s; }
 
   /// Largest look-behind delay (>= 0) and the most negative look-ahead delay (<= 0) [s].
   [[nodiscard]] double max_delay_s() const { return max_delay_s_; }

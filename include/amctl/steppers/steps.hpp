@@ -80,6 +80,20 @@ class StepGenerator {
   [[nodiscard]] const std::vector<kinematics::Motor>& motors() const { return motors_; }
   [[nodiscard]] const std::vector<StepperStats>& stats() const { return stats_; }
 
+  /// Where motor c stands: its step count, the motor position of step 0 and at the end of the
+  /// last move (both with the motor's offset added), and its last step's time.
+  struct MotorState {
+    bool started = false;
+    std::int64_t n = 0;
+    double origin_mm = 0.0;
+    double last_end_mm = 0.0;
+    double last_step_s = -std::numeric_limits<double>::infinity();
+  };
+  [[nodiscard]] MotorState motor_state(std::size_t c) const {
+    const State& s = state_[c];
+    return MotorState{s.started, s.n, s.origin_mm, s.last_end_mm, s.last_step_s};
+  }
+
  private:
   struct State {
     bool started = false;
