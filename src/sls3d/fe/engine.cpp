@@ -187,7 +187,17 @@ class FePlant final : public Plant {
   // Updates the consolidation states from T; returns (cells changed, enthalpy change).
   std::pair<int, double> update_states();
   [[nodiscard]] double energy_of(const Vec& t_ghost) const;
-  void solve_linear(Vec& x, const Vec& b, int& iterations, const char* what);
+  // The nodal enthalpy model phi_i(T) = a_i T + b_i max(sigma_i, f(T)) of the lumped mass
+  // (a_i = sum of m rho c, b_i = sum of m rho L over the node's cells, sigma_i their mean state
+  // weighted by b): exact at a node whose cells share one state.
+  void build_nodal_model();
+  // Newton's update mapped through the enthalpy: phi_i(T_new) = phi_i(T) + phi_i'(T) delta_i,
+  // so a node the linearisation carries across the melting range stops where the latent heat
+  // puts it instead of where the heat capacity alone would (Nedjar, 2002). delta is replaced
+  // by T_new - T.
+  void enthalpy_update(const Vec& t_owned, Vec& delta) const;
+  // CG on J x = b to |r| <= rel_tol |b| (at least the configured linear tolerance).
+  void solve_linear(Vec& x, const Vec& b, double rel_tol, int& iterations, const char* what);
   [[noreturn]] void fail(const std::string& message) const;
   std::pair<Cell, Point<dim>> locate(const Point<dim>& p) const;
 
@@ -219,17 +229,31 @@ class FePlant final : public Plant {
   std::uint64_t matrix_version_ = 0;
   std::unique_ptr<TrilinosWrappers::PreconditionAMG> amg_;
   types::global_dof_index amg_dofs_ = 0;
-  int amg_age_ = 0, amg_iterations_ = -1, last_iterations_ = 0;
+  int amg_age_ = 0;
+  // CG iterations per decade of residual reduction right after the AMG hierarchy was built,
+  // and in the last solve (the solves ask for different reductions, so the rate compares).
+  double amg_rate_ = -1, last_rate_ = 0;
+  // The previous step's temperatures (owned), for the predictor; invalid after a change of
+  // mesh, of the deposited domain or of the temperatures from outside.
+  Vec t_prev_;
+  Vec node_a_, node_b_, node_bs_;
+  double prev_dt_ = 0.0;
+  bool have_prev_ = false;
+  // Newton's contraction |R_1|/|R_0| in the last step (sets the first linear tolerance).
+  double last_contraction_ = 0.0;
   // Seconds by phase, printed to stderr at the end when AMCTL_SLS3D_PROFILE is set.
-  mutable double t_assemble_ = 0, t_linear_ = 0, t_remesh_ = 0, t_setup_ = 0, t_inputs_ = 0, t_other_ = 0;
+  mutable double t_assemble_ = 0, t_assemble_matrix_ = 0, t_linear_ = 0, t_remesh_ = 0, t_setup_ = 0, t_inputs_ = 0, t_amg_ = 0;
+  mutable long n_assemble_matrix_ = 0, n_assemble_vector_ = 0, n_amg_ = 0, n_cg_ = 0, n_newton_ = 0, n_predicted_ = 0;
 
  public:
   ~FePlant() override {
     if (std::getenv("AMCTL_SLS3D_PROFILE") && Utilities::MPI::this_mpi_process(comm_) == 0)
       std::fprintf(stderr,
-                   "sls3d profile: assemble %.3f s, linear %.3f s, inputs %.3f s, remesh %.3f s (setup %.3f s), "
-                   "other %.3f s\n",
-                   t_assemble_, t_linear_, t_inputs_, t_remesh_, t_setup_, t_other_);
+                   "sls3d profile: assemble %.3f s (%ld with the matrix: %.3f s, %ld vectors only), linear %.3f s "
+                   "(%ld CG iterations, AMG setup %.3f s in %ld builds), inputs %.3f s, remesh %.3f s "
+                   "(setup %.3f s); %ld Newton iterations, predictor taken in %ld steps\n",
+                   t_assemble_, n_assemble_matrix_, t_assemble_matrix_, n_assemble_vector_, t_linear_, n_cg_, t_amg_, n_amg_,
+                   t_inputs_, t_remesh_, t_setup_, n_newton_, n_predicted_);
   }
 };
 
@@ -296,6 +320,7 @@ void FePlant::setup_dofs() {
   amg_.reset();
   jac_.reinit(owned_, owned_, dsp, comm_);
   t_.reinit(owned_, relevant_, comm_);
+  have_prev_ = false;
   cache_ = std::make_unique<GridTools::Cache<dim>>(tria_, mapping_);
   build_cell_cache();
   t_setup_ += timer.wall_time();
@@ -433,6 +458,10 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
   if (matrix) {
     jac_.compress(VectorOperation::add);
     ++matrix_version_;
+    ++n_assemble_matrix_;
+    t_assemble_matrix_ += timer.wall_time();
+  } else {
+    ++n_assemble_vector_;
   }
   sums.enthalpy = Utilities::MPI::sum(sums.enthalpy, comm_);
   sums.loss = Utilities::MPI::sum(sums.loss, comm_);
@@ -601,20 +630,76 @@ std::pair<int, double> FePlant::update_states() {
   return {int(Utilities::MPI::sum(changed, comm_)), Utilities::MPI::sum(de, comm_)};
 }
 
+void FePlant::build_nodal_model() {
+  node_a_.reinit(owned_, comm_);
+  node_b_.reinit(owned_, comm_);
+  node_bs_.reinit(owned_, comm_);
+  Vector<double> ca(8), cb(8), cs(8);
+  std::vector<types::global_dof_index> idx(8);
+  for (const CellData& d : cells_) {
+    const Law lw = law(d.cell);
+    for (unsigned i = 0; i < 8; ++i) {
+      idx[i] = d.dofs[i];
+      ca[i] = lw.rho_c * d.volume[i];
+      cb[i] = lw.rho_l * d.volume[i];
+      cs[i] = lw.rho_l * lw.s * d.volume[i];
+    }
+    cons_.distribute_local_to_global(ca, idx, node_a_);
+    cons_.distribute_local_to_global(cb, idx, node_b_);
+    cons_.distribute_local_to_global(cs, idx, node_bs_);
+  }
+  node_a_.compress(VectorOperation::add);
+  node_b_.compress(VectorOperation::add);
+  node_bs_.compress(VectorOperation::add);
+}
+
+void FePlant::enthalpy_update(const Vec& t_owned, Vec& delta) const {
+  const double ts = spec_.melting.solidus_c, w = spec_.melting.liquidus_c - spec_.melting.solidus_c;
+  const auto n = std::size_t(delta.locally_owned_size());
+  const double* t = t_owned.begin();
+  const double* a = node_a_.begin();
+  const double* b = node_b_.begin();
+  const double* bs = node_bs_.begin();
+  double* d = delta.begin();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (a[i] <= 0.0 || b[i] <= 0.0 || d[i] == 0.0) continue;  // constrained, or no latent heat
+    const double sigma = std::clamp(bs[i] / b[i], 0.0, 1.0);
+    auto phi = [&](double x) { return a[i] * x + b[i] * std::max(sigma, smoothstep((x - ts) / w)); };
+    auto slope = [&](double x) {
+      const double f = smoothstep((x - ts) / w);
+      return a[i] + (f > sigma ? b[i] * smoothstep_slope((x - ts) / w) / w : 0.0);
+    };
+    const double target = phi(t[i]) + slope(t[i]) * d[i];
+    // phi rises with a slope of at least a_i, and b_i (1 - sigma) at most over the latent range.
+    double lo = (target - b[i]) / a[i], hi = (target - b[i] * sigma) / a[i];
+    double x = std::clamp(t[i] + d[i], lo, hi);
+    for (int k = 0; k < 60 && hi - lo > 1e-12 * (1.0 + std::abs(x)); ++k) {
+      const double g = phi(x) - target;
+      if (g == 0.0) break;
+      (g > 0 ? hi : lo) = x;
+      const double next = x - g / slope(x);
+      x = (next > lo && next < hi) ? next : 0.5 * (lo + hi);
+    }
+    d[i] = x - t[i];
+  }
+}
+
 [[noreturn]] void FePlant::fail(const std::string& message) const {
   std::ostringstream os;
   os << "step " << step_count_ << ": " << message;
   throw Error(os.str());
 }
 
-void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* what) {
+void FePlant::solve_linear(Vec& x, const Vec& b, double rel_tol, int& iterations, const char* what) {
   const double bnorm = b.l2_norm();
   if (bnorm == 0.0) {
     x = 0;
     return;
   }
   Timer timer;
-  const double tol = spec_.solver.linear_rel_tol * bnorm;
+  rel_tol = std::clamp(rel_tol, spec_.solver.linear_rel_tol, 0.1);
+  const double tol = rel_tol * bnorm;
+  const double decades = -std::log10(rel_tol);
   unsigned last_step = 0;
   double last_residual = 0;
   // CG from zero with `prec`, at most max_it iterations; false when it did not converge.
@@ -626,22 +711,26 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
       cg.solve(jac_, x, b, prec);
       last_step = control.last_step();
       iterations += int(last_step);
+      n_cg_ += long(last_step);
       return true;
     } catch (const SolverControl::NoConvergence& e) {
       last_step = e.last_step;
       last_residual = e.last_residual;
       iterations += int(last_step);
+      n_cg_ += long(last_step);
       return false;
     }
   };
   const unsigned max_it = unsigned(spec_.solver.max_linear_iterations);
-  bool ok = false;
+  bool ok = false, rebuilt = false;
   switch (spec_.solver.preconditioner) {
     case SolverSettings::Preconditioner::amg: {
       // The hierarchy is reused while the mesh is unchanged (the Jacobian changes little from
-      // step to step) and rebuilt every 25 matrices, when CG needs clearly more iterations than
-      // right after a rebuild, or when it fails with the old one.
+      // step to step) and rebuilt every 25 matrices, when CG converged clearly slower per decade
+      // than right after a rebuild, or when it does not converge with the old one within twice
+      // that rate (a stale hierarchy costs at most about twice a fresh solve).
       auto rebuild = [&] {
+        Timer amg_timer;
         amg_ = std::make_unique<TrilinosWrappers::PreconditionAMG>();
         TrilinosWrappers::PreconditionAMG::AdditionalData data;
         data.elliptic = true;
@@ -649,13 +738,17 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
         amg_->initialize(jac_, data);
         amg_dofs_ = dof_.n_dofs();
         amg_age_ = 0;
-        amg_iterations_ = -1;
+        amg_rate_ = -1;
+        rebuilt = true;
+        t_amg_ += amg_timer.wall_time();
+        ++n_amg_;
       };
       const bool fresh = !amg_ || amg_dofs_ != dof_.n_dofs() || amg_age_ >= 25 ||
-                         last_iterations_ > 2 * amg_iterations_ + 4;
+                         (amg_rate_ > 0 && last_rate_ > 1.5 * amg_rate_ + 0.5);
       if (fresh) rebuild();
       ++amg_age_;
-      ok = run(*amg_, fresh ? max_it : std::min<unsigned>(max_it, 4 * unsigned(std::max(amg_iterations_, 5)) + 20));
+      const unsigned stale_cap = unsigned(std::ceil(decades * (2.0 * std::max(amg_rate_, 1.0) + 1.0))) + 5;
+      ok = run(*amg_, fresh ? max_it : std::min(max_it, stale_cap));
       if (!ok && !fresh) {
         rebuild();
         ok = run(*amg_, max_it);
@@ -681,8 +774,8 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
        << " iterations, residual " << last_residual << " > " << tol << " (|b| = " << bnorm << ")";
     fail(os.str());
   }
-  last_iterations_ = int(last_step);
-  if (amg_iterations_ < 0) amg_iterations_ = last_iterations_;
+  last_rate_ = double(std::max(1u, last_step)) / std::max(decades, 1.0);
+  if (rebuilt) amg_rate_ = last_rate_;
   cons_.distribute(x);
   t_linear_ += timer.wall_time();
 }
@@ -694,9 +787,14 @@ StepReport FePlant::step(const StepInput& in) {
   const double dt = in.dt_s, theta = in.theta > 0 ? in.theta : spec_.theta;
   Vec b(owned_, comm_), inputs(owned_, comm_), vh(owned_, comm_), vk(owned_, comm_);
   Vec delta(owned_, comm_), res(owned_, comm_), trial(owned_, comm_), base(owned_, comm_);
-  Vec t_try(owned_, relevant_, comm_);
-  // At T^n: v_h, v_k and the Jacobian. b = M H(T^n) - (1 - theta) dt (K T^n + L^n) + dt (S + U).
-  const Sums old = assemble(t_, theta * dt, vh, vk, true);
+  Vec step_vec(owned_, comm_), t_try(owned_, relevant_, comm_);
+  // The predictor: the last step's change carried on (a linear extrapolation in time), tried
+  // when the previous step's temperatures are on the same mesh.
+  const bool predict = have_prev_ && prev_dt_ > 0;
+  if (spec_.melting.enabled) build_nodal_model();
+  // At T^n: v_h, v_k (and the Jacobian, unless the iteration starts at the predictor).
+  // b = M H(T^n) - (1 - theta) dt (K T^n + L^n) + dt (S + U).
+  const Sums old = assemble(t_, theta * dt, vh, vk, !predict);
   Timer input_timer;
   const auto [laser_rate, flux_rate] = assemble_inputs(in, inputs);
   t_inputs_ += input_timer.wall_time();
@@ -715,9 +813,31 @@ StepReport FePlant::step(const StepInput& in) {
   const double floor = 1e-13 * std::abs(old.enthalpy) /
                        std::sqrt(std::max<double>(1.0, double(dof_.n_dofs())));
   Sums now = old;
+  // The tolerances are relative to the residual at T^n (what the step has to change),
+  // whichever guess the iteration starts from.
   double norm = form_residual();
   r.residual_initial = norm;
   const double target = std::max(spec_.solver.newton_rel_tol * norm, floor);
+  bool have_matrix = !predict;
+  // The step's starting temperatures, kept for the predictor of the next step.
+  Vec t_start(owned_, comm_);
+  t_start = t_;
+  if (predict) {
+    trial = t_;
+    trial.add(-1.0, t_prev_);
+    trial.sadd(dt / prev_dt_, 1.0, t_start);
+    t_try = trial;
+    const Sums at = assemble(t_try, 0.0, vh, vk, false);
+    const double predicted = form_residual();
+    if (std::isfinite(predicted) && predicted < norm) {
+      t_ = t_try;
+      now = at;
+      norm = predicted;
+      ++n_predicted_;
+    } else {
+      norm = r.residual_initial;  // the loop assembles at T^n with the Jacobian
+    }
+  }
   // Energy scale of the step: what enters and leaves. The step has converged when |R| is
   // below the target, or when it is 1e-5 of where it started (the temperatures then carry a
   // 1e-5 share of the step's change) and the energy defect sum_i R_i (what the balance of
@@ -731,8 +851,12 @@ StepReport FePlant::step(const StepInput& in) {
     return std::abs(defect) <= 1e-7 * energy_scale;
   };
   int it = 0;
-  bool have_matrix = true;
   const bool trace = std::getenv("AMCTL_SLS3D_PROFILE") != nullptr && Utilities::MPI::this_mpi_process(comm_) == 0;
+  // Inexact Newton (Eisenstat and Walker's second choice of forcing term): the linear solve
+  // asks for a reduction eta = 0.9 (|R_k| / |R_k-1|)^2, never more than 0.1 nor below what
+  // the Newton target needs; the first iteration takes the contraction of the last step's
+  // first (a step without latent heat is almost linear: one tight solve; a melting step is not).
+  double previous_norm = 0.0, eta = 0.0;
   while (!converged()) {
     if (it >= spec_.solver.max_newton_iterations) {
       std::ostringstream os;
@@ -745,15 +869,32 @@ StepReport FePlant::step(const StepInput& in) {
       now = assemble(t_, theta * dt, vh, vk, true);
       norm = form_residual();
     }
+    if (it == 0) {
+      eta = last_contraction_ > 0 ? 0.9 * last_contraction_ * last_contraction_ : 0.0;
+    } else {
+      const double ew = 0.9 * (norm / previous_norm) * (norm / previous_norm);
+      eta = 0.9 * eta * eta > 0.1 ? std::max(ew, 0.9 * eta * eta) : ew;
+    }
+    eta = std::min(eta, 0.1);
+    eta = std::max(eta, 0.5 * target / norm);
     res *= -1.0;
     delta = 0;
-    solve_linear(delta, res, r.linear_iterations, "Newton update");
+    solve_linear(delta, res, eta, r.linear_iterations, "Newton update");
     // Backtracking on |R|: the latent heat makes H' jump at the melting range.
     double lambda = 1.0, next = 0;
     base = t_;
     for (int k = 0; k < 8; ++k) {
       trial = base;
-      trial.add(lambda, delta);
+      if (spec_.melting.enabled) {
+        // Along the enthalpy: lambda shortens the linear update before it is mapped.
+        step_vec = delta;
+        step_vec *= lambda;
+        enthalpy_update(base, step_vec);
+        cons_.distribute(step_vec);  // hanging nodes follow their masters
+        trial += step_vec;
+      } else {
+        trial.add(lambda, delta);
+      }
       t_try = trial;
       now = assemble(t_try, 0.0, vh, vk, false);
       next = form_residual();
@@ -767,12 +908,18 @@ StepReport FePlant::step(const StepInput& in) {
     }
     t_ = t_try;
     if (trace)
-      std::fprintf(stderr, "  step %d newton %d: |R| %.3e -> %.3e (lambda %g, %d CG total)\n", step_count_, it,
-                   norm, next, lambda, r.linear_iterations);
+      std::fprintf(stderr, "  step %d newton %d: |R| %.3e -> %.3e (lambda %g, eta %.1e, %d CG total)\n", step_count_,
+                   it, norm, next, lambda, eta, r.linear_iterations);
+    if (it == 0) last_contraction_ = next / norm;
+    previous_norm = norm;
     norm = next;
     have_matrix = false;
     ++it;
+    ++n_newton_;
   }
+  t_prev_ = t_start;
+  prev_dt_ = dt;
+  have_prev_ = true;
   r.newton_iterations = it;
   r.residual_final = norm;
   r.enthalpy_change_j = now.enthalpy - old.enthalpy;
@@ -800,6 +947,7 @@ void FePlant::set_uniform_temperature(double temp_c) {
   Vec v(owned_, comm_);
   v = temp_c;
   t_ = v;
+  have_prev_ = false;
 }
 
 LayerReport FePlant::add_layer(double fresh_temp_c) {
