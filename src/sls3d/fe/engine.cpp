@@ -53,11 +53,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <functional>
 #include <filesystem>
 #include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "amctl/core/error.hpp"
@@ -155,7 +158,7 @@ class FePlant final : public Plant {
   [[nodiscard]] TopMaximum top_maximum() const override;
   [[nodiscard]] TopRaster raster_top(double x0_m, double y0_m, double dx_m, double dy_m, int nx,
                                      int ny) const override;
-  std::string write_vtu(const std::string& dir, const std::string& stem, double time_s) override;
+  void write_vtu(const std::function<void(std::string_view)>& sink, double time_s) override;
   [[nodiscard]] MeshStats stats() const override;
   [[nodiscard]] double top_z_m() const override { return top_z_; }
   [[nodiscard]] double enthalpy_j() const override;
@@ -210,6 +213,13 @@ class FePlant final : public Plant {
   IndexSet owned_, relevant_;
   AffineConstraints<double> cons_;
   TrilinosWrappers::SparseMatrix jac_;
+  // The conductivity matrix K(s) of the current mesh and states: the Jacobian is
+  // tau K + a diagonal (capacities and the losses' slopes), so a Newton iteration adds a
+  // diagonal to a scaled copy instead of assembling; K is assembled after a change of mesh and
+  // updated cell by cell where the states change.
+  TrilinosWrappers::SparseMatrix stiff_;
+  bool stiff_valid_ = false;
+  void assemble_stiffness();
   Vec t_;  // ghosted temperature
   std::vector<double> state_;  // per active cell index
   std::unique_ptr<GridTools::Cache<dim>> cache_;
@@ -220,6 +230,7 @@ class FePlant final : public Plant {
     std::array<double, 8> volume;   // Gauss-Lobatto weight of each node (lumped mass / rho c)
     std::array<double, 8> top;      // the same of the top face (0 for the other nodes)
     bool has_top = false;
+    bool constrained = false;  // a hanging node among its dofs
   };
   std::vector<CellData> cells_;
   double top_z_ = 0.0;
@@ -319,6 +330,8 @@ void FePlant::setup_dofs() {
   SparsityTools::distribute_sparsity_pattern(dsp, owned_, comm_, relevant_);
   amg_.reset();
   jac_.reinit(owned_, owned_, dsp, comm_);
+  stiff_.reinit(owned_, owned_, dsp, comm_);
+  stiff_valid_ = false;
   t_.reinit(owned_, relevant_, comm_);
   have_prev_ = false;
   cache_ = std::make_unique<GridTools::Cache<dim>>(tria_, mapping_);
@@ -362,6 +375,7 @@ void FePlant::build_cell_cache() {
       for (unsigned q = 0; q < q_face.size(); ++q)
         for (unsigned i = 0; i < n; ++i) d.top[i] += fv_face.shape_value(i, q) * fv_face.JxW(q);
     }
+    for (unsigned i = 0; i < n; ++i) d.constrained = d.constrained || cons_.is_constrained(d.dofs[i]);
     cells_.push_back(d);
   }
 }
@@ -404,6 +418,22 @@ double FePlant::loss_slope(double t) const {
   return l.convection_w_m2k + 4.0 * l.emissivity * kStefanBoltzmann * a * a * a;
 }
 
+void FePlant::assemble_stiffness() {
+  FullMatrix<double> cm(8, 8);
+  std::vector<types::global_dof_index> idx(8);
+  stiff_ = 0;
+  for (const CellData& d : cells_) {
+    const double k = law(d.cell).k;
+    for (unsigned i = 0; i < 8; ++i) {
+      idx[i] = d.dofs[i];
+      for (unsigned j = 0; j < 8; ++j) cm(i, j) = k * d.k_unit[i * 8 + j];
+    }
+    cons_.distribute_local_to_global(cm, idx, stiff_);
+  }
+  stiff_.compress(VectorOperation::add);
+  stiff_valid_ = true;
+}
+
 FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v_k, bool matrix) {
   Timer timer;
   constexpr unsigned n = 8;
@@ -416,7 +446,14 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
   Sums sums;
   v_h = 0;
   v_k = 0;
-  if (matrix) jac_ = 0;
+  Vec diagonal;
+  if (matrix) {
+    if (!stiff_valid_) assemble_stiffness();
+    jac_ = 0;
+    jac_.add(tau, stiff_);
+    diagonal.reinit(owned_, comm_);
+  }
+  Vector<double> cd(n);
   for (const CellData& d : cells_) {
     const Law lw = law(d.cell);
     for (unsigned i = 0; i < n; ++i) {
@@ -434,11 +471,8 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
       for (unsigned j = 0; j < n; ++j) sum += d.k_unit[i * 8 + j] * tl[j];
       ck[i] = lw.k * sum;
     }
-    if (matrix) {
-      for (unsigned i = 0; i < n; ++i)
-        for (unsigned j = 0; j < n; ++j) cm(i, j) = tau * lw.k * d.k_unit[i * 8 + j];
-      for (unsigned i = 0; i < n; ++i) cm(i, i) += lw.capacity(tl[i]) * d.volume[i];
-    }
+    if (matrix)
+      for (unsigned i = 0; i < n; ++i) cd[i] = lw.capacity(tl[i]) * d.volume[i];
     if (losses && d.has_top) {
       for (unsigned i = 0; i < n; ++i) {
         if (d.top[i] == 0.0) continue;
@@ -446,10 +480,18 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
         sums.loss += loss * d.top[i];
         sums.convection += sl.convection_w_m2k * (tl[i] - sl.gas_temp_c) * d.top[i];
         ck[i] += loss * d.top[i];
-        if (matrix) cm(i, i) += tau * loss_slope(tl[i]) * d.top[i];
+        if (matrix) cd[i] += tau * loss_slope(tl[i]) * d.top[i];
       }
     }
-    if (matrix) cons_.distribute_local_to_global(cm, idx, jac_);
+    if (matrix) {
+      if (d.constrained) {  // through the constraints, a diagonal is not diagonal any more
+        cm = 0;
+        for (unsigned i = 0; i < n; ++i) cm(i, i) = cd[i];
+        cons_.distribute_local_to_global(cm, idx, jac_);
+      } else {
+        diagonal.add(idx, cd);
+      }
+    }
     cons_.distribute_local_to_global(ch, idx, v_h);
     cons_.distribute_local_to_global(ck, idx, v_k);
   }
@@ -457,6 +499,15 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
   v_k.compress(VectorOperation::add);
   if (matrix) {
     jac_.compress(VectorOperation::add);
+    diagonal.compress(VectorOperation::add);
+    // Add the diagonal in place (Epetra's row map and the vector's map are both the owned dofs).
+    auto& epetra = const_cast<Epetra_CrsMatrix&>(jac_.trilinos_matrix());
+    Epetra_Vector diag(epetra.RowMap());
+    epetra.ExtractDiagonalCopy(diag);
+    AMCTL_CHECK(diag.MyLength() == int(diagonal.locally_owned_size()), "sls3d engine: diagonal layout");
+    const double* add = diagonal.begin();
+    for (int k = 0; k < diag.MyLength(); ++k) diag[k] += add[k];
+    epetra.ReplaceDiagonalValues(diag);
     ++matrix_version_;
     ++n_assemble_matrix_;
     t_assemble_matrix_ += timer.wall_time();
@@ -621,12 +672,21 @@ std::pair<int, double> FePlant::update_states() {
       double before = 0, after = 0;
       for (unsigned i = 0; i < 8; ++i) before += lw.enthalpy(tn[i]) * d.volume[i];
       state_[d.cell->active_cell_index()] = fmin;
+      const double k_before = lw.k;
       lw = law(d.cell);
+      if (stiff_valid_) {  // K changes in this cell only
+        FullMatrix<double> cm(8, 8);
+        std::vector<types::global_dof_index> idx(d.dofs.begin(), d.dofs.end());
+        for (unsigned i = 0; i < 8; ++i)
+          for (unsigned j = 0; j < 8; ++j) cm(i, j) = (lw.k - k_before) * d.k_unit[i * 8 + j];
+        cons_.distribute_local_to_global(cm, idx, stiff_);
+      }
       for (unsigned i = 0; i < 8; ++i) after += lw.enthalpy(tn[i]) * d.volume[i];
       de += after - before;
       ++changed;
     }
   }
+  if (stiff_valid_) stiff_.compress(VectorOperation::add);
   return {int(Utilities::MPI::sum(changed, comm_)), Utilities::MPI::sum(de, comm_)};
 }
 
@@ -1238,8 +1298,16 @@ TopRaster FePlant::raster_top(double x0_m, double y0_m, double dx_m, double dy_m
   return r;
 }
 
-std::string FePlant::write_vtu(const std::string& dir, const std::string& stem, double time_s) {
-  DataOut<dim> out;
+// DataOut with the names of its data sets readable (protected in deal.II), so the pieces of
+// a distributed snapshot can be written by amctl's own output writer.
+class SnapshotOut : public DataOut<dim> {
+ public:
+  using DataOut<dim>::get_dataset_names;
+  using DataOut<dim>::get_nonscalar_data_ranges;
+};
+
+void FePlant::write_vtu(const std::function<void(std::string_view)>& sink, double time_s) {
+  SnapshotOut out;
   out.attach_dof_handler(dof_);
   out.set_cell_selection([this](const Triangulation<dim>::cell_iterator& c) {
     if (!c->is_active() || !c->is_locally_owned()) return false;
@@ -1261,10 +1329,61 @@ std::string FePlant::write_vtu(const std::string& dir, const std::string& stem, 
   DataOutBase::VtkFlags flags;
   flags.time = time_s;
   flags.compression_level = DataOutBase::VtkFlags::ZlibCompressionLevel::best_speed;
-  out.set_flags(flags);
-  const std::string name = stem + ".vtu";
-  out.write_vtu_in_parallel((std::filesystem::path(dir) / name).string(), comm_);
-  return name;
+  flags.print_date_and_time = false;  // the same input gives the same file
+  // One .vtu for all ranks, laid out as deal.II's write_vtu_in_parallel lays it out (the
+  // header, each rank's piece in rank order, the footer), the bytes handed to the host's sink
+  // on rank 0, which receives one piece at a time (it holds at most the largest piece).
+  std::ostringstream piece;
+  DataOutBase::VtkFlags piece_flags = flags;
+  // The time goes once into the file (write_vtu_main writes it before its piece): rank 0's.
+  if (Utilities::MPI::this_mpi_process(comm_) != 0) piece_flags.time = std::numeric_limits<double>::min();
+  DataOutBase::write_vtu_main(out.get_patches(), out.get_dataset_names(), out.get_nonscalar_data_ranges(),
+                              piece_flags, piece);
+  const std::string mine = piece.str();
+  const int rank_id = int(Utilities::MPI::this_mpi_process(comm_));
+  const int ranks = int(Utilities::MPI::n_mpi_processes(comm_));
+  constexpr int kTagSize = 7301, kTagBytes = 7302;
+  constexpr unsigned long long kChunk = 1ull << 30;
+  if (rank_id == 0) {
+    std::exception_ptr error;
+    auto give = [&](std::string_view bytes, bool end = false) {
+      if (error || (bytes.empty() && !end)) return;  // an empty view means the end only
+      try {
+        sink(bytes);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    };
+    std::ostringstream head;
+    DataOutBase::write_vtu_header(head, flags);
+    give(head.str());
+    give(mine);
+    std::string buffer;
+    for (int r = 1; r < ranks; ++r) {
+      unsigned long long size = 0;
+      MPI_Recv(&size, 1, MPI_UNSIGNED_LONG_LONG, r, kTagSize, comm_, MPI_STATUS_IGNORE);
+      buffer.resize(size);
+      for (unsigned long long at = 0; at < size; at += kChunk)
+        MPI_Recv(buffer.data() + at, int(std::min(size - at, kChunk)), MPI_CHAR, r, kTagBytes, comm_,
+                 MPI_STATUS_IGNORE);
+      give(buffer);
+    }
+    std::ostringstream foot;
+    DataOutBase::write_vtu_footer(foot);
+    give(foot.str());
+    give(std::string_view(), true);
+    int failed = error ? 1 : 0;
+    MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+    if (error) std::rethrow_exception(error);
+  } else {
+    unsigned long long size = mine.size();
+    MPI_Send(&size, 1, MPI_UNSIGNED_LONG_LONG, 0, kTagSize, comm_);
+    for (unsigned long long at = 0; at < size; at += kChunk)
+      MPI_Send(mine.data() + at, int(std::min(size - at, kChunk)), MPI_CHAR, 0, kTagBytes, comm_);
+    int failed = 0;
+    MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+    if (failed) throw Error("the VTU snapshot could not be written (see rank 0's error)");
+  }
 }
 
 MeshStats FePlant::stats() const {
