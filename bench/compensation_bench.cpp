@@ -41,7 +41,7 @@ void run(benchmark::State& state, const std::vector<amctl::plan::PlannedMove>& m
   state.counters["rt_factor"] = benchmark::Counter(r.motion_time_s * static_cast<double>(state.iterations()),
                                                    benchmark::Counter::kIsRate);
   state.counters["samples"] = static_cast<double>(r.t_s.size());
-  state.SetLabel(r.status);
+  state.SetLabel(std::string(amctl::compensation::to_string(r.status)));
 }
 
 cp::CompensationOptions options(cp::Method m, double w_rad_s, double z) {
@@ -105,7 +105,7 @@ void BM_CompensateWholePrintLpfbf(benchmark::State& state) {
                                                    benchmark::Counter::kIsRate);
   state.counters["samples"] = static_cast<double>(r.samples);
   state.counters["held_moves"] = static_cast<double>(r.max_held_moves);
-  state.SetLabel(r.status);
+  state.SetLabel(std::string(amctl::compensation::to_string(r.status)));
 }
 BENCHMARK(BM_CompensateWholePrintLpfbf)->Args({636, 318})->Args({400, 100})->Args({250, 100})
     ->Unit(benchmark::kMillisecond)->Iterations(2);

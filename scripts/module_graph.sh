@@ -18,7 +18,7 @@ else
   (cd "$work" && cmake --graphviz="$work/g.dot" "$build" >/dev/null)
 fi
 # Layers, lowest first: a module may link only modules in lower layers.
-layers="core:0 control:1 gcode:1 kinematics:1 formats:2 machine:2 macro:2 plan:3 trajectory:4 dynamics:5 shaping:5
+layers="core:0 numerics:1 control:1 gcode:1 kinematics:1 bedmesh:2 formats:2 machine:2 macro:2 plan:3 trajectory:4 dynamics:5 shaping:5
 thermal:2 process:4 resonance:6 simulation:6 compensation:6 steppers:6
 tuning:8 report:8 comparison:8 closedloop:7 sls3d:2"
 /usr/bin/python3 - "$work/g.dot" "$layers" <<'PY'

@@ -115,6 +115,32 @@ for g in examples/gcode/*.gcode "$corpus/gcode/benchy_cura-5.3.gcode"; do
   run "shrink_apply_out__$gb.gcode" cat "$tmp/scaled.gcode"
 done
 
+# Resonance: Klipper's calibration, the sweep's frequency response and modal fit, the
+# model-based recommendation (FFT, Welch, least squares and the scalar search all run here).
+for r in tests/reference/resonance/calibration_data_y_sweep_1.csv tests/reference/resonance/calibration_data_y_sweeps_1_2_3.csv; do
+  rb=$(basename "$r" .csv)
+  run "resonance_calibrate__$rb.json" "$amctl" resonance calibrate "$r" --json
+done
+if [ -n "$corpus" ]; then
+  for r in "$corpus"/accel/*.csv; do
+    rb=$(basename "$r" .csv)
+    run "resonance_sweep__$rb.json" "$amctl" resonance calibrate "$r" --axis y --sweep 5,80,4,4000 --json
+  done
+  run resonance_sweep_recommend.json "$amctl" resonance calibrate "$corpus/accel/ender3v2neo_y_sweep_1.csv" \
+      --axis y --sweep 5,80,4,4000 --recommend --json
+fi
+run resonance_recommend.json "$amctl" resonance recommend --natural-frequency-hz 45 --damping-ratio 0.08 --json
+
+# calibrate-time (least squares over the planner's limits): made-up durations of four files.
+{
+  echo "gcode,duration_s"
+  echo "$root/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode,905"
+  echo "$root/tests/reference/klipper/syn_arcs.gcode,5.3"
+  echo "$root/tests/reference/klipper/syn_square.gcode,1.05"
+  echo "$root/tests/reference/klipper/syn_velocity_limit.gcode,3.9"
+} >"$tmp/timings.csv"
+run calibrate_time.json "$amctl" calibrate-time "$tmp/timings.csv" --json
+
 # The machine descriptions.
 for m in "${machines[@]}"; do
   mb=$(basename "$m"); mb=${mb%.*}

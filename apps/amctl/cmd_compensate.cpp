@@ -135,7 +135,7 @@ void run_compensate(const CompensateArgs& a) {
   const bool no_command = r.t_s.empty() && r.samples == 0;
   if (a.json) std::cout << cp::to_json(r).dump(2) << "\n";
   if (no_command)
-    throw Error(fmt::format("{}: {} found no command ({}): {}; {} not written", a.file, r.method, r.status,
+    throw Error(fmt::format("{}: {} found no command ({}): {}; {} not written", a.file, r.method, cp::to_string(r.status),
                             r.message, a.csv));
   if (a.json || a.csv == "-" || a.gcode == "-") return;  // standard output holds the command
   std::cout << fmt::format(
@@ -144,7 +144,7 @@ void run_compensate(const CompensateArgs& a) {
       "  max tracking error {:.6g} mm (uncompensated {:.6g} mm), max contour error {:.6g} mm\n"
       "  peak command accel {:.6g} mm/s^2{}, lead-in {:.4f} s, tail {:.4f} s\n"
       "  compute {:.4f} s, {:.1f}x real time\n",
-      a.file, r.method, r.motion_time_s, r.t_s.empty() ? r.samples : r.t_s.size(), r.sample_rate_hz, a.csv, r.status,
+      a.file, r.method, r.motion_time_s, r.t_s.empty() ? r.samples : r.t_s.size(), r.sample_rate_hz, a.csv, cp::to_string(r.status),
       r.message.empty() ? "" : ": ", r.message, r.max_tracking_error_mm,
       r.uncompensated_max_tracking_error_mm, r.max_contour_error_mm, r.peak_command_accel_mm_s2,
       std::isfinite(r.machine_accel_limit_mm_s2)

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/bedmesh/config.hpp"
 #include "amctl/core/quantity.hpp"
 #include "amctl/machine/effective.hpp"
 #include "amctl/machine/json.hpp"
@@ -27,9 +28,14 @@ struct ShowOptions {
 
 void show(const ShowOptions& o) {
   const mc::Machine m = resolve_machine(o.machine);
+  // Klipper's [bed_mesh] (docs/bedmesh.md): listed only for a printer.cfg that has it.
+  const std::optional<bedmesh::Settings> mesh =
+      m.klipper_config.empty() ? std::nullopt
+                               : bedmesh::read_klipper(m.klipper_config, SourceLocation{o.machine.spec, 0, 0});
   if (o.json) {
     Json j = mc::to_json(m);
     j["source"] = o.machine.spec.empty() ? "default" : o.machine.spec;
+    if (mesh) j["bed_mesh"] = bedmesh::to_json(*mesh);
     std::cout << j.dump(2) << "\n";
     return;
   }
@@ -47,6 +53,7 @@ void show(const ShowOptions& o) {
       mc::effective_max_extrude_only_accel_mm_s2(m),
       mc::effective_max_extrude_cross_section_mm2(m),
       mc::klipper_junction_deviation_mm(m.square_corner_velocity_mm_s, m.max_accel_mm_s2));
+  if (mesh) std::cout << bedmesh::to_text(*mesh);
 }
 
 }  // namespace

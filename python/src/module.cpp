@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <pybind11/stl.h>
 
+#include "amctl/bedmesh/config.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/core/output.hpp"
 #include "amctl/formats/input.hpp"
@@ -249,7 +250,15 @@ Raises amctl.Error for an unknown preset, a bad file (with file, line, column) o
       .def_property_readonly("arcs", [](const MachineValue& v) { const mc::Machine& x = v.m; return to_python(mc::to_json(x)["arcs"]); }, "the [arcs] section as a dict")
       .def_property_readonly("firmware_retraction", [](const MachineValue& v) { const mc::Machine& x = v.m; return to_python(mc::to_json(x)["firmware_retraction"]); }, "the [firmware_retraction] section as a dict")
       .def_property_readonly("steppers", [](const MachineValue& v) { const mc::Machine& x = v.m; return to_python(mc::to_json(x)["steppers"]); }, "the steppers as a dict")
-      .def_property_readonly("effective", [](const MachineValue& v) { const mc::Machine& x = v.m; return to_python(mc::to_json(x)["effective"]); }, "the limits Klipper derives, as a dict");
+      .def_property_readonly("effective", [](const MachineValue& v) { const mc::Machine& x = v.m; return to_python(mc::to_json(x)["effective"]); }, "the limits Klipper derives, as a dict")
+      .def_property_readonly("bed_mesh", [](const MachineValue& v) -> py::object {
+        // Klipper's [bed_mesh] (docs/bedmesh.md): what `amctl machine show --json` lists.
+        const mc::Machine& x = v.m;
+        if (x.klipper_config.empty()) return py::none();
+        const auto s = amctl::bedmesh::read_klipper(x.klipper_config, amctl::SourceLocation{x.name, 0, 0});
+        if (!s) return py::none();
+        return to_python(amctl::bedmesh::to_json(*s));
+      }, "Klipper's [bed_mesh] as a dict (profiles, counts, z range), None without one");
 
   m.def("_estimate", &estimate, py::arg("path"), py::arg("machine"), py::arg("strict"),
         py::arg("file_limits") = "keep",

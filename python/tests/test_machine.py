@@ -103,3 +103,17 @@ def test_machines_pickle_to_an_equal_machine():
     assert back == m
     assert back.to_dict() == m.to_dict()
     assert copy.deepcopy(m) == m
+
+
+def test_bed_mesh_lists_the_saved_profiles(source_dir):
+    # tests/reference/klipper/bedmesh_corexy.cfg: a 7x7 bicubic 'default' and a 5x5 lagrange
+    # 'alt', upsampled with 2 and 3 points between probes: 19 and 17 per axis.
+    m = amctl.Machine.load(str(source_dir / "tests/reference/klipper/bedmesh_corexy.cfg"))
+    mesh = m.bed_mesh
+    assert [p["name"] for p in mesh["profiles"]] == ["default", "alt"]
+    assert mesh["profiles"][0]["mesh_count"] == [19, 19]
+    assert mesh["profiles"][1]["mesh_count"] == [17, 17]
+    assert mesh["split_delta_z_mm"] == 0.025 and mesh["fade_enabled"] is False
+    lo, hi = mesh["profiles"][0]["probed_z_range_mm"]
+    assert lo == -0.0678 and hi == 0.122824
+    assert amctl.Machine.load("voron24").bed_mesh is None

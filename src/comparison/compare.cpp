@@ -78,7 +78,7 @@ ComparisonRow from_compensation(const compensation::CompensationResult& r) {
   ComparisonRow row;
   row.method = r.method;
   row.kind = "compensation";
-  row.status = r.status;
+  row.status = std::string(compensation::to_string(r.status));
   row.max_contour_error_mm = r.max_contour_error_mm;
   row.rms_contour_error_mm = kNaN;
   row.max_tracking_error_mm = r.max_tracking_error_mm;

@@ -375,7 +375,7 @@ void run_collocation(std::span<const plan::PlannedMove> moves, const Compensatio
     const double need = 4.0 * d / (span_s * span_s);
     if (need > limit) {
       r.solver_status = "not_solved";
-      r.status = "infeasible";
+      r.status = CompensationStatus::infeasible;
       r.message = fmt::format(
           "no command within --max-base-accel-mm-s2 {} moves {:.6g} mm from rest to rest in {:.6g} s "
           "(lead-in, motion and tail); that needs at least {:.6g} mm/s^2", limit, d, span_s, need);
@@ -400,7 +400,7 @@ void run_collocation(std::span<const plan::PlannedMove> moves, const Compensatio
     throw Error("collocation: IPOPT failed to initialise");
 
   r.solver_status = "Solve_Succeeded";
-  r.status = "ok";
+  r.status = CompensationStatus::ok;
   std::size_t start = 0;
   while (true) {
     const std::size_t end = std::min(K - 1, start + static_cast<std::size_t>(Wn) - 1);
@@ -438,7 +438,7 @@ void run_collocation(std::span<const plan::PlannedMove> moves, const Compensatio
     const bool ok = st == Ipopt::Solve_Succeeded || st == Ipopt::Solved_To_Acceptable_Level;
     if (!ok) {
       r.solver_status = solver_return_name(ret);
-      r.status = ret == Ipopt::LOCAL_INFEASIBILITY ? "infeasible" : "solver_failed";
+      r.status = ret == Ipopt::LOCAL_INFEASIBILITY ? CompensationStatus::infeasible : CompensationStatus::solver_failed;
       r.message = fmt::format(
           "IPOPT stopped with {} in window {} ({:.4f} to {:.4f} s){}", r.solver_status, r.windows,
           grid.t(start), grid.t(end),
@@ -489,7 +489,7 @@ void run_collocation(std::span<const plan::PlannedMove> moves, const Compensatio
   if (bounded) worst_over = std::max(0.0, r.peak_command_accel_mm_s2 / limit - 1.0);
   r.max_defect_mm = worst_defect;
   if (bounded && worst_over > 1e-6) {
-    r.status = "base_accel_limit_exceeded";
+    r.status = CompensationStatus::base_accel_limit_exceeded;
     r.message = fmt::format("the solution exceeds --max-base-accel-mm-s2 {} by {:.3g} %", limit, 100.0 * worst_over);
   }
 }

@@ -24,6 +24,19 @@
 
 namespace amctl::compensation {
 
+std::string_view to_string(CompensationStatus s) {
+  switch (s) {
+    case CompensationStatus::ok: return "ok";
+    case CompensationStatus::unbounded_command_acceleration: return "unbounded_command_acceleration";
+    case CompensationStatus::base_accel_limit_exceeded: return "base_accel_limit_exceeded";
+    case CompensationStatus::machine_accel_limit_exceeded: return "machine_accel_limit_exceeded";
+    case CompensationStatus::non_finite_command: return "non_finite_command";
+    case CompensationStatus::infeasible: return "infeasible";
+    case CompensationStatus::solver_failed: return "solver_failed";
+  }
+  return "unknown";
+}
+
 Method parse_method(const std::string& name) {
   if (name == "invert") return Method::invert;
   if (name == "fbf") return Method::fbf;
@@ -255,7 +268,7 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     const detail::InverseRun run = detail::run_inverse(moves, fx, fy, grid, r);
     r.peak_command_accel_mm_s2 = run.peak_accel_mm_s2;
     if (run.unbounded_accel) {
-      r.status = "unbounded_command_acceleration";
+      r.status = CompensationStatus::unbounded_command_acceleration;
       r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
       const int rd = std::min(fx.relative_degree(), fy.relative_degree());
       std::string cause, fix = "plan a jerk-limited profile (--set printer.profile=scurve7)";
@@ -275,7 +288,7 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
           "the exact inverse of this model demands unbounded base acceleration: the plan has {}; "
           "the sampled command is written and checked, but for a bounded command {}", cause, fix);
     } else {
-      r.status = "ok";
+      r.status = CompensationStatus::ok;
       r.message = run.unbounded_jerk ? "command acceleration bounded; command jerk has steps or impulses" : "";
     }
   } else if (options.method == Method::fbf) {
@@ -284,7 +297,7 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     detail::run_rfbf(moves, options, auto_tail, grid, r);
   } else if (options.method == Method::collocation) {
     detail::run_collocation(moves, options, auto_tail, grid, r);
-    if (r.status == "infeasible" || r.status == "solver_failed") {
+    if (r.status == CompensationStatus::infeasible || r.status == CompensationStatus::solver_failed) {
       // No command: nothing to check or write.
       r.t_s.clear();
       r.compute_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock0).count();
@@ -297,7 +310,7 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   if (options.method != Method::collocation && std::isfinite(options.max_base_accel_mm_s2) &&
       !(r.peak_command_accel_mm_s2 <= options.max_base_accel_mm_s2)) {
     r.max_base_accel_mm_s2 = options.max_base_accel_mm_s2;
-    r.status = "base_accel_limit_exceeded";
+    r.status = CompensationStatus::base_accel_limit_exceeded;
     r.message = fmt::format("the command's peak acceleration {:.6g} mm/s^2 exceeds --max-base-accel-mm-s2 {:.6g}; "
                             "--method collocation enforces the bound{}{}",
                             r.peak_command_accel_mm_s2, options.max_base_accel_mm_s2,
@@ -332,7 +345,7 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   double sum2 = 0.0;
   for (std::size_t k = 0; k < r.t_s.size(); ++k) {
     const double e = std::hypot(r.x_sim_mm[k] - r.x_des_mm[k], r.y_sim_mm[k] - r.y_des_mm[k]);
-    if (!std::isfinite(e)) r.status = "non_finite_command";
+    if (!std::isfinite(e)) r.status = CompensationStatus::non_finite_command;
     r.max_tracking_error_mm = std::max(r.max_tracking_error_mm, e);
     sum2 += e * e;
     const std::size_t mi = cur.locate(r.t_s[k]).move_index;
@@ -363,8 +376,8 @@ void judge_machine_accel(CompensationResult& r, const machine::Machine& m, const
   r.machine_accel_limit_mm_s2 =
       klipper ? m.max_accel_mm_s2 : std::min(m.max_axis_accel_mm_s2[0], m.max_axis_accel_mm_s2[1]);
   r.machine_accel_limit_key = klipper ? "printer.max_accel" : "marlin.max_accel";
-  if (r.status != "ok" || r.peak_command_accel_mm_s2 <= r.machine_accel_limit_mm_s2) return;
-  r.status = "machine_accel_limit_exceeded";
+  if (r.status != CompensationStatus::ok || r.peak_command_accel_mm_s2 <= r.machine_accel_limit_mm_s2) return;
+  r.status = CompensationStatus::machine_accel_limit_exceeded;
   r.message = fmt::format(
       "the command's peak acceleration {:.6g} mm/s^2 is {:.3g} times the machine's {} ({:g} mm/s^2): the "
       "firmware would not follow it; raise the limit if the motors can (--set {}=...), bound the "
@@ -390,7 +403,7 @@ CompensationResult compensate_file(const plan::GcodeInput& path, const machine::
 Json to_json(const CompensationResult& r) {
   Json j;
   j["method"] = r.method;
-  j["status"] = r.status;
+  j["status"] = std::string(to_string(r.status));
   j["message"] = r.message;
   j["motion_time_s"] = json_number(r.motion_time_s);
   j["compute_time_s"] = json_number(r.compute_time_s);
@@ -485,7 +498,7 @@ void write_gcode(const CompensationResult& r, OutputFile& out) {
     throw Error(fmt::format("--gcode {}: the result has no Z and E samples (CompensationOptions::sample_z_e)", path));
   if (!std::isfinite(r.peak_command_accel_mm_s2))
     throw Error(fmt::format("--gcode {}: the command's acceleration is unbounded ({}); a firmware cannot "
-                            "follow it: use a jerk-limited plan or another method", path, r.status));
+                            "follow it: use a jerk-limited plan or another method", path, to_string(r.status)));
   const double h = 1.0 / r.sample_rate_hz;
   const long accel = std::lround(std::ceil(r.peak_command_accel_mm_s2 * 1.01));
   {
@@ -497,7 +510,7 @@ void write_gcode(const CompensationResult& r, OutputFile& out) {
         "; Allow at least {} mm/s^2 (M204 below; Klipper: SET_VELOCITY_LIMIT ACCEL={}), a corner\n"
         "; speed that does not slow 0.1 mm segments (Klipper SQUARE_CORNER_VELOCITY, Marlin M205 J),\n"
         "; and no minimum segment time (Marlin M205 B0): otherwise it re-plans them.\n",
-        r.method, h, r.sample_rate_hz, r.status, r.max_tracking_error_mm,
+        r.method, h, r.sample_rate_hz, to_string(r.status), r.max_tracking_error_mm,
         r.uncompensated_max_tracking_error_mm, r.lead_in_s, accel, accel);
     f << "G90\nM83\n" << fmt::format("M204 S{}\n", accel);
     // Positions as printed (0.1 um; "+ 0.0" turns -0 into 0): a step that changes none of

@@ -281,10 +281,10 @@ void set_fbf_status(CompensationResult& r, const std::vector<double>& acc_x,
     r.peak_command_accel_mm_s2 = std::max(r.peak_command_accel_mm_s2, std::hypot(acc_x[k], acc_y[k]));
   if (degree < 2) {
     r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
-    r.status = "unbounded_command_acceleration";
+    r.status = CompensationStatus::unbounded_command_acceleration;
     r.message = "degree 1 B-splines have velocity steps at the knots; use --degree 2 or more";
   } else {
-    r.status = "ok";
+    r.status = CompensationStatus::ok;
   }
 }
 

@@ -335,10 +335,10 @@ void run_lpfbf(std::span<const plan::PlannedMove> moves, const CompensationOptio
     r.peak_command_accel_mm_s2 = std::max(r.peak_command_accel_mm_s2, std::hypot(acc[0][k], acc[1][k]));
   if (p < 2) {
     r.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
-    r.status = "unbounded_command_acceleration";
+    r.status = CompensationStatus::unbounded_command_acceleration;
     r.message = "degree 1 B-splines have velocity steps at the knots; use --degree 2 or more";
   } else {
-    r.status = "ok";
+    r.status = CompensationStatus::ok;
   }
 }
 

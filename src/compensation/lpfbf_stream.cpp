@@ -90,12 +90,12 @@ class LpfbfStream final : public plan::Sink {
     r_.max_held_samples = std::max(ax_->max_held_samples(), ay_->max_held_samples());
     r_.rms_tracking_error_mm = std::sqrt(sum2_ / static_cast<double>(written_));
     r_.samples = written_;
-    r_.status = o_.degree < 2 ? "unbounded_command_acceleration" : "ok";
+    r_.status = o_.degree < 2 ? CompensationStatus::unbounded_command_acceleration : CompensationStatus::ok;
     if (o_.degree < 2) {
       r_.peak_command_accel_mm_s2 = std::numeric_limits<double>::infinity();
       r_.message = "degree 1 B-splines have velocity steps at the knots; use --degree 2 or more";
     }
-    if (non_finite_) r_.status = "non_finite_command";
+    if (non_finite_) r_.status = CompensationStatus::non_finite_command;
     return r_;
   }
 

@@ -50,6 +50,11 @@ void insert_sorted(std::vector<std::string>& v, std::string s) {
 
 bool Interpreter::handle_klipper_state(const Command& cmd, std::uint64_t line_no, EventSink& sink) {
   const std::string_view name = cmd.name;
+  if (opt_.bed_mesh && (iequals(name, "BED_MESH_PROFILE") || iequals(name, "BED_MESH_CLEAR") ||
+                        iequals(name, "BED_MESH_OFFSET"))) {
+    handle_bed_mesh(cmd, line_no, sink);
+    return true;
+  }
   if (iequals(name, "SAVE_GCODE_STATE")) {
     save_gcode_state(cmd, line_no);
     return true;
@@ -675,6 +680,64 @@ void Interpreter::set_stepper_carriages(const Command& cmd, std::uint64_t line_n
     if (!why.empty()) fail(line_no, col, fmt::format("SET_STEPPER_CARRIAGES: {}", why));
   }
   it->second = expr;
+}
+
+}  // namespace amctl::gcode
+
+namespace amctl::gcode {
+
+// klippy/extras/bed_mesh.py: BED_MESH_PROFILE takes the first of LOAD, SAVE, REMOVE that is
+// given (an empty name is an error; none of them: "Invalid syntax", no effect; SAVE=default
+// is refused with a message and no effect); BED_MESH_CLEAR; BED_MESH_OFFSET X= Y= ZFADE=.
+void Interpreter::handle_bed_mesh(const Command& cmd, std::uint64_t line_no, EventSink& sink) {
+  BedMeshCommand bm;
+  bm.line = line_no;
+  bm.column = cmd.args_column;
+  if (iequals(cmd.name, "BED_MESH_CLEAR")) {
+    bm.kind = BedMeshCommand::Kind::clear;
+    sink.on_bed_mesh(bm);
+    return;
+  }
+  if (iequals(cmd.name, "BED_MESH_OFFSET")) {
+    bm.kind = BedMeshCommand::Kind::offset;
+    auto number = [&](std::string_view key) -> std::optional<double> {
+      std::uint32_t col = 0;
+      const auto t = text_arg(cmd, key, &col);
+      if (!t) return std::nullopt;
+      double v = 0.0;
+      if (parse_float_value(*t, v) != t->size() || t->empty() || !std::isfinite(v)) {
+        fail(line_no, col, fmt::format("BED_MESH_OFFSET {}= expects a number, found '{}'", key, *t));
+      }
+      return v;
+    };
+    bm.x_mm = number("X");
+    bm.y_mm = number("Y");
+    bm.zfade_mm = number("ZFADE");
+    sink.on_bed_mesh(bm);
+    return;
+  }
+  static constexpr std::pair<std::string_view, BedMeshCommand::Kind> kKeys[] = {
+      {"LOAD", BedMeshCommand::Kind::load},
+      {"SAVE", BedMeshCommand::Kind::save},
+      {"REMOVE", BedMeshCommand::Kind::remove}};
+  for (const auto& [key, kind] : kKeys) {
+    std::uint32_t col = 0;
+    const auto t = text_arg(cmd, key, &col);
+    if (!t) continue;
+    if (t->find_first_not_of(" \t") == std::string::npos) {
+      fail(line_no, col, fmt::format("BED_MESH_PROFILE: Value for parameter '{}' must be specified", key));
+    }
+    if (kind == BedMeshCommand::Kind::save && *t == "default") {
+      note_ignored(cmd.name);  // "Profile 'default' is reserved": a message, no effect
+      return;
+    }
+    bm.kind = kind;
+    bm.profile = *t;
+    bm.column = col;
+    sink.on_bed_mesh(bm);
+    return;
+  }
+  note_ignored(cmd.name);  // "Invalid syntax": a message, no effect
 }
 
 }  // namespace amctl::gcode

@@ -126,6 +126,10 @@ gcode::InterpreterOptions interpreter_options(const machine::Machine& m) {
   }
   // Klipper's [exclude_object]; a printer.cfg without it: EXCLUDE_OBJECT* are unknown there.
   using ExcludeMode = gcode::InterpreterOptions::ExcludeObjectMode;
+  // Klipper's [bed_mesh]: its commands reach the mesh transform (plan/stream.cpp).
+  for (const ConfigSection& sec : m.klipper_config) {
+    if (sec.name == "bed_mesh") o.bed_mesh = true;
+  }
   o.exclude_object = m.exclude_object              ? ExcludeMode::active
                      : !m.klipper_config.empty()   ? ExcludeMode::unknown
                                                    : ExcludeMode::ignored;

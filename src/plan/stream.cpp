@@ -7,6 +7,7 @@
 
 #include <sys/stat.h>
 
+#include "amctl/bedmesh/transform.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/formats/input.hpp"
 #include "amctl/gcode/line_reader.hpp"
@@ -56,6 +57,11 @@ class BatchWriter final : public PlanSink {
   }
 };
 
+std::optional<bedmesh::Settings> bedmesh_settings(const machine::Machine& m) {
+  if (m.klipper_config.empty()) return std::nullopt;
+  return bedmesh::read_klipper(m.klipper_config, SourceLocation{m.name, 0, 0});
+}
+
 gcode::InterpreterOptions source_interpreter_options(const machine::Machine& m, bool strict) {
   gcode::InterpreterOptions o = interpreter_options(m);
   o.strict = strict;
@@ -101,6 +107,12 @@ struct PlanSource::Impl {
         interp.set_expander(&*macros);
       }
     }
+    // Klipper's [bed_mesh]: its move transform sits between the interpreter and the planner
+    // (docs/bedmesh.md); without the section the interpreter feeds the planner directly.
+    if (auto bm = bedmesh_settings(machine)) {
+      mesh.emplace(std::move(*bm), planner);
+      sink = &*mesh;
+    }
   }
 
   void fill(PlanBatch& batch);
@@ -113,6 +125,8 @@ struct PlanSource::Impl {
   std::optional<macro::MacroExpander> macros;
   BatchWriter writer;
   Planner planner;
+  std::optional<bedmesh::MeshTransform> mesh;
+  gcode::EventSink* sink = &planner;  ///< what the interpreter feeds
   StreamSummary summary;
   bool done = false;
 };
@@ -123,7 +137,7 @@ void PlanSource::Impl::fill(PlanBatch& batch) {
   std::string_view line;
   bool more = true;
   while (batch.moves.size() < target && (more = reader->next(line))) {
-    interp.feed(line, reader->line_number(), planner);
+    interp.feed(line, reader->line_number(), *sink);
   }
   if (!more) {
     planner.finish();
@@ -149,6 +163,10 @@ void PlanSource::Impl::close() {
   summary.slicer_name = interp.annotations().slicer_name;
   summary.diagnostics = planner.diagnostics();
   summary.final_limits = planner.limits();
+  if (mesh) {
+    summary.bed_mesh = BedMeshSummary{mesh->stats().moves_in, mesh->stats().pieces_out,
+                                      mesh->stats().profile_loads};
+  }
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/numerics/least_squares.hpp"
 #include "amctl/process/stats.hpp"
 
 namespace amctl::process {
@@ -81,7 +82,6 @@ CalibrationResult calibrate_durations(const DurationEstimator& estimator,
   std::vector<double> pred = predict(x);
   Eigen::VectorXd r = residuals(pred);
   double cost = r.squaredNorm();
-  double lambda = 1e-3;
   Eigen::MatrixXd J = jacobian(x);
   // A limit that no move reaches (e.g. a maximum speed above every requested feed) has a zero
   // derivative, and gradient steps never move it. Such parameters get a coarse geometric
@@ -105,58 +105,29 @@ CalibrationResult calibrate_durations(const DurationEstimator& estimator,
     }
     x = best_x;
   }
-  J = jacobian(x);
-  std::vector<bool> active(P, true);
-  for (int it = 0; it < opt.max_iterations; ++it) {
-    res.iterations = it + 1;
-    // Parameters with no effect (zero Jacobian column) are held.
-    for (std::size_t j = 0; j < P; ++j) {
-      active[j] = J.col(static_cast<Eigen::Index>(j)).norm() > 1e-12 * (1.0 + r.norm());
-    }
-    const Eigen::MatrixXd JtJ = J.transpose() * J;
-    const Eigen::VectorXd g = J.transpose() * r;
-    bool improved = false;
-    for (int tries = 0; tries < 30; ++tries) {
-      Eigen::MatrixXd Aug = JtJ;
-      for (std::size_t j = 0; j < P; ++j) {
-        const auto jj = static_cast<Eigen::Index>(j);
-        if (!active[j]) {
-          Aug.row(jj).setZero();
-          Aug.col(jj).setZero();
-          Aug(jj, jj) = 1.0;
-        } else {
-          Aug(jj, jj) += lambda * std::max(JtJ(jj, jj), 1e-12);
-        }
-      }
-      Eigen::VectorXd rhs = -g;
-      for (std::size_t j = 0; j < P; ++j)
-        if (!active[j]) rhs(static_cast<Eigen::Index>(j)) = 0.0;
-      // r = m - p, so J = -dp/dx and the Gauss-Newton step solves (J'J) dx = -J'r.
-      const Eigen::VectorXd dx = Aug.ldlt().solve(rhs);
-      Eigen::VectorXd xn = (x + dx).cwiseMax(lo).cwiseMin(hi);
-      const auto pn = predict(xn);
-      const Eigen::VectorXd rn = residuals(pn);
-      const double cn = rn.squaredNorm();
-      if (cn < cost) {
-        const double rel = (cost - cn) / std::max(cost, 1e-300);
-        x = xn;
-        pred = pn;
+  // Levenberg-Marquardt in log space within the bounds; parameters with no effect (a zero
+  // Jacobian column) are held.
+  numerics::LevenbergMarquardtOptions lm;
+  lm.max_iterations = opt.max_iterations;
+  lm.relative_tolerance = opt.tolerance;
+  lm.hold_flat_parameters = true;
+  std::vector<double> last_pred;  // what residuals() last predicted
+  const auto fit = numerics::levenberg_marquardt(
+      x, r,
+      [&](const Eigen::VectorXd& lx) {
+        last_pred = predict(lx);
+        return residuals(last_pred);
+      },
+      jacobian, [&](Eigen::VectorXd& lx) { lx = lx.cwiseMax(lo).cwiseMin(hi); },
+      [&](const Eigen::VectorXd&, const Eigen::VectorXd& rn) {
+        pred = last_pred;
         r = rn;
-        cost = cn;
-        lambda = std::max(lambda / 3.0, 1e-12);
-        improved = true;
-        if (rel < opt.tolerance) res.converged = true;
-        break;
-      }
-      lambda *= 4.0;
-    }
-    if (!improved) {
-      res.converged = true;  // no downhill step exists at this resolution: a minimum
-      break;
-    }
-    if (res.converged) break;
-    J = jacobian(x);
-  }
+      },
+      lm);
+  cost = fit.cost;
+  res.iterations = fit.iterations;
+  res.converged = fit.stop != numerics::LevenbergMarquardtStop::max_iterations;
+  std::vector<bool> active(P, true);
   J = jacobian(x);
   for (std::size_t j = 0; j < P; ++j) {
     active[j] = J.col(static_cast<Eigen::Index>(j)).norm() > 1e-12 * (1.0 + r.norm());

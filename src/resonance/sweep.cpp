@@ -1,8 +1,6 @@
 // Sweep alignment, frequency response and modal fit (sweep.hpp; docs/resonance.md §6).
 #include "amctl/resonance/sweep.hpp"
 
-#include <fftw3.h>
-
 #include <algorithm>
 #include <array>
 #include <charconv>
@@ -16,6 +14,8 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/numerics/fft.hpp"
+#include "amctl/numerics/least_squares.hpp"
 #include "amctl/resonance/calibrate.hpp"
 
 namespace amctl::resonance {
@@ -23,19 +23,6 @@ namespace {
 
 using cd = std::complex<double>;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-
-struct FftwFree {
-  void operator()(void* p) const { fftw_free(p); }
-};
-struct PlanFree {
-  void operator()(fftw_plan_s* p) const { fftw_destroy_plan(p); }
-};
-template <class T>
-std::unique_ptr<T, FftwFree> fftw_array(std::size_t n) {
-  auto* p = static_cast<T*>(fftw_malloc(sizeof(T) * n));
-  if (!p) throw std::bad_alloc();
-  return std::unique_ptr<T, FftwFree>(p);
-}
 
 std::size_t next_pow2(std::size_t n) {
   std::size_t p = 1;
@@ -53,44 +40,28 @@ std::vector<double> chirp_correlation(const std::vector<double>& y, const SweepE
                                       double fs, double k_scale, std::size_t len) {
   const std::size_t n = y.size();
   const std::size_t p = next_pow2(n + len);
-  const std::size_t bins = p / 2 + 1;
-  auto in = fftw_array<double>(p);
-  auto out_y = fftw_array<fftw_complex>(bins);
-  auto out_c = fftw_array<fftw_complex>(bins);
-  auto prod = fftw_array<fftw_complex>(bins);
-  auto back = fftw_array<double>(p);
-  std::unique_ptr<fftw_plan_s, PlanFree> fwd_y(
-      fftw_plan_dft_r2c_1d(static_cast<int>(p), in.get(), out_y.get(), FFTW_ESTIMATE));
-  std::unique_ptr<fftw_plan_s, PlanFree> fwd_c(
-      fftw_plan_dft_r2c_1d(static_cast<int>(p), in.get(), out_c.get(), FFTW_ESTIMATE));
-  std::unique_ptr<fftw_plan_s, PlanFree> inv(
-      fftw_plan_dft_c2r_1d(static_cast<int>(p), prod.get(), back.get(), FFTW_ESTIMATE));
-  AMCTL_CHECK(fwd_y && fwd_c && inv, "fftw plan failed");
-
-  std::fill(in.get(), in.get() + p, 0.0);
-  std::copy(y.begin(), y.end(), in.get());
-  fftw_execute(fwd_y.get());
+  numerics::RealFft fft(p);
+  const std::size_t bins = fft.bins();
+  const std::span<double> in = fft.signal();
+  const std::span<cd> spec = fft.spectrum();
+  std::copy(y.begin(), y.end(), in.begin());
+  fft.forward();
+  const std::vector<cd> out_y(spec.begin(), spec.end());
 
   const std::size_t lags = n - len + 1;
   std::vector<double> sum_sq(lags, 0.0);
   std::vector<double> mag2(lags, 0.0);
   for (int part = 0; part < 2; ++part) {
-    std::fill(in.get(), in.get() + p, 0.0);
+    std::fill(in.begin(), in.end(), 0.0);
     for (std::size_t i = 0; i < len; ++i) {
       const double ph = sweep_phase(s, k_scale * static_cast<double>(i) / fs);
-      in.get()[i] = part == 0 ? std::cos(ph) : std::sin(ph);
+      in[i] = part == 0 ? std::cos(ph) : std::sin(ph);
     }
-    fftw_execute(fwd_c.get());
-    for (std::size_t k = 0; k < bins; ++k) {
-      const cd a(out_y.get()[k][0], out_y.get()[k][1]);
-      const cd b(out_c.get()[k][0], out_c.get()[k][1]);
-      const cd r = a * std::conj(b);
-      prod.get()[k][0] = r.real();
-      prod.get()[k][1] = r.imag();
-    }
-    fftw_execute(inv.get());
+    fft.forward();
+    for (std::size_t k = 0; k < bins; ++k) spec[k] = out_y[k] * std::conj(spec[k]);
+    fft.inverse();
     for (std::size_t l = 0; l < lags; ++l) {
-      const double c = back.get()[l] / static_cast<double>(p);
+      const double c = in[l] / static_cast<double>(p);
       mag2[l] += c * c;
     }
   }
@@ -114,19 +85,14 @@ std::vector<double> chirp_correlation(const std::vector<double>& y, const SweepE
 /// alignment (its group delay would otherwise pull the correlation peak late).
 std::vector<double> whiten(const std::vector<double>& y, double fs) {
   const std::size_t p = next_pow2(y.size());
-  const std::size_t bins = p / 2 + 1;
-  auto in = fftw_array<double>(p);
-  auto spec = fftw_array<fftw_complex>(bins);
-  std::unique_ptr<fftw_plan_s, PlanFree> fwd(
-      fftw_plan_dft_r2c_1d(static_cast<int>(p), in.get(), spec.get(), FFTW_ESTIMATE));
-  std::unique_ptr<fftw_plan_s, PlanFree> inv(
-      fftw_plan_dft_c2r_1d(static_cast<int>(p), spec.get(), in.get(), FFTW_ESTIMATE));
-  AMCTL_CHECK(fwd && inv, "fftw plan failed");
-  std::fill(in.get(), in.get() + p, 0.0);
-  std::copy(y.begin(), y.end(), in.get());
-  fftw_execute(fwd.get());
+  numerics::RealFft fft(p);
+  const std::size_t bins = fft.bins();
+  const std::span<double> in = fft.signal();
+  const std::span<cd> spec = fft.spectrum();
+  std::copy(y.begin(), y.end(), in.begin());
+  fft.forward();
   std::vector<double> mag(bins);
-  for (std::size_t k = 0; k < bins; ++k) mag[k] = std::hypot(spec.get()[k][0], spec.get()[k][1]);
+  for (std::size_t k = 0; k < bins; ++k) mag[k] = std::hypot(spec[k].real(), spec[k].imag());
   const auto half = static_cast<std::size_t>(std::max(1.0, 2.0 * static_cast<double>(p) / fs));
   std::vector<double> prefix(bins + 1, 0.0);
   for (std::size_t k = 0; k < bins; ++k) prefix[k + 1] = prefix[k] + mag[k];
@@ -138,12 +104,11 @@ std::vector<double> whiten(const std::vector<double>& y, double fs) {
     const std::size_t hi = std::min(bins, k + half + 1);
     const double avg = (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
     const double scale = 1.0 / std::max(avg, floor);
-    spec.get()[k][0] *= scale;
-    spec.get()[k][1] *= scale;
+    spec[k] *= scale;
   }
-  fftw_execute(inv.get());
+  fft.inverse();
   std::vector<double> out(y.size());
-  for (std::size_t i = 0; i < y.size(); ++i) out[i] = in.get()[i] / static_cast<double>(p);
+  for (std::size_t i = 0; i < y.size(); ++i) out[i] = in[i] / static_cast<double>(p);
   return out;
 }
 
@@ -232,55 +197,21 @@ Params grid_start(const FitData& d, double f_peak, double df) {
   return out;
 }
 
-/// The damped Gauss-Newton (Levenberg-Marquardt) loop of both fits: from p, whose residuals
-/// are r and cost |r|^2, at most max_iterations steps; each step tries lambda (scaled by the
-/// diagonal of J^T J) until the clamped step lowers the cost, stops when no step does or the
-/// relative decrease is below 1e-13. Returns the cost and the iterations. P is the one-mode
-/// Params or the several-mode Eigen::VectorXd.
+/// Levenberg-Marquardt (numerics::levenberg_marquardt, at most `max_iterations`) from p;
+/// returns the cost sum r^2 and the accepted steps.
 template <class P, class ResidualsOf, class JacobianOf, class ClampP>
-std::pair<double, int> lm_loop(P& p, Eigen::VectorXd r, double cost, int max_iterations,
-                               const ResidualsOf& residuals_of, const JacobianOf& jacobian_of,
-                               const ClampP& clamp_p) {
-  double lambda = 1e-3;
-  const auto n = static_cast<Eigen::Index>(p.size());
-  int it = 0;
-  for (; it < max_iterations; ++it) {
-    const Eigen::MatrixXd j = jacobian_of(p);
-    const Eigen::MatrixXd jtj = j.transpose() * j;
-    const Eigen::VectorXd g = j.transpose() * r;
-    bool improved = false;
-    for (int tries = 0; tries < 30; ++tries) {
-      Eigen::MatrixXd a = jtj;
-      for (Eigen::Index c = 0; c < n; ++c) a(c, c) += lambda * std::max(jtj(c, c), 1e-12);
-      const Eigen::VectorXd delta = a.ldlt().solve(-g);
-      P q = p;
-      for (Eigen::Index c = 0; c < n; ++c) q[static_cast<std::size_t>(c)] += delta(c);
-      clamp_p(q);
-      const Eigen::VectorXd rq = residuals_of(q);
-      const double cq = rq.squaredNorm();
-      if (std::isfinite(cq) && cq < cost) {
-        const double rel = (cost - cq) / std::max(cost, 1e-300);
-        p = q;
-        r = rq;
-        cost = cq;
-        lambda = std::max(lambda / 3.0, 1e-12);
-        improved = true;
-        if (rel < 1e-13) return {cost, it + 1};
-        break;
-      }
-      lambda *= 4.0;
-    }
-    if (!improved) break;
-  }
-  return {cost, it};
+std::pair<double, int> fit_lm(P& p, int max_iterations, const ResidualsOf& residuals_of,
+                              const JacobianOf& jacobian_of, const ClampP& clamp_p) {
+  numerics::LevenbergMarquardtOptions o;
+  o.max_iterations = max_iterations;
+  const auto r = numerics::levenberg_marquardt(p, residuals_of(p), residuals_of, jacobian_of, clamp_p, o);
+  return {r.cost, r.accepted_steps};
 }
 
-/// Levenberg-Marquardt from p; returns the cost sum r^2 and the iterations.
+/// Levenberg-Marquardt from p; returns the cost sum r^2 and the accepted steps.
 std::pair<double, int> levenberg_marquardt(const FitData& d, Params& p) {
-  Eigen::VectorXd r = residuals(d, p);
-  const double cost = r.squaredNorm();
-  return lm_loop(
-      p, std::move(r), cost, 200, [&d](const Params& q) { return residuals(d, q); },
+  return fit_lm(
+      p, 200, [&d](const Params& q) { return residuals(d, q); },
       [&d](const Params& q) { return jacobian(d, q); }, [](Params& q) { clamp(q); });
 }
 
@@ -334,11 +265,10 @@ void multi_clamp(Eigen::VectorXd& p, double f_lo, double f_hi) {
 std::pair<double, int> multi_levenberg_marquardt(const FitData& d, Eigen::VectorXd& p, double f_lo,
                                                  double f_hi) {
   multi_clamp(p, f_lo, f_hi);
-  Eigen::VectorXd r = multi_residuals(d, p);
-  const double cost = r.squaredNorm();
+  const double cost = multi_residuals(d, p).squaredNorm();
   if (!std::isfinite(cost)) return {cost, 0};
-  return lm_loop(
-      p, std::move(r), cost, 300, [&d](const Eigen::VectorXd& q) { return multi_residuals(d, q); },
+  return fit_lm(
+      p, 300, [&d](const Eigen::VectorXd& q) { return multi_residuals(d, q); },
       [&d](const Eigen::VectorXd& q) { return multi_jacobian(d, q); },
       [f_lo, f_hi](Eigen::VectorXd& q) { multi_clamp(q, f_lo, f_hi); });
 }
@@ -571,48 +501,21 @@ SweepIdentification identify_sweep(const AccelRecord& record, char axis, const S
                             record.source, last - first, m));
   }
   out.segment_samples = m;
-  const std::size_t step = m - m / 2;
+  // Kaiser beta 6, as the PSD.
+  numerics::WelchSegments welch(m, numerics::kaiser_window(m, kKlipperKaiserBeta));
+  const std::size_t step = welch.step();
   const std::size_t segments = (last - first - m / 2) / step;
-  const std::size_t bins = m / 2 + 1;
-  std::vector<double> window(m);
-  {  // Kaiser beta 6, as the PSD
-    auto i0 = [](double x) {
-      const double q4 = 0.25 * x * x;
-      double term = 1.0, sum = 1.0;
-      for (int k = 1; k < 200 && term > sum * 1e-18; ++k) {
-        term *= q4 / (static_cast<double>(k) * k);
-        sum += term;
-      }
-      return sum;
-    };
-    const double alpha = (static_cast<double>(m) - 1.0) / 2.0;
-    for (std::size_t n = 0; n < m; ++n) {
-      const double r = (static_cast<double>(n) - alpha) / alpha;
-      window[n] = i0(kKlipperKaiserBeta * std::sqrt(std::max(0.0, 1.0 - r * r))) / i0(kKlipperKaiserBeta);
-    }
-  }
-  auto in = fftw_array<double>(m);
-  auto fu = fftw_array<fftw_complex>(bins);
-  auto fy = fftw_array<fftw_complex>(bins);
-  std::unique_ptr<fftw_plan_s, PlanFree> pu(
-      fftw_plan_dft_r2c_1d(static_cast<int>(m), in.get(), fu.get(), FFTW_ESTIMATE));
-  std::unique_ptr<fftw_plan_s, PlanFree> py(
-      fftw_plan_dft_r2c_1d(static_cast<int>(m), in.get(), fy.get(), FFTW_ESTIMATE));
-  std::vector<cd> suy(bins);
+  const std::size_t bins = welch.bins();
+  std::vector<cd> suy(bins), fu(bins);
   std::vector<double> suu(bins, 0.0), syy(bins, 0.0);
   for (std::size_t sgi = 0; sgi < segments; ++sgi) {
     const std::size_t s0 = first + sgi * step;
-    for (const bool is_u : {true, false}) {
-      const std::vector<double>& x = is_u ? u : y;
-      double mu = 0.0;
-      for (std::size_t i = 0; i < m; ++i) mu += x[s0 + i];
-      mu /= static_cast<double>(m);
-      for (std::size_t i = 0; i < m; ++i) in.get()[i] = window[i] * (x[s0 + i] - mu);
-      fftw_execute(is_u ? pu.get() : py.get());
-    }
+    const auto tu = welch.transform(u.data() + s0);
+    std::copy(tu.begin(), tu.end(), fu.begin());
+    const auto fy = welch.transform(y.data() + s0);
     for (std::size_t k = 0; k < bins; ++k) {
-      const cd a(fu.get()[k][0], fu.get()[k][1]);
-      const cd b(fy.get()[k][0], fy.get()[k][1]);
+      const cd a = fu[k];
+      const cd b = fy[k];
       suy[k] += std::conj(a) * b;
       suu[k] += std::norm(a);
       syy[k] += std::norm(b);

@@ -12,6 +12,7 @@
 
 #include "amctl/control/pid.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/numerics/scalar_search.hpp"
 #include "amctl/sls3d/scan.hpp"
 #include "amctl/sls3d/studies.hpp"
 
@@ -297,24 +298,9 @@ std::pair<double, double> eagar_tsai_peak(const Material& m, double power_w, dou
   const double w = beam_radius_m, l = m.diffusivity_m2_s() / speed_m_s;
   double a = -(3.0 * w + 10.0 * l), b = w;
   auto f = [&](double x) { return -eagar_tsai_rise(m, power_w, w, speed_m_s, x, 0, 0); };
-  const double r = 0.5 * (std::sqrt(5.0) - 1.0);
-  double c = b - r * (b - a), d = a + r * (b - a), fc = f(c), fd = f(d);
-  while (b - a > 1e-7 * w) {
-    if (fc < fd) {
-      b = d;
-      d = c;
-      fd = fc;
-      c = b - r * (b - a);
-      fc = f(c);
-    } else {
-      a = c;
-      c = d;
-      fc = fd;
-      d = a + r * (b - a);
-      fd = f(d);
-    }
-  }
-  const double x = 0.5 * (a + b);
+  numerics::GoldenSectionStop stop;
+  stop.width = 1e-7 * w;
+  const double x = numerics::golden_section_minimize(f, a, b, stop).midpoint();
   return {-f(x), x};
 }
 

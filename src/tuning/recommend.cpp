@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/numerics/scalar_search.hpp"
 #include "amctl/dynamics/model.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/shaping/measures.hpp"
@@ -224,30 +225,18 @@ Recommendation recommend(const ModalModel& model, const machine::Machine& machin
       if (cand[i].contour_error_mm < cand[k].contour_error_mm) k = i;
     }
     Candidate best = cand[k];
-    // Golden section on [grid[k-1], grid[k+1]] (clamped to the admissible range).
-    double a = grid[k == 0 ? 0 : k - 1], b = grid[std::min(k + 1, n - 1)];
-    constexpr double kInvPhi = 0.6180339887498949;
-    double x1 = b - kInvPhi * (b - a), x2 = a + kInvPhi * (b - a);
-    Candidate c1 = ev.run(type, x1), c2 = ev.run(type, x2);
-    for (std::size_t it = 0; it < o.golden_iterations; ++it) {
-      if (c1.contour_error_mm < best.contour_error_mm) best = c1;
-      if (c2.contour_error_mm < best.contour_error_mm) best = c2;
-      if (c1.contour_error_mm <= c2.contour_error_mm) {
-        b = x2;
-        x2 = x1;
-        c2 = c1;
-        x1 = b - kInvPhi * (b - a);
-        c1 = ev.run(type, x1);
-      } else {
-        a = x1;
-        x1 = x2;
-        c1 = c2;
-        x2 = a + kInvPhi * (b - a);
-        c2 = ev.run(type, x2);
-      }
-    }
-    if (c1.contour_error_mm < best.contour_error_mm) best = c1;
-    if (c2.contour_error_mm < best.contour_error_mm) best = c2;
+    // Golden section on [grid[k-1], grid[k+1]] (clamped to the admissible range); every
+    // evaluated point competes for the best.
+    numerics::GoldenSectionStop stop;
+    stop.max_steps = o.golden_iterations;
+    numerics::golden_section_minimize(
+        [&](double f_hz) {
+          Candidate c = ev.run(type, f_hz);
+          const double e = c.contour_error_mm;
+          if (e < best.contour_error_mm) best = std::move(c);
+          return e;
+        },
+        grid[k == 0 ? 0 : k - 1], grid[std::min(k + 1, n - 1)], stop);
     r.per_type.push_back(best);
     if (!have_best || best.contour_error_mm < r.best.contour_error_mm) {
       r.best = best;

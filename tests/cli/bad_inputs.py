@@ -756,6 +756,49 @@ for i, (name, args, where) in enumerate(FLAG_CASES):
                    ["o.csv", "o.gcode", "o.stl", "r.html"]))
 CASES += R2
 
+# ---- Klipper [bed_mesh] (docs/bedmesh.md): a saved profile that does not fill its grid, a
+# value that is not a finite number, a key missing, fade_end at or below fade_start, an unknown
+# profile loaded and a mesh taller than its fade distance.
+MESH_ROWS = ["0.010000, -0.020000, 0.030000", "0.000000, 0.015000, -0.010000",
+             "0.020000, 0.005000, 0.000000"]
+
+
+def mesh_cfg(rows=MESH_ROWS, bed_mesh="", drop=None):
+    keys = [("min_x", "10.0"), ("max_x", "190.0"), ("min_y", "10.0"), ("max_y", "190.0"),
+            ("x_count", "3"), ("y_count", "3"), ("mesh_x_pps", "2"), ("mesh_y_pps", "2"),
+            ("algo", "lagrange"), ("tension", "0.2")]
+    saved = "".join(f"#*# \t  {r}\n" for r in rows) + "".join(
+        f"#*# {k} = {v}\n" for k, v in keys if k != drop)
+    # STEPPER_CFG is 21 lines: [bed_mesh] is line 22, the profile's header line 28, its rows 31-33.
+    return (STEPPER_CFG + "[bed_mesh]\nmesh_min: 10, 10\nmesh_max: 190, 190\n" + bed_mesh +
+            "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+            "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n"
+            "#*# [bed_mesh default]\n#*# version = 1\n#*# points =\n" + saved)
+
+
+MESH_GCODE = "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nBED_MESH_PROFILE LOAD=default\nG1 X100 Y100 Z0.2 F6000\n"
+CASES += [
+    case("bed_mesh_short_row", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg([MESH_ROWS[0], "0.000000, 0.015000", MESH_ROWS[2]])},
+         "p.cfg:32:8"),
+    case("bed_mesh_missing_row", ["machine", "show", "p.cfg"],
+         {"p.cfg": mesh_cfg(MESH_ROWS[:2])}, "p.cfg:30:9"),
+    case("bed_mesh_nan_point", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg([MESH_ROWS[0], "0.000000, nan, -0.010000", MESH_ROWS[2]])},
+         "p.cfg:32:18"),
+    case("bed_mesh_missing_key", ["steps", "f.gcode", "-m", "p.cfg", "--csv", "o.csv"],
+         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg(drop="x_count")}, "p.cfg:28:1", ["o.csv"]),
+    case("bed_mesh_fade_end_below_start", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg(bed_mesh="fade_start: 1\nfade_end: 0.5\n")},
+         "p.cfg:26:11"),
+    case("bed_mesh_unknown_profile", ["estimate", "f.gcode", "-m", "p.cfg"],
+         {"f.gcode": MESH_GCODE.replace("LOAD=default", "LOAD=first_layer"), "p.cfg": mesh_cfg()},
+         "f.gcode:2:23"),
+    case("bed_mesh_taller_than_fade", ["steps", "f.gcode", "-m", "p.cfg", "--csv", "o.csv"],
+         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg(bed_mesh="fade_start: 1\nfade_end: 1.02\n")},
+         "f.gcode:2:23", ["o.csv"]),
+]
+
 
 def says_found_and_expected(message):
     """'..., expected ...' or '... must be ..., got/found ...'."""

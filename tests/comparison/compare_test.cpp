@@ -57,7 +57,7 @@ TEST(Compare, SeedBaseCaseRowsAreTheRunsTheyName) {
       c.method = compensation::parse_method(row.method);
       c.model_x = c.model_y = c.plant_x = c.plant_y = model;
       const compensation::CompensationResult e = compensation::compensate_file(kGcode, m, c);
-      EXPECT_EQ(row.status, e.status) << row.method;
+      EXPECT_EQ(row.status, compensation::to_string(e.status)) << row.method;
       EXPECT_EQ(row.max_contour_error_mm, e.max_contour_error_mm) << row.method;
       EXPECT_EQ(row.max_tracking_error_mm, e.max_tracking_error_mm) << row.method;
       EXPECT_EQ(row.rms_tracking_error_mm, e.rms_tracking_error_mm) << row.method;

@@ -82,7 +82,7 @@ TEST(Collocation, HermiteSimpsonStepIsFifthOrderAgainstTheODE) {
 
 TEST(Collocation, SeedBaseCaseWithoutBoundTracksBelowOneMicron) {
   const CompensationResult r = compensate(seed_plan(), seed_collocation());
-  EXPECT_EQ(r.status, "ok");
+  EXPECT_EQ(r.status, compensation::CompensationStatus::ok);
   EXPECT_EQ(r.solver_status, "Solve_Succeeded");
   EXPECT_NEAR(r.uncompensated_max_tracking_error_mm, 0.469, 0.001);
   EXPECT_LT(r.max_tracking_error_mm, 1e-3);
@@ -99,7 +99,7 @@ TEST(Collocation, SeedBaseCaseRespectsTheBaseAccelerationBound) {
   CompensationOptions o = seed_collocation();
   o.max_base_accel_mm_s2 = 10000.0;
   const CompensationResult r = compensate(seed_plan(), o);
-  ASSERT_EQ(r.status, "ok") << r.message;
+  ASSERT_EQ(r.status, compensation::CompensationStatus::ok) << r.message;
   EXPECT_LE(r.max_tracking_error_mm, 5e-3);  // issue 10: <= 5 um with the 10 000 mm/s^2 bound
   EXPECT_LE(r.peak_command_accel_mm_s2, 10000.0 * (1 + 1e-6));
   EXPECT_GT(r.peak_command_accel_mm_s2, 9990.0);  // the bound is active (unbounded: ~7e4)
@@ -120,7 +120,7 @@ TEST(Collocation, WithoutLeadInTheBoundCostsTwoOrdersOfMagnitude) {
   o.max_base_accel_mm_s2 = 10000.0;
   o.lead_in_s = 0.0;
   const CompensationResult r = compensate(seed_plan(), o);
-  ASSERT_EQ(r.status, "ok") << r.message;
+  ASSERT_EQ(r.status, compensation::CompensationStatus::ok) << r.message;
   EXPECT_GT(r.max_tracking_error_mm, 0.09);
   EXPECT_LT(r.max_tracking_error_mm, 0.2);
 }
@@ -131,7 +131,7 @@ TEST(Collocation, ABoundThatCannotMoveRestToRestIsInfeasible) {
   CompensationOptions o = seed_collocation();
   o.max_base_accel_mm_s2 = 300.0;
   const CompensationResult r = compensate(seed_plan(), o);
-  EXPECT_EQ(r.status, "infeasible");
+  EXPECT_EQ(r.status, compensation::CompensationStatus::infeasible);
   EXPECT_NE(r.message.find("320.68"), std::string::npos) << r.message;
   EXPECT_TRUE(r.t_s.empty());
 }
@@ -146,8 +146,8 @@ TEST(Collocation, WindowsAgreeWithOneSolveOverTheWholePath) {
   win.window_s = 0.6;
   win.overlap_s = 0.25;
   const CompensationResult a = compensate(moves, whole), b = compensate(moves, win);
-  ASSERT_EQ(a.status, "ok") << a.message;
-  ASSERT_EQ(b.status, "ok") << b.message;
+  ASSERT_EQ(a.status, compensation::CompensationStatus::ok) << a.message;
+  ASSERT_EQ(b.status, compensation::CompensationStatus::ok) << b.message;
   EXPECT_EQ(a.windows, 1u);
   EXPECT_GE(b.windows, 3u);
   ASSERT_EQ(a.t_s.size(), b.t_s.size());
@@ -185,10 +185,10 @@ TEST(MaxBaseAccel, OtherMethodsReportWhenTheirCommandBreaksTheBound) {
   o.method = Method::fbf;
   o.max_base_accel_mm_s2 = 1000.0;  // FBF's command peaks near 8 000 mm/s^2
   const CompensationResult r = compensate(seed_plan(), o);
-  EXPECT_EQ(r.status, "base_accel_limit_exceeded");
+  EXPECT_EQ(r.status, compensation::CompensationStatus::base_accel_limit_exceeded);
   EXPECT_NE(r.message.find("collocation"), std::string::npos);
   o.max_base_accel_mm_s2 = 1e6;
-  EXPECT_EQ(compensate(seed_plan(), o).status, "ok");
+  EXPECT_EQ(compensate(seed_plan(), o).status, compensation::CompensationStatus::ok);
 }
 
 }  // namespace
@@ -208,7 +208,7 @@ TEST(DenseGcode, ReadBackGivesTheCommandThePlansExtrusionAndTheSpan) {
   o.method = Method::fbf;
   o.sample_z_e = true;
   const CompensationResult r = compensate(moves, o);
-  ASSERT_EQ(r.status, "ok");
+  ASSERT_EQ(r.status, compensation::CompensationStatus::ok);
   const std::string path = ::testing::TempDir() + "/dense.gcode";
   write_gcode(r, path);
   std::ifstream f(path);

@@ -89,7 +89,7 @@ TEST(BSpline, FilteredResponseMatchesRk45OfThePhysicalModel) {
 
 TEST(Fbf, SeedBaseCaseTrapezoidWithinTenPercentOfUncompensated) {
   const CompensationResult r = compensate(seed_plan(), seed_fbf());
-  EXPECT_EQ(r.status, "ok");
+  EXPECT_EQ(r.status, compensation::CompensationStatus::ok);
   EXPECT_NEAR(r.uncompensated_max_tracking_error_mm, 0.469, 0.01);
   EXPECT_LT(r.max_tracking_error_mm, 0.10 * r.uncompensated_max_tracking_error_mm);
   EXPECT_LT(r.max_tracking_error_mm, 0.01);  // measured 0.0063 mm (docs/compensation.md)

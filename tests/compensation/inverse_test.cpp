@@ -45,7 +45,7 @@ TEST(Invert, SeedBaseCaseJerkLimitedPlanIsTrackedBelowOneNanometre) {
   // between samples) differs from the exact inverse by O(h^2 x_b''), so sample at 100 kHz.
   const auto moves = seed_plan({"printer.profile=scurve7"});
   const CompensationResult r = compensate(moves, seed_options(Method::invert, 100000.0));
-  EXPECT_EQ(r.status, "ok") << r.message;
+  EXPECT_EQ(r.status, compensation::CompensationStatus::ok) << r.message;
   EXPECT_LT(r.max_tracking_error_mm, 1e-6);
   EXPECT_GT(r.uncompensated_max_tracking_error_mm, 0.1);
   EXPECT_TRUE(std::isfinite(r.peak_command_accel_mm_s2));
@@ -59,7 +59,7 @@ TEST(Invert, SeedBaseCaseJerkLimitedPlanIsTrackedBelowOneNanometre) {
 TEST(Invert, CommandEqualsIndependentRk45OfTheOneModeInverse) {
   const auto moves = seed_plan({"printer.profile=scurve7"});
   const CompensationResult r = compensate(moves, seed_options(Method::invert, 1000.0));
-  ASSERT_EQ(r.status, "ok");
+  ASSERT_EQ(r.status, compensation::CompensationStatus::ok);
   // State [f, xp, xp', unused] for X: f' = -p f + x'', plant 3.11 driven by
   // x_b = x + f/(2zw), x_b' = x' + (x'' - p f)/(2zw).
   const double p = kW / (2.0 * kZ), c = 2.0 * kZ * kW;
@@ -123,7 +123,7 @@ TEST(Invert, StaticDeflectionUnderConstantAccelerationIsAOverWSquared) {
 TEST(Invert, TrapezoidPlanReportsUnboundedCommandAcceleration) {
   const auto moves = seed_plan({});
   const CompensationResult r = compensate(moves, seed_options(Method::invert, 1000.0));
-  EXPECT_EQ(r.status, "unbounded_command_acceleration");
+  EXPECT_EQ(r.status, compensation::CompensationStatus::unbounded_command_acceleration);
   EXPECT_TRUE(std::isinf(r.peak_command_accel_mm_s2));
   EXPECT_NE(r.message.find("scurve7"), std::string::npos);
   EXPECT_TRUE(to_json(r)["peak_command_accel_mm_s2"].is_null());
@@ -161,7 +161,7 @@ TEST(Invert, TwoDampedModesAreInvertedExactly) {
   o.model_x = o.model_y = o.plant_x = o.plant_y =
       dynamics::AxisModel::from_modes({{15.9, 0.5, 0.6}, {40.0, 0.3, 0.4}});
   const CompensationResult r = compensate(seed_plan({"printer.profile=scurve7"}), o);
-  EXPECT_EQ(r.status, "ok") << r.message;
+  EXPECT_EQ(r.status, compensation::CompensationStatus::ok) << r.message;
   EXPECT_LT(r.max_tracking_error_mm, 1e-6);
   EXPECT_GT(r.uncompensated_max_tracking_error_mm, 0.2);
 }
@@ -172,10 +172,10 @@ TEST(Invert, UndampedModeNeedsContinuousJerk) {
   CompensationOptions o = seed_options(Method::invert, 1000.0);
   o.model_x = o.model_y = o.plant_x = o.plant_y = dynamics::AxisModel::belt_rad_s(kW, 0.0);
   const CompensationResult s = compensate(seed_plan({"printer.profile=scurve7"}), o);
-  EXPECT_EQ(s.status, "unbounded_command_acceleration");
+  EXPECT_EQ(s.status, compensation::CompensationStatus::unbounded_command_acceleration);
   EXPECT_NE(s.message.find("bezier5"), std::string::npos) << s.message;
   const CompensationResult b = compensate(seed_plan({"printer.profile=bezier5"}), o);
-  EXPECT_EQ(b.status, "ok") << b.message;
+  EXPECT_EQ(b.status, compensation::CompensationStatus::ok) << b.message;
   // Undamped: x_b - x = x''/w^2 exactly at every sample.
   const trajectory::Trajectory traj(seed_plan({"printer.profile=bezier5"}));
   double worst = 0.0;
@@ -196,7 +196,7 @@ TEST(Invert, CornerVelocityStepsAreNamed) {
   const CompensationResult r = compensate(
       seed_plan({"printer.profile=scurve7", "printer.square_corner_velocity=5"}),
       seed_options(Method::invert, 1000.0));
-  EXPECT_EQ(r.status, "unbounded_command_acceleration");
+  EXPECT_EQ(r.status, compensation::CompensationStatus::unbounded_command_acceleration);
   EXPECT_NE(r.message.find("square_corner_velocity=0"), std::string::npos) << r.message;
 }
 

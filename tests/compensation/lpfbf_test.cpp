@@ -59,7 +59,7 @@ TEST(Lpfbf, LongWindowEqualsFbfOnTheSeedBaseCase) {
   o.window_s = 0.32;
   o.overlap_s = 0.16;
   const CompensationResult lp = compensate(moves, o);
-  ASSERT_EQ(lp.status, "ok");
+  ASSERT_EQ(lp.status, compensation::CompensationStatus::ok);
   ASSERT_EQ(lp.t_s.size(), fbf.t_s.size());
   EXPECT_LT(max_diff_mm(lp, fbf), 1e-5);
   EXPECT_NEAR(lp.max_tracking_error_mm, fbf.max_tracking_error_mm, 1e-5);
@@ -80,7 +80,7 @@ TEST(Lpfbf, ShortWindowsStayAccurateAndContinuous) {
   o.window_s = 0.1;
   o.overlap_s = 0.05;
   const CompensationResult lp = compensate(moves, o);
-  ASSERT_EQ(lp.status, "ok");
+  ASSERT_EQ(lp.status, compensation::CompensationStatus::ok);
   EXPECT_GE(lp.windows, 6U);
   EXPECT_LE(lp.max_tracking_error_mm, 0.1 * lp.uncompensated_max_tracking_error_mm);
   EXPECT_LE(max_step_mm(lp), 1.05 * max_step_mm(fbf));
@@ -193,9 +193,9 @@ TEST(LpfbfStream, WholePrintInBoundedMemory) {
       std::string(AMCTL_SOURCE_DIR) + "/examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode", m, o, csv);
   // The command is judged against the V0's max_accel (16000 mm/s^2): a 40 Hz / zeta 0.1 belt
   // needs more at the print's 8000 mm/s^2 infill ramps.
-  ASSERT_TRUE(r.status == "ok" || r.status == "machine_accel_limit_exceeded") << r.status;
+  ASSERT_TRUE(r.status == compensation::CompensationStatus::ok || r.status == compensation::CompensationStatus::machine_accel_limit_exceeded) << compensation::to_string(r.status);
   EXPECT_EQ(r.machine_accel_limit_mm_s2, 16000.0);
-  EXPECT_EQ(r.status == "ok", r.peak_command_accel_mm_s2 <= 16000.0) << r.peak_command_accel_mm_s2;
+  EXPECT_EQ(r.status == compensation::CompensationStatus::ok, r.peak_command_accel_mm_s2 <= 16000.0) << r.peak_command_accel_mm_s2;
   EXPECT_GT(r.samples, 800000U);
   const std::size_t q = static_cast<std::size_t>(std::llround(r.knot_spacing_s * 1000.0));
   const std::size_t nw = static_cast<std::size_t>(std::llround(r.window_s / r.knot_spacing_s));
@@ -242,7 +242,7 @@ TEST(Rfbf, LowerWorstCaseOverPlusMinus20PercentAtANominalCost) {
     const CompensationResult a = compensate(moves, o);
     o.method = Method::rfbf;
     const CompensationResult b = compensate(moves, o);
-    ASSERT_EQ(b.status, "ok");
+    ASSERT_EQ(b.status, compensation::CompensationStatus::ok);
     if (f == 1.0) {
       nominal_fbf = a.max_tracking_error_mm;
       nominal_rfbf = b.max_tracking_error_mm;

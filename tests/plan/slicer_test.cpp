@@ -44,6 +44,11 @@ class SlicedByPrusaSlicer : public ::testing::Test {
     ok_ = std::system(models.c_str()) == 0 && std::system(slice.c_str()) == 0 &&
           fs::exists(dir_ / "boxboss.gcode");
   }
+  // The sliced files are made per process: remove them with the process's last test.
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    if (!dir_.empty()) fs::remove_all(dir_, ec);
+  }
   void SetUp() override {
     if (!ok_) GTEST_SKIP() << "prusa-slicer not installed (scripts/install-deps.sh --with-slicer)";
   }

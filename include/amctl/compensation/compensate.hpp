@@ -24,6 +24,7 @@
 #include <limits>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "amctl/core/json.hpp"
@@ -102,11 +103,23 @@ inline constexpr std::uint64_t kCompensationBytesPerSample = 240;
 /// Longest lead-in or tail a command may be given [s].
 inline constexpr double kMaxLeadTail_s = 600.0;
 
+/// How a compensation ended. Its name (to_string) is the JSON's "status".
+enum class CompensationStatus {
+  ok,                              ///< a command within every limit asked for
+  unbounded_command_acceleration,  ///< the plan's jerk is infinite: the inverse's command accel is
+  base_accel_limit_exceeded,       ///< the command's acceleration passes max_base_accel_mm_s2
+  machine_accel_limit_exceeded,    ///< ... or the machine's own limit (no bound given)
+  non_finite_command,              ///< a command sample is NaN or infinite
+  infeasible,                      ///< collocation: no command meets the bounds
+  solver_failed,                   ///< collocation: the NLP solver stopped without a solution
+};
+
+/// "ok", "unbounded_command_acceleration", ... (the enumerator's name).
+[[nodiscard]] std::string_view to_string(CompensationStatus s);
+
 struct CompensationResult {
   std::string method;
-  /// "ok", "unbounded_command_acceleration", "base_accel_limit_exceeded" (the bound given),
-  /// "machine_accel_limit_exceeded" (the machine's own limit), ...
-  std::string status;
+  CompensationStatus status = CompensationStatus::ok;
   std::string message;  ///< what the status means and what to do
   double motion_time_s = 0.0;
   double compute_time_s = 0.0;       ///< the method and its check simulation

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "amctl/gcode/command.hpp"
@@ -61,6 +62,17 @@ struct InputShapingCommand {
   std::uint64_t line = 0;
 };
 
+/// Klipper's [bed_mesh] commands (klippy/extras/bed_mesh.py), passed on only for a printer.cfg
+/// with [bed_mesh] (InterpreterOptions::bed_mesh); the bedmesh module applies them.
+struct BedMeshCommand {
+  enum class Kind : std::uint8_t { load, save, remove, clear, offset };
+  Kind kind = Kind::load;
+  std::string profile;  ///< load, save, remove: the name as written
+  std::optional<double> x_mm, y_mm, zfade_mm;  ///< offset: BED_MESH_OFFSET X= Y= ZFADE=
+  std::uint64_t line = 0;
+  std::uint32_t column = 0;  ///< of the argument (the command's for clear)
+};
+
 class EventSink {
  public:
   virtual ~EventSink() = default;
@@ -92,6 +104,8 @@ class EventSink {
   virtual void on_untimed(std::string_view name, std::uint64_t line) { (void)name; (void)line; }
   /// M593 (input shaping). Also counted in Interpreter::ignored_commands(): no effect on time.
   virtual void on_input_shaping(const InputShapingCommand& cmd) { (void)cmd; }
+  /// BED_MESH_PROFILE, BED_MESH_CLEAR, BED_MESH_OFFSET on a printer with [bed_mesh].
+  virtual void on_bed_mesh(const BedMeshCommand& cmd) { (void)cmd; }
 };
 
 }  // namespace amctl::gcode

@@ -101,6 +101,9 @@ struct InterpreterOptions {
   std::function<std::string(const std::map<std::string, std::string, std::less<>>& now,
                             const std::string& stepper, const std::string& expr, bool full)>
       check_stepper_carriages;
+  /// Klipper's [bed_mesh] is configured: BED_MESH_PROFILE, BED_MESH_CLEAR and BED_MESH_OFFSET
+  /// reach the sink as EventSink::on_bed_mesh (otherwise they are counted as ignored).
+  bool bed_mesh = false;
 };
 
 /// Layer, feature and slicer figures read from comments.
@@ -198,6 +201,7 @@ class Interpreter {
   // EXCLUDE_OBJECT_* (the move transform) and SET_DUAL_CARRIAGE / *_DUAL_CARRIAGE_STATE.
   /// True when `name` is one of those commands and it was handled.
   bool handle_klipper_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
+  void handle_bed_mesh(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void save_gcode_state(const Command& cmd, std::uint64_t line_no);
   void restore_gcode_state(const Command& cmd, std::uint64_t line_no, EventSink& sink);
   void set_gcode_offset(const Command& cmd, std::uint64_t line_no, EventSink& sink);

@@ -75,6 +75,14 @@ void for_each_in_order(const PlanBatch& b, OnMove&& on_move, OnEvent&& on_event)
   for (; m < b.moves.size(); ++m) on_move(b.moves[m]);
 }
 
+/// What Klipper's [bed_mesh] did to the moves (docs/bedmesh.md): moves made while a profile
+/// was loaded, the moves the planner received for them, profiles loaded.
+struct BedMeshSummary {
+  std::uint64_t meshed_moves = 0;
+  std::uint64_t pieces = 0;
+  std::uint64_t profile_loads = 0;
+};
+
 /// What the source knows once the input is exhausted: the reader's and interpreter's
 /// counts and the planner's diagnostics. Sinks receive it in finish().
 struct StreamSummary {
@@ -97,6 +105,8 @@ struct StreamSummary {
   std::string slicer_name;
   PlannerDiagnostics diagnostics;
   Planner::Limits final_limits{};
+  /// Set on a printer.cfg with [bed_mesh].
+  std::optional<BedMeshSummary> bed_mesh;
 };
 
 /// Receives the stream.

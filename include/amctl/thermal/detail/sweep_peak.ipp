@@ -5,6 +5,8 @@
 #include <limits>
 #include <vector>
 
+#include "amctl/numerics/scalar_search.hpp"
+
 namespace amctl::thermal {
 
 template <class F>
@@ -29,18 +31,11 @@ PeakResult sweep_peak(F&& f, const SweepOptions& opt) {
     double best = m[iu], best_lw = l0 + step * i;
     if (i > 0 && i < n - 1) {
       // Golden-section search for the maximum of |f| on [l_{i-1}, l_{i+1}] (log w).
-      const double g = (std::sqrt(5.0) - 1.0) / 2.0;
-      double a = l0 + step * (i - 1), b = l0 + step * (i + 1);
-      double c = b - g * (b - a), d = a + g * (b - a);
-      double fc = mag(c), fd = mag(d);
-      while (b - a > opt.rel_tol) {
-        if (fc > fd) {
-          b = d; d = c; fd = fc; c = b - g * (b - a); fc = mag(c);
-        } else {
-          a = c; c = d; fc = fd; d = a + g * (b - a); fd = mag(d);
-        }
-      }
-      const double lm = 0.5 * (a + b), fm = mag(lm);
+      numerics::GoldenSectionStop stop;
+      stop.width = opt.rel_tol;
+      const numerics::GoldenSectionBracket br = numerics::golden_section_minimize(
+          [&](double lw) { return -mag(lw); }, l0 + step * (i - 1), l0 + step * (i + 1), stop);
+      const double lm = br.midpoint(), fm = mag(lm);
       if (fm > best) { best = fm; best_lw = lm; }
     }
     if (best > res.peak) {
