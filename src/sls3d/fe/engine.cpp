@@ -44,6 +44,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/numerics/adaptation_strategies.h>
 #include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/rtree.h>
 
 #include <p4est.h>
 #include <sc.h>
@@ -1207,13 +1208,25 @@ double FePlant::top_area_m2() const {
 }
 
 std::pair<Cell, Point<dim>> FePlant::locate(const Point<dim>& p) const {
-  try {
-    const auto found = GridTools::find_active_cell_around_point(*cache_, p);
-    if (found.first.state() != IteratorState::valid) return {dof_.end(), Point<dim>()};
-    return {Cell(&tria_, found.first->level(), found.first->index(), &dof_), found.second};
-  } catch (...) {
-    return {dof_.end(), Point<dim>()};
+  // Only this rank's cells, found through the cached R-tree of their bounding boxes: a point
+  // owned by another rank, or off the disc (the corners of a square map), costs a tree query
+  // instead of deal.II's exhaustive fallback search and its exceptions.
+  namespace bgi = boost::geometry::index;
+  std::vector<std::pair<BoundingBox<dim>, Triangulation<dim>::active_cell_iterator>> hits;
+  cache_->get_locally_owned_cell_bounding_boxes_rtree().query(bgi::intersects(p), std::back_inserter(hits));
+  // A point on a face between a deposited cell and one above the top goes to the deposited one.
+  std::pair<Cell, Point<dim>> found{dof_.end(), Point<dim>()};
+  for (const auto& [box, tcell] : hits) {
+    try {
+      const Point<dim> unit = mapping_.transform_real_to_unit_cell(tcell, p);
+      if (!GeometryInfo<dim>::is_inside_unit_cell(unit, 1e-10)) continue;
+      const Cell cell(&tria_, tcell->level(), tcell->index(), &dof_);
+      if (is_active(cell)) return {cell, GeometryInfo<dim>::project_to_unit_cell(unit)};
+      if (found.first == dof_.end()) found = {cell, GeometryInfo<dim>::project_to_unit_cell(unit)};
+    } catch (const Mapping<dim>::ExcTransformationFailed&) {
+    }
   }
+  return found;
 }
 
 std::vector<double> FePlant::evaluate(const std::vector<std::array<double, 3>>& points_m) const {
