@@ -10,12 +10,15 @@ figures the closed loop is held to:
   3. feedforward never runs at the drive's step-rate cap (step_rate_limited_periods == 0).
 
 Usage: scripts/closedloop_sweep.py [--amctl PATH] [--jobs N] [--csv OUT] [--prints P ...]
-       [--machines M ...] [--controllers C ...]
+       [--machines M ...] [--controllers C ...] [--head-lines N]
+--head-lines N runs every corpus print longer than N lines on its first N lines only (a copy in
+a temporary directory; the CSV's print column says "first N lines"), for a sweep that must fit a
+time budget; the bundled examples always run whole.
 Defaults: build/release/apps/amctl/amctl, 2 jobs, no CSV, every print, machine and controller.
 Exit status 1 when a figure fails (the failures are listed), 0 otherwise. Machines without
 stepper sections run on the default drive train (the simulation says so in its notes); a
 machine file that is not a printer.cfg (an include) is listed as skipped with the reason."""
-import argparse, concurrent.futures, csv, glob, json, os, subprocess, sys, time
+import argparse, concurrent.futures, csv, glob, itertools, json, os, subprocess, sys, tempfile, time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CONTROLLERS = ["open", "encoder-sequenced", "speed-tracking", "pid", "feedforward"]
@@ -57,8 +60,25 @@ def main():
     ap.add_argument("--prints", nargs="*")
     ap.add_argument("--machines", nargs="*")
     ap.add_argument("--controllers", nargs="*", default=CONTROLLERS)
+    ap.add_argument("--head-lines", type=int, default=0)
     a = ap.parse_args()
     prints = a.prints or default_prints()
+    labels = {g: os.path.basename(g) for g in prints}
+    if a.head_lines > 0:
+        tmp = tempfile.mkdtemp(prefix="closedloop_sweep_")
+        headed = []
+        for g in prints:
+            with open(g, "rb") as f:
+                lines = list(itertools.islice(f, a.head_lines + 1))
+            if len(lines) <= a.head_lines or os.path.abspath(g).startswith(os.path.join(ROOT, "examples")):
+                headed.append(g)
+                continue
+            h = os.path.join(tmp, os.path.basename(g))
+            with open(h, "wb") as f:
+                f.writelines(lines[:a.head_lines])
+            labels[h] = f"{os.path.basename(g)} (first {a.head_lines} lines)"
+            headed.append(h)
+        prints = headed
     machines = a.machines or default_machines(a.amctl)
     jobs = [(g, m, c) for g in prints for m in machines for c in a.controllers]
     results = {}
@@ -71,7 +91,7 @@ def main():
             tag = r.get("error") or " ".join(
                 f"{n}: max {x['max_tracking_error_mm']:.4f} rms {x['rms_tracking_error_mm']:.4f} "
                 f"lost {x['lost_full_steps']}" for n, x in r["axes"].items())
-            print(f"{os.path.basename(key[0])} | {os.path.basename(key[1])} | {key[2]} | {tag}",
+            print(f"{labels[key[0]]} | {os.path.basename(key[1])} | {key[2]} | {tag}",
                   flush=True)
     rows, failures, skipped = [], [], set()
     for g in prints:
@@ -79,12 +99,12 @@ def main():
             open_r = results.get((g, m, "open"))
             for c in a.controllers:
                 r = results[(g, m, c)]
-                name = f"{os.path.basename(g)} on {os.path.basename(m)}, {c}"
+                name = f"{labels[g]} on {os.path.basename(m)}, {c}"
                 if "error" in r:
-                    skipped.add((os.path.basename(g), os.path.basename(m), r["error"]))
+                    skipped.add((labels[g], os.path.basename(m), r["error"]))
                     continue
                 for axis, x in r["axes"].items():
-                    rows.append({"print": os.path.basename(g), "machine": os.path.basename(m),
+                    rows.append({"print": labels[g], "machine": os.path.basename(m),
                                  "controller": c, "axis": axis,
                                  "duration_s": r["duration_s"],
                                  "max_error_mm": x["max_tracking_error_mm"],
@@ -95,6 +115,7 @@ def main():
                                  "peak_step_rate_hz": x["peak_step_rate_hz"],
                                  "step_rate_limited_periods": x["step_rate_limited_periods"],
                                  "degraded_moves": x["degraded_moves"],
+                                 "lead_capped_periods": x.get("lead_capped_periods", 0),
                                  "motor": x["motor"]["name"],
                                  "wall_s": round(r["wall_s"], 2)})
                     if open_r is None or "error" in open_r:

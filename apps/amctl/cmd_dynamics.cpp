@@ -91,6 +91,7 @@ struct SimulateArgs {
   double shaper_damping = 0.1;
   bool compare_shaper = false;
   bool no_shaper = false;
+  std::string shaper_firmware;
 };
 
 void print_report(const dy::QualityReport& rep) {
@@ -119,8 +120,13 @@ void do_shaped(const SimulateArgs& a, const machine::Machine& mach, const dy::Ax
   auto axis = [](const char* name, const std::optional<shaping::Shaper>& s,
                  const std::optional<simulation::AxisShaperSetting>& set) {
     if (!s) return fmt::format("{} none", name);
-    return fmt::format("{} {} {:g} Hz damping {:g} ({}; {:.1f} ms)", name, shaping::to_string(s->spec),
-                       s->freq_hz, s->damping_ratio, set->source, 1e3 * s->duration_s());
+    const std::string whose = s->spec.firmware == shaping::Firmware::marlin
+                                  ? (s->spec.sample_rate_hz > 0.0
+                                         ? fmt::format(", Marlin FT_MOTION's on its {:g} Hz grid", s->spec.sample_rate_hz)
+                                         : std::string(", Marlin's"))
+                                  : std::string();
+    return fmt::format("{} {} {:g} Hz damping {:g} ({}{}; {:.1f} ms)", name, shaping::to_string(s->spec),
+                       s->freq_hz, s->damping_ratio, set->source, whose, 1e3 * s->duration_s());
   };
   std::cout << fmt::format("input shaper: {}; {} ({} simulators, measured against the planned path)\n",
                            axis("X", r.shaper_x, r.settings.x), axis("Y", r.shaper_y, r.settings.y),
@@ -182,6 +188,13 @@ void do_simulate(const SimulateArgs& a) {
   req.freq_y_hz = a.shaper_freq_y;
   req.damping_ratio = a.shaper_damping;
   req.none = a.no_shaper;
+  if (!a.shaper_firmware.empty()) {
+    try {
+      req.firmware = shaping::parse_firmware(a.shaper_firmware);
+    } catch (const Error& e) {
+      throw Error(fmt::format("--shaper-firmware: {}", e.what()));
+    }
+  }
   // M593 before the first move, then the simulation: two passes over one rewindable input
   // (standard input and a FIFO are read once).
   InputFile input(a.file, gcode::gcode_input_options(true));
@@ -270,6 +283,9 @@ void register_dynamics(CLI::App& app) {
   sim->add_option("--shaper-y", a->shaper_y, "input shaper type of Y");
   sim->add_option("--shaper-freq-y-hz", a->shaper_freq_y, "input shaper frequency of Y [Hz]");
   sim->add_option("--shaper-damping-ratio", a->shaper_damping, "damping ratio the shapers are designed for (default 0.1)");
+  sim->add_option("--shaper-firmware", a->shaper_firmware,
+                  "klipper or marlin: whose shaper definitions to apply (marlin: FT_MOTION's, times on "
+                  "its 1 kHz grid; default: Klipper's, and Marlin's stepper ZV for M593)");
   sim->add_flag("--no-shaper", a->no_shaper, "ignore the machine's [input_shaper] (and M593): simulate the plan unshaped");
   sim->add_flag("--compare-shaper", a->compare_shaper, "report with and without the shaper (always done when a shaper is given)");
   sim->add_flag("--json", a->json_out, "print one JSON object");

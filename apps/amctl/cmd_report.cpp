@@ -27,6 +27,7 @@ struct ReportArgs {
   double rate_hz = 1000.0;
   bool json = false;
   bool lenient = false;
+  bool no_shaper = false;
   std::string file_limits = "keep";
 };
 
@@ -43,6 +44,7 @@ void run_report(const ReportArgs& a) {
     throw Error(fmt::format("--damping-ratio: must be in [0, 1), got {}", *a.zeta));
   }
   if (a.f_hz) o.belt = report::BeltModelOptions{*a.f_hz, a.zeta.value_or(0.1)};
+  o.machine_shaper = !a.no_shaper;
   o.accel_path = a.accel;
   o.thermal = a.thermal;
   if (a.accel_axis != "x" && a.accel_axis != "y") {
@@ -72,6 +74,9 @@ void register_report(CLI::App& app) {
                   "belt natural frequency of X and Y [Hz]: simulate and colour the toolpath by contour error");
   sub->add_option("--damping-ratio", a->zeta, "belt damping ratio of X and Y (default 0.1)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "simulation rate [Hz] (default 1000)");
+  sub->add_flag("--no-shaper", a->no_shaper,
+                "simulate without the machine's input shaper ([input_shaper], M593), which is applied "
+                "by default");
   sub->add_option("--accel", a->accel,
                   "accelerometer record (Klipper raw or PSD CSV): adds the PSD, Klipper's shaper fit "
                   "and the shaper curves (docs/resonance.md)");

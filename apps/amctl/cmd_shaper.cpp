@@ -2,6 +2,7 @@
 //  [--test-damping-ratio Z2] [--json]`: one input shaper's impulses and Klipper's figures
 // for it (shaping/report.hpp; docs/shaping.md).
 #include <iostream>
+#include <cmath>
 #include <memory>
 
 #include <fmt/format.h>
@@ -17,13 +18,14 @@ namespace {
 struct ShowArgs {
   shaping::ShaperReportOptions options;
   double test_damping_ratio = 0.0;
+  std::string firmware;
   bool json = false;
 };
 
 }  // namespace
 
 void register_shaper(CLI::App& app) {
-  CLI::App* shaper = app.add_subcommand("shaper", "Input shapers (ZV, MZV, ZVD, EI, ...)");
+  CLI::App* shaper = app.add_subcommand("shaper", "Input shapers (ZV, MZV, ZVD, EI, ...) of Klipper and Marlin");
   shaper->require_subcommand(1);
 
   auto a = std::make_shared<ShowArgs>();
@@ -45,10 +47,28 @@ void register_shaper(CLI::App& app) {
   CLI::Option* test_dr = show->add_option(
       "--test-damping-ratio", a->test_damping_ratio,
       "Damping ratio of the vibrating mode for the residual (default: --damping-ratio)");
+  CLI::Option* fw = show->add_option(
+      "--firmware", a->firmware,
+      "klipper or marlin (FT_MOTION): whose definition of the type (default: the type's own, "
+      "Marlin's for zvdd/zvddd); the output says where the other firmware's differs");
+  show->add_option("--marlin-sample-rate-hz", a->options.marlin_sample_rate_hz,
+                   "Marlin's trajectory rate FTM_FS [Hz]: its impulse times are whole samples of it "
+                   "(default 1000; 0: the exact times)");
   show->add_flag("--json", a->json, "Print one JSON object");
-  show->callback([a, test_dr] {
+  show->callback([a, test_dr, fw] {
     shaping::ShaperReportOptions o = a->options;
     if (test_dr->count() > 0) o.test_damping_ratio = a->test_damping_ratio;
+    if (fw->count() > 0) {
+      try {
+        o.firmware = shaping::parse_firmware(a->firmware);
+      } catch (const Error& e) {
+        throw Error(fmt::format("--firmware: {}", e.what()));
+      }
+    }
+    if (!(std::isfinite(o.marlin_sample_rate_hz) && o.marlin_sample_rate_hz >= 0.0)) {
+      throw Error(fmt::format("--marlin-sample-rate-hz: must be a finite rate >= 0 [Hz] (0: exact "
+                              "times), got {}", o.marlin_sample_rate_hz));
+    }
     // Each flag under its own name (the library names its parameters).
     require_range_flag("--freq-hz", kFrequencyRange, o.freq_hz);
     auto ratio = [](std::string_view flag, double z) {
@@ -57,6 +77,12 @@ void register_shaper(CLI::App& app) {
     ratio("--damping-ratio", o.damping_ratio);
     if (test_dr->count() > 0) ratio("--test-damping-ratio", a->test_damping_ratio);
     for (const double f : o.residual_at_hz) require_range_flag("--residual-at-hz", kFrequencyRange, f);
+    try {  // the type under its flag's name
+      (void)(o.firmware ? shaping::parse_shaper_spec(o.type, *o.firmware, o.marlin_sample_rate_hz)
+                        : shaping::parse_shaper_spec(o.type));
+    } catch (const Error& e) {
+      throw Error(fmt::format("--type: {}", e.what()));
+    }
     const shaping::ShaperReport r = shaping::shaper_report(o);
     if (a->json) {
       std::cout << shaping::to_json(r).dump(2) << "\n";

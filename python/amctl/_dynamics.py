@@ -57,7 +57,8 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
              layer_end=None, profile=None, jerk_mm_s3=None, motor_space=False, worst=10,
              corner_window_s=0.25, samples=False, samples_rate_hz=None, jerk=None,
              shaper=None, shaper_freq_hz=None, shaper_x=None, shaper_freq_x_hz=None,
-             shaper_y=None, shaper_freq_y_hz=None, shaper_damping_ratio=0.1, no_shaper=False):
+             shaper_y=None, shaper_freq_y_hz=None, shaper_damping_ratio=0.1, no_shaper=False,
+             shaper_firmware=None):
     """Simulates the nozzle through the belt dynamics of X and Y and measures print quality.
 
     Returns the dict of ``amctl simulate FILE --json`` (``dynamics::simulate_print`` +
@@ -99,7 +100,10 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
         shaper (type, e.g. 'mzv') and shaper_freq_hz [Hz] for X and Y, or per axis shaper_x /
         shaper_freq_x_hz and shaper_y / shaper_freq_y_hz; shaper_damping_ratio (default 0.1).
         Without them the machine's [input_shaper] applies, then an M593 before the first
-        move; no_shaper=True simulates without any. With a shaper the dict has ``shaper``,
+        move; no_shaper=True simulates without any. shaper_firmware 'klipper' or 'marlin'
+        (FT_MOTION's, times on its 1 kHz grid) applies that firmware's definitions to every
+        shaper in use (default: Klipper's, and Marlin's stepper ZV for M593). With a shaper the
+        dict has ``shaper``,
         ``smoothing_mm`` figures and ``without_shaper`` (the same metrics unshaped), and the
         trace is the shaped nozzle against the planned path.
 
@@ -138,4 +142,5 @@ def simulate(path, machine=None, set=None, *, natural_frequency_hz=None, damping
             _args.optional_number(shaper_freq_x_hz, "shaper_freq_x_hz", "Hz"),
             _args.optional_number(shaper_freq_y_hz, "shaper_freq_y_hz", "Hz"),
             _args.number(shaper_damping_ratio, "shaper_damping_ratio"),
-            _args.boolean(no_shaper, "no_shaper")))
+            _args.boolean(no_shaper, "no_shaper"),
+            "" if shaper_firmware is None else _args.text(shaper_firmware, "shaper_firmware")))

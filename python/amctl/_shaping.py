@@ -7,8 +7,9 @@ from . import _amctl
 from . import _args
 
 
-def shaper_show(type, freq_hz, damping_ratio=0.1, *, residual_at_hz=None, test_damping_ratio=None):
-    """A shaper's impulses and Klipper's measures of it.
+def shaper_show(type, freq_hz, damping_ratio=0.1, *, residual_at_hz=None, test_damping_ratio=None,
+                firmware=None, marlin_sample_rate_hz=1000.0):
+    """A shaper's impulses and Klipper's measures of it, in Klipper's or Marlin's definition.
 
     The dict of ``amctl shaper show --type T --freq-hz F --damping-ratio Z --json``:
     ``amplitudes`` and ``times_s`` [s] (as Klipper's definitions give them, unnormalised),
@@ -25,6 +26,12 @@ def shaper_show(type, freq_hz, damping_ratio=0.1, *, residual_at_hz=None, test_d
               (default: the design frequency).
         test_damping_ratio: damping ratio of the vibrating mode for the residual (default:
               damping_ratio).
+        firmware: 'klipper' or 'marlin' (FT_MOTION): whose definition of the type (default:
+              the type's own, Marlin's for zvdd/zvddd). ``firmware``, ``residual_at_design``
+              and ``compared_with`` (the other firmware's definition, its residual and the
+              largest differences; None when it lacks the type) say where the two differ.
+        marlin_sample_rate_hz: Marlin's trajectory rate FTM_FS [Hz]; its impulse times are
+              whole samples of it (0: the exact times of the definition).
     """
     t = _args.text(type, "type")
     f = _args.number(freq_hz, "freq_hz", "Hz")
@@ -35,7 +42,9 @@ def shaper_show(type, freq_hz, damping_ratio=0.1, *, residual_at_hz=None, test_d
             residual_at_hz = [residual_at_hz]
         at = [_args.number(x, "residual_at_hz", "Hz") for x in residual_at_hz]
     tz = None if test_damping_ratio is None else _args.number(test_damping_ratio, "test_damping_ratio")
-    return _amctl._shaper_show(t, f, z, at, tz)
+    fw = "" if firmware is None else _args.text(firmware, "firmware")
+    rate = _args.number(marlin_sample_rate_hz, "marlin_sample_rate_hz", "Hz")
+    return _amctl._shaper_show(t, f, z, at, tz, fw, rate)
 
 
 def resonance_calibrate(path, axis="x", *, sweep=None):

@@ -1,6 +1,7 @@
 // Input shapers, resonance calibration and the HTML report: each binding calls the one library function the
 // matching command calls (apps/amctl/cmd_shaper.cpp, cmd_resonance.cpp, cmd_report.cpp) with the GIL released
 // and returns its JSON form as a dict.
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,8 +24,21 @@ namespace {
 
 py::object shaper_show(const std::string& type, double freq_hz, double damping_ratio,
                        const std::vector<double>& residual_at_hz,
-                       std::optional<double> test_damping_ratio) {
+                       std::optional<double> test_damping_ratio, const std::string& firmware,
+                       double marlin_sample_rate_hz) {
   shaping::ShaperReportOptions o;
+  if (!firmware.empty()) {
+    try {
+      o.firmware = shaping::parse_firmware(firmware);
+    } catch (const Error& e) {
+      throw Error(std::string("firmware: ") + e.what());
+    }
+  }
+  if (!(std::isfinite(marlin_sample_rate_hz) && marlin_sample_rate_hz >= 0.0)) {
+    throw Error("marlin_sample_rate_hz must be a finite rate >= 0 [Hz] (0: exact times), got " +
+                std::to_string(marlin_sample_rate_hz));
+  }
+  o.marlin_sample_rate_hz = marlin_sample_rate_hz;
   o.type = type;
   o.freq_hz = freq_hz;
   o.damping_ratio = damping_ratio;
@@ -193,7 +207,8 @@ void register_shaping(py::module_& m) {
         py::arg("strict"), py::arg("accel"), py::arg("accel_axis"), py::arg("thermal"),
         py::arg("file_limits") = "keep", "amctl report --json (report::write_report + to_json); see amctl.report.");
   m.def("_shaper_show", &shaper_show, py::arg("type"), py::arg("freq_hz"), py::arg("damping_ratio"),
-        py::arg("residual_at_hz"), py::arg("test_damping_ratio"),
+        py::arg("residual_at_hz"), py::arg("test_damping_ratio"), py::arg("firmware") = "",
+        py::arg("marlin_sample_rate_hz") = shaping::kMarlinFtmSampleRateHz,
         "amctl shaper show --json (shaping::shaper_report + to_json); see amctl.shaper_show.");
   m.def("_resonance_calibrate", &resonance_calibrate, py::arg("paths"), py::arg("axis"), py::arg("sweep"),
         "amctl resonance calibrate --json (resonance::calibrate_file + to_json); see "

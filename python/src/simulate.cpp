@@ -168,8 +168,16 @@ driven by the commanded acceleration (docs/dynamics.md). An immutable value.)")
   m.def("_shaper_request",
         [](std::optional<std::string> type, std::optional<std::string> type_x, std::optional<std::string> type_y,
            std::optional<double> freq_hz, std::optional<double> freq_x_hz, std::optional<double> freq_y_hz,
-           double damping_ratio, bool none) {
+           double damping_ratio, bool none, const std::string& firmware) {
           simulation::ShaperRequest r;
+          if (!firmware.empty()) {
+            try {
+              r.firmware = shaping::parse_firmware(firmware);
+            } catch (const Error& e) {
+              throw Error(std::string("shaper_firmware: ") + e.what());
+            }
+          }
+          r.firmware_name = "shaper_firmware";
           r.type = std::move(type);
           r.type_x = std::move(type_x);
           r.type_y = std::move(type_y);
@@ -190,7 +198,7 @@ driven by the commanded acceleration (docs/dynamics.md). An immutable value.)")
           return r;
         },
         py::arg("type"), py::arg("type_x"), py::arg("type_y"), py::arg("freq_hz"), py::arg("freq_x_hz"),
-        py::arg("freq_y_hz"), py::arg("damping_ratio"), py::arg("none"));
+        py::arg("freq_y_hz"), py::arg("damping_ratio"), py::arg("none"), py::arg("firmware") = "");
   py::class_<simulation::ShaperRequest>(m, "_ShaperRequest");
 }
 

@@ -213,3 +213,50 @@ def test_compare_equals_the_cli(cli, source_dir):
         assert mine[key(row)]["max_contour_error_mm"] == row["max_contour_error_mm"]
     with pytest.raises(amctl.Error, match="method"):
         amctl.compare(g, machine=cfg, natural_frequency_hz=15.915, methods=["magic"])
+
+
+def test_marlin_mzv_against_its_closed_form_and_the_cli(cli):
+    # Marlin's FT_MOTION MZV: A = [1, sqrt2 K, K^2] at [0, 3/8, 3/4] t_d, where Klipper's decays
+    # by K^(3/4). At its own frequency it leaves
+    # K^1.5 (1 - K^0.25) sqrt(1 + K^0.5) / (1 + sqrt2 K + K^2).
+    f, z = 40.0, 0.1
+    r = amctl.shaper_show("mzv", f, z, firmware="marlin", marlin_sample_rate_hz=0)
+    k = math.exp(-z * math.pi / math.sqrt(1 - z * z))
+    t_d = 1.0 / (f * math.sqrt(1 - z * z))
+    assert r["firmware"] == "marlin"
+    assert r["amplitudes"] == pytest.approx([1.0, math.sqrt(2) * k, k * k], rel=1e-15)
+    assert r["times_s"] == pytest.approx([0.0, 0.375 * t_d, 0.75 * t_d], rel=1e-15)
+    closed = k ** 1.5 * (1 - k ** 0.25) * math.sqrt(1 + k ** 0.5) / (1 + math.sqrt(2) * k + k * k)
+    assert r["residual_at_design"] == pytest.approx(closed, rel=1e-12)
+    assert r["compared_with"]["firmware"] == "klipper"
+    assert r["compared_with"]["residual_at_design"] == pytest.approx(0.0, abs=1e-14)
+    assert not r["compared_with"]["same"]
+    ref = cli.json("shaper", "show", "--type", "mzv", "--freq-hz", "40", "--damping-ratio", "0.1",
+                   "--firmware", "marlin", "--marlin-sample-rate-hz", "0", "--json")
+    assert r == ref
+    # On Marlin's 1 kHz grid (its default) the echoes are whole milliseconds.
+    g = amctl.shaper_show("mzv", f, z, firmware="marlin")
+    assert g["times_s"] == pytest.approx([0.0, 0.009, 0.018], abs=1e-15)
+    assert g["sample_rate_hz"] == 1000.0
+
+
+def test_firmware_that_lacks_the_type_is_refused():
+    with pytest.raises(amctl.Error, match="marlin offers zv, zvd, zvdd"):
+        amctl.shaper_show("zvdd", 40.0, 0.1, firmware="klipper")
+    with pytest.raises(amctl.Error, match="found 'prusa', expected klipper or marlin"):
+        amctl.shaper_show("zv", 40.0, 0.1, firmware="prusa")
+
+
+def test_simulate_applies_the_firmware_asked_for(source_dir):
+    # The corner file with an M593 (Marlin's stepper ZV); shaper_firmware='marlin' puts its
+    # impulse times on FT_MOTION's 1 kHz grid, and the same with the CLI flag.
+    g = str(source_dir / "tests/simulation/m593_corner.gcode")
+    plain = amctl.simulate(g, natural_frequency_hz=40.0, damping_ratio=0.05)
+    assert plain["shaper"]["x"]["firmware"] == "marlin"
+    assert plain["shaper"]["x"]["marlin_sample_rate_hz"] is None
+    grid = amctl.simulate(g, natural_frequency_hz=40.0, damping_ratio=0.05, shaper_firmware="marlin")
+    assert grid["shaper"]["x"]["marlin_sample_rate_hz"] == 1000.0
+    d = grid["shaper"]["x"]["duration_s"]
+    assert abs(d * 1000.0 - round(d * 1000.0)) < 1e-9  # whole milliseconds
+    with pytest.raises(amctl.Error, match="shaper_firmware: found 'rrf'"):
+        amctl.simulate(g, natural_frequency_hz=40.0, shaper_firmware="rrf")

@@ -1,7 +1,6 @@
 // [bed_mesh] and its saved profiles read with Klipper's checks (klippy/extras/bed_mesh.py:
 // BedMesh, MoveSplitter, BedMeshCalibrate._init_mesh_config, ProfileManager), plus the checks
-// Klipper leaves to a crash or to silence (a points block that does not fill its grid, NaN,
-// fade_end at or below fade_start).
+// Klipper leaves to a crash or to silence (a points block that does not fill its grid, NaN).
 #include "amctl/bedmesh/config.hpp"
 
 #include <algorithm>
@@ -262,13 +261,9 @@ std::optional<Settings> read_klipper(const std::vector<ConfigSection>& sections,
   }
   out.fade_start_mm = bm.get_float("fade_start", 1.0);
   out.fade_end_mm = bm.get_float("fade_end", 0.0);
-  if (bm.has("fade_end") && out.fade_end_mm != 0.0 && out.fade_end_mm <= out.fade_start_mm) {
-    throw Error(bm.raw("fade_end")->where,
-                fmt::format("[bed_mesh] fade_end: found {:g} with fade_start {:g}, expected a value "
-                            "above fade_start (Klipper would disable fade here without a word; "
-                            "write fade_end: 0 or leave it out to print without fade)",
-                            out.fade_end_mm, out.fade_start_mm));
-  }
+  // fade_end at or below fade_start turns fade off, as Klipper does (its Bed_Mesh document:
+  // fade_end 0 disables it; any value not above fade_start leaves no fade distance). The
+  // printer prints so, so amctl plans so; `machine show` says why fade is off.
   out.fade_enabled = out.fade_end_mm - out.fade_start_mm > 0.0;
   out.fade_target_mm = bm.get_float("fade_target");
   out.split_delta_z_mm = bm.get_float("split_delta_z", 0.025, {.minval = 0.01});
@@ -331,7 +326,10 @@ std::string to_text(const Settings& s) {
       "#   fade                      {}\n"
       "#   move_check_distance       {} mm, split_delta_z {} mm\n",
       s.fade_enabled ? fmt::format("{} mm to {} mm", format_number(s.fade_start_mm), format_number(s.fade_end_mm))
-                     : std::string("off"),
+      : s.fade_end_mm != 0.0
+          ? fmt::format("off (fade_end {} mm is not above fade_start {} mm: Klipper disables fade)",
+                        format_number(s.fade_end_mm), format_number(s.fade_start_mm))
+          : std::string("off"),
       format_number(s.move_check_distance_mm), format_number(s.split_delta_z_mm));
   for (const Profile& p : s.profiles) {
     const ZMesh mesh(p);

@@ -67,6 +67,14 @@ double CommandGovernor::axis_accel_limit_mm_s2(double v_mm_s) const {
   return spare > 0.0 ? 1e3 * r * spare / j_axis : 0.0;
 }
 
+double CommandGovernor::max_lead_mm(double v_mm_s, double current_a) const {
+  const double r = m_.pulley_radius_m();
+  const double po = m_.pull_out_torque_at_n_m(std::abs(v_mm_s) * 1e-3 / r, current_a);
+  const double stretch = 1e3 * po * sin_max_ / (r * m_.axis().belt.stiffness_n_per_m);
+  const double angle = 1e3 * (r / m_.motor().pole_pairs()) * std::asin(sin_max_);
+  return std::max(0.0, stretch + angle + 0.5 * m_.axis().backlash_mm - 0.5 * m_.step_distance_mm());
+}
+
 double CommandGovernor::plan_torque_n_m(double v_mm_s, double a_mm_s2) const {
   const AxisMechanics& ax = m_.axis();
   const double r = m_.pulley_radius_m();

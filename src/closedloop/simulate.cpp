@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <variant>
 
 #include <fmt/format.h>
@@ -15,6 +16,8 @@
 #include "amctl/core/error.hpp"
 #include "amctl/machine/motor_presets.hpp"
 #include "amctl/plan/stream.hpp"
+#include "amctl/shaping/shaped_trajectory.hpp"
+#include "amctl/steppers/shaped_steps.hpp"
 #include "amctl/machine/kinematics.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/build.hpp"
@@ -189,12 +192,15 @@ void require_encoder_rate(const AxisSetup& a, double speed_mm_s, double period_s
 class AxisSampler {
  public:
   AxisSampler(std::vector<std::array<double, 4>> rows) : rows_(std::move(rows)), moves_(rows_.size()) {}
-  void sample(trajectory::Cursor& cur, double t, std::uint64_t move_base, RefSample* out) {
+  /// `shaped`: the machine's input shaper over the same window (the position, speed and
+  /// acceleration come from it; the move's figures stay the plan's).
+  void sample(trajectory::Cursor& cur, double t, std::uint64_t move_base, RefSample* out,
+              shaping::ShapedCursor* shaped = nullptr) {
     const trajectory::Cursor::Location& loc = cur.locate(t);
     const std::uint64_t id = loc.holding ? 0 : move_base + loc.move_index + 1;
     const bool fresh = id != id_ || id == 0;
     id_ = id;
-    const trajectory::AxisState st = cur.evaluate(t);
+    const trajectory::AxisState st = shaped ? shaped->evaluate(t) : cur.evaluate(t);
     for (std::size_t i = 0; i < rows_.size(); ++i) {
       const std::array<double, 4>& row = rows_[i];
       RefSample& r = out[i];
@@ -369,12 +375,26 @@ namespace {
 
 // The plan stream into the simulator: a window of the previous batch's last move and this
 // batch's moves, evaluated on a Cursor; ticks run while their next sample lies inside it.
+// With the machine's [input_shaper] the reference is the shaped motion (as `amctl steps`
+// generates the steps: Klipper's convolution of the plan with the shaper's impulses): the
+// window then keeps the moves of the shaper's look-behind, and a batch runs only up to its
+// end less the look-ahead (the rest waits for the next batch or the plan's end).
 class ClosedLoopSink final : public plan::Sink {
  public:
   ClosedLoopSink(ClosedLoopSimulator& sim, std::vector<kinematics::Motor> ch,
-                 std::vector<AxisSetup> axes, const SimulationOptions& options)
+                 std::vector<AxisSetup> axes, const SimulationOptions& options,
+                 const shaping::AxisShapers& shapers)
       : sim_(sim), ch_(std::move(ch)), axes_(std::move(axes)), settle_s_(options.settle_s),
-        period_s_(options.gains.period_s), sampler_({ch_[0].row, ch_[1].row}) {}
+        period_s_(options.gains.period_s), sampler_({ch_[0].row, ch_[1].row}), shapers_(shapers) {
+    for (const auto& sh : shapers_.xyz) shaped_ = shaped_ || sh.has_value();
+    if (shaped_) {
+      // The delays, from a cursor over no moves.
+      std::vector<plan::PlannedMove> none;
+      shaping::ShapedCursor probe(none, shapers_);
+      look_behind_s_ = probe.max_delay_s();
+      look_ahead_s_ = -probe.min_delay_s();
+    }
+  }
 
   void consume(const plan::PlanBatch& batch) override {
     if (batch.moves.empty()) return;
@@ -383,12 +403,22 @@ class ClosedLoopSink final : public plan::Sink {
       push_move_commands(sim_, mv, ch_);
     }
     if (!window_.empty()) {
-      base_ += window_.size() - 1;
-      window_.erase(window_.begin(), window_.end() - 1);
+      std::size_t drop = window_.size() - 1;
+      if (shaped_) {
+        // Keep every move the shaper still looks back at from the next sample on.
+        const double keep_from = t0_ + sim_.time_s() - look_behind_s_ - 2.0 * period_s_;
+        drop = 0;
+        while (drop + 1 < window_.size() &&
+               window_[drop].start_time_s + window_[drop].duration_s() < keep_from) {
+          ++drop;
+        }
+      }
+      base_ += drop;
+      window_.erase(window_.begin(), window_.begin() + static_cast<std::ptrdiff_t>(drop));
     }
     window_.insert(window_.end(), batch.moves.begin(), batch.moves.end());
     const plan::PlannedMove& last = window_.back();
-    run_until(last.start_time_s + last.duration_s());
+    run_until(last.start_time_s + last.duration_s() - look_ahead_s_);
   }
   void finish(const plan::StreamSummary& summary) override {
     if (window_.empty()) return;
@@ -409,10 +439,14 @@ class ClosedLoopSink final : public plan::Sink {
       require_encoder_rate(axes_[i], speed, period_s_, fmt::format("--encoder-rate-hz (line {})", mv.line));
     }
   }
-  void sample(trajectory::Cursor& cur, double t, RefSample* out) { sampler_.sample(cur, t, base_, out); }
+  void sample(trajectory::Cursor& cur, double t, RefSample* out) {
+    sampler_.sample(cur, t, base_, out, shaped_cursor_ ? &*shaped_cursor_ : nullptr);
+  }
   void run_until(double t_end) {
     trajectory::Cursor cur(window_);
     sampler_.reset();
+    shaped_cursor_.reset();
+    if (shaped_) shaped_cursor_.emplace(window_, shapers_);
     if (!started_) {
       t0_ = window_.front().start_time_s;
       started_ = true;
@@ -433,6 +467,10 @@ class ClosedLoopSink final : public plan::Sink {
   double settle_s_, period_s_;
   AxisSampler sampler_;
   std::vector<plan::PlannedMove> window_;
+  shaping::AxisShapers shapers_;
+  bool shaped_ = false;
+  double look_behind_s_ = 0.0, look_ahead_s_ = 0.0;
+  std::optional<shaping::ShapedCursor> shaped_cursor_;
   std::uint64_t base_ = 0;  // the plan's index of window_[0]
   bool started_ = false;
   double t0_ = 0.0;
@@ -443,7 +481,8 @@ class ClosedLoopSink final : public plan::Sink {
 class LazyClosedLoop final : public plan::Sink {
  public:
   LazyClosedLoop(const machine::Machine& m, const SimulationOptions& o)
-      : ch_(xy_channels(m)), axes_(machine_axes(m)), options_(o) {}
+      : ch_(xy_channels(m)), axes_(machine_axes(m)), options_(o),
+        shapers_(steppers::axis_shapers(m.input_shaper)) {}
   void consume(const plan::PlanBatch& b) override {
     if (b.moves.empty()) return;
     if (!sim_) {
@@ -452,7 +491,7 @@ class LazyClosedLoop final : public plan::Sink {
       for (std::size_t i = 0; i < 2; ++i)
         for (int k = 0; k < 4; ++k) start[i] += ch_[i].row[k] * f.start_mm[k];
       sim_ = std::make_unique<ClosedLoopSimulator>(axes_, options_, start);
-      sink_ = std::make_unique<ClosedLoopSink>(*sim_, ch_, axes_, options_);
+      sink_ = std::make_unique<ClosedLoopSink>(*sim_, ch_, axes_, options_, shapers_);
     }
     sink_->consume(b);
   }
@@ -466,6 +505,7 @@ class LazyClosedLoop final : public plan::Sink {
   std::vector<kinematics::Motor> ch_;
   std::vector<AxisSetup> axes_;
   SimulationOptions options_;
+  shaping::AxisShapers shapers_;
   std::unique_ptr<ClosedLoopSimulator> sim_;
   std::unique_ptr<ClosedLoopSink> sink_;
 };
@@ -483,6 +523,15 @@ SimulationResult simulate_file(const std::string& gcode_path, const machine::Mac
   if (!lazy.started()) throw Error(fmt::format("{}: no moves to simulate", gcode_path));
   SimulationResult r = lazy.result();
   r.source = gcode_path;
+  if (m.input_shaper.active()) {
+    std::vector<std::string> parts;
+    const machine::InputShaper& is = m.input_shaper;
+    if (is.shaper_freq_x_hz > 0.0) parts.push_back(fmt::format("{} {:g} Hz on X", is.shaper_type_x, is.shaper_freq_x_hz));
+    if (is.shaper_freq_y_hz > 0.0) parts.push_back(fmt::format("{} {:g} Hz on Y", is.shaper_type_y, is.shaper_freq_y_hz));
+    notes.push_back(fmt::format("the reference is the plan through the machine's input shaper ({}), "
+                                "as amctl steps generates the steps; errors are against it",
+                                fmt::join(parts, ", ")));
+  }
   r.notes.insert(r.notes.begin(), notes.begin(), notes.end());
   return r;
 }
@@ -490,7 +539,9 @@ SimulationResult simulate_file(const std::string& gcode_path, const machine::Mac
 SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
                                 const machine::Machine& m, const SimulationOptions& options) {
   if (moves.empty()) throw Error("simulate_moves: no moves to simulate");
-  LazyClosedLoop lazy(m, options);
+  std::vector<std::string> notes;
+  const machine::Machine mm = with_default_drive_train(m, notes);
+  LazyClosedLoop lazy(mm, options);
   plan::PlanBatch b;
   b.moves.assign(moves.begin(), moves.end());
   lazy.consume(b);
@@ -499,6 +550,7 @@ SimulationResult simulate_moves(std::span<const plan::PlannedMove> moves,
   lazy.finish(s);
   SimulationResult r = lazy.result();
   r.source = "moves";
+  r.notes.insert(r.notes.begin(), notes.begin(), notes.end());
   return r;
 }
 
@@ -516,8 +568,9 @@ void add_notes(SimulationResult& r, bool governor) {
     if (a.gain_scale < 1.0) {
       r.notes.push_back(fmt::format(
           "axis {}: the default {} gains scaled by {:.3f} (kp and ki) to keep its linearised loop "
-          "stable with a gain margin of {:.0f} up to the governor's design load angle",
-          a.name, r.controller, a.gain_scale, kGainMargin));
+          "stable with a gain margin of {:g} up to the governor's design load angle, the carriage "
+          "mass and belt stiffness {:.0f} % off",
+          a.name, r.controller, a.gain_scale, kGainMargin, 100.0 * kModelUncertainty));
     }
     if (a.degraded_moves > 0) {
       r.notes.push_back(fmt::format(
@@ -785,6 +838,7 @@ Json axis_json(const AxisResult& a) {
   x["accel_lead_dropped_moves"] = a.accel_lead_dropped_moves;
   x["load_limited_periods"] = a.load_limited_periods;
   x["slips_inferred"] = a.slips_inferred;
+  x["lead_capped_periods"] = a.lead_capped_periods;
   if (a.fall_back_time_s >= 0.0) x["fall_back_time_s"] = json_number(a.fall_back_time_s);
   x["commands_reached"] = a.commands_reached;
   x["commands_left"] = a.commands_left;

@@ -375,7 +375,26 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       const CommandLimiter::Out o = r.limiter.next(lead, target - next[i].pos_mm - lead,
                                                    (next[i].pos_mm - now[i].pos_mm) / T, lim, T);
       r.limited = o.feedback_limited;
-      v = (next[i].pos_mm + o.correction_mm - r.command_mm) / T;
+      // The lead cap: the command never leads the carriage by more than the rotor and the belt
+      // hold at the design angle (at this speed and this period's current), the carriage
+      // estimated at the period's end (the encoder's latency at the plan's speed). Open loop's
+      // own command stays allowed: the cap never makes the command lead more than the plan's.
+      // It is centred on the carriage, not on a count of slipped cycles: a lead of a whole
+      // cycle (to win back a slip) is indistinguishable from a stretch the rotor cannot hold
+      // when the belt's stretch at pull-out exceeds half a cycle, so a slipped axis keeps open
+      // loop's offset rather than risk a second slip.
+      double c = next[i].pos_mm + o.correction_mm;
+      const double y_end = measured + now[i].vel_mm_s * r.latency_s;
+      const double cap = r.governor->max_lead_mm(next[i].vel_mm_s, r.state.current_a);
+      const double c_cap = std::clamp(c, std::min(y_end - cap, next[i].pos_mm),
+                                      std::max(y_end + cap, next[i].pos_mm));
+      if (c_cap != c) {
+        r.limiter.take_back(c_cap - c);
+        r.limited = true;
+        ++r.res.lead_capped_periods;
+        c = c_cap;
+      }
+      v = (c - r.command_mm) / T;
     }
     if (r.limited) ++r.res.governor_limited_periods;
     const double step = r.model.step_distance_mm();

@@ -678,6 +678,10 @@ std::string to_toml(const Machine& machine) {
         out += fmt::format("{} = {}{}\n", d.key, d.integer(s), unit);
       } else if (d.kind == Kind::optional_number && d.optional_number(s)) {
         out += fmt::format("{} = {}{}\n", d.key, detail::format_number(*d.optional_number(s)), unit);
+      } else if (d.kind == Kind::text && d.text != nullptr && !d.text(s).empty()) {
+        out += fmt::format("{} = ", d.key);
+        append_toml_string(out, d.text(s));
+        out += '\n';
       }
     }
   }

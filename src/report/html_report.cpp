@@ -21,6 +21,7 @@
 #include "amctl/plan/report_json.hpp"
 #include "amctl/plan/stream.hpp"
 #include "amctl/report/speed_lod.hpp"
+#include "amctl/simulation/shaped_simulation.hpp"
 #include "page.hpp"
 
 namespace amctl::report {
@@ -218,6 +219,13 @@ Json report_data(const std::string& path, const machine::Machine& machine,
 
   std::unique_ptr<OptionalSimulation> sim;
   std::optional<dynamics::AxisModel> model;
+  // With a shaper on the machine ([input_shaper], or M593 before the first move), the nozzle
+  // follows the shaped command: the same shaped simulation `amctl simulate` runs.
+  simulation::ShaperSettings shapers;
+  std::optional<shaping::Shaper> shaper_x, shaper_y;
+  std::unique_ptr<simulation::ShapedStreamingSimulation> shaped_stream;
+  std::unique_ptr<simulation::ShapedSimulationSink> shaped;
+  std::vector<std::string> shaper_warnings;
   if (options.belt) {
     model = dynamics::AxisModel::belt(options.belt->natural_frequency_hz, options.belt->damping_ratio);
     dynamics::require_above_nyquist(options.sample_rate_hz, {&*model});
@@ -227,10 +235,23 @@ Json report_data(const std::string& path, const machine::Machine& machine,
     met_o.keep_per_move = false;  // bounded memory
     // The toolpath sink comes before the simulation in `sinks`, so it has seen every move
     // of a batch before the simulation emits that batch's samples.
-    sim = std::make_unique<OptionalSimulation>(
-        *model, *model, sim_o, met_o,
-        [&toolpath](const dynamics::SimSample& s, double e) { toolpath.add_error_sample(s.t_s, e); });
-    sinks.push_back(sim.get());
+    auto rows = [&toolpath](const dynamics::SimSample& s, double e) { toolpath.add_error_sample(s.t_s, e); };
+    if (options.machine_shaper) {
+      simulation::ShaperRequest none;
+      shapers = simulation::resolve_shapers(none, machine, plan::GcodeInput(path));
+    }
+    if (shapers.any()) {
+      if (shapers.x) shaper_x = simulation::make_axis_shaper(*shapers.x, options.sample_rate_hz, shapers.names_x);
+      if (shapers.y) shaper_y = simulation::make_axis_shaper(*shapers.y, options.sample_rate_hz, shapers.names_y);
+      shaper_warnings = shapers.warnings;
+      shaped_stream = std::make_unique<simulation::ShapedStreamingSimulation>(
+          *model, *model, sim_o, met_o, simulation::command_taps(shaper_x, shaper_y, false), rows);
+      shaped = std::make_unique<simulation::ShapedSimulationSink>(*shaped_stream, shaper_warnings, false);
+      sinks.push_back(shaped.get());
+    } else {
+      sim = std::make_unique<OptionalSimulation>(*model, *model, sim_o, met_o, rows);
+      sinks.push_back(sim.get());
+    }
   }
   const plan::StreamSummary& summary = plan::run_pipeline(source, sinks);
   const double compute_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -244,14 +265,34 @@ Json report_data(const std::string& path, const machine::Machine& machine,
   // Finer buckets for zoomed views, only where they add detail (a print shorter than the
   // coarse level's finest width gains nothing).
   d["speed_fine"] = fine && fine->bucket_s() < lod.bucket_s() ? speed_json(*fine) : Json(nullptr);
-  const bool simulated = sim && sim->ran();
+  const bool simulated = (sim && sim->ran()) || (shaped && shaped->moves() > 0);
   d["toolpath"] = toolpath_json(toolpath, simulated);
   d["no_moves"] = estimate.report().moves == 0;
   if (simulated) {
-    Json q = dynamics::to_json(sim->sim().report(), sim->sim().feature_names());
+    Json q = shaped ? dynamics::to_json(shaped->report(), shaped->feature_names())
+                    : dynamics::to_json(sim->sim().report(), sim->sim().feature_names());
     q["natural_frequency_hz"] = options.belt->natural_frequency_hz;
     q["damping_ratio"] = options.belt->damping_ratio;
     q["sample_rate_hz"] = options.sample_rate_hz;
+    if (shaped) {
+      // Only with a shaper, so that a report without one is what it was.
+      auto axis = [](const std::optional<simulation::AxisShaperSetting>& set,
+                     const std::optional<shaping::Shaper>& sh) -> Json {
+        if (!set || !sh) return nullptr;
+        return {{"type", shaping::to_string(sh->spec)},
+                {"firmware", std::string(shaping::to_string(sh->spec.firmware))},
+                {"marlin_sample_rate_hz",
+                 sh->spec.sample_rate_hz > 0.0 ? json_number(sh->spec.sample_rate_hz) : Json(nullptr)},
+                {"freq_hz", json_number(sh->freq_hz)},
+                {"damping_ratio", json_number(sh->damping_ratio)},
+                {"duration_s", json_number(sh->duration_s())},
+                {"source", set->source}};
+      };
+      Json warn = Json::array();
+      for (const std::string& w : shaper_warnings) warn.push_back(w);
+      q["shaper"] = {{"x", axis(shapers.x, shaper_x)}, {"y", axis(shapers.y, shaper_y)},
+                     {"warnings", std::move(warn)}};
+    }
     d["quality"] = std::move(q);
   } else {
     d["quality"] = nullptr;

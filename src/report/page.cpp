@@ -356,6 +356,11 @@ $("cmode").addEventListener("change", drawToolpath);
 if (Q) {
   $("quality-section").hidden = false; const qc = $("qcards");
   card(qc, "Model", Q.natural_frequency_hz + " Hz, \u03b6 " + Q.damping_ratio, "belt on X and Y, " + Q.sample_rate_hz + " samples/s");
+  if (Q.shaper) {
+    const sh = (a, s) => s ? a + " " + s.type + " " + s.freq_hz + " Hz \u03b6 " + s.damping_ratio + " (" + s.firmware + (s.marlin_sample_rate_hz ? ", " + s.marlin_sample_rate_hz + " Hz grid" : "") + ")" : a + " none";
+    const src = [Q.shaper.x, Q.shaper.y].filter((s) => s).map((s) => s.source).filter((v, i, a) => a.indexOf(v) === i).join(", ");
+    card(qc, "Input shaper", sh("X", Q.shaper.x) + "; " + sh("Y", Q.shaper.y), "from " + src + "; contour error of the shaped motion against the planned path" + (Q.shaper.warnings.length ? "; " + Q.shaper.warnings.join("; ") : ""));
+  }
   card(qc, "Contour error max", (Q.max_contour_error_mm * 1000).toFixed(1) + " \u00b5m", "RMS " + (Q.rms_contour_error_mm * 1000).toFixed(1) + " \u00b5m");
   card(qc, "While printing", (Q.max_contour_error_printing_mm * 1000).toFixed(1) + " \u00b5m", "RMS " + (Q.rms_contour_error_printing_mm * 1000).toFixed(1) + " \u00b5m");
   card(qc, "Corner overshoot max", (Q.max_corner_overshoot_mm * 1000).toFixed(1) + " \u00b5m", Q.corners + " corners");

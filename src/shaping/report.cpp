@@ -1,6 +1,10 @@
 // `amctl shaper show`: one shaper and Klipper's figures for it (report.hpp).
 #include "amctl/shaping/report.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
@@ -9,7 +13,9 @@ namespace amctl::shaping {
 
 ShaperReport shaper_report(const ShaperReportOptions& o) {
   ShaperReport r;
-  r.shaper = make_shaper(o.type, o.freq_hz, o.damping_ratio);
+  const ShaperSpec spec = o.firmware ? parse_shaper_spec(o.type, *o.firmware, o.marlin_sample_rate_hz)
+                                     : parse_shaper_spec(o.type);
+  r.shaper = make_shaper(spec, o.freq_hz, o.damping_ratio);
   require_positive("smoothing_accel_mm_s2", o.smoothing_accel_mm_s2);
   require_non_negative("scv_mm_s", o.scv_mm_s);
   require_positive("target_smoothing_mm", o.target_smoothing_mm);
@@ -21,7 +27,37 @@ ShaperReport shaper_report(const ShaperReportOptions& o) {
   const std::vector<double> design = {o.freq_hz};
   r.residual = vibration_curve(r.shaper, o.residual_at_hz.empty() ? design : o.residual_at_hz,
                                o.test_damping_ratio.value_or(o.damping_ratio));
-  r.klipper_max_damping_ratio = klipper_max_damping_ratio(r.shaper.spec.type);
+  if (spec.firmware == Firmware::klipper) r.klipper_max_damping_ratio = klipper_max_damping_ratio(spec.type);
+  r.residual_at_design = remaining_vibration(r.shaper, o.freq_hz, o.damping_ratio);
+  if (spec.firmware == Firmware::marlin && spec.sample_rate_hz > 0.0) {
+    ShaperSpec exact = spec;
+    exact.sample_rate_hz = 0.0;
+    r.residual_at_design_exact_times =
+        remaining_vibration(make_shaper(exact, o.freq_hz, o.damping_ratio), o.freq_hz, o.damping_ratio);
+  }
+  // The other firmware's definition of the same name, where it has one that takes these
+  // parameters (Klipper has no zvdd; Marlin no mzv(n, t); Klipper's humps fix v_tol).
+  const Firmware other = spec.firmware == Firmware::marlin ? Firmware::klipper : Firmware::marlin;
+  try {
+    const ShaperSpec os = parse_shaper_spec(o.type, other, o.marlin_sample_rate_hz);
+    FirmwareComparison c;
+    c.shaper = make_shaper(os, o.freq_hz, o.damping_ratio);
+    c.residual_at_design = remaining_vibration(c.shaper, o.freq_hz, o.damping_ratio);
+    if (c.shaper.amplitudes.size() == r.shaper.amplitudes.size()) {
+      const std::vector<double> a = r.shaper.normalized_amplitudes(), b = c.shaper.normalized_amplitudes();
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        c.max_amplitude_difference = std::max(c.max_amplitude_difference, std::abs(a[i] - b[i]));
+        c.max_time_difference_s =
+            std::max(c.max_time_difference_s, std::abs(r.shaper.times_s[i] - c.shaper.times_s[i]));
+      }
+    } else {
+      c.max_amplitude_difference = std::numeric_limits<double>::quiet_NaN();
+      c.max_time_difference_s = std::numeric_limits<double>::quiet_NaN();
+    }
+    r.compared_with = c;
+  } catch (const Error&) {
+    // The other firmware lacks the type or its parameters: nothing to compare.
+  }
   return r;
 }
 
@@ -49,13 +85,35 @@ Json to_json(const ShaperReport& r) {
   j["residual_vibration"] = numbers(r.residual.remaining_fraction);
   j["klipper_max_damping_ratio"] =
       r.klipper_max_damping_ratio ? json_number(*r.klipper_max_damping_ratio) : Json(nullptr);
+  j["firmware"] = std::string(to_string(r.shaper.spec.firmware));
+  j["sample_rate_hz"] = r.shaper.spec.sample_rate_hz > 0.0 ? json_number(r.shaper.spec.sample_rate_hz) : Json(nullptr);
+  j["residual_at_design"] = json_number(r.residual_at_design);
+  j["residual_at_design_exact_times"] =
+      r.residual_at_design_exact_times ? json_number(*r.residual_at_design_exact_times) : Json(nullptr);
+  if (r.compared_with) {
+    const FirmwareComparison& c = *r.compared_with;
+    j["compared_with"] = {{"firmware", std::string(to_string(c.shaper.spec.firmware))},
+                          {"type", to_string(c.shaper.spec)},
+                          {"amplitudes", numbers(c.shaper.amplitudes)},
+                          {"times_s", numbers(c.shaper.times_s)},
+                          {"residual_at_design", json_number(c.residual_at_design)},
+                          {"max_amplitude_difference", json_number(c.max_amplitude_difference)},
+                          {"max_time_difference_s", json_number(c.max_time_difference_s)},
+                          {"same", c.same()}};
+  } else {
+    j["compared_with"] = nullptr;
+  }
   return j;
 }
 
 std::string to_text(const ShaperReport& r) {
   const Shaper& s = r.shaper;
-  std::string out = fmt::format("shaper {} at {:g} Hz, damping ratio {:g}\n", to_string(s.spec),
-                                s.freq_hz, s.damping_ratio);
+  std::string out = fmt::format("shaper {} at {:g} Hz, damping ratio {:g} ({}'s definition)\n",
+                                to_string(s.spec), s.freq_hz, s.damping_ratio, to_string(s.spec.firmware));
+  if (s.spec.sample_rate_hz > 0.0) {
+    out += fmt::format("  times on Marlin's {:g} Hz trajectory grid (FTM_FS), as the firmware rounds them\n",
+                       s.spec.sample_rate_hz);
+  }
   out += fmt::format("  {:>3}  {:>14}  {:>14}  {:>12}\n", "i", "amplitude", "normalised", "time_ms");
   const std::vector<double> norm = s.normalized_amplitudes();
   for (std::size_t i = 0; i < s.amplitudes.size(); ++i) {
@@ -72,6 +130,28 @@ std::string to_text(const ShaperReport& r) {
   for (std::size_t i = 0; i < r.residual.freqs_hz.size(); ++i) {
     out += fmt::format("    {:>10g} Hz  {:10.6f} %\n", r.residual.freqs_hz[i],
                        r.residual.remaining_fraction[i] * 100.0);
+  }
+  out += fmt::format("  left at its own frequency {:.6f} % (mode of damping ratio {:g})\n",
+                     r.residual_at_design * 100.0, s.damping_ratio);
+  if (r.residual_at_design_exact_times) {
+    out += fmt::format("    with the exact times of the definition {:.6f} %\n",
+                       *r.residual_at_design_exact_times * 100.0);
+  }
+  if (r.compared_with) {
+    const FirmwareComparison& c = *r.compared_with;
+    const std::string who = fmt::format("{}'s {}", to_string(c.shaper.spec.firmware), to_string(c.shaper.spec));
+    if (c.same()) {
+      out += fmt::format("  {} is the same shaper\n", who);
+    } else {
+      out += fmt::format("  differs from {}: it leaves {:.6f} % at this frequency", who, c.residual_at_design * 100.0);
+      if (std::isfinite(c.max_amplitude_difference)) {
+        out += fmt::format(" (normalised amplitudes differ by up to {:.6f}, times by up to {:.6f} ms)",
+                           c.max_amplitude_difference, c.max_time_difference_s * 1e3);
+      } else {
+        out += fmt::format(" ({} impulses instead of {})", c.shaper.amplitudes.size(), s.amplitudes.size());
+      }
+      out += "\n";
+    }
   }
   if (r.klipper_max_damping_ratio && s.damping_ratio > *r.klipper_max_damping_ratio) {
     out += fmt::format("  note: Klipper accepts damping ratios up to {:g} for {}\n",

@@ -183,6 +183,57 @@ constexpr std::array<std::array<double, 4>, 5> k3HumpA = {{{0.11275, 0.76632, 3.
                                                            {0.23775, -0.73297, 0.46885, -2.08650},
                                                            {0.11244, -0.45439, 0.96382, -1.46000}}};
 
+/// Marlin FT_MOTION (ft_motion/shaping.cpp, set_axis_shaping_A and _N): impulse i at i * base
+/// damped periods (base 1/2, or 3/8 for MZV), rounded to whole samples of sample_rate_hz when it
+/// is > 0 (Marlin rounds the first echo's delay, N1 = round(base t_d FS), and places echo i at
+/// i N1); amplitudes as Marlin writes them before dividing by their sum.
+void marlin(const ShaperSpec& spec, const Damped& dm, Shaper& s) {
+  const double K = dm.K;
+  const double K2 = K * K;
+  const double V = spec.ei_v_tol;
+  double base = 0.5;
+  switch (spec.type) {
+    case ShaperType::zv: s.amplitudes = {1.0, K}; break;
+    case ShaperType::zvd: s.amplitudes = {1.0, 2.0 * K, K2}; break;
+    case ShaperType::zvdd: s.amplitudes = {1.0, 3.0 * K, 3.0 * K2, K2 * K}; break;
+    case ShaperType::zvddd: s.amplitudes = {1.0, 4.0 * K, 6.0 * K2, 4.0 * K2 * K, K2 * K2}; break;
+    case ShaperType::ei:
+      // The undamped EI [(1+V)/4, (1-V)/2, (1+V)/4], impulse i scaled by K^i.
+      s.amplitudes = {0.25 * (1.0 + V), 0.5 * (1.0 - V) * K, 0.25 * (1.0 + V) * K2};
+      break;
+    case ShaperType::two_hump_ei: {
+      const double v2 = V * V;
+      const double X = std::cbrt(v2 * (std::sqrt(1.0 - v2) + 1.0));
+      const double a0 = (3.0 * X * X + 2.0 * X + 3.0 * v2) / (16.0 * X);
+      s.amplitudes = {a0, (0.5 - a0) * K, (0.5 - a0) * K2, a0 * K2 * K};
+      break;
+    }
+    case ShaperType::three_hump_ei: {
+      const double a0 = (1.0 + 3.0 * V + 2.0 * std::sqrt(2.0 * (V + 1.0) * V)) / 16.0;
+      const double a1 = 0.25 * (1.0 - V);
+      s.amplitudes = {a0, a1 * K, (0.5 * (1.0 + V) - 2.0 * a0) * K2, a1 * K2 * K, a0 * K2 * K2};
+      break;
+    }
+    case ShaperType::mzv:
+      // Phases 0, 3pi/4, 3pi/2 as Klipper's, but each impulse decayed by K (half a damped
+      // period's decay) where the mode decays by K^(3/4) over 3/8 of a period.
+      s.amplitudes = {1.0, std::numbers::sqrt2 * K, K2};
+      base = 0.375;
+      break;
+  }
+  double step_s = base * dm.t_d_s;
+  if (spec.sample_rate_hz > 0.0) {
+    const double samples = std::round(step_s * spec.sample_rate_hz);
+    if (samples < 1.0) {
+      throw Error(fmt::format("freq_hz: {:g} Hz puts Marlin's first echo {:.3g} ms late, under one "
+                              "sample of its {:g} Hz trajectory rate",
+                              s.freq_hz, step_s * 1e3, spec.sample_rate_hz));
+    }
+    step_s = samples / spec.sample_rate_hz;
+  }
+  for (std::size_t i = 0; i < s.amplitudes.size(); ++i) s.times_s.push_back(static_cast<double>(i) * step_s);
+}
+
 }  // namespace
 
 void require_damping_ratio(std::string_view what, double zeta) {
@@ -220,6 +271,18 @@ Shaper make_shaper(const ShaperSpec& spec, double freq_hz, double damping_ratio)
   s.freq_hz = freq_hz;
   s.damping_ratio = damping_ratio;
   const Damped dm = damped(freq_hz, damping_ratio);
+  if (spec.firmware == Firmware::marlin) {
+    if (spec.type == ShaperType::mzv && (spec.mzv_n != 3 || spec.mzv_t != 0.75)) {
+      throw Error("type: Marlin's mzv takes no parameters (mzv(n, t) is Klipper's generalisation)");
+    }
+    marlin(spec, dm, s);
+    return s;
+  }
+  if ((spec.type == ShaperType::two_hump_ei || spec.type == ShaperType::three_hump_ei) &&
+      spec.ei_v_tol != 0.05) {
+    throw Error(fmt::format("type {}: Klipper's multi-hump EI shapers are fitted for v_tol = 0.05 "
+                            "only (Marlin's take v_tol)", to_string(spec)));
+  }
   switch (spec.type) {
     case ShaperType::zv: binomial(dm, 2, s); break;
     case ShaperType::zvd: binomial(dm, 3, s); break;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/shaping/shaper.hpp"
@@ -104,6 +105,59 @@ std::vector<Arg> split_args(std::string_view text, std::string_view inner) {
 
 std::span<const std::string_view> shaper_type_names() { return kNames; }
 
+Firmware parse_firmware(std::string_view text) {
+  const std::string t = lower(trim(text));
+  if (t == "klipper") return Firmware::klipper;
+  if (t == "marlin") return Firmware::marlin;
+  throw Error(fmt::format("found '{}', expected klipper or marlin (whose shaper definitions)", text));
+}
+
+std::string_view to_string(Firmware firmware) {
+  return firmware == Firmware::marlin ? "marlin" : "klipper";
+}
+
+std::vector<std::string_view> shaper_type_names(Firmware firmware) {
+  if (firmware == Firmware::marlin) {
+    // ft_motion/shaping.h, in Marlin's M493 C order (C1 .. C8).
+    return {"zv", "zvd", "zvdd", "zvddd", "ei", "2hump_ei", "3hump_ei", "mzv"};
+  }
+  return {"zv", "mzv", "zvd", "ei", "2hump_ei", "3hump_ei"};
+}
+
+Firmware default_firmware(ShaperType type) {
+  return type == ShaperType::zvdd || type == ShaperType::zvddd ? Firmware::marlin : Firmware::klipper;
+}
+
+ShaperSpec parse_shaper_spec(std::string_view text, Firmware firmware, double sample_rate_hz) {
+  ShaperSpec spec = parse_shaper_spec(text);
+  const auto names = shaper_type_names(firmware);
+  const std::string name = lower(trim(trim(text).substr(0, trim(text).find('('))));
+  if (std::find(names.begin(), names.end(), name) == names.end()) {
+    const Firmware other = firmware == Firmware::marlin ? Firmware::klipper : Firmware::marlin;
+    throw Error(fmt::format("type '{}' is not a {} shaper: found '{}', expected one of {} ({} offers {})",
+                            text, to_string(firmware), name, fmt::join(names, ", "), to_string(other),
+                            fmt::join(shaper_type_names(other), ", ")));
+  }
+  if (firmware == Firmware::marlin && spec.type == ShaperType::mzv &&
+      (spec.mzv_n != 3 || spec.mzv_t != 0.75)) {
+    bad_parameter(text, "found parameters, expected none: Marlin's mzv takes no parameters (mzv(n, t) is "
+                        "Klipper's generalisation)");
+  }
+  if (firmware == Firmware::klipper &&
+      (spec.type == ShaperType::two_hump_ei || spec.type == ShaperType::three_hump_ei) &&
+      spec.ei_v_tol != 0.05) {
+    bad_parameter(text, "Klipper's multi-hump EI shapers are fitted for v_tol = 0.05 only "
+                        "(Marlin's take v_tol)");
+  }
+  if (!(std::isfinite(sample_rate_hz) && sample_rate_hz >= 0.0)) {
+    throw Error(fmt::format("sample_rate_hz must be a finite number >= 0 (0: exact times), got {}",
+                            sample_rate_hz));
+  }
+  spec.firmware = firmware;
+  spec.sample_rate_hz = firmware == Firmware::marlin ? sample_rate_hz : 0.0;
+  return spec;
+}
+
 ShaperSpec parse_shaper_spec(std::string_view text) {
   const std::string_view t = trim(text);
   const std::size_t paren = t.find('(');
@@ -121,6 +175,7 @@ ShaperSpec parse_shaper_spec(std::string_view text) {
   }
   ShaperSpec spec;
   spec.type = kTypes[static_cast<std::size_t>(it - kNames.begin())];
+  spec.firmware = default_firmware(spec.type);
   const std::vector<Arg> args = split_args(text, inner);
 
   if (spec.type == ShaperType::mzv) {
@@ -162,9 +217,11 @@ ShaperSpec parse_shaper_spec(std::string_view text) {
     spec.mzv_t = t_periods;
     return spec;
   }
-  if (spec.type == ShaperType::ei) {
+  if (spec.type == ShaperType::ei || spec.type == ShaperType::two_hump_ei ||
+      spec.type == ShaperType::three_hump_ei) {
+    // v_tol: Klipper's ei(v_tol=V); Marlin's M493 Q for its three EI types.
     if (args.size() > 1 || (args.size() == 1 && !args[0].key.empty() && args[0].key != "v_tol")) {
-      bad_parameter(text, "ei takes one parameter, v_tol");
+      bad_parameter(text, fmt::format("{} takes one parameter, v_tol", name));
     }
     if (!args.empty()) {
       spec.ei_v_tol = parse_number(text, args[0]);
@@ -183,8 +240,10 @@ std::string to_string(const ShaperSpec& spec) {
   if (spec.type == ShaperType::mzv && (spec.mzv_n != 3 || spec.mzv_t != 0.75)) {
     return fmt::format("mzv(n={}, t={})", spec.mzv_n, spec.mzv_t);
   }
-  if (spec.type == ShaperType::ei && spec.ei_v_tol != 0.05) {
-    return fmt::format("ei(v_tol={})", spec.ei_v_tol);
+  if ((spec.type == ShaperType::ei || spec.type == ShaperType::two_hump_ei ||
+       spec.type == ShaperType::three_hump_ei) &&
+      spec.ei_v_tol != 0.05) {
+    return fmt::format("{}(v_tol={})", name, spec.ei_v_tol);
   }
   return std::string(name);
 }

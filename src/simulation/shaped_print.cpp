@@ -1,4 +1,5 @@
 // A whole print through the belt dynamics with and without input shaping (one plan pass).
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,7 +25,9 @@ namespace dy = amctl::dynamics;
 shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double rate_hz, const ShaperParamNames& n) {
   shaping::ShaperSpec spec;
   try {
-    spec = shaping::parse_shaper_spec(s.type);
+    spec = s.firmware == shaping::Firmware::marlin
+               ? shaping::parse_shaper_spec(s.type, s.firmware, s.marlin_sample_rate_hz)
+               : shaping::parse_shaper_spec(s.type);
   } catch (const Error& e) {
     throw Error(fmt::format("{} ({}): {}", n.type, s.source, e.what()));
   }
@@ -43,6 +46,21 @@ shaping::Shaper make_axis_shaper(const AxisShaperSetting& s, double rate_hz, con
   } catch (const Error& e) {
     throw Error(fmt::format("{} ({}): {}", n.type, s.source, e.what()));
   }
+}
+
+void apply_machine_firmware(const machine::Machine& machine, AxisShaperSetting& setting) {
+  if (machine.firmware != machine::Firmware::marlin) return;
+  std::string name = setting.type.substr(0, setting.type.find('('));
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  while (!name.empty() && name.back() == ' ') name.pop_back();
+  if (name != "zv") return;  // see the header: Prusa's Marlin-derived firmware runs Klipper's MZV
+  setting.firmware = shaping::Firmware::marlin;
+  setting.marlin_sample_rate_hz = 0.0;
+}
+
+void apply_requested_firmware(shaping::Firmware firmware, AxisShaperSetting& setting) {
+  setting.firmware = firmware;
+  setting.marlin_sample_rate_hz = firmware == shaping::Firmware::marlin ? shaping::kMarlinFtmSampleRateHz : 0.0;
 }
 
 std::vector<gcode::InputShapingCommand> m593_before_first_move(const plan::GcodeInput& input,
@@ -123,6 +141,7 @@ ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> com
     s.freq_hz = *axes[a].freq_hz;
     s.damping_ratio = axes[a].zeta;
     s.source = fmt::format("M593 line {}", axes[a].line);
+    s.firmware = shaping::Firmware::marlin;  // the stepper ZV: exact times
     (a == 0 ? r.x : r.y) = s;
     ShaperParamNames& n = a == 0 ? r.names_x : r.names_y;
     n.type = fmt::format("M593 {}", ax);
@@ -134,44 +153,41 @@ ShaperSettings shapers_from_m593(std::span<const gcode::InputShapingCommand> com
 
 namespace {
 
-class ShapedSink final : public plan::Sink {
- public:
-  ShapedSink(ShapedStreamingSimulation& sim, std::vector<std::string>& warnings)
-      : sim_(sim), warnings_(warnings) {}
-  void consume(const plan::PlanBatch& batch) override {
-    plan::for_each_in_order(
-        batch,
-        [&](const plan::PlannedMove& m) {
-          used_features_.insert(m.feature);
-          sim_.push(m);
-          ++moves_;
-        },
-        [&](const plan::PlanEvent& e) {
-          if (e.kind != plan::PlanEvent::Kind::input_shaping || moves_ == 0) return;
-          if (warnings_.size() < 100) {
-            warnings_.push_back(fmt::format("line {}: M593 at print time {:.3f} s changes input shaping "
-                                            "after the first move: not modelled (the simulation keeps "
-                                            "the shaping it started with)", e.line, e.time_s));
-          }
-        });
-  }
-  void finish(const plan::StreamSummary& summary) override {
-    if (moves_ == 0) throw Error(fmt::format("{}: no moves to simulate", summary.file));
-    report_ = sim_.finish();
-    feature_names_ = summary.feature_names;
-    for (std::uint16_t f : used_features_) {
-      if (feature_names_.size() <= f) feature_names_.resize(f + 1u, "unknown");
-    }
-  }
-  ShapedStreamingSimulation& sim_;
-  std::vector<std::string>& warnings_;
-  dy::QualityReport report_;
-  std::size_t moves_ = 0;
-  std::set<std::uint16_t> used_features_;
-  std::vector<std::string> feature_names_;
-};
-
 }  // namespace
+
+ShapedSimulationSink::ShapedSimulationSink(ShapedStreamingSimulation& sim, std::vector<std::string>& warnings,
+                                           bool require_moves)
+    : sim_(sim), warnings_(warnings), require_moves_(require_moves) {}
+
+void ShapedSimulationSink::consume(const plan::PlanBatch& batch) {
+  plan::for_each_in_order(
+      batch,
+      [&](const plan::PlannedMove& m) {
+        used_features_.insert(m.feature);
+        sim_.push(m);
+        ++moves_;
+      },
+      [&](const plan::PlanEvent& e) {
+        if (e.kind != plan::PlanEvent::Kind::input_shaping || moves_ == 0) return;
+        if (warnings_.size() < 100) {
+          warnings_.push_back(fmt::format("line {}: M593 at print time {:.3f} s changes input shaping "
+                                          "after the first move: not modelled (the simulation keeps "
+                                          "the shaping it started with)", e.line, e.time_s));
+        }
+      });
+}
+
+void ShapedSimulationSink::finish(const plan::StreamSummary& summary) {
+  if (moves_ == 0) {
+    if (require_moves_) throw Error(fmt::format("{}: no moves to simulate", summary.file));
+    return;
+  }
+  report_ = sim_.finish();
+  feature_names_ = summary.feature_names;
+  for (std::uint16_t f : used_features_) {
+    if (feature_names_.size() <= f) feature_names_.resize(f + 1u, "unknown");
+  }
+}
 
 ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input, const machine::Machine& machine,
                                         const dy::AxisModel& model_x, const dy::AxisModel& model_y,
@@ -216,7 +232,7 @@ ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input, const mac
                                    std::move(rows));
   if (csv) csv->set_first_step(stream.grid_start_steps());
   r.warnings = shapers.warnings;
-  ShapedSink shaped(stream, r.warnings);
+  ShapedSimulationSink shaped(stream, r.warnings);
   plan::ProfilePeaksSink peaks;
   plan::Sink* sinks[] = {&plain, &shaped, &peaks};
   plan::run_pipeline(source, sinks);
@@ -235,11 +251,11 @@ ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input, const mac
     p.peaks = peaks.peaks();
   };
   common(r.shaped);
-  r.shaped.report = shaped.report_;
+  r.shaped.report = shaped.report();
   r.shaped.stats = stream.stats();
-  r.shaped.moves = shaped.moves_;
+  r.shaped.moves = shaped.moves();
   r.shaped.max_window_moves = stream.max_window_moves();
-  r.shaped.feature_names = shaped.feature_names_;
+  r.shaped.feature_names = shaped.feature_names();
   common(r.without);
   r.without.report = plain.report();
   r.without.stats = plain.stats();
@@ -259,6 +275,9 @@ Json to_json(const ShapedPrintResult& r, bool with_peaks) {
             {"freq_hz", json_number(sh->freq_hz)},
             {"damping_ratio", json_number(sh->damping_ratio)},
             {"source", s->source},
+            {"firmware", std::string(shaping::to_string(sh->spec.firmware))},
+            {"marlin_sample_rate_hz",
+             sh->spec.sample_rate_hz > 0.0 ? json_number(sh->spec.sample_rate_hz) : Json(nullptr)},
             {"duration_s", json_number(sh->duration_s())},
             {"klipper_smoothing_mm",
              json_number(shaping::smoothing_mm(*sh, shaping::kKlipperSmoothingAccelMmS2,

@@ -21,6 +21,7 @@ std::optional<AxisShaperSetting> from_machine(const machine::Machine& m, bool y,
   s.freq_hz = f;
   s.damping_ratio = y ? in.damping_ratio_y : in.damping_ratio_x;
   s.source = fmt::format("machine {}", m.name);
+  apply_machine_firmware(m, s);
   return s;
 }
 
@@ -53,11 +54,17 @@ ShaperSettings resolve_shapers(const ShaperRequest& request, const machine::Mach
   ShaperSettings shapers;
   shapers.x = from_request(request, false, shapers.names_x);
   shapers.y = from_request(request, true, shapers.names_y);
+
   if (shapers.any() && request.none) {
     throw Error(fmt::format("{} and a {} parameter contradict each other", request.none_name,
                             request.type_name));
   }
-  if (request.none) return shapers;
+  if (request.none) {
+    if (request.firmware) {
+      throw Error(fmt::format("{} and {} contradict each other", request.none_name, request.firmware_name));
+    }
+    return shapers;
+  }
   // Precedence: the request, then the machine's [input_shaper], then M593 before the first move.
   const auto m593 = m593_before_first_move(path, machine);
   const bool from_flags = shapers.any();
@@ -72,6 +79,11 @@ ShaperSettings resolve_shapers(const ShaperRequest& request, const machine::Mach
           from_flags ? "the requested shaper" : "the machine's [input_shaper]"));
     } else {
       shapers = shapers_from_m593(m593);
+    }
+  }
+  if (request.firmware) {
+    for (auto* axis : {&shapers.x, &shapers.y}) {
+      if (*axis) apply_requested_firmware(*request.firmware, **axis);
     }
   }
   return shapers;

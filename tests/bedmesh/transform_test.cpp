@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "amctl/bedmesh/config.hpp"
 #include "amctl/bedmesh/transform.hpp"
 #include "amctl/machine/loader.hpp"
 #include "amctl/plan/stream.hpp"
@@ -213,6 +214,22 @@ TEST(BedMeshStream, AProfileLoadedInAMacroMakesZFollowTheMeshAndTakesMoreTime) {
   }
   const double t_plain = plain.back().end_time_s(), t_mesh = meshed.back().end_time_s();
   EXPECT_GT(t_mesh, t_plain);  // the pieces meet at junctions below the cruise speed
+}
+
+TEST(BedMeshStream, FadeEndNotAboveFadeStartTurnsFadeOffAsKlipperDoes) {
+  std::string cfg = kCfg;
+  const std::string probe = "probe_count: 3, 3\n";
+  cfg.replace(cfg.find(probe), probe.size(), probe + "fade_start: 1\nfade_end: 0.5\n");
+  const machine::Machine m = machine::load_machine(write("bedmesh_stream_fade.cfg", cfg));
+  const auto settings = read_klipper(m.klipper_config, SourceLocation{m.name, 0, 0});
+  ASSERT_TRUE(settings.has_value());
+  EXPECT_FALSE(settings->fade_enabled);
+  EXPECT_NE(to_text(*settings).find("Klipper disables fade"), std::string::npos) << to_text(*settings);
+  // At 5 mm, far above fade_end, the mesh still applies in full: z = 5 + 0.002 x.
+  const auto meshed = plan_text(m, "SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nSTART MESH=tilt\n"
+                                   "G1 X0 Y100 Z5 F6000\nG1 X200 F3000\n");
+  const auto& last = meshed.back();
+  EXPECT_NEAR(last.start_mm[2] + last.axes_r[2] * last.distance_mm, 5.0 + 0.002 * 200.0, 1e-9);
 }
 
 TEST(BedMeshStream, BadMeshInputNamesFileLineAndColumn) {

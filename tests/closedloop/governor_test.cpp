@@ -194,3 +194,48 @@ TEST(LoopStability, TheDefaultGainsHoldFromRestToTheDesignAngle) {
 
 }  // namespace
 }  // namespace amctl::closedloop
+
+namespace amctl::closedloop {
+namespace {
+
+// The lead cap (docs/closedloop.md, section 3.1): the command's lead over a carriage held still
+// settles the rotor where Kt I sin(d) = r k (r th - y) and (r / p) d + (r th - y) = c - y.
+// The settled angle, solved for here by bisection, stays at or below the design angle when
+// c - y is the cap, and the cap is the closed form by hand.
+TEST(CommandGovernor, TheLeadCapHoldsTheRotorAtOrBelowTheDesignAngle) {
+  MotorParameters mp;
+  mp.detent_torque_n_m = 0.0;
+  AxisMechanics ax;
+  const double k = ax.belt.stiffness_n_per_m;
+  ax.belt.mass_kg = 1e7;  // the carriage held still
+  ax.belt.damping_n_s_per_m = 0.0;
+  ax.coulomb_friction_n = ax.viscous_friction_n_s_per_m = 0.0;
+  const StepperAxisModel m(mp, DriveParameters{}, ax);
+  const CommandGovernor g(m, GovernorParameters{}, 1.7);
+  const double r = 0.040 / (2 * kPi), p = 50.0, s = 0.040 / 3200 * 1e3;
+  const double kt_i = 0.40 / std::numbers::sqrt2;  // Kt I at 1.7 A (at rest V / R > I)
+  const double cap = 1e3 * kt_i * std::sin(kPi / 3) / (r * k) + 1e3 * (r / p) * kPi / 3 - 0.5 * s;
+  EXPECT_NEAR(g.max_lead_mm(0.0, 1.7), cap, 1e-12);
+  // The largest whole microstep within the cap, reached a microstep per millisecond (as the
+  // governor's step limits bring a lead in) and held until the rotor settles.
+  const auto n = static_cast<std::int64_t>(std::floor(cap / s + 0.5));
+  MotorState st = m.rest_state(0.0);
+  for (std::int64_t j = 1; j <= n; ++j) {
+    m.set_microstep(st, j);
+    for (int i = 0; i < 50; ++i) m.step(st, 20e-6);
+  }
+  for (int i = 0; i < 40000; ++i) m.step(st, 20e-6);  // 0.8 s: the rotor's ringing dies out
+  const double c_mm = static_cast<double>(n) * s;
+  double lo = 0.0, hi = kPi / 2;
+  for (int i = 0; i < 80; ++i) {
+    const double d = 0.5 * (lo + hi);
+    const double lead = 1e3 * (r / p) * d + 1e3 * kt_i * std::sin(d) / (r * k);
+    (lead < c_mm ? lo : hi) = d;
+  }
+  EXPECT_NEAR(m.load_angle_rad(st), lo, 2e-3);
+  EXPECT_LE(m.load_angle_rad(st), kPi / 3 + 2e-3);
+  EXPECT_GT(m.load_angle_rad(st), kPi / 3 - 0.05);  // the cap is not needlessly tight
+}
+
+}  // namespace
+}  // namespace amctl::closedloop

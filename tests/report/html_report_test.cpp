@@ -13,6 +13,7 @@
 
 #include "amctl/core/error.hpp"
 #include "amctl/plan/estimate.hpp"
+#include "amctl/simulation/shaped_simulation.hpp"
 #include "test_util.hpp"
 
 namespace amctl::report {
@@ -112,6 +113,44 @@ TEST(HtmlReport, WithABeltModelTheToolpathCarriesContourErrors) {
   }
   // The largest per-segment error is the simulation's maximum (rounded to a micrometre).
   EXPECT_NEAR(static_cast<double>(top_um), max_mm * 1000.0, 1.0);
+}
+
+TEST(HtmlReport, TheMachinesInputShaperDrivesTheContourColouringAsInSimulate) {
+  // The same shaped simulation `amctl simulate` runs: its figures, to the last bit, and the
+  // page says which shaper it used; --no-shaper (machine_shaper = false) is the unshaped run.
+  machine::Machine m = test::klipper();
+  m.input_shaper.shaper_type_x = "mzv";
+  m.input_shaper.shaper_type_y = "ei";
+  m.input_shaper.shaper_freq_x_hz = 42.0;
+  m.input_shaper.shaper_freq_y_hz = 36.0;
+  const std::string gcode = test::write_temp("poly_shaped.gcode", test::polygons(3, 8));
+  ReportOptions o;
+  o.belt = BeltModelOptions{30.0, 0.1};
+  const Json d = report_data(gcode, m, o);
+  ASSERT_FALSE(d["quality"].is_null());
+  const Json& sh = d["quality"]["shaper"];
+  EXPECT_EQ(sh["x"]["type"], "mzv");
+  EXPECT_EQ(sh["x"]["freq_hz"].get<double>(), 42.0);
+  EXPECT_EQ(sh["x"]["firmware"], "klipper");
+  EXPECT_EQ(sh["y"]["type"], "ei");
+  EXPECT_EQ(sh["y"]["source"], "machine " + m.name);
+
+  dynamics::PrintSimulationOptions po;
+  po.simulation.sample_rate_hz = o.sample_rate_hz;
+  po.metrics.keep_per_move = false;
+  const auto belt = dynamics::AxisModel::belt(30.0, 0.1);
+  const simulation::ShaperSettings settings = simulation::resolve_shapers({}, m, gcode);
+  const simulation::ShapedPrintResult r = simulation::simulate_shaped_print(gcode, m, belt, belt, po, settings);
+  EXPECT_EQ(d["quality"]["max_contour_error_mm"].get<double>(), r.shaped.report.max_contour_error_mm);
+  EXPECT_EQ(d["quality"]["rms_contour_error_mm"].get<double>(), r.shaped.report.rms_contour_error_mm);
+  EXPECT_NE(r.shaped.report.max_contour_error_mm, r.without.report.max_contour_error_mm);
+
+  o.machine_shaper = false;
+  const Json u = report_data(gcode, m, o);
+  EXPECT_FALSE(u["quality"].contains("shaper"));
+  EXPECT_EQ(u["quality"]["max_contour_error_mm"].get<double>(), r.without.report.max_contour_error_mm);
+  // The page shows the shaper card.
+  EXPECT_NE(render_html(d).find("Input shaper"), std::string::npos);
 }
 
 TEST(HtmlReport, AnAccelerometerRecordAddsKlippersCalibrationAndTheShaperCurves) {

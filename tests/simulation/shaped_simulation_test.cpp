@@ -437,6 +437,49 @@ TEST(ShapedSimulate, ShaperSettingsAreChecked) {
 }
 
 
+TEST(ShapedSimulate, EachFirmwaresDefinitionIsApplied) {
+  // Marlin's FT_MOTION MZV (asked for): K instead of K^(3/4), on the 1 kHz grid.
+  AxisShaperSetting s{"mzv", 40.0, 0.1, "t"};
+  apply_requested_firmware(shaping::Firmware::marlin, s);
+  const shaping::Shaper m = make_axis_shaper(s, 1000.0);
+  const double K = std::exp(-0.1 * std::numbers::pi / std::sqrt(1.0 - 0.01));
+  EXPECT_NEAR(m.amplitudes[2] / m.amplitudes[0], K * K, 1e-14);
+  EXPECT_DOUBLE_EQ(m.times_s[1], 0.009);
+  // A type Marlin lacks is refused, naming the parameter and both firmwares' types.
+  AxisShaperSetting g{"mzv(n=4, t=0.9)", 40.0, 0.1, "t"};
+  apply_requested_firmware(shaping::Firmware::marlin, g);
+  try {
+    (void)make_axis_shaper(g, 1000.0);
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--shaper"), std::string::npos) << e.what();
+  }
+  // A Marlin machine's ZV is Marlin's stepper ZV (exact times); its MZV stays Klipper's
+  // (Prusa's Marlin-derived firmware runs Klipper's definitions).
+  machine::Machine mm;
+  mm.firmware = machine::Firmware::marlin;
+  AxisShaperSetting zv{"zv", 40.0, 0.1, "t"}, mzv{"mzv", 40.0, 0.1, "t"};
+  apply_machine_firmware(mm, zv);
+  apply_machine_firmware(mm, mzv);
+  EXPECT_EQ(zv.firmware, shaping::Firmware::marlin);
+  EXPECT_EQ(zv.marlin_sample_rate_hz, 0.0);
+  EXPECT_EQ(mzv.firmware, shaping::Firmware::klipper);
+  // M593 is Marlin's (ZV).
+  const std::string path = std::string(AMCTL_SOURCE_DIR) + "/tests/simulation/m593_corner.gcode";
+  const ShaperSettings ms = shapers_from_m593(m593_before_first_move(path, machine::Machine{}));
+  ASSERT_TRUE(ms.x);
+  EXPECT_EQ(ms.x->firmware, shaping::Firmware::marlin);
+  // --shaper-firmware applies to every shaper in use, whatever its source.
+  ShaperRequest req;
+  req.firmware = shaping::Firmware::marlin;
+  const ShaperSettings rs = resolve_shapers(req, machine::Machine{}, path);
+  ASSERT_TRUE(rs.x);
+  EXPECT_EQ(rs.x->marlin_sample_rate_hz, shaping::kMarlinFtmSampleRateHz);
+  req.none = true;
+  EXPECT_THROW((void)resolve_shapers(req, machine::Machine{}, path), Error);
+}
+
+
 struct ShapingCapture final : gcode::EventSink {
   std::vector<gcode::InputShapingCommand> cmds;
   void on_move(const gcode::MoveRequest&) override {}

@@ -20,7 +20,7 @@ struct Settings {
   std::vector<std::string> incompatible_profiles;
   double fade_start_mm = 1.0;
   double fade_end_mm = 0.0;
-  bool fade_enabled = false;                 ///< fade_end > fade_start
+  bool fade_enabled = false;                 ///< fade_end > fade_start (else off, as Klipper)
   std::optional<double> fade_target_mm;      ///< unset: the mesh's rounded average
   double move_check_distance_mm = 5.0;       ///< >= 3
   double split_delta_z_mm = 0.025;           ///< >= 0.01
@@ -33,8 +33,8 @@ struct Settings {
 /// section (profiles without it are not loaded by Klipper either). Throws amctl::Error at
 /// FILE:LINE:COL for what Klipper refuses (bad numbers, a mesh_min not below mesh_max, an
 /// unknown algorithm) and for a saved profile whose points do not make the grid it declares
-/// (a row of the wrong length, a value that is not a finite number, a missing key), and for
-/// fade_end written at or below fade_start (Klipper then disables fade without a word).
+/// (a row of the wrong length, a value that is not a finite number, a missing key). A
+/// fade_end at or below fade_start disables fade, as in Klipper.
 [[nodiscard]] std::optional<Settings> read_klipper(const std::vector<ConfigSection>& sections,
                                                    const SourceLocation& file);
 

@@ -92,6 +92,14 @@ class CommandGovernor {
   /// design angle, r (T_po(w, I) sin(d_max) - tau_plan(v, 0)) / (J + m r^2) [mm/s^2], and the
   /// highest command speed at no acceleration (V_c) [mm/s].
   [[nodiscard]] double axis_accel_limit_mm_s2(double v_mm_s) const;
+  /// The largest lead of the motor command over the carriage the rotor and the belt hold with
+  /// the rotor at the design angle, at speed v and phase current I [mm]:
+  ///   L = T_po(w, I) sin(d_max) / (r k) + (r / p) d_max + B / 2 - s / 2
+  /// (the belt stretched by the force the rotor gives at d_max, the rotor's own angle, half the
+  /// backlash, less half a microstep of quantisation). The rotor (its inertia small beside the
+  /// carriage's) shares c - y with the belt in quasi-equilibrium, Kt I sin(d) = r k (r th - y),
+  /// and c - y grows monotonically with d: |c - y| <= L keeps d <= d_max.
+  [[nodiscard]] double max_lead_mm(double v_mm_s, double current_a) const;
   [[nodiscard]] double max_command_speed_mm_s() const { return v_cruise_max_; }
   [[nodiscard]] const GovernorParameters& parameters() const { return p_; }
   [[nodiscard]] double belt_frequency_rad_s() const { return wb_; }
@@ -120,6 +128,9 @@ class CommandLimiter {
   Out next(double lead_mm, double feedback_mm, double ref_speed_mm_s, const MoveLimits& l,
            double period_s);
   void reset(double correction_mm) { lead_ = smooth_ = correction_mm; u_ = rate_ = 0.0; }
+  /// The command was moved by `delta_mm` after next() (the lead cap): the feedback takes the
+  /// change first, as for the speed room, so neither winds up against the cap.
+  void take_back(double delta_mm) { u_ += delta_mm; }
   /// The lead as applied at the end of the last period.
   [[nodiscard]] double lead_mm() const { return lead_; }
 

@@ -107,6 +107,9 @@ struct AxisResult {
   /// each degraded the move and took the lost cycle out of the controller's view, given back
   /// at 1 mm/s.
   std::uint64_t slips_inferred = 0;
+  /// Periods in which the lead cap held the command back (its lead over the carriage at what
+  /// the rotor and the belt hold at the design angle).
+  std::uint64_t lead_capped_periods = 0;
   /// When the axis fell back to open loop's command for the rest of the run (a slip on a move
   /// the governor found feasible); negative: never.
   double fall_back_time_s = -1.0;

@@ -5,7 +5,9 @@
 //                               -> SpeedLodSink   (min/max speed per time bucket, bounded)
 //                               -> ToolpathSink   (decimated XY polyline per layer, bounded)
 //                               -> SimulationSink (with a belt model: contour error, fed back
-//                                                  into the toolpath per sample)
+//                                                  into the toolpath per sample; with the
+//                                                  machine's input shaper, the shaped
+//                                                  simulation of `amctl simulate`)
 // in one pass and bounded memory. The data goes into the page as JSON in a
 // <script type="application/json"> tag; the page draws it with its own inline script
 // (canvas), asks for nothing over the network (a Content-Security-Policy forbids it) and is
@@ -30,6 +32,9 @@ struct BeltModelOptions {
 struct ReportOptions {
   std::optional<BeltModelOptions> belt;   ///< simulate and colour by contour error
   double sample_rate_hz = 1000.0;         ///< simulation rate (with a belt model)
+  /// With a belt model: drive it with the machine's input shaper ([input_shaper], or M593
+  /// before the first move), as `amctl simulate` does; false: the unshaped command.
+  bool machine_shaper = true;
   bool strict = true;                     ///< false: skip malformed lines (counted)
   /// The file's own limits commands: kept as the firmware does, ignored or capped.
   plan::FileLimits file_limits = plan::FileLimits::keep;

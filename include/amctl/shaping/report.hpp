@@ -3,7 +3,8 @@
 // bindings return). The JSON keys are an interface (acceptance checks read them):
 //   type, freq_hz, damping_ratio, amplitudes, times_s, duration_s, time_shift_s,
 //   smoothing_mm, smoothing_accel_mm_s2, scv_mm_s, max_accel_mm_s2, target_smoothing_mm,
-//   test_damping_ratio, residual_at_hz, residual_vibration, klipper_max_damping_ratio.
+//   test_damping_ratio, residual_at_hz, residual_vibration, klipper_max_damping_ratio,
+//   firmware, sample_rate_hz, residual_at_design, compared_with.
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,6 +26,20 @@ struct ShaperReportOptions {
   double smoothing_accel_mm_s2 = kKlipperSmoothingAccelMmS2;
   double scv_mm_s = kKlipperSquareCornerVelocityMmS;
   double target_smoothing_mm = kKlipperTargetSmoothingMm;
+  /// Whose definition; unset: the type's own (parse_shaper_spec without a firmware).
+  std::optional<Firmware> firmware;
+  /// Marlin: impulse times on this grid (FTM_FS); 0: the exact times.
+  double marlin_sample_rate_hz = kMarlinFtmSampleRateHz;
+};
+
+/// The same type as the other firmware defines it, at the same frequency and damping ratio,
+/// and how far the two are apart.
+struct FirmwareComparison {
+  Shaper shaper;                        ///< the other firmware's
+  double residual_at_design = 0.0;      ///< the other's remaining vibration at freq_hz, damping_ratio
+  double max_amplitude_difference = 0.0;  ///< of the normalised amplitudes (NaN: counts differ)
+  double max_time_difference_s = 0.0;   ///< of the times (NaN: counts differ)
+  [[nodiscard]] bool same() const { return max_amplitude_difference <= 1e-12 && max_time_difference_s <= 1e-12; }
 };
 
 struct ShaperReport {
@@ -36,6 +51,12 @@ struct ShaperReport {
   double max_accel_mm_s2 = 0.0;   ///< at scv_mm_s for target_smoothing_mm
   VibrationCurve residual;        ///< at the asked frequencies
   std::optional<double> klipper_max_damping_ratio;
+  /// Remaining vibration of a mode at the shaper's own frequency and damping ratio.
+  double residual_at_design = 0.0;
+  /// Marlin on its sample grid: the same with the exact times of its definition.
+  std::optional<double> residual_at_design_exact_times;
+  /// The other firmware's definition of the type, when it has one.
+  std::optional<FirmwareComparison> compared_with;
 };
 
 /// Builds the shaper and its figures. Throws amctl::Error naming the parameter on bad input

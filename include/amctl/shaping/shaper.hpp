@@ -19,6 +19,21 @@
 
 namespace amctl::shaping {
 
+/// Whose definition of a shaper type.
+enum class Firmware {
+  klipper,  ///< klippy/extras/shaper_defs.py
+  marlin,   ///< FT_MOTION, ft_motion/shaping.cpp (set_axis_shaping_A / _N)
+};
+
+/// Marlin's FT_MOTION trajectory rate FTM_FS [Hz] (its default): the impulse times are
+/// rounded to this grid (shaping.cpp rounds the echo delay to whole samples).
+inline constexpr double kMarlinFtmSampleRateHz = 1000.0;
+
+/// "klipper" or "marlin" (without regard to case). Throws amctl::Error naming `firmware`, the
+/// text and the valid names.
+[[nodiscard]] Firmware parse_firmware(std::string_view text);
+[[nodiscard]] std::string_view to_string(Firmware firmware);
+
 enum class ShaperType {
   zv,             ///< A = [1, K], T = [0, t_d/2]
   mzv,            ///< Klipper's mzv(n, t): n impulses over t damped periods (default n=3, t=0.75)
@@ -39,21 +54,40 @@ struct ShaperSpec {
   int mzv_n = 3;
   /// mzv: time of the last impulse in damped periods t_d; must be below (n - 1) / 2.
   double mzv_t = 0.75;
-  /// ei: the vibration tolerance the shaper is made insensitive to (fraction).
+  /// ei (and, for Marlin, 2hump_ei and 3hump_ei: its M493 Q): the vibration tolerance the
+  /// shaper is made insensitive to (fraction). Klipper's 2hump_ei/3hump_ei are fixed at 0.05.
   double ei_v_tol = 0.05;
+  /// Whose definition (parse_shaper_spec without a firmware: Klipper's for Klipper's types,
+  /// Marlin's for zvdd and zvddd, which only Marlin has).
+  Firmware firmware = Firmware::klipper;
+  /// Marlin: the impulse times are whole samples of this rate (FTM_FS), as Marlin rounds
+  /// them; 0: the exact times of the definition. Ignored for Klipper.
+  double sample_rate_hz = 0.0;
 };
 
 /// The names parse_shaper_spec accepts (lower case, without parameters), Klipper's first.
 [[nodiscard]] std::span<const std::string_view> shaper_type_names();
+/// The names `firmware` offers: Klipper zv, mzv, zvd, ei, 2hump_ei, 3hump_ei; Marlin zv, zvd,
+/// zvdd, zvddd, ei, 2hump_ei (its 2HEI), 3hump_ei (3HEI), mzv.
+[[nodiscard]] std::vector<std::string_view> shaper_type_names(Firmware firmware);
+/// The firmware whose definition a type means when none is named: Marlin for zvdd and
+/// zvddd, Klipper for the others.
+[[nodiscard]] Firmware default_firmware(ShaperType type);
 
 /// Parses a shaper type (see ShaperSpec). Throws amctl::Error naming `type`, the text and
 /// the valid names for an unknown type, and the parameter for a bad or out-of-range one
 /// (Klipper's own limits for mzv: n >= 3, t < (n - 1)/2; tau= gives t = tau (n-1)/(n+2tau-2);
 /// and amctl's n <= 64. Klipper's motion code applies at most 10 impulses.)
 [[nodiscard]] ShaperSpec parse_shaper_spec(std::string_view text);
+/// Same, in `firmware`'s definitions: throws amctl::Error naming the type and what each
+/// firmware accepts when `firmware` lacks the type or the parameter (Marlin has no mzv(n, t);
+/// Klipper no zvdd, zvddd, nor a v_tol for 2hump_ei / 3hump_ei). Marlin's times are rounded
+/// to sample_rate_hz (default kMarlinFtmSampleRateHz; 0: exact).
+[[nodiscard]] ShaperSpec parse_shaper_spec(std::string_view text, Firmware firmware,
+                                           double sample_rate_hz = kMarlinFtmSampleRateHz);
 
 /// The canonical spelling: "zv", "mzv", "mzv(n=4, t=0.9)", "2hump_ei", "ei(v_tol=0.1)", ...
-/// (parameters are written only when they differ from the defaults).
+/// (parameters are written only when they differ from the defaults; not the firmware).
 [[nodiscard]] std::string to_string(const ShaperSpec& spec);
 
 /// Klipper's limit on the damping ratio a shaper is configured with (input_shaper.py via

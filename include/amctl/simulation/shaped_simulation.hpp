@@ -23,6 +23,7 @@
 #include <deque>
 #include <memory>
 #include <optional>
+#include <set>
 #include <span>
 #include <string>
 #include <vector>
@@ -147,6 +148,30 @@ class ShapedStreamingSimulation {
   SmoothingFigures smoothing_;
 };
 
+/// The shaped simulation as a sink of the plan stream (what `amctl simulate` and `amctl
+/// report` run): every planned move is pushed to `sim`; an M593 after the first move is a
+/// warning (a change of shaping mid-print is not modelled). finish() throws for a stream
+/// without moves when require_moves, else leaves the report empty (moves() == 0).
+class ShapedSimulationSink final : public plan::Sink {
+ public:
+  ShapedSimulationSink(ShapedStreamingSimulation& sim, std::vector<std::string>& warnings,
+                       bool require_moves = true);
+  void consume(const plan::PlanBatch& batch) override;
+  void finish(const plan::StreamSummary& summary) override;
+  [[nodiscard]] const dynamics::QualityReport& report() const { return report_; }
+  [[nodiscard]] std::size_t moves() const { return moves_; }
+  [[nodiscard]] const std::vector<std::string>& feature_names() const { return feature_names_; }
+
+ private:
+  ShapedStreamingSimulation& sim_;
+  std::vector<std::string>& warnings_;
+  bool require_moves_ = true;
+  dynamics::QualityReport report_;
+  std::size_t moves_ = 0;
+  std::set<std::uint16_t> used_features_;
+  std::vector<std::string> feature_names_;
+};
+
 // ------------------------------------------------------------------------------ whole print
 
 /// One axis' shaper as configured: type (shaping::parse_shaper_spec), frequency, damping
@@ -156,7 +181,23 @@ struct AxisShaperSetting {
   double freq_hz = 0.0;
   double damping_ratio = 0.1;
   std::string source;
+  /// Whose definition of the type (shaping::Firmware): Marlin's on a Marlin machine and for
+  /// M593, Klipper's elsewhere.
+  shaping::Firmware firmware = shaping::Firmware::klipper;
+  /// Marlin: impulse times on this grid [Hz] (FT_MOTION's FTM_FS), 0: exact (the stepper
+  /// INPUT_SHAPING ZV that M593 sets runs on the step timer).
+  double marlin_sample_rate_hz = 0.0;
 };
+
+/// The definition a machine's own shaper setting runs with. On a Marlin machine, ZV is
+/// Marlin's stepper INPUT_SHAPING ZV (what M593 and INPUT_SHAPING_X/Y set; on the step timer,
+/// exact times; equal to Klipper's ZV). Other types keep Klipper's definitions: the bundled
+/// Marlin-derived machines that name one (Prusa MK4, MINI: MZV) run Prusa-Firmware-Buddy's
+/// input shaper, a port of Klipper's (its MZV decays by K^(3/4)); FT_MOTION's definitions
+/// are asked for with ShaperRequest::firmware.
+void apply_machine_firmware(const machine::Machine& machine, AxisShaperSetting& setting);
+/// The definition asked for: Marlin's means FT_MOTION's (times on its 1 kHz grid).
+void apply_requested_firmware(shaping::Firmware firmware, AxisShaperSetting& setting);
 
 /// The names of an axis' shaper parameters in messages (the flags or config keys).
 struct ShaperParamNames {
@@ -186,7 +227,7 @@ struct ShaperSettings {
                                                                             const machine::Machine& machine);
 
 /// Marlin's input shaping after `commands` (M593, in order), from Marlin's M593.cpp: the
-/// stepper shaping is ZV; D sets the damping ratio (accepted in [0, 1], Marlin's default
+/// stepper shaping is ZV (Marlin's definition, exact times); D sets the damping ratio (accepted in [0, 1], Marlin's default
 /// SHAPING_ZETA 0.15), F the frequency (0 = off; negative: rejected), X / Y select the axes
 /// (neither: both); T is documented as not implemented and ignored. A rejected value, an
 /// axis given a damping ratio but never a frequency (the firmware's compiled-in default is not
@@ -200,11 +241,14 @@ struct ShaperRequest {
   std::optional<double> freq_hz, freq_x_hz, freq_y_hz;
   double damping_ratio = 0.1;  ///< Klipper's default
   bool none = false;           ///< no shaper, whatever the machine or the file says
+  /// Whose definitions every shaper in use takes (the flags', the machine's or M593's);
+  /// unset: apply_machine_firmware, and Marlin's stepper ZV for M593.
+  std::optional<shaping::Firmware> firmware;
   /// How the caller spells these parameters, for messages.
   std::string type_name = "--shaper", type_x_name = "--shaper-x", type_y_name = "--shaper-y";
   std::string freq_name = "--shaper-freq-hz", freq_x_name = "--shaper-freq-x-hz",
               freq_y_name = "--shaper-freq-y-hz", damping_name = "--shaper-damping-ratio",
-              none_name = "--no-shaper";
+              none_name = "--no-shaper", firmware_name = "--shaper-firmware";
   [[nodiscard]] bool any() const {
     return type || type_x || type_y || freq_hz || freq_x_hz || freq_y_hz;
   }
