@@ -6,12 +6,15 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <string_view>
 #include <numbers>
 
 #include <fmt/format.h>
 
 #include "amctl/control/pid.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/core/output.hpp"
 #include "amctl/sls3d/scan.hpp"
 #include "amctl/sls3d/studies.hpp"
 
@@ -170,7 +173,19 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
         s.map = plant->raster_top(-c.disc_radius_m + 0.5 * d, -c.disc_radius_m + 0.5 * d, d, d, n, n);
       }
       if (!staging.empty()) {
-        const std::string name = plant->write_vtu(staging.string(), stem_of(r.snapshots.size()), t);
+        // Written by rank 0 through the one output writer (atomic, removed on a signal),
+        // into the staging directory, moved into place once the whole run succeeded.
+        const std::string name = stem_of(r.snapshots.size()) + ".vtu";
+        // Errors (opening, writing, committing) are raised inside the sink, so the engine
+        // passes them on to every rank.
+        std::unique_ptr<OutputFile> file;
+        plant->write_vtu(
+            [&](std::string_view bytes) {
+              if (!file) file = std::make_unique<OutputFile>((staging / name).string());
+              if (bytes.empty()) file->commit();
+              else file->write(bytes);
+            },
+            t);
         s.file = (fs::path(o.vtu_dir) / name).string();
       }
       r.snapshots.push_back(std::move(s));

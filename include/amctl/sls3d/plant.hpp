@@ -19,8 +19,10 @@
 // nodal (mass-lumped) enthalpy; every step conserves energy to the nonlinear tolerance.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace amctl::sls3d {
@@ -231,10 +233,14 @@ class Plant {
   [[nodiscard]] virtual TopMaximum top_maximum() const = 0;
   [[nodiscard]] virtual TopRaster raster_top(double x0_m, double y0_m, double dx_m, double dy_m,
                                              int nx, int ny) const = 0;
-  /// Writes DIR/STEM.vtu (one file, all ranks) of the deposited domain: temperature,
-  /// consolidation state, conductivity, owning rank. Returns the file name.
-  virtual std::string write_vtu(const std::string& dir, const std::string& stem,
-                                double time_s) = 0;
+  /// The VTU snapshot (one file for all ranks) of the deposited domain: temperature,
+  /// consolidation state, conductivity, owning rank. Collective; on rank 0 `sink` receives
+  /// the file's bytes in order (header, each rank's piece, footer), one piece at a time, then
+  /// an empty view that marks the end (where the host commits the file); it is never called
+  /// on the others. The engine writes no file: the host writes the bytes with
+  /// its own output writer. An exception from `sink` is rethrown on rank 0 after every rank's
+  /// piece was taken (the other ranks throw amctl::Error), so no rank is left waiting.
+  virtual void write_vtu(const std::function<void(std::string_view)>& sink, double time_s) = 0;
   [[nodiscard]] virtual MeshStats stats() const = 0;
   [[nodiscard]] virtual double top_z_m() const = 0;
   [[nodiscard]] virtual double enthalpy_j() const = 0;

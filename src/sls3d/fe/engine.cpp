@@ -44,6 +44,7 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/numerics/adaptation_strategies.h>
 #include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/rtree.h>
 
 #include <p4est.h>
 #include <sc.h>
@@ -53,11 +54,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <functional>
 #include <filesystem>
 #include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "amctl/core/error.hpp"
@@ -155,7 +159,7 @@ class FePlant final : public Plant {
   [[nodiscard]] TopMaximum top_maximum() const override;
   [[nodiscard]] TopRaster raster_top(double x0_m, double y0_m, double dx_m, double dy_m, int nx,
                                      int ny) const override;
-  std::string write_vtu(const std::string& dir, const std::string& stem, double time_s) override;
+  void write_vtu(const std::function<void(std::string_view)>& sink, double time_s) override;
   [[nodiscard]] MeshStats stats() const override;
   [[nodiscard]] double top_z_m() const override { return top_z_; }
   [[nodiscard]] double enthalpy_j() const override;
@@ -187,7 +191,17 @@ class FePlant final : public Plant {
   // Updates the consolidation states from T; returns (cells changed, enthalpy change).
   std::pair<int, double> update_states();
   [[nodiscard]] double energy_of(const Vec& t_ghost) const;
-  void solve_linear(Vec& x, const Vec& b, int& iterations, const char* what);
+  // The nodal enthalpy model phi_i(T) = a_i T + b_i max(sigma_i, f(T)) of the lumped mass
+  // (a_i = sum of m rho c, b_i = sum of m rho L over the node's cells, sigma_i their mean state
+  // weighted by b): exact at a node whose cells share one state.
+  void build_nodal_model();
+  // Newton's update mapped through the enthalpy: phi_i(T_new) = phi_i(T) + phi_i'(T) delta_i,
+  // so a node the linearisation carries across the melting range stops where the latent heat
+  // puts it instead of where the heat capacity alone would (Nedjar, 2002). delta is replaced
+  // by T_new - T.
+  void enthalpy_update(const Vec& t_owned, Vec& delta) const;
+  // CG on J x = b to |r| <= rel_tol |b| (at least the configured linear tolerance).
+  void solve_linear(Vec& x, const Vec& b, double rel_tol, int& iterations, const char* what);
   [[noreturn]] void fail(const std::string& message) const;
   std::pair<Cell, Point<dim>> locate(const Point<dim>& p) const;
 
@@ -200,6 +214,13 @@ class FePlant final : public Plant {
   IndexSet owned_, relevant_;
   AffineConstraints<double> cons_;
   TrilinosWrappers::SparseMatrix jac_;
+  // The conductivity matrix K(s) of the current mesh and states: the Jacobian is
+  // tau K + a diagonal (capacities and the losses' slopes), so a Newton iteration adds a
+  // diagonal to a scaled copy instead of assembling; K is assembled after a change of mesh and
+  // updated cell by cell where the states change.
+  TrilinosWrappers::SparseMatrix stiff_;
+  bool stiff_valid_ = false;
+  void assemble_stiffness();
   Vec t_;  // ghosted temperature
   std::vector<double> state_;  // per active cell index
   std::unique_ptr<GridTools::Cache<dim>> cache_;
@@ -210,6 +231,7 @@ class FePlant final : public Plant {
     std::array<double, 8> volume;   // Gauss-Lobatto weight of each node (lumped mass / rho c)
     std::array<double, 8> top;      // the same of the top face (0 for the other nodes)
     bool has_top = false;
+    bool constrained = false;  // a hanging node among its dofs
   };
   std::vector<CellData> cells_;
   double top_z_ = 0.0;
@@ -219,17 +241,31 @@ class FePlant final : public Plant {
   std::uint64_t matrix_version_ = 0;
   std::unique_ptr<TrilinosWrappers::PreconditionAMG> amg_;
   types::global_dof_index amg_dofs_ = 0;
-  int amg_age_ = 0, amg_iterations_ = -1, last_iterations_ = 0;
+  int amg_age_ = 0;
+  // CG iterations per decade of residual reduction right after the AMG hierarchy was built,
+  // and in the last solve (the solves ask for different reductions, so the rate compares).
+  double amg_rate_ = -1, last_rate_ = 0;
+  // The previous step's temperatures (owned), for the predictor; invalid after a change of
+  // mesh, of the deposited domain or of the temperatures from outside.
+  Vec t_prev_;
+  Vec node_a_, node_b_, node_bs_;
+  double prev_dt_ = 0.0;
+  bool have_prev_ = false;
+  // Newton's contraction |R_1|/|R_0| in the last step (sets the first linear tolerance).
+  double last_contraction_ = 0.0;
   // Seconds by phase, printed to stderr at the end when AMCTL_SLS3D_PROFILE is set.
-  mutable double t_assemble_ = 0, t_linear_ = 0, t_remesh_ = 0, t_setup_ = 0, t_inputs_ = 0, t_other_ = 0;
+  mutable double t_assemble_ = 0, t_assemble_matrix_ = 0, t_linear_ = 0, t_remesh_ = 0, t_setup_ = 0, t_inputs_ = 0, t_amg_ = 0;
+  mutable long n_assemble_matrix_ = 0, n_assemble_vector_ = 0, n_amg_ = 0, n_cg_ = 0, n_newton_ = 0, n_predicted_ = 0;
 
  public:
   ~FePlant() override {
     if (std::getenv("AMCTL_SLS3D_PROFILE") && Utilities::MPI::this_mpi_process(comm_) == 0)
       std::fprintf(stderr,
-                   "sls3d profile: assemble %.3f s, linear %.3f s, inputs %.3f s, remesh %.3f s (setup %.3f s), "
-                   "other %.3f s\n",
-                   t_assemble_, t_linear_, t_inputs_, t_remesh_, t_setup_, t_other_);
+                   "sls3d profile: assemble %.3f s (%ld with the matrix: %.3f s, %ld vectors only), linear %.3f s "
+                   "(%ld CG iterations, AMG setup %.3f s in %ld builds), inputs %.3f s, remesh %.3f s "
+                   "(setup %.3f s); %ld Newton iterations, predictor taken in %ld steps\n",
+                   t_assemble_, n_assemble_matrix_, t_assemble_matrix_, n_assemble_vector_, t_linear_, n_cg_, t_amg_, n_amg_,
+                   t_inputs_, t_remesh_, t_setup_, n_newton_, n_predicted_);
   }
 };
 
@@ -295,7 +331,10 @@ void FePlant::setup_dofs() {
   SparsityTools::distribute_sparsity_pattern(dsp, owned_, comm_, relevant_);
   amg_.reset();
   jac_.reinit(owned_, owned_, dsp, comm_);
+  stiff_.reinit(owned_, owned_, dsp, comm_);
+  stiff_valid_ = false;
   t_.reinit(owned_, relevant_, comm_);
+  have_prev_ = false;
   cache_ = std::make_unique<GridTools::Cache<dim>>(tria_, mapping_);
   build_cell_cache();
   t_setup_ += timer.wall_time();
@@ -337,6 +376,7 @@ void FePlant::build_cell_cache() {
       for (unsigned q = 0; q < q_face.size(); ++q)
         for (unsigned i = 0; i < n; ++i) d.top[i] += fv_face.shape_value(i, q) * fv_face.JxW(q);
     }
+    for (unsigned i = 0; i < n; ++i) d.constrained = d.constrained || cons_.is_constrained(d.dofs[i]);
     cells_.push_back(d);
   }
 }
@@ -379,6 +419,22 @@ double FePlant::loss_slope(double t) const {
   return l.convection_w_m2k + 4.0 * l.emissivity * kStefanBoltzmann * a * a * a;
 }
 
+void FePlant::assemble_stiffness() {
+  FullMatrix<double> cm(8, 8);
+  std::vector<types::global_dof_index> idx(8);
+  stiff_ = 0;
+  for (const CellData& d : cells_) {
+    const double k = law(d.cell).k;
+    for (unsigned i = 0; i < 8; ++i) {
+      idx[i] = d.dofs[i];
+      for (unsigned j = 0; j < 8; ++j) cm(i, j) = k * d.k_unit[i * 8 + j];
+    }
+    cons_.distribute_local_to_global(cm, idx, stiff_);
+  }
+  stiff_.compress(VectorOperation::add);
+  stiff_valid_ = true;
+}
+
 FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v_k, bool matrix) {
   Timer timer;
   constexpr unsigned n = 8;
@@ -391,7 +447,14 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
   Sums sums;
   v_h = 0;
   v_k = 0;
-  if (matrix) jac_ = 0;
+  Vec diagonal;
+  if (matrix) {
+    if (!stiff_valid_) assemble_stiffness();
+    jac_ = 0;
+    jac_.add(tau, stiff_);
+    diagonal.reinit(owned_, comm_);
+  }
+  Vector<double> cd(n);
   for (const CellData& d : cells_) {
     const Law lw = law(d.cell);
     for (unsigned i = 0; i < n; ++i) {
@@ -409,11 +472,8 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
       for (unsigned j = 0; j < n; ++j) sum += d.k_unit[i * 8 + j] * tl[j];
       ck[i] = lw.k * sum;
     }
-    if (matrix) {
-      for (unsigned i = 0; i < n; ++i)
-        for (unsigned j = 0; j < n; ++j) cm(i, j) = tau * lw.k * d.k_unit[i * 8 + j];
-      for (unsigned i = 0; i < n; ++i) cm(i, i) += lw.capacity(tl[i]) * d.volume[i];
-    }
+    if (matrix)
+      for (unsigned i = 0; i < n; ++i) cd[i] = lw.capacity(tl[i]) * d.volume[i];
     if (losses && d.has_top) {
       for (unsigned i = 0; i < n; ++i) {
         if (d.top[i] == 0.0) continue;
@@ -421,10 +481,18 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
         sums.loss += loss * d.top[i];
         sums.convection += sl.convection_w_m2k * (tl[i] - sl.gas_temp_c) * d.top[i];
         ck[i] += loss * d.top[i];
-        if (matrix) cm(i, i) += tau * loss_slope(tl[i]) * d.top[i];
+        if (matrix) cd[i] += tau * loss_slope(tl[i]) * d.top[i];
       }
     }
-    if (matrix) cons_.distribute_local_to_global(cm, idx, jac_);
+    if (matrix) {
+      if (d.constrained) {  // through the constraints, a diagonal is not diagonal any more
+        cm = 0;
+        for (unsigned i = 0; i < n; ++i) cm(i, i) = cd[i];
+        cons_.distribute_local_to_global(cm, idx, jac_);
+      } else {
+        diagonal.add(idx, cd);
+      }
+    }
     cons_.distribute_local_to_global(ch, idx, v_h);
     cons_.distribute_local_to_global(ck, idx, v_k);
   }
@@ -432,7 +500,20 @@ FePlant::Sums FePlant::assemble(const Vec& t_ghost, double tau, Vec& v_h, Vec& v
   v_k.compress(VectorOperation::add);
   if (matrix) {
     jac_.compress(VectorOperation::add);
+    diagonal.compress(VectorOperation::add);
+    // Add the diagonal in place (Epetra's row map and the vector's map are both the owned dofs).
+    auto& epetra = const_cast<Epetra_CrsMatrix&>(jac_.trilinos_matrix());
+    Epetra_Vector diag(epetra.RowMap());
+    epetra.ExtractDiagonalCopy(diag);
+    AMCTL_CHECK(diag.MyLength() == int(diagonal.locally_owned_size()), "sls3d engine: diagonal layout");
+    const double* add = diagonal.begin();
+    for (int k = 0; k < diag.MyLength(); ++k) diag[k] += add[k];
+    epetra.ReplaceDiagonalValues(diag);
     ++matrix_version_;
+    ++n_assemble_matrix_;
+    t_assemble_matrix_ += timer.wall_time();
+  } else {
+    ++n_assemble_vector_;
   }
   sums.enthalpy = Utilities::MPI::sum(sums.enthalpy, comm_);
   sums.loss = Utilities::MPI::sum(sums.loss, comm_);
@@ -592,13 +673,76 @@ std::pair<int, double> FePlant::update_states() {
       double before = 0, after = 0;
       for (unsigned i = 0; i < 8; ++i) before += lw.enthalpy(tn[i]) * d.volume[i];
       state_[d.cell->active_cell_index()] = fmin;
+      const double k_before = lw.k;
       lw = law(d.cell);
+      if (stiff_valid_) {  // K changes in this cell only
+        FullMatrix<double> cm(8, 8);
+        std::vector<types::global_dof_index> idx(d.dofs.begin(), d.dofs.end());
+        for (unsigned i = 0; i < 8; ++i)
+          for (unsigned j = 0; j < 8; ++j) cm(i, j) = (lw.k - k_before) * d.k_unit[i * 8 + j];
+        cons_.distribute_local_to_global(cm, idx, stiff_);
+      }
       for (unsigned i = 0; i < 8; ++i) after += lw.enthalpy(tn[i]) * d.volume[i];
       de += after - before;
       ++changed;
     }
   }
+  if (stiff_valid_) stiff_.compress(VectorOperation::add);
   return {int(Utilities::MPI::sum(changed, comm_)), Utilities::MPI::sum(de, comm_)};
+}
+
+void FePlant::build_nodal_model() {
+  node_a_.reinit(owned_, comm_);
+  node_b_.reinit(owned_, comm_);
+  node_bs_.reinit(owned_, comm_);
+  Vector<double> ca(8), cb(8), cs(8);
+  std::vector<types::global_dof_index> idx(8);
+  for (const CellData& d : cells_) {
+    const Law lw = law(d.cell);
+    for (unsigned i = 0; i < 8; ++i) {
+      idx[i] = d.dofs[i];
+      ca[i] = lw.rho_c * d.volume[i];
+      cb[i] = lw.rho_l * d.volume[i];
+      cs[i] = lw.rho_l * lw.s * d.volume[i];
+    }
+    cons_.distribute_local_to_global(ca, idx, node_a_);
+    cons_.distribute_local_to_global(cb, idx, node_b_);
+    cons_.distribute_local_to_global(cs, idx, node_bs_);
+  }
+  node_a_.compress(VectorOperation::add);
+  node_b_.compress(VectorOperation::add);
+  node_bs_.compress(VectorOperation::add);
+}
+
+void FePlant::enthalpy_update(const Vec& t_owned, Vec& delta) const {
+  const double ts = spec_.melting.solidus_c, w = spec_.melting.liquidus_c - spec_.melting.solidus_c;
+  const auto n = std::size_t(delta.locally_owned_size());
+  const double* t = t_owned.begin();
+  const double* a = node_a_.begin();
+  const double* b = node_b_.begin();
+  const double* bs = node_bs_.begin();
+  double* d = delta.begin();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (a[i] <= 0.0 || b[i] <= 0.0 || d[i] == 0.0) continue;  // constrained, or no latent heat
+    const double sigma = std::clamp(bs[i] / b[i], 0.0, 1.0);
+    auto phi = [&](double x) { return a[i] * x + b[i] * std::max(sigma, smoothstep((x - ts) / w)); };
+    auto slope = [&](double x) {
+      const double f = smoothstep((x - ts) / w);
+      return a[i] + (f > sigma ? b[i] * smoothstep_slope((x - ts) / w) / w : 0.0);
+    };
+    const double target = phi(t[i]) + slope(t[i]) * d[i];
+    // phi rises with a slope of at least a_i, and b_i (1 - sigma) at most over the latent range.
+    double lo = (target - b[i]) / a[i], hi = (target - b[i] * sigma) / a[i];
+    double x = std::clamp(t[i] + d[i], lo, hi);
+    for (int k = 0; k < 60 && hi - lo > 1e-12 * (1.0 + std::abs(x)); ++k) {
+      const double g = phi(x) - target;
+      if (g == 0.0) break;
+      (g > 0 ? hi : lo) = x;
+      const double next = x - g / slope(x);
+      x = (next > lo && next < hi) ? next : 0.5 * (lo + hi);
+    }
+    d[i] = x - t[i];
+  }
 }
 
 [[noreturn]] void FePlant::fail(const std::string& message) const {
@@ -607,14 +751,16 @@ std::pair<int, double> FePlant::update_states() {
   throw Error(os.str());
 }
 
-void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* what) {
+void FePlant::solve_linear(Vec& x, const Vec& b, double rel_tol, int& iterations, const char* what) {
   const double bnorm = b.l2_norm();
   if (bnorm == 0.0) {
     x = 0;
     return;
   }
   Timer timer;
-  const double tol = spec_.solver.linear_rel_tol * bnorm;
+  rel_tol = std::clamp(rel_tol, spec_.solver.linear_rel_tol, 0.1);
+  const double tol = rel_tol * bnorm;
+  const double decades = -std::log10(rel_tol);
   unsigned last_step = 0;
   double last_residual = 0;
   // CG from zero with `prec`, at most max_it iterations; false when it did not converge.
@@ -626,22 +772,26 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
       cg.solve(jac_, x, b, prec);
       last_step = control.last_step();
       iterations += int(last_step);
+      n_cg_ += long(last_step);
       return true;
     } catch (const SolverControl::NoConvergence& e) {
       last_step = e.last_step;
       last_residual = e.last_residual;
       iterations += int(last_step);
+      n_cg_ += long(last_step);
       return false;
     }
   };
   const unsigned max_it = unsigned(spec_.solver.max_linear_iterations);
-  bool ok = false;
+  bool ok = false, rebuilt = false;
   switch (spec_.solver.preconditioner) {
     case SolverSettings::Preconditioner::amg: {
       // The hierarchy is reused while the mesh is unchanged (the Jacobian changes little from
-      // step to step) and rebuilt every 25 matrices, when CG needs clearly more iterations than
-      // right after a rebuild, or when it fails with the old one.
+      // step to step) and rebuilt every 25 matrices, when CG converged clearly slower per decade
+      // than right after a rebuild, or when it does not converge with the old one within twice
+      // that rate (a stale hierarchy costs at most about twice a fresh solve).
       auto rebuild = [&] {
+        Timer amg_timer;
         amg_ = std::make_unique<TrilinosWrappers::PreconditionAMG>();
         TrilinosWrappers::PreconditionAMG::AdditionalData data;
         data.elliptic = true;
@@ -649,13 +799,17 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
         amg_->initialize(jac_, data);
         amg_dofs_ = dof_.n_dofs();
         amg_age_ = 0;
-        amg_iterations_ = -1;
+        amg_rate_ = -1;
+        rebuilt = true;
+        t_amg_ += amg_timer.wall_time();
+        ++n_amg_;
       };
       const bool fresh = !amg_ || amg_dofs_ != dof_.n_dofs() || amg_age_ >= 25 ||
-                         last_iterations_ > 2 * amg_iterations_ + 4;
+                         (amg_rate_ > 0 && last_rate_ > 1.5 * amg_rate_ + 0.5);
       if (fresh) rebuild();
       ++amg_age_;
-      ok = run(*amg_, fresh ? max_it : std::min<unsigned>(max_it, 4 * unsigned(std::max(amg_iterations_, 5)) + 20));
+      const unsigned stale_cap = unsigned(std::ceil(decades * (2.0 * std::max(amg_rate_, 1.0) + 1.0))) + 5;
+      ok = run(*amg_, fresh ? max_it : std::min(max_it, stale_cap));
       if (!ok && !fresh) {
         rebuild();
         ok = run(*amg_, max_it);
@@ -681,8 +835,8 @@ void FePlant::solve_linear(Vec& x, const Vec& b, int& iterations, const char* wh
        << " iterations, residual " << last_residual << " > " << tol << " (|b| = " << bnorm << ")";
     fail(os.str());
   }
-  last_iterations_ = int(last_step);
-  if (amg_iterations_ < 0) amg_iterations_ = last_iterations_;
+  last_rate_ = double(std::max(1u, last_step)) / std::max(decades, 1.0);
+  if (rebuilt) amg_rate_ = last_rate_;
   cons_.distribute(x);
   t_linear_ += timer.wall_time();
 }
@@ -694,9 +848,14 @@ StepReport FePlant::step(const StepInput& in) {
   const double dt = in.dt_s, theta = in.theta > 0 ? in.theta : spec_.theta;
   Vec b(owned_, comm_), inputs(owned_, comm_), vh(owned_, comm_), vk(owned_, comm_);
   Vec delta(owned_, comm_), res(owned_, comm_), trial(owned_, comm_), base(owned_, comm_);
-  Vec t_try(owned_, relevant_, comm_);
-  // At T^n: v_h, v_k and the Jacobian. b = M H(T^n) - (1 - theta) dt (K T^n + L^n) + dt (S + U).
-  const Sums old = assemble(t_, theta * dt, vh, vk, true);
+  Vec step_vec(owned_, comm_), t_try(owned_, relevant_, comm_), ones(owned_, comm_), j_ones(owned_, comm_);
+  // The predictor: the last step's change carried on (a linear extrapolation in time), tried
+  // when the previous step's temperatures are on the same mesh.
+  const bool predict = have_prev_ && prev_dt_ > 0;
+  if (spec_.melting.enabled) build_nodal_model();
+  // At T^n: v_h, v_k (and the Jacobian, unless the iteration starts at the predictor).
+  // b = M H(T^n) - (1 - theta) dt (K T^n + L^n) + dt (S + U).
+  const Sums old = assemble(t_, theta * dt, vh, vk, !predict);
   Timer input_timer;
   const auto [laser_rate, flux_rate] = assemble_inputs(in, inputs);
   t_inputs_ += input_timer.wall_time();
@@ -715,9 +874,31 @@ StepReport FePlant::step(const StepInput& in) {
   const double floor = 1e-13 * std::abs(old.enthalpy) /
                        std::sqrt(std::max<double>(1.0, double(dof_.n_dofs())));
   Sums now = old;
+  // The tolerances are relative to the residual at T^n (what the step has to change),
+  // whichever guess the iteration starts from.
   double norm = form_residual();
   r.residual_initial = norm;
   const double target = std::max(spec_.solver.newton_rel_tol * norm, floor);
+  bool have_matrix = !predict;
+  // The step's starting temperatures, kept for the predictor of the next step.
+  Vec t_start(owned_, comm_);
+  t_start = t_;
+  if (predict) {
+    trial = t_;
+    trial.add(-1.0, t_prev_);
+    trial.sadd(dt / prev_dt_, 1.0, t_start);
+    t_try = trial;
+    const Sums at = assemble(t_try, 0.0, vh, vk, false);
+    const double predicted = form_residual();
+    if (std::isfinite(predicted) && predicted < norm) {
+      t_ = t_try;
+      now = at;
+      norm = predicted;
+      ++n_predicted_;
+    } else {
+      norm = r.residual_initial;  // the loop assembles at T^n with the Jacobian
+    }
+  }
   // Energy scale of the step: what enters and leaves. The step has converged when |R| is
   // below the target, or when it is 1e-5 of where it started (the temperatures then carry a
   // 1e-5 share of the step's change) and the energy defect sum_i R_i (what the balance of
@@ -731,8 +912,12 @@ StepReport FePlant::step(const StepInput& in) {
     return std::abs(defect) <= 1e-7 * energy_scale;
   };
   int it = 0;
-  bool have_matrix = true;
   const bool trace = std::getenv("AMCTL_SLS3D_PROFILE") != nullptr && Utilities::MPI::this_mpi_process(comm_) == 0;
+  // Inexact Newton (Eisenstat and Walker's second choice of forcing term): the linear solve
+  // asks for a reduction eta = 0.9 (|R_k| / |R_k-1|)^2, never more than 0.1 nor below what
+  // the Newton target needs; the first iteration takes the contraction of the last step's
+  // first (a step without latent heat is almost linear: one tight solve; a melting step is not).
+  double previous_norm = 0.0, eta = 0.0;
   while (!converged()) {
     if (it >= spec_.solver.max_newton_iterations) {
       std::ostringstream os;
@@ -745,15 +930,47 @@ StepReport FePlant::step(const StepInput& in) {
       now = assemble(t_, theta * dt, vh, vk, true);
       norm = form_residual();
     }
+    if (it == 0) {
+      eta = last_contraction_ > 0 ? 0.9 * last_contraction_ * last_contraction_ : 0.0;
+    } else {
+      const double ew = 0.9 * (norm / previous_norm) * (norm / previous_norm);
+      eta = 0.9 * eta * eta > 0.1 ? std::max(ew, 0.9 * eta * eta) : ew;
+    }
+    eta = std::min(eta, 0.1);
+    eta = std::max(eta, 0.5 * target / norm);
     res *= -1.0;
     delta = 0;
-    solve_linear(delta, res, r.linear_iterations, "Newton update");
+    solve_linear(delta, res, eta, r.linear_iterations, "Newton update");
+    // An inexact solve leaves a residual whose sum is an energy defect of the step. The rows of
+    // K sum to zero, so a uniform shift c of the update changes that sum by c 1'J1 only (the
+    // capacities and the losses' slopes): shifted so that the linearised step conserves energy
+    // exactly, whatever the linear tolerance (hanging nodes take the shift with their masters).
+    {
+      ones = 1.0;
+      jac_.vmult(j_ones, ones);
+      jac_.vmult(trial, delta);
+      trial -= res;  // J delta - (-R) : the linear solve's residual
+      cons_.set_zero(j_ones);
+      cons_.set_zero(trial);
+      const double capacity = j_ones.mean_value() * double(j_ones.size());
+      const double defect = trial.mean_value() * double(trial.size());
+      if (capacity > 0) delta.add(-defect / capacity, ones);
+    }
     // Backtracking on |R|: the latent heat makes H' jump at the melting range.
     double lambda = 1.0, next = 0;
     base = t_;
     for (int k = 0; k < 8; ++k) {
       trial = base;
-      trial.add(lambda, delta);
+      if (spec_.melting.enabled) {
+        // Along the enthalpy: lambda shortens the linear update before it is mapped.
+        step_vec = delta;
+        step_vec *= lambda;
+        enthalpy_update(base, step_vec);
+        cons_.distribute(step_vec);  // hanging nodes follow their masters
+        trial += step_vec;
+      } else {
+        trial.add(lambda, delta);
+      }
       t_try = trial;
       now = assemble(t_try, 0.0, vh, vk, false);
       next = form_residual();
@@ -767,12 +984,18 @@ StepReport FePlant::step(const StepInput& in) {
     }
     t_ = t_try;
     if (trace)
-      std::fprintf(stderr, "  step %d newton %d: |R| %.3e -> %.3e (lambda %g, %d CG total)\n", step_count_, it,
-                   norm, next, lambda, r.linear_iterations);
+      std::fprintf(stderr, "  step %d newton %d: |R| %.3e -> %.3e (lambda %g, eta %.1e, %d CG total)\n", step_count_,
+                   it, norm, next, lambda, eta, r.linear_iterations);
+    if (it == 0) last_contraction_ = next / norm;
+    previous_norm = norm;
     norm = next;
     have_matrix = false;
     ++it;
+    ++n_newton_;
   }
+  t_prev_ = t_start;
+  prev_dt_ = dt;
+  have_prev_ = true;
   r.newton_iterations = it;
   r.residual_final = norm;
   r.enthalpy_change_j = now.enthalpy - old.enthalpy;
@@ -800,6 +1023,7 @@ void FePlant::set_uniform_temperature(double temp_c) {
   Vec v(owned_, comm_);
   v = temp_c;
   t_ = v;
+  have_prev_ = false;
 }
 
 LayerReport FePlant::add_layer(double fresh_temp_c) {
@@ -984,13 +1208,25 @@ double FePlant::top_area_m2() const {
 }
 
 std::pair<Cell, Point<dim>> FePlant::locate(const Point<dim>& p) const {
-  try {
-    const auto found = GridTools::find_active_cell_around_point(*cache_, p);
-    if (found.first.state() != IteratorState::valid) return {dof_.end(), Point<dim>()};
-    return {Cell(&tria_, found.first->level(), found.first->index(), &dof_), found.second};
-  } catch (...) {
-    return {dof_.end(), Point<dim>()};
+  // Only this rank's cells, found through the cached R-tree of their bounding boxes: a point
+  // owned by another rank, or off the disc (the corners of a square map), costs a tree query
+  // instead of deal.II's exhaustive fallback search and its exceptions.
+  namespace bgi = boost::geometry::index;
+  std::vector<std::pair<BoundingBox<dim>, Triangulation<dim>::active_cell_iterator>> hits;
+  cache_->get_locally_owned_cell_bounding_boxes_rtree().query(bgi::intersects(p), std::back_inserter(hits));
+  // A point on a face between a deposited cell and one above the top goes to the deposited one.
+  std::pair<Cell, Point<dim>> found{dof_.end(), Point<dim>()};
+  for (const auto& [box, tcell] : hits) {
+    try {
+      const Point<dim> unit = mapping_.transform_real_to_unit_cell(tcell, p);
+      if (!GeometryInfo<dim>::is_inside_unit_cell(unit, 1e-10)) continue;
+      const Cell cell(&tria_, tcell->level(), tcell->index(), &dof_);
+      if (is_active(cell)) return {cell, GeometryInfo<dim>::project_to_unit_cell(unit)};
+      if (found.first == dof_.end()) found = {cell, GeometryInfo<dim>::project_to_unit_cell(unit)};
+    } catch (const Mapping<dim>::ExcTransformationFailed&) {
+    }
   }
+  return found;
 }
 
 std::vector<double> FePlant::evaluate(const std::vector<std::array<double, 3>>& points_m) const {
@@ -1090,8 +1326,16 @@ TopRaster FePlant::raster_top(double x0_m, double y0_m, double dx_m, double dy_m
   return r;
 }
 
-std::string FePlant::write_vtu(const std::string& dir, const std::string& stem, double time_s) {
-  DataOut<dim> out;
+// DataOut with the names of its data sets readable (protected in deal.II), so the pieces of
+// a distributed snapshot can be written by amctl's own output writer.
+class SnapshotOut : public DataOut<dim> {
+ public:
+  using DataOut<dim>::get_dataset_names;
+  using DataOut<dim>::get_nonscalar_data_ranges;
+};
+
+void FePlant::write_vtu(const std::function<void(std::string_view)>& sink, double time_s) {
+  SnapshotOut out;
   out.attach_dof_handler(dof_);
   out.set_cell_selection([this](const Triangulation<dim>::cell_iterator& c) {
     if (!c->is_active() || !c->is_locally_owned()) return false;
@@ -1113,10 +1357,61 @@ std::string FePlant::write_vtu(const std::string& dir, const std::string& stem, 
   DataOutBase::VtkFlags flags;
   flags.time = time_s;
   flags.compression_level = DataOutBase::VtkFlags::ZlibCompressionLevel::best_speed;
-  out.set_flags(flags);
-  const std::string name = stem + ".vtu";
-  out.write_vtu_in_parallel((std::filesystem::path(dir) / name).string(), comm_);
-  return name;
+  flags.print_date_and_time = false;  // the same input gives the same file
+  // One .vtu for all ranks, laid out as deal.II's write_vtu_in_parallel lays it out (the
+  // header, each rank's piece in rank order, the footer), the bytes handed to the host's sink
+  // on rank 0, which receives one piece at a time (it holds at most the largest piece).
+  std::ostringstream piece;
+  DataOutBase::VtkFlags piece_flags = flags;
+  // The time goes once into the file (write_vtu_main writes it before its piece): rank 0's.
+  if (Utilities::MPI::this_mpi_process(comm_) != 0) piece_flags.time = std::numeric_limits<double>::min();
+  DataOutBase::write_vtu_main(out.get_patches(), out.get_dataset_names(), out.get_nonscalar_data_ranges(),
+                              piece_flags, piece);
+  const std::string mine = piece.str();
+  const int rank_id = int(Utilities::MPI::this_mpi_process(comm_));
+  const int ranks = int(Utilities::MPI::n_mpi_processes(comm_));
+  constexpr int kTagSize = 7301, kTagBytes = 7302;
+  constexpr unsigned long long kChunk = 1ull << 30;
+  if (rank_id == 0) {
+    std::exception_ptr error;
+    auto give = [&](std::string_view bytes, bool end = false) {
+      if (error || (bytes.empty() && !end)) return;  // an empty view means the end only
+      try {
+        sink(bytes);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    };
+    std::ostringstream head;
+    DataOutBase::write_vtu_header(head, flags);
+    give(head.str());
+    give(mine);
+    std::string buffer;
+    for (int r = 1; r < ranks; ++r) {
+      unsigned long long size = 0;
+      MPI_Recv(&size, 1, MPI_UNSIGNED_LONG_LONG, r, kTagSize, comm_, MPI_STATUS_IGNORE);
+      buffer.resize(size);
+      for (unsigned long long at = 0; at < size; at += kChunk)
+        MPI_Recv(buffer.data() + at, int(std::min(size - at, kChunk)), MPI_CHAR, r, kTagBytes, comm_,
+                 MPI_STATUS_IGNORE);
+      give(buffer);
+    }
+    std::ostringstream foot;
+    DataOutBase::write_vtu_footer(foot);
+    give(foot.str());
+    give(std::string_view(), true);
+    int failed = error ? 1 : 0;
+    MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+    if (error) std::rethrow_exception(error);
+  } else {
+    unsigned long long size = mine.size();
+    MPI_Send(&size, 1, MPI_UNSIGNED_LONG_LONG, 0, kTagSize, comm_);
+    for (unsigned long long at = 0; at < size; at += kChunk)
+      MPI_Send(mine.data() + at, int(std::min(size - at, kChunk)), MPI_CHAR, 0, kTagBytes, comm_);
+    int failed = 0;
+    MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+    if (failed) throw Error("the VTU snapshot could not be written (see rank 0's error)");
+  }
 }
 
 MeshStats FePlant::stats() const {
