@@ -71,7 +71,8 @@ TEST(Heatshrink, WindowBitsChangeHowTheSameBitsRead) {
 
 TEST(Heatshrink, ReferenceBeforeTheStartIsAnError) {
   HeatshrinkDecoder d(12, 4);
-  d.reset(bits("1 01000001 0 000000000101 0000"));  // distance 6 after 1 byte
+  const auto in = bits("1 01000001 0 000000000101 0000");  // distance 6 after 1 byte
+  d.reset(in);  // the decoder reads the caller's bytes: they must outlive it
   std::vector<std::uint8_t> buf(16);
   EXPECT_THROW(d.decode(buf.data(), buf.size()), Error);
 }

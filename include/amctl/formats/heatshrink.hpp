@@ -27,6 +27,7 @@ class HeatshrinkDecoder {
   HeatshrinkDecoder(int window_bits, int lookahead_bits);
 
   /// Starts a new stream (the window is emptied: each binary G-code block stands alone).
+  /// The decoder reads `input` in place: it must stay alive while decode() runs.
   void reset(std::span<const std::uint8_t> input);
 
   /// Writes up to `n` decoded bytes to `out`; returns how many. Returns less than `n` only
