@@ -54,15 +54,15 @@ cp::CompensationOptions options(cp::Method m, double w_rad_s, double z) {
 const std::string kSource = AMCTL_BENCH_SOURCE_DIR;
 
 void BM_CompensateSeedFbf(benchmark::State& state) {
-  static const auto moves = plan_file(kSource + "/examples/30_seed000_corner.gcode",
-                                      kSource + "/examples/30_seed000_printer.cfg", {});
+  static const auto moves = plan_file(kSource + "/examples/30_belt_corner.gcode",
+                                      kSource + "/examples/30_belt_corner_printer.cfg", {});
   run(state, moves, options(cp::Method::fbf, 100.0, 0.5));
 }
 BENCHMARK(BM_CompensateSeedFbf)->Unit(benchmark::kMillisecond);
 
 void BM_CompensateSeedInvertScurve(benchmark::State& state) {
-  static const auto moves = plan_file(kSource + "/examples/30_seed000_corner.gcode",
-                                      kSource + "/examples/30_seed000_printer.cfg",
+  static const auto moves = plan_file(kSource + "/examples/30_belt_corner.gcode",
+                                      kSource + "/examples/30_belt_corner_printer.cfg",
                                       {"printer.profile=scurve7"});
   run(state, moves, options(cp::Method::invert, 100.0, 0.5));
 }
@@ -113,8 +113,8 @@ BENCHMARK(BM_CompensateWholePrintLpfbf)->Args({636, 318})->Args({400, 100})->Arg
 
 // Collocation on the seed base case with the 10 000 mm/s^2 base bound (issue 10: < 1 s).
 void BM_CompensateSeedCollocationBounded(benchmark::State& state) {
-  static const auto moves = plan_file(kSource + "/examples/30_seed000_corner.gcode",
-                                      kSource + "/examples/30_seed000_printer.cfg", {});
+  static const auto moves = plan_file(kSource + "/examples/30_belt_corner.gcode",
+                                      kSource + "/examples/30_belt_corner_printer.cfg", {});
   cp::CompensationOptions o = options(cp::Method::collocation, 100.0, 0.5);
   o.max_base_accel_mm_s2 = 10000.0;
   run(state, moves, o);
@@ -133,7 +133,7 @@ void BM_CollocationCost(benchmark::State& state) {
   const int n_moves = std::max(1, static_cast<int>(std::lround((target_s - 0.18) / 0.12)));
   for (int i = 0; i < n_moves; ++i)
     g += (i % 2 == 0) ? "G91\nG1 X10 Y0\n" : "G1 X0 Y10\n";
-  const amctl::machine::Machine m = amctl::machine::load_machine(kSource + "/examples/30_seed000_printer.cfg", {});
+  const amctl::machine::Machine m = amctl::machine::load_machine(kSource + "/examples/30_belt_corner_printer.cfg", {});
   amctl::plan::PlanSource source(std::string_view(g), "zigzag.gcode", m);
   amctl::plan::CollectSink collect;
   std::vector<amctl::plan::Sink*> sinks{&collect};

@@ -19,7 +19,7 @@ if "--max-base-accel-mm-s2" in args:
     del args[i:i + 2]
 amctl = args[0] if args else "build/release/apps/amctl/amctl"
 root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-cfg = os.path.join(root, "examples/30_seed000_printer.cfg")
+cfg = os.path.join(root, "examples/30_belt_corner_printer.cfg")
 
 base = dict(w=100.0, z=0.5, a=5000.0, v=100.0, h=0.005)
 cases = [("base", {})]

@@ -50,7 +50,7 @@ fi
 gcodes=(examples/gcode/*.gcode examples/*.gcode tests/reference/klipper/*.gcode)
 if [ -n "$corpus" ]; then gcodes+=("$corpus"/gcode/*.gcode); fi
 machines=(default ender3 prusa-mk3s voron24 configs/klipper-voron-v0.cfg
-          examples/30_seed000_printer.cfg
+          examples/30_belt_corner_printer.cfg
           tests/reference/klipper/ender3_cartesian.cfg tests/reference/klipper/v0_corexy.cfg)
 profiles=(trapezoid bezier5 scurve7)
 
@@ -70,10 +70,10 @@ for g in "${gcodes[@]}"; do
 done
 
 # Simulation: the seed-000 example and a real print window, both profiles.
-run simulate_seed000.json "$amctl" simulate examples/30_seed000_corner.gcode \
-    --machine examples/30_seed000_printer.cfg --natural-frequency-hz 15.9 --damping-ratio 0.5 --json
-run simulate_seed000_scurve.json "$amctl" simulate examples/30_seed000_corner.gcode \
-    --machine examples/30_seed000_printer.cfg --natural-frequency-hz 15.9 --damping-ratio 0.5 \
+run simulate_seed000.json "$amctl" simulate examples/30_belt_corner.gcode \
+    --machine examples/30_belt_corner_printer.cfg --natural-frequency-hz 15.9 --damping-ratio 0.5 --json
+run simulate_seed000_scurve.json "$amctl" simulate examples/30_belt_corner.gcode \
+    --machine examples/30_belt_corner_printer.cfg --natural-frequency-hz 15.9 --damping-ratio 0.5 \
     --profile scurve7 --json
 run simulate_boxboss.json "$amctl" simulate examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode \
     --machine configs/klipper-voron-v0.cfg --natural-frequency-hz 40 --damping-ratio 0.05 \

@@ -56,7 +56,7 @@ def _without_compute_time(d):
     ("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode", "configs/klipper-voron-v0.cfg", []),
     ("examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode", "prusa-mk3s",
      ["printer.max_accel=2500", "printer.profile=scurve7"]),
-    ("examples/30_seed000_corner.gcode", "examples/30_seed000_printer.cfg", []),
+    ("examples/30_belt_corner.gcode", "examples/30_belt_corner_printer.cfg", []),
 ])
 def test_python_and_cli_agree_on_every_key(cli, source_dir, case):
     file, spec, sets = case

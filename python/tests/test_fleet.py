@@ -11,7 +11,7 @@ import amctl
 from amctl import fleet
 
 FILES = ["tests/reference/klipper/syn_square.gcode", "tests/reference/klipper/syn_arcs.gcode",
-         "examples/30_seed000_corner.gcode"]
+         "examples/30_belt_corner.gcode"]
 MACHINES = ["voron24", "prusa-mk3s"]
 
 

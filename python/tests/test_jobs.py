@@ -30,7 +30,7 @@ def test_write_m73_writes_the_same_file_as_the_cli(cli, source_dir, tmp_path):
 
 
 def test_compare_profiles_equals_the_cli(cli, source_dir):
-    g = str(source_dir / "examples/30_seed000_corner.gcode")
+    g = str(source_dir / "examples/30_belt_corner.gcode")
     want = cli.json("estimate", g, "--machine", "voron24", "--compare-profiles", "--json")
     assert amctl.compare_profiles(g, machine="voron24") == want
 

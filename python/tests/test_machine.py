@@ -42,7 +42,7 @@ def test_set_applies_overrides_in_their_units():
 
 
 def test_klipper_cfg_is_read(source_dir):
-    m = amctl.Machine.load(source_dir / "examples" / "30_seed000_printer.cfg")  # a PathLike
+    m = amctl.Machine.load(source_dir / "examples" / "30_belt_corner_printer.cfg")  # a PathLike
     assert m.max_accel_mm_s2 == 5000.0
     assert m.square_corner_velocity_mm_s == 0.0
     assert m.max_velocity_mm_s == 300.0

@@ -119,8 +119,8 @@ def test_steps_with_klippers_filter_equal_the_cli(cli, source_dir, tmp_path):
 def test_compensate_equals_the_cli_and_tracks_the_path(cli, source_dir, tmp_path):
     # The seed's base case (w = 100 rad/s, zeta 0.5): FBF brings the tracking error under
     # 10 % of the uncompensated one (issue 10), and Python gives the CLI's numbers.
-    g = str(source_dir / "examples/30_seed000_corner.gcode")
-    cfg = str(source_dir / "examples/30_seed000_printer.cfg")
+    g = str(source_dir / "examples/30_belt_corner.gcode")
+    cfg = str(source_dir / "examples/30_belt_corner_printer.cfg")
     f = 100.0 / (2 * math.pi)
     r = amctl.compensate(g, machine=cfg, method="fbf", natural_frequency_hz=f, damping_ratio=0.5,
                          csv=str(tmp_path / "py.csv"))
@@ -153,8 +153,8 @@ def test_collocation_with_a_base_accel_bound_equals_the_cli(cli, source_dir, tmp
     # Issue 10: collocation with the 10 000 mm/s^2 bound on the seed base case, <= 5 um, the
     # bound respected; second differences of the command checked here, independently.
     import numpy as np
-    g = str(source_dir / "examples/30_seed000_corner.gcode")
-    cfg = str(source_dir / "examples/30_seed000_printer.cfg")
+    g = str(source_dir / "examples/30_belt_corner.gcode")
+    cfg = str(source_dir / "examples/30_belt_corner_printer.cfg")
     f = 100.0 / (2 * math.pi)
     r = amctl.compensate(g, machine=cfg, method="collocation", natural_frequency_hz=f,
                          damping_ratio=0.5, max_base_accel_mm_s2=10000.0, csv=str(tmp_path / "py.csv"))
@@ -185,8 +185,8 @@ def test_collocation_with_a_base_accel_bound_equals_the_cli(cli, source_dir, tmp
 
 
 def test_lpfbf_equals_the_streaming_cli(cli, source_dir, tmp_path):
-    g = str(source_dir / "examples/30_seed000_corner.gcode")
-    cfg = str(source_dir / "examples/30_seed000_printer.cfg")
+    g = str(source_dir / "examples/30_belt_corner.gcode")
+    cfg = str(source_dir / "examples/30_belt_corner_printer.cfg")
     f = 100.0 / (2 * math.pi)
     r = amctl.compensate(g, machine=cfg, method="lpfbf", natural_frequency_hz=f, damping_ratio=0.5,
                          window_s=0.1, overlap_s=0.05)
@@ -200,8 +200,8 @@ def test_lpfbf_equals_the_streaming_cli(cli, source_dir, tmp_path):
 
 
 def test_compare_equals_the_cli(cli, source_dir):
-    g = str(source_dir / "examples/30_seed000_corner.gcode")
-    cfg = str(source_dir / "examples/30_seed000_printer.cfg")
+    g = str(source_dir / "examples/30_belt_corner.gcode")
+    cfg = str(source_dir / "examples/30_belt_corner_printer.cfg")
     r = amctl.compare(g, machine=cfg, natural_frequency_hz=15.915, damping_ratio=0.5,
                       methods=["fbf", "mzv"], plant_offsets_pct=[0, 10])
     ref = cli.json("compare", g, "--machine", cfg, "--natural-frequency-hz", "15.915",

@@ -10,8 +10,8 @@ import pytest
 
 import amctl
 
-CORNER = "examples/30_seed000_corner.gcode"
-SEED_CFG = "examples/30_seed000_printer.cfg"
+CORNER = "examples/30_belt_corner.gcode"
+SEED_CFG = "examples/30_belt_corner_printer.cfg"
 BOXBOSS = "examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode"
 F_SEED = 100.0 / (2 * math.pi)  # seed 000: w = 100 rad/s, zeta = 0.5
 
@@ -156,7 +156,7 @@ def test_the_gil_is_released_while_simulating(source_dir):
 def test_shaped_simulation_equals_the_cli_and_follows_the_machine_config(source_dir, cli):
     # The bundled Voron config has [input_shaper] (mzv 90/75 Hz): without shaper arguments
     # Python applies it, as the CLI does; no_shaper=True is the plain run.
-    g = str(source_dir / "examples/30_seed000_corner.gcode")
+    g = str(source_dir / "examples/30_belt_corner.gcode")
     cfg = str(source_dir / "configs/klipper-voron-v0.cfg")
     def drop(d):  # every wall-clock time, at any depth
         if isinstance(d, dict):

@@ -24,7 +24,7 @@ import sys
 # G-code example (relative to the source) -> the printer it is bundled with.
 EXAMPLES = {
     "examples/gcode/boxboss_prusaslicer-2.5_klipper.gcode": "configs/klipper-voron-v0.cfg",
-    "examples/30_seed000_corner.gcode": "examples/30_seed000_printer.cfg",
+    "examples/30_belt_corner.gcode": "examples/30_belt_corner_printer.cfg",
 }
 # Slicer profile -> the printer it slices for.
 SLICER_PROFILES = {

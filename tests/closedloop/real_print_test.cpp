@@ -76,7 +76,7 @@ TEST(RealPrints, TheBoxOnTheCrealityK1HoldsWithEveryController) {
 TEST(RealPrints, TheCornerHoldsOnABedSlingerAndACoreXY) {
   const std::string src = AMCTL_SOURCE_DIR;
   for (const char* preset : {"ender3", "voron24"}) {
-    check_print(src + "/examples/30_seed000_corner.gcode", machine::load_machine(preset));
+    check_print(src + "/examples/30_belt_corner.gcode", machine::load_machine(preset));
   }
 }
 

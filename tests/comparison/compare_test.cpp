@@ -14,8 +14,8 @@
 namespace amctl::comparison {
 namespace {
 
-const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
-const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg";
+const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner.gcode";
+const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner_printer.cfg";
 constexpr double kF = 15.915494309189533;  // 100 rad/s
 constexpr double kZeta = 0.5;
 

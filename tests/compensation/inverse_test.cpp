@@ -18,8 +18,8 @@
 namespace amctl::compensation {
 namespace {
 
-const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
-const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg";
+const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner.gcode";
+const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner_printer.cfg";
 constexpr double kW = 100.0;  // rad/s (seed base case)
 constexpr double kZ = 0.5;
 

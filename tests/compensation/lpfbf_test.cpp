@@ -17,8 +17,8 @@
 namespace amctl::compensation {
 namespace {
 
-const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
-const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg";
+const std::string kGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner.gcode";
+const std::string kPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner_printer.cfg";
 
 std::vector<plan::PlannedMove> seed_plan() {
   const machine::Machine m = machine::load_machine(kPrinter, {});

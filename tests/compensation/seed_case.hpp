@@ -10,8 +10,8 @@
 
 namespace amctl::compensation::seed_case {
 
-inline const std::string kSeedGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
-inline const std::string kSeedPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg";
+inline const std::string kSeedGcode = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner.gcode";
+inline const std::string kSeedPrinter = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner_printer.cfg";
 
 inline std::vector<plan::PlannedMove> collect(plan::PlanSource& source) {
   plan::CollectSink sink;

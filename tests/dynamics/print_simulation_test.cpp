@@ -16,10 +16,10 @@
 namespace amctl::dynamics {
 namespace {
 
-const std::string kCorner = std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_corner.gcode";
+const std::string kCorner = std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner.gcode";
 
 machine::Machine seed_machine() {
-  return machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/examples/30_seed000_printer.cfg");
+  return machine::load_machine(std::string(AMCTL_SOURCE_DIR) + "/examples/30_belt_corner_printer.cfg");
 }
 
 TEST(PrintSimulationRows, OneCallPerSampleInTimeOrderWithTheMeasuredErrors) {

@@ -7,7 +7,7 @@ set -e
 AMCTL=${AMCTL:-build/release/apps/amctl/amctl}
 OUT=${OUT:-build/examples}
 mkdir -p "$OUT"
-"$AMCTL" simulate examples/30_seed000_corner.gcode --machine examples/30_seed000_printer.cfg \
+"$AMCTL" simulate examples/30_belt_corner.gcode --machine examples/30_belt_corner_printer.cfg \
   --natural-frequency-hz 15.915494309189533 --damping-ratio 0.5 --sample-rate-hz 1000 \
   --csv "$OUT/seed000.csv" --csv-rate-hz 200 --json
 # Tables 3.2 and 3.3 of the thesis with the real look-ahead and with zero junction speed:
