@@ -211,7 +211,7 @@ void run(const Sls3dArgs& a) {
 // The options of `amctl thermal sls3d` on `c`; the same in amctl and in amctl-sls3d.
 std::shared_ptr<Sls3dArgs> add_options(CLI::App* c) {
   auto a = std::make_shared<Sls3dArgs>();
-  c->add_option("--config", a->config, "scenario TOML (configs/sls_powder_bed_3d.toml; default: its built-in values)");
+  c->add_option("--config", a->config, "scenario TOML (configs/sls_seed002_3d.toml; default: its built-in values)");
   c->add_option("--case", a->kase,
                 "scenario | moving-source | slab-flux | slab-pi | lumping-patch")->capture_default_str();
   c->add_flag("--json", a->json_out, "print one JSON object");

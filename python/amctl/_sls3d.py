@@ -50,7 +50,7 @@ def sls3d(config=None, *, case="scenario", vtu_dir=None, report=None, csv=None, 
     """Runs ``amctl thermal sls3d`` and returns its --json dict.
 
     Args:
-        config:   scenario TOML (configs/sls_powder_bed_3d.toml); None: the built-in values.
+        config:   scenario TOML (configs/sls_seed002_3d.toml); None: the built-in values.
         case:     'scenario', 'moving-source', 'slab-flux', 'slab-pi' or 'lumping-patch'.
         vtu_dir, report, csv: scenario outputs (VTU + .pvd directory, HTML page, U/y CSV).
         mpi_ranks: run under ``mpirun -np N`` (Open MPI; the result agrees to solver tolerance).

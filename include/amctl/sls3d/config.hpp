@@ -1,5 +1,5 @@
 #pragma once
-// The closed-loop scenario on the 3D powder bed (configs/sls_powder_bed_3d.toml documents every
+// The closed-loop scenario on the 3D powder bed (configs/sls_seed002_3d.toml documents every
 // key). Lengths are millimetres in the file and metres here.
 #include <map>
 #include <string>
@@ -91,7 +91,7 @@ struct ScenarioConfig {
   [[nodiscard]] SourceLocation at(const std::string& key) const;
 };
 
-/// Reads a TOML file (configs/sls_powder_bed_3d.toml); unknown sections and keys, wrong types
+/// Reads a TOML file (configs/sls_seed002_3d.toml); unknown sections and keys, wrong types
 /// and values validate() refuses throw amctl::Error with file:line:col.
 [[nodiscard]] ScenarioConfig load_scenario_config(const std::string& path);
 

@@ -170,7 +170,7 @@ struct LumpingPatchResult {
 [[nodiscard]] LumpingPatchResult run_lumping_patch(const LumpingPatchOptions& o);
 
 // ---------------------------------------------------------------------------------------
-// The closed-loop scenario of the SLS paper on the powder bed (configs/sls_powder_bed_3d.toml).
+// The closed-loop scenario of the SLS paper on the powder bed (configs/sls_seed002_3d.toml).
 
 struct ScenarioOptions {
   std::string vtu_dir;       ///< write VTU snapshots and DIR/sls3d.pvd there (empty: none)
