@@ -1039,6 +1039,237 @@ def c_readme_python(ctx):
     num({"t": d}, "t", 60, 1e5)
 
 
+def c_estimate_absurd_feedrate(ctx):
+    for i, line in enumerate(("G1 X20 F0", "G1 X20 F-100", "G1 Xinf")):
+        g = ctx.path(f"absurd{i}.gcode", f"G28\nG1 X10 F6000\n{line}\n")
+        ctx.bad("estimate", g, "--machine", "voron24", where=f"{g}:3:")
+
+
+def c_estimate_pauses_range(ctx):
+    g = ctx.path("pause.gcode", "G28\nG1 X10 Y10 F6000\nM600\nG1 X20\nM0\nG1 X30\n")
+    d = ctx.json("estimate", g, "--machine", "voron24", "--json")
+    p = json.dumps(get(d, "pauses"))
+    if "M600" not in p or "M0" not in p:
+        raise Fail(f"pauses = {p[:200]}")
+    g = ctx.path("range.gcode", "G28\nG1 X10 Y10 F6000\nG1 X900\n")
+    d = ctx.json("estimate", g, "--machine", V0_CFG, "--json")
+    if not get(d, "range_error"):
+        raise Fail("a move past position_max gives no range_error")
+
+
+def c_marlin_preset_shows_marlin(ctx):
+    d = ctx.json("machine", "show", "prusa-mk3s", "--json")
+    if get(d, "printer.firmware") != "marlin":
+        raise Fail("prusa-mk3s is not a Marlin machine")
+    get(d, "marlin.max_accel")
+    get(d, "marlin.max_feedrate")
+    out = ctx.ok("machine", "show", "prusa-mk3s")
+    if "[marlin]" not in out:
+        raise Fail("machine show prusa-mk3s (TOML) has no [marlin] section")
+
+
+def c_empirical_caveat(ctx):
+    out = ctx.ok("estimate", GCODE, "--mode", "empirical")
+    if "uncalibrated" not in out:
+        raise Fail("--mode empirical without --params does not say it is uncalibrated")
+
+
+def c_calibrate_time(ctx):
+    d = os.path.join(ctx.tmp, "timed")
+    os.makedirs(d, exist_ok=True)
+    shutil.copy(os.path.join(ROOT, GCODE), os.path.join(d, "a.gcode"))
+    rows = "gcode,duration_s\na.gcode,860\n"
+    for k, (dx, f) in enumerate(((40, 6000), (80, 9000), (120, 3000), (60, 12000))):
+        with open(os.path.join(d, f"m{k}.gcode"), "w") as fh:
+            fh.write("G28\nG90\n" + "".join(f"G1 X{10 + (j % 2) * dx} Y{10 + j} F{f}\n"
+                                            for j in range(60)))
+        rows += f"m{k}.gcode,{12 + 3 * k}\n"
+    t = os.path.join(d, "prints.csv")
+    with open(t, "w") as fh:
+        fh.write(rows)
+    r = ctx.json("calibrate-time", t, "--machine", "voron24", "--fit", "accel", "--json")
+    a = ctx.json("calibrate-time", t, "--machine", "voron24", "--fit", "accel", "--json",
+                 "--keep-file-limits")
+    if json.dumps(r, sort_keys=True) != json.dumps(a, sort_keys=True):
+        raise Fail("--keep-file-limits is not the default")
+
+
+def c_shaper_bad_damping(ctx):
+    ctx.bad("shaper", "show", "--type", "mzv", "--freq-hz", "40", "--damping-ratio", "1",
+            "--json", where="--damping-ratio")
+    ctx.bad("shaper", "show", "--type", "nope", "--freq-hz", "40", "--damping-ratio", "0.1",
+            "--json", where="--type")
+
+
+def c_simulate_input_shaper_cfg(ctx):
+    base = ["simulate", CORNER, "--natural-frequency-hz", "15.915", "--damping-ratio", "0.5",
+            "--json"]
+    with open(os.path.join(ROOT, CORNER_CFG)) as f:
+        cfg = f.read()
+    shaped = ctx.path("corner_shaped.cfg", cfg + "\n[input_shaper]\nshaper_type: mzv\n"
+                      "shaper_freq_x: 15.915\nshaper_freq_y: 15.915\n")
+    plain = ctx.json(*base, "--machine", CORNER_CFG)["max_contour_error_mm"]
+    a = ctx.json(*base, "--machine", shaped)["max_contour_error_mm"]
+    b = ctx.json(*base, "--machine", shaped, "--no-shaper")["max_contour_error_mm"]
+    if a == plain:
+        raise Fail("[input_shaper] in the printer.cfg changes nothing")
+    if b != plain:
+        raise Fail("--no-shaper does not give the unshaped result")
+    m593 = ctx.path("m593.gcode", "M593 F15.915 D0.1\n" + open(os.path.join(ROOT, CORNER)).read())
+    c = ctx.json("simulate", m593, "--natural-frequency-hz", "15.915", "--damping-ratio", "0.5",
+                 "--json", "--machine", "prusa-mk3s")["max_contour_error_mm"]
+    d = ctx.json("simulate", CORNER, "--natural-frequency-hz", "15.915", "--damping-ratio", "0.5",
+                 "--json", "--machine", "prusa-mk3s")["max_contour_error_mm"]
+    if c == d:
+        raise Fail("M593 in the G-code changes nothing on a Marlin machine")
+
+
+def c_resonance_table_stdin_axis(ctx):
+    f = "tests/reference/resonance/calibration_data_y_sweep_1.csv"
+    out = ctx.ok("resonance", "calibrate", f, "--axis", "y")
+    if "mzv" not in out.lower():
+        raise Fail("no human table without --json")
+    d = ctx.json("resonance", "calibrate", f, "--json")
+    get(d, "klipper.recommended.name")
+    with open(os.path.join(ROOT, f), "rb") as fh:
+        e = ctx.json("resonance", "calibrate", "-", "--axis", "y", "--json", stdin=fh.read())
+    if e["klipper"]["recommended"] != d["klipper"]["recommended"]:
+        raise Fail("'-' (stdin) gives another recommendation")
+
+
+def c_resonance_response_csv(ctx):
+    raw = raw_sweep_csv(ctx)
+    out = os.path.join(ctx.tmp, "response.csv")
+    ctx.json("resonance", "calibrate", raw, "--axis", "y", "--sweep", "5,80,4,4000",
+             "--response-csv", out, "--json")
+    h = csv_header(out)
+    if h[:4] != ["freq_hz", "gain", "phase_rad", "coherence"]:
+        raise Fail(f"--response-csv header {h}")
+
+
+def c_stepper_motor_presets(ctx):
+    seen = []
+    for m in ("17hs4401", "ldo-42sth48-2504ac", "ldo-42sth48-2004mah", "ldo-42sth40-1004a"):
+        steps = ["--set", "stepper_x.full_steps_per_rotation=400", "--set",
+                 "stepper_y.full_steps_per_rotation=400"] if m.endswith("2004mah") else []
+        d = stepper_json(ctx, "--scenario", "reversing-strokes", "--controller", "open",
+                         "--set", f"stepper_x.motor={m}", "--set", f"stepper_y.motor={m}", *steps)
+        name = json.dumps(get(d, "axes.x.motor"))
+        if m not in name.lower():
+            raise Fail(f"stepper_x.motor={m}: axes.x.motor = {name[:120]}")
+        seen.append(m)
+    out = ctx.ok("stepper", "simulate", "--scenario", "reversing-strokes")
+    if "17hs4401" not in out.lower():
+        raise Fail("the assumed motor is not named in the text output")
+
+
+def c_steps_shaper_pa(ctx):
+    g, cfg = small(ctx)
+    plain = ctx.json("steps", g, "--machine", cfg, "--json")
+    cfg2 = ctx.path("shaped.cfg", SMALL_CFG + "pressure_advance: 0.04\n[input_shaper]\n"
+                    "shaper_type: mzv\nshaper_freq_x: 40\nshaper_freq_y: 40\n")
+    d = ctx.json("steps", g, "--machine", cfg2, "--json", "--step-filter", "klipper")
+    if not d.get("input_shaper") or not d.get("pressure_advance"):
+        raise Fail(f"input_shaper = {d.get('input_shaper')!r}, pressure_advance = "
+                   f"{d.get('pressure_advance')!r}")
+    if json.dumps(d["steppers"]) == json.dumps(plain["steppers"]):
+        raise Fail("[input_shaper] and pressure_advance change no step")
+    bad = ctx.path("badshaper.cfg", SMALL_CFG + "[input_shaper]\nshaper_type: nope\n"
+                   "shaper_freq_x: 40\n")
+    ctx.bad("steps", g, "--machine", bad, "--json", where=f"{bad}:")
+    badpa = ctx.path("badpa.cfg", SMALL_CFG + "pressure_advance: -0.1\n")
+    ctx.bad("steps", g, "--machine", badpa, "--json", where=f"{badpa}:")
+
+
+def c_python_file_limits_fleet_dir(ctx):
+    q = os.path.join(ctx.tmp, "queue2")
+    os.makedirs(q, exist_ok=True)
+    shutil.copy(os.path.join(ROOT, CORNER), q)
+    open(os.path.join(q, "empty.gcode"), "w").close()
+    d = ctx.py(
+        "import amctl, amctl.fleet, json\n"
+        f"a = amctl.estimate('{GCODE}', machine='{V0_CFG}', set={{'printer.max_accel': 1000}},"
+        " file_limits='cap')['total_time_s']\n"
+        f"rows = amctl.fleet.run(['{q}'], ['voron24'], workers=1)\n"
+        "rows = rows.to_dict('records') if hasattr(rows, 'to_dict') else rows\n"
+        "print(json.dumps({'a': a, 'rows': rows}, default=str))\n", timeout=180)
+    cli = ctx.json("estimate", GCODE, "--machine", V0_CFG, "--set", "printer.max_accel=1000",
+                   "--file-limits", "cap", "--json")["total_time_s"]
+    close("Python file_limits='cap' vs CLI", d["a"], cli, abs_=1e-9)
+    rows = d["rows"]
+    if len(rows) != 2:
+        raise Fail(f"fleet.run on a directory: {len(rows)} rows, expected 2")
+    empty = [r for r in rows if "empty" in str(r.get("file"))]
+    if not empty or "no moves" not in json.dumps(empty[0]):
+        raise Fail(f"the empty file's row does not say 'no moves': {empty}")
+
+
+def c_python_sls3d(ctx):
+    d = ctx.py("import amctl, json\n"
+               "r = amctl.sls3d(case='slab-flux', thickness_mm=5, flux_w_m2=1000,"
+               " times_s=[0.5, 2])\n"
+               "print(json.dumps(r['top_rise_k']))\n", timeout=120)
+    if not isinstance(d, list) or len(d) != 2:
+        raise Fail(f"amctl.sls3d(case='slab-flux')['top_rise_k'] = {d!r}")
+
+
+def c_report_no_moves(ctx):
+    g = ctx.path("nomoves.gcode", "M104 S200\nM140 S60\n")
+    out = os.path.join(ctx.tmp, "nomoves.html")
+    ctx.ok("report", g, "--machine", "voron24", "-o", out)
+    with open(out) as f:
+        if "no moves" not in f.read().lower():
+            raise Fail("the page for a file without moves does not say so")
+
+
+def sls3d_small(ctx, *extra, timeout=120):
+    return ctx.json("thermal", "sls3d", "--config", "tests/sls3d/small_scenario.toml", *extra,
+                    "--json", timeout=timeout)
+
+
+def c_sls3d_config_small(ctx):
+    import tomllib
+    with open(os.path.join(ROOT, "configs/sls_seed002_3d.toml"), "rb") as f:
+        times = tomllib.load(f)["output"]["snapshot_times_s"]
+    for t in (14.0, 15.1, 28.1):
+        if t not in times:
+            raise Fail(f"configs/sls_seed002_3d.toml: snapshot_times_s {times} lacks {t}")
+    vtu = os.path.join(ctx.tmp, "vtu")
+    page = os.path.join(ctx.tmp, "sls3d.html")
+    d = sls3d_small(ctx, "--vtu-dir", vtu, "--report", page)
+    num(d, "snapshots[].time_s", 0, 1e4)
+    for f in get(d, "snapshots[].file"):
+        if not os.path.exists(f if os.path.isabs(f) else os.path.join(ROOT, f)):
+            raise Fail(f"snapshot file {f} not written")
+    e = num(d, "energy_balance_rel_error", 0, 1e-6)
+    num(d, "wall_s", 0, 1e5)
+    if not os.path.getsize(page):
+        raise Fail("--report wrote nothing")
+    return f"reduced config (tests/sls3d/small_scenario.toml); energy {e:.1e}"
+
+
+def c_sls3d_mpi(ctx):
+    mpirun = shutil.which("mpirun")
+    if not mpirun:
+        raise Skip("no mpirun")
+    one = sls3d_small(ctx)
+    try:
+        p = subprocess.run([mpirun, "--allow-run-as-root", "-np", "2", ctx.amctl, "thermal",
+                            "sls3d", "--config", "tests/sls3d/small_scenario.toml", "--json"],
+                           capture_output=True, timeout=180, cwd=ROOT)
+    except subprocess.TimeoutExpired:
+        raise Fail("mpirun -np 2 timed out")
+    if p.returncode != 0:
+        raise Fail(f"mpirun -np 2: exit {p.returncode}: {p.stderr.decode()[-300:]}")
+    two = json.loads(p.stdout)
+    if two.get("mpi_ranks") != 2:
+        raise Fail(f"mpi_ranks = {two.get('mpi_ranks')}")
+    for a, b in zip(one["snapshots"], two["snapshots"]):
+        close(f"measured_c at {a['time_s']} s, 2 ranks", b["measured_c"], a["measured_c"],
+              abs_=1e-4)
+    return "reduced config"
+
+
 CONTRACTS = [
     # (issue, name, fast, function)
     (2, "estimate --machine printer.cfg --json: total_time_s, layers, features, heater_waits, "
@@ -1134,6 +1365,31 @@ CONTRACTS = [
      c_sls3d_config_path),
     (0, "paths the docs and closing notes name", True, c_docs_paths),
     (12, "README: PYTHONPATH=build/release/python import amctl", True, c_readme_python),
+    (2, "F0, negative feed rate, inf: FILE:LINE:COL, exit 2", True, c_estimate_absurd_feedrate),
+    (14, "pauses (M600, M0) listed apart; a move out of range: range_error", True,
+     c_estimate_pauses_range),
+    (21, "machine show of a Marlin preset: Marlin's limits", True, c_marlin_preset_shows_marlin),
+    (21, "--mode empirical without a calibration says so", True, c_empirical_caveat),
+    (5, "calibrate-time prints.csv --json; --keep-file-limits = the default", False,
+     c_calibrate_time),
+    (9, "shaper damping outside [0, 1), unknown type: named, exit 2", True, c_shaper_bad_damping),
+    (9, "simulate reads [input_shaper] and M593; --no-shaper", True, c_simulate_input_shaper_cfg),
+    (21, "resonance calibrate: a table without --json, --axis optional, '-' for stdin", True,
+     c_resonance_table_stdin_axis),
+    (9, "resonance calibrate --sweep --response-csv: freq_hz,gain,phase_rad,coherence", False,
+     c_resonance_response_csv),
+    (19, "motor presets by stepper_x.motor, named in JSON and text", True, c_stepper_motor_presets),
+    (24, "steps: [input_shaper] and pressure_advance applied; bad values at FILE:LINE, exit 2",
+     True, c_steps_shaper_pa),
+    (21, "Python file_limits=; fleet.run on a directory; an empty file says 'no moves'", False,
+     c_python_file_limits_fleet_dir),
+    (20, "Python amctl.sls3d(case='slab-flux')['top_rise_k']", False, c_python_sls3d),
+    (12, "report on a file without moves says so", True, c_report_no_moves),
+    (20, "sls3d --config --vtu-dir --report --json: snapshots[].{time_s,file}, "
+         "energy_balance_rel_error, wall_s (reduced config); the bundled config's 14/15.1/28.1 s",
+     False, c_sls3d_config_small),
+    (20, "mpirun -np 2 amctl thermal sls3d --config: same result (reduced config)", False,
+     c_sls3d_mpi),
 ]
 
 
