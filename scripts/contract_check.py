@@ -756,6 +756,9 @@ def c_python_core(ctx):
     close("simulate() max_contour_error_mm", d["q"], 0.4636, abs_=5e-4)
     if d["tn"] < 10:
         raise Fail("simulate() trace empty")
+    for k in ("t_s", "cmd_x_mm", "cmd_y_mm", "sim_x_mm", "sim_y_mm", "contour_error_mm"):
+        if k not in d["trace"]:
+            raise Fail(f"simulate()['trace'] lacks {k}: {d['trace']}")
     cli = ctx.json("estimate", GCODE, "--machine", V0_CFG, "--set", "printer.max_accel=5000",
                    "--json")
     close("Python total_time_s vs CLI", d["t"], cli["total_time_s"], abs_=1e-9)
@@ -1270,6 +1273,21 @@ def c_sls3d_mpi(ctx):
     return "reduced config"
 
 
+def c_existing_spellings(ctx):
+    """Spellings that exist today and that the one-parameter-table work may rename: the old
+    names must stay accepted (aliases for one release)."""
+    d = stepper_json(ctx, "--scenario", "reversing-strokes", "--controller", "pid",
+                     "--drag-n", "2", "--ki", "50", "--kp", "1")
+    num(d, "axes.x.peak_step_rate_hz", 0)
+    g, cfg = small(ctx)
+    num(ctx.json("steps", g, "--machine", cfg, "--json"), "steppers[].peak_step_rate_steps_s", 0)
+    r = ctx.py("import amctl, json\n"
+               "d = amctl.stepper_simulate(scenario='reversing-strokes', controller='pid',"
+               " drag_n=2, ki=50, kp=1)\n"
+               "print(json.dumps(d['axes']['x']['max_tracking_error_mm']))\n")
+    num({"e": r}, "e", 0, 1000)
+
+
 CONTRACTS = [
     # (issue, name, fast, function)
     (2, "estimate --machine printer.cfg --json: total_time_s, layers, features, heater_waits, "
@@ -1390,6 +1408,8 @@ CONTRACTS = [
      False, c_sls3d_config_small),
     (20, "mpirun -np 2 amctl thermal sls3d --config: same result (reduced config)", False,
      c_sls3d_mpi),
+    (22, "today's spellings kept: --drag-n, --ki, drag_n=, ki=, peak_step_rate_hz, "
+         "peak_step_rate_steps_s", True, c_existing_spellings),
 ]
 
 
