@@ -1288,6 +1288,23 @@ def c_existing_spellings(ctx):
     num({"e": r}, "e", 0, 1000)
 
 
+def c_resonance_bad_csvs(ctx):
+    h = "#time,accel_x,accel_y,accel_z\n"
+    ok = "".join(f"{i / 1000:.3f},1,2,3\n" for i in range(5))
+    cases = {
+        "text": (h + ok + "0.005,abc,2,3\n", 7),
+        "short_row": (h + ok + "0.005,1,2\n", 7),
+        "backwards": (h + ok + "0.001,1,2,3\n", 7),
+        "wrong_columns": ("#time,foo,bar\n0,1,2\n", 1),
+    }
+    for name, (text, line) in cases.items():
+        f = ctx.path(f"accel_{name}.csv", text)
+        ctx.bad("resonance", "calibrate", f, "--axis", "y", "--json", where=f"{f}:{line}")
+    for name, data in (("empty", b""), ("binary", bytes(range(256)) * 4)):
+        f = ctx.path(f"accel_{name}.csv", data=data)
+        ctx.bad("resonance", "calibrate", f, "--axis", "y", "--json", where=f)
+
+
 CONTRACTS = [
     # (issue, name, fast, function)
     (2, "estimate --machine printer.cfg --json: total_time_s, layers, features, heater_waits, "
@@ -1410,6 +1427,8 @@ CONTRACTS = [
      c_sls3d_mpi),
     (22, "today's spellings kept: --drag-n, --ki, drag_n=, ki=, peak_step_rate_hz, "
          "peak_step_rate_steps_s", True, c_existing_spellings),
+    (9, "accelerometer CSV with text, a short row, time backwards, wrong columns: FILE:LINE; "
+        "empty or binary: named; exit 2", True, c_resonance_bad_csvs),
 ]
 
 
