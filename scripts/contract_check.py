@@ -1305,6 +1305,31 @@ def c_resonance_bad_csvs(ctx):
         ctx.bad("resonance", "calibrate", f, "--axis", "y", "--json", where=f)
 
 
+def c_simulate_csv_range(ctx):
+    out = os.path.join(ctx.tmp, "sim.csv")
+    ctx.json("simulate", CORNER, "--machine", CORNER_CFG, "--natural-frequency-hz", "15.915",
+             "--damping-ratio", "0.5", "--csv", out, "--csv-rate-hz", "200", "--t-begin", "0.05",
+             "--t-end", "0.2", "--json")
+    with open(out, newline="") as f:
+        rows = list(csv.reader(f))
+    for k in ("t_s", "cmd_x_mm", "cmd_y_mm", "sim_x_mm", "sim_y_mm", "contour_error_mm"):
+        if k not in rows[0]:
+            raise Fail(f"simulate CSV lacks {k}: {rows[0]}")
+    t = [float(r[0]) for r in rows[1:]]
+    if abs(t[0] - 0.05) > 1e-9 or abs(t[-1] - 0.2) > 1e-9 or len(t) != 31:
+        raise Fail(f"CSV rows {t[0]}..{t[-1]} s ({len(t)}), expected 0.05..0.2 s at 200 Hz (31)")
+
+
+def c_test_gcode_whole_program(ctx):
+    out = os.path.join(ctx.tmp, "res_prog.gcode")
+    ctx.ok("resonance", "test-gcode", "--machine", V0_CFG, "--axis", "y", "-o", out)
+    with open(out) as f:
+        text = f.read()
+    for k in ("G28", "ACCELEROMETER_MEASURE"):
+        if k not in text:
+            raise Fail(f"the test program lacks {k}")
+
+
 CONTRACTS = [
     # (issue, name, fast, function)
     (2, "estimate --machine printer.cfg --json: total_time_s, layers, features, heater_waits, "
@@ -1429,6 +1454,10 @@ CONTRACTS = [
          "peak_step_rate_steps_s", True, c_existing_spellings),
     (9, "accelerometer CSV with text, a short row, time backwards, wrong columns: FILE:LINE; "
         "empty or binary: named; exit 2", True, c_resonance_bad_csvs),
+    (3, "simulate --csv --csv-rate-hz --t-begin --t-end: the path in the range", True,
+     c_simulate_csv_range),
+    (21, "resonance test-gcode on a printer.cfg: a whole program (homing, accelerometer)", True,
+     c_test_gcode_whole_program),
 ]
 
 
