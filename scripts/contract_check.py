@@ -12,7 +12,7 @@ usage: scripts/contract_check.py [--amctl PATH] [--fast] [-k SUBSTRING] [--list]
   --amctl PATH  the binary (default: build/release/apps/amctl/amctl under the repository)
   --fast        only the rows marked fast (the CTest subset, well under a minute in all)
   -k SUBSTRING  only the rows whose name contains SUBSTRING
-  --list        print the table and exit
+  --list        print the table (with the number of the issue that fixed each row) and exit
 
 Exit code 0 when every row run passes, 1 otherwise. Rows that need the shared corpus or an MPI
 launcher skip with a note when it is absent; rows over ~20 s run a reduced variant, named in
@@ -1471,7 +1471,7 @@ def main():
     rows = [c for c in CONTRACTS if (not a.fast or c[2]) and a.k in c[1] + c[3].__name__]
     if a.list:
         for issue, name, fast, fn in rows:
-            print(f"{issue:3d} {'fast' if fast else 'slow'} {fn.__name__}: {name}")
+            print(f"{issue:3d} {'fast' if fast else 'slow'} {fn.__name__}: {name}")  # the table's data
         return 0
     amctl = os.path.abspath(a.amctl)
     if not os.access(amctl, os.X_OK):
@@ -1494,7 +1494,7 @@ def main():
             counts[status] += 1
             dt = time.monotonic() - t0
             extra = f" -- {note}" if isinstance(note, str) and note else ""
-            print(f"{status} [{issue:2d}] {name} ({dt:.1f} s){extra}", flush=True)
+            print(f"{status} {name} ({dt:.1f} s){extra}", flush=True)
     print(f"{counts['PASS']} PASS, {counts['FAIL']} FAIL, {counts['SKIP']} SKIP")
     return 1 if counts["FAIL"] else 0
 
