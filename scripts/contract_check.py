@@ -252,8 +252,10 @@ def c_estimate_keys_readme(ctx):
     d = ctx.json("estimate", GCODE, "--machine", V0_CFG, "--json")
     for k in ("motion_time_s", "dwell_time_s", "extrude_only_time_s", "travel_time_s",
               "extrude_time_s", "filament_mm", "filament_volume_mm3", "moves",
-              "slicer_estimate_s", "travel_mm"):
+              "slicer_estimate_s", "travel_mm", "macros", "pauses", "file_limits"):
         get(d, k)
+    if "PRINT_START" not in json.dumps(d["macros"]):
+        raise Fail("macros does not name the expanded PRINT_START")
     if not isinstance(d["layers"], list) or not isinstance(d["features"], (list, dict)):
         raise Fail("layers must be a list, features a list or object")
 
