@@ -1,5 +1,5 @@
 // `amctl compensate FILE --machine M --method invert|fbf|lpfbf|rfbf|collocation --natural-frequency-hz F
-//  --damping-ratio Z [--mode F,Z[,G] ...] [--plant-natural-frequency-hz F2 --plant-damping-ratio Z2]
+//  --damping-ratio Z [--natural-frequency-y-hz FY --damping-ratio-y ZY] [--mode F,Z[,G] ...] [--plant-natural-frequency-hz F2 --plant-damping-ratio Z2]
 //  [--knot-spacing-s T --degree D] [--sample-rate-hz R] --csv OUT.csv [--json]`:
 // feedforward compensation of the belt model (compensation::compensate_file,
 // docs/compensation.md).
