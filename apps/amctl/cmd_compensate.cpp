@@ -126,7 +126,7 @@ void run_compensate(const CompensateArgs& a) {
     throw Error("--json: prints on standard output, expected the --csv and --gcode outputs in files");
   }
   // Both outputs opened before the work: one that cannot be written (or is the input) fails now.
-  OutputFile csv(a.csv, OutputOptions{"--csv", {a.file}, {}});
+  cp::CommandTable csv(a.csv, OutputOptions{"--csv", {a.file}, {}});
   std::optional<OutputFile> gcode;
   if (!a.gcode.empty()) gcode.emplace(a.gcode, OutputOptions{"--gcode", {a.file}, {}});
   // LPFBF streams to the CSV; with --gcode it runs in memory (the same windows and command).
@@ -137,7 +137,7 @@ void run_compensate(const CompensateArgs& a) {
     r = cp::compensate_file(a.file, m, o);
     if (!r.t_s.empty()) {
       if (gcode) cp::write_gcode(r, *gcode);  // first: it refuses an unbounded command
-      cp::write_csv(r, csv);
+      cp::write_table(r, csv);
       if (gcode) gcode->commit();
       csv.commit();
     }
@@ -198,7 +198,10 @@ void register_compensate(CLI::App& app) {
   sub->add_option("--max-iterations", a->max_iterations, "collocation: IPOPT iterations per window (default 500)");
   sub->add_option("--lead-in-s", a->lead_in_s, "command time before the first move [s] (default: auto)");
   sub->add_option("--sample-rate-hz", a->rate_hz, "command step [Hz] (default 1000)");
-  sub->add_option("--csv", a->csv, "command CSV (written whole or not at all)")->required();
+  sub->add_option("--csv", a->csv,
+                  "command table: CSV, or a name ending in .npy for numpy's binary format (the "
+                  "same columns as float64 fields); written whole or not at all")
+      ->required();
   sub->add_option("--gcode", a->gcode,
                   "also write the command as dense G-code (one G1 per sample, Z and E from the plan) for "
                   "firmware without shaping");

@@ -58,7 +58,7 @@ void run_plan(const PlanArgs& a) {
   plan::SourceOptions so;
   so.strict = !a.lenient;
   const std::string output = a.output.empty() ? "-" : a.output;
-  plan::MovesCsvFile csv(output, OutputOptions{"-o/--output", {a.file}, {}});
+  plan::MovesFile csv(output, OutputOptions{"-o/--output", {a.file}, {}});
   so.planner.file_limits = file_limits_policy(a.file_limits);
   plan::PlanSource source(a.file, m, so);
   plan::Sink* sinks[] = {&csv};
@@ -90,12 +90,13 @@ void run_plan(const PlanArgs& a) {
 void register_plan(CLI::App& app) {
   auto a = std::make_shared<PlanArgs>();
   CLI::App* sub = app.add_subcommand(
-      "plan", "Write every planned move (times, speeds, phases) as CSV, one row per move");
+      "plan", "Write every planned move (times, speeds, phases) as CSV or .npy, one row per move");
   sub->add_option("file", a->file, "G-code file ('-' reads standard input)")->required();
   add_machine_options(*sub, a->machine);
   add_file_limits_option(*sub, a->file_limits);
   sub->add_option("-o,--output", a->output,
-                  "CSV file (written whole or not at all); default: standard output");
+                  "CSV file, or a name ending in .npy for numpy's binary format (the same columns "
+                  "as fields); written whole or not at all; default: CSV on standard output");
   sub->add_flag("--json", a->json, "Print a JSON summary (needs -o)");
   sub->add_option("--t-begin", a->t_begin, "only moves that end at or after this print time [s]");
   sub->add_option("--t-end", a->t_end, "only moves that start at or before this print time [s]");

@@ -102,8 +102,10 @@ void register_steps(CLI::App& app) {
   sub->add_option("file", a->file, "G-code file ('-' reads standard input)")->required();
   add_machine_options(*sub, a->machine);
   sub->add_option("--csv", a->csv,
-                  "CSV file stepper,time_s,direction, one row per step, about 30 bytes a step "
-                  "(written whole or not at all; run without it first to see the size)");
+                  "steps file: CSV stepper,time_s,direction, one row per step, about 30 bytes a "
+                  "step; a name ending in .npy writes numpy's binary format instead (fields "
+                  "stepper, time_s, direction; numpy.load reads it); written whole or not at all; "
+                  "run without it first to see the size");
   sub->add_option("--step-filter", a->filter,
                   "none (amctl's exact steps, default) or klipper (drop a step and the step back "
                   "within 750 us, as Klipper's stepcompress does before the MCU)");

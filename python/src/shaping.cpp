@@ -135,14 +135,15 @@ py::object compensate(const std::string& path, const MachineValue& mv, const std
     // The outputs opened first (as `amctl compensate`): one that is the input, or cannot be
     // written, fails before the work.
     require_distinct_outputs(csv, "csv", gcode, "gcode");
-    std::optional<OutputFile> csv_out, gcode_out;
+    std::optional<compensation::CommandTable> csv_out;
+    std::optional<OutputFile> gcode_out;
     if (!csv.empty()) csv_out.emplace(csv, OutputOptions{"csv", {path}, {}});
     if (!gcode.empty()) gcode_out.emplace(gcode, OutputOptions{"gcode", {path}, {}});
     r = compensation::compensate_file(path, mv.m, o);
     // No command (collocation: an infeasible bound): the status says so, no CSV.
     if (!r->t_s.empty()) {
       if (gcode_out) compensation::write_gcode(*r, *gcode_out);
-      if (csv_out) compensation::write_csv(*r, *csv_out);
+      if (csv_out) compensation::write_table(*r, *csv_out);
       if (gcode_out) gcode_out->commit();
       if (csv_out) csv_out->commit();
     }

@@ -1,3 +1,4 @@
+#include "amctl/compensation/command_table.hpp"
 #include "amctl/compensation/compensate.hpp"
 
 #include <algorithm>
@@ -173,15 +174,6 @@ void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector
 }
 
 namespace detail {
-
-void append_csv_row(std::string& out, double t_s, double x_cmd, double y_cmd, double x_des, double y_des,
-                    double x_sim, double y_sim) {
-  append_fixed(out, t_s, 9);
-  for (double v : {x_cmd, y_cmd, x_des, y_des, x_sim, y_sim}) {
-    out.push_back(',');
-    append_fixed(out, v, 9);
-  }
-}
 
 double auto_tail_s(const CompensationOptions& options) {
   const double decay = std::min({slowest_decay_rate_per_s(options.model_x),
@@ -452,37 +444,20 @@ Json to_json(const CompensationResult& r) {
 }
 
 void write_csv(const CompensationResult& r, const std::string& path) {
-  OutputFile out(path, OutputOptions{"--csv", {}, {}});
-  write_csv(r, out);
+  CommandTable out(path, OutputOptions{"--csv", {}, {}});
+  write_table(r, out);
   out.commit();
 }
 
-void write_csv(const CompensationResult& r, OutputFile& out) {
-  {
-    std::ostream& f = out.stream();
-    const bool accel = !r.x_cmd_accel_mm_s2.empty();
-    f << "time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm"
-      << (accel ? ",x_cmd_accel_mm_s2,y_cmd_accel_mm_s2\n" : "\n");
-    std::string row;
-    for (std::size_t k = 0; k < r.t_s.size(); ++k) {
-      detail::append_csv_row(row, r.t_s[k], r.x_cmd_mm[k], r.y_cmd_mm[k], r.x_des_mm[k], r.y_des_mm[k],
-                             r.x_sim_mm[k], r.y_sim_mm[k]);
-      if (accel) {
-        row.push_back(',');
-        append_fixed(row, r.x_cmd_accel_mm_s2[k], 6);
-        row.push_back(',');
-        append_fixed(row, r.y_cmd_accel_mm_s2[k], 6);
-      }
-      row.push_back('\n');
-      if (row.size() > (1U << 16)) {
-        f.write(row.data(), static_cast<std::streamsize>(row.size()));
-        row.clear();
-      }
-    }
-    f.write(row.data(), static_cast<std::streamsize>(row.size()));
+void write_table(const CompensationResult& r, CommandTable& out) {
+  const bool accel = !r.x_cmd_accel_mm_s2.empty();
+  out.begin(accel);
+  for (std::size_t k = 0; k < r.t_s.size(); ++k) {
+    out.add(CommandSample{r.t_s[k], r.x_cmd_mm[k], r.y_cmd_mm[k], r.x_des_mm[k], r.y_des_mm[k],
+                          r.x_sim_mm[k], r.y_sim_mm[k], accel ? r.x_cmd_accel_mm_s2[k] : 0.0,
+                          accel ? r.y_cmd_accel_mm_s2[k] : 0.0});
   }
 }
-
 
 void write_gcode(const CompensationResult& r, const std::string& path) {
   OutputFile out(path, OutputOptions{"--gcode", {}, {}});

@@ -251,11 +251,6 @@ class CollocationAxis {
 void run_collocation(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
                      double auto_tail_s, Grid& grid, CompensationResult& r);
 
-/// One row of the command CSV (time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm):
-/// 9 decimals, no exponent (core/fixed_format.hpp), no newline.
-void append_csv_row(std::string& out, double t_s, double x_cmd, double y_cmd, double x_des,
-                    double y_des, double x_sim, double y_sim);
-
 /// FBF: fills the grid, the command and the basis fields of r.
 void run_fbf(std::span<const plan::PlannedMove> moves, const CompensationOptions& o,
              double auto_tail_s, Grid& grid, CompensationResult& r);

@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "amctl/compensation/command_table.hpp"
 #include "amctl/compensation/compensate.hpp"
 #include "amctl/control/discretize.hpp"
 #include "amctl/core/error.hpp"
@@ -56,7 +57,7 @@ struct HeldMove {
 
 class LpfbfStream final : public plan::Sink {
  public:
-  LpfbfStream(const CompensationOptions& o, OutputFile& csv)
+  LpfbfStream(const CompensationOptions& o, CommandTable& csv)
       : o_(o), f_(csv),
         plant_x_(o.plant_x, 1.0 / o.sample_rate_hz), plant_y_(o.plant_y, 1.0 / o.sample_rate_hz),
         unc_x_(o.plant_x, 1.0 / o.sample_rate_hz), unc_y_(o.plant_y, 1.0 / o.sample_rate_hz) {}
@@ -80,8 +81,6 @@ class LpfbfStream final : public plan::Sink {
     ax_->finish(K, M, last_x_);
     ay_->finish(K, M, last_y_);
     drain(true);
-    f_.write(line_);
-    line_.clear();
     r_.motion_time_s = t_end_ - t_begin_;
     r_.lead_in_s = static_cast<double>(lay_.grid.lead_steps) * lay_.grid.h;
     r_.tail_s = lay_.grid.t(K - 1) - t_end_;
@@ -120,7 +119,7 @@ class LpfbfStream final : public plan::Sink {
     r_.window_s = nw * T;
     r_.overlap_s = no * T;
     t_begin_ = m.start_time_s;
-    f_.write("time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm\n");
+    f_.begin(false);
     started_ = true;
   }
 
@@ -191,12 +190,7 @@ class LpfbfStream final : public plan::Sink {
         if (need_c) r_.max_contour_error_mm = std::max(r_.max_contour_error_mm, std::sqrt(dc));
         if (need_u) r_.uncompensated_max_contour_error_mm = std::max(r_.uncompensated_max_contour_error_mm, std::sqrt(du));
       }
-      detail::append_csv_row(line_, t, cmd_[0], cmdy_[0], xd, yd, xs, ys);
-      line_.push_back('\n');
-      if (line_.size() > (1U << 16)) {
-        f_.write(line_);
-        line_.clear();
-      }
+      f_.add(CommandSample{t, cmd_[0], cmdy_[0], xd, yd, xs, ys});
       ++written_;
       cmd_.pop_front();
       cmdy_.pop_front();
@@ -222,8 +216,7 @@ class LpfbfStream final : public plan::Sink {
     double t, x, y;
   };
   const CompensationOptions& o_;
-  OutputFile& f_;
-  std::string line_;
+  CommandTable& f_;
   detail::FbfLayout lay_;
   std::optional<detail::LpfbfAxis> ax_, ay_;
   StreamPlant plant_x_, plant_y_, unc_x_, unc_y_;
@@ -240,14 +233,14 @@ class LpfbfStream final : public plan::Sink {
 
 CompensationResult compensate_file_streaming(const std::string& path, const machine::Machine& machine,
                                              const CompensationOptions& options, const std::string& csv_path) {
-  OutputFile csv(csv_path, OutputOptions{"--csv", {path}, {}});
+  CommandTable csv(csv_path, OutputOptions{"--csv", {path}, {}});
   CompensationResult r = compensate_file_streaming(path, machine, options, csv);
   csv.commit();
   return r;
 }
 
 CompensationResult compensate_file_streaming(const plan::GcodeInput& path, const machine::Machine& machine,
-                                             const CompensationOptions& options, OutputFile& csv) {
+                                             const CompensationOptions& options, CommandTable& csv) {
   if (options.method != Method::lpfbf)
     throw Error("compensate_file_streaming: only --method lpfbf streams");
   detail::validate_options(options);

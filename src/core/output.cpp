@@ -350,6 +350,27 @@ std::ostream& OutputFile::stream() {
   return *stream_;
 }
 
+void OutputFile::overwrite_at(std::uint64_t offset, std::string_view replacement) {
+  AMCTL_CHECK(fd_ >= 0 && !committed_ && !failed_ && !streamed_,
+              "OutputFile::overwrite_at on a streamed, committed or failed output");
+  AMCTL_CHECK(offset + replacement.size() <= bytes(), "OutputFile::overwrite_at past the end");
+  flush();
+  const char* data = replacement.data();
+  std::size_t n = replacement.size();
+  auto at = static_cast<off_t>(offset);
+  while (n > 0) {
+    const ssize_t w = ::pwrite(fd_, data, n, at);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      fail("writing", errno);
+    }
+    if (w == 0) fail("writing", EIO);
+    data += w;
+    n -= static_cast<std::size_t>(w);
+    at += w;
+  }
+}
+
 void OutputFile::commit() {
   AMCTL_CHECK(fd_ >= 0 && !committed_ && !failed_, "OutputFile::commit twice or after a failure");
   flush();

@@ -62,16 +62,70 @@ void MovesCsvSink::consume(const PlanBatch& batch) {
   rows_ += batch.moves.size();
 }
 
-MovesCsvFile::MovesCsvFile(std::string path, OutputOptions options)
-    : out_(std::move(path), std::move(options)) {
-  out_.write(moves_csv_header());
+namespace {
+
+std::vector<NpyColumn> moves_columns() {
+  std::vector<NpyColumn> c{{"line", NpyType::u8, 0}, {"layer", NpyType::i4, 0},
+                           {"feature", NpyType::text, kMovesNpyFeatureBytes}};
+  for (const char* name : {"start_time_s", "duration_s", "x0_mm", "y0_mm", "z0_mm", "e0_mm",
+                           "x1_mm", "y1_mm", "z1_mm", "e1_mm", "distance_mm", "start_v_mm_s",
+                           "cruise_v_mm_s", "end_v_mm_s", "accel_mm_s2", "jerk_mm_s3",
+                           "accel_t_s", "cruise_t_s", "decel_t_s"}) {
+    c.push_back({name, NpyType::f8, 0});
+  }
+  c.push_back({"profile", NpyType::text, 9});
+  c.push_back({"extrude_only", NpyType::b1, 0});
+  return c;
 }
 
-void MovesCsvFile::consume(const PlanBatch& batch) {
-  for (const PlannedMove& m : batch.moves) out_.write(moves_csv_row(m, feature_of(batch, m)));
+}  // namespace
+
+MovesFile::MovesFile(std::string path, OutputOptions options)
+    : format_(table_format_for(path)), path_(path) {
+  if (format_ == TableFormat::npy) {
+    npy_.emplace(std::move(path), moves_columns(), std::move(options));
+  } else {
+    csv_.emplace(std::move(path), std::move(options));
+    csv_->write(moves_csv_header());
+  }
+}
+
+void MovesFile::consume(const PlanBatch& batch) {
+  if (csv_) {
+    for (const PlannedMove& m : batch.moves) csv_->write(moves_csv_row(m, feature_of(batch, m)));
+    rows_ += batch.moves.size();
+    return;
+  }
+  NpyRecord r(*npy_);
+  for (const PlannedMove& m : batch.moves) {
+    const std::string_view feature = feature_of(batch, m);
+    if (feature.size() > kMovesNpyFeatureBytes) {
+      throw Error(SourceLocation{path_, 0, 0},
+                  fmt::format("the feature name at G-code line {} is {} bytes long; a .npy moves "
+                              "table holds names of up to {} bytes: expected a .csv output for "
+                              "this file",
+                              m.line, feature.size(), kMovesNpyFeatureBytes));
+    }
+    std::size_t i = 0;
+    r.set_int(i++, static_cast<std::int64_t>(m.line)).set_int(i++, m.layer).set_text(i++, feature);
+    r.set(i++, m.start_time_s).set(i++, m.duration_s());
+    for (std::size_t k = 0; k < 4; ++k) r.set(i++, m.start_mm[k]);
+    for (std::size_t k = 0; k < 4; ++k) r.set(i++, m.start_mm[k] + m.axes_r[k] * m.distance_mm);
+    r.set(i++, m.distance_mm).set(i++, m.start_v_mm_s).set(i++, m.cruise_v_mm_s);
+    r.set(i++, m.end_v_mm_s).set(i++, m.accel_mm_s2).set(i++, m.jerk_mm_s3);
+    r.set(i++, m.accel_t_s).set(i++, m.cruise_t_s).set(i++, m.decel_t_s);
+    r.set_text(i++, profile_name(m.profile)).set_int(i++, m.extrude_only ? 1 : 0);
+    npy_->append(r.bytes());
+  }
   rows_ += batch.moves.size();
 }
 
-void MovesCsvFile::commit() { out_.commit(); }
+void MovesFile::commit() {
+  if (npy_) {
+    npy_->commit();
+  } else {
+    csv_->commit();
+  }
+}
 
 }  // namespace amctl::plan

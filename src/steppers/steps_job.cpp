@@ -39,8 +39,8 @@ StepsReport generate_steps_file(const std::string& gcode_path, const machine::Ma
   std::vector<std::string> names;
   for (const kinematics::Motor& c : motors) names.push_back(c.name);
   plan::PlanSource source(gcode_path, m);
-  std::unique_ptr<StepsCsvFile> csv;
-  if (!csv_path.empty()) csv = std::make_unique<StepsCsvFile>(csv_path, names, OutputOptions{"--csv", {gcode_path}, {}});
+  std::unique_ptr<StepsFile> csv;
+  if (!csv_path.empty()) csv = std::make_unique<StepsFile>(csv_path, names, OutputOptions{"--csv", {gcode_path}, {}});
   std::uint64_t moves = 0;
   StepDirFilter sds(motors.size());
   std::vector<Step> passed;

@@ -309,7 +309,7 @@ TEST(MovesCsv, AFileIsWrittenWholeOrNotAtAll) {
   std::filesystem::remove(path);
   {  // an error in the middle of the G-code: no CSV, no .part left behind
     PlanSource s("G1 X10 F6000\nG1 X20\nG1 X1.2.3\n", "bad.gcode", klipper());
-    MovesCsvFile csv(path);
+    MovesFile csv(path);
     Sink* sinks[] = {&csv};
     EXPECT_THROW(run_pipeline(s, sinks), Error);
   }
@@ -317,7 +317,7 @@ TEST(MovesCsv, AFileIsWrittenWholeOrNotAtAll) {
   EXPECT_FALSE(std::filesystem::exists(path + ".part"));
   {
     PlanSource s("G1 X10 F6000\nG1 X20\n", "good.gcode", klipper());
-    MovesCsvFile csv(path);
+    MovesFile csv(path);
     Sink* sinks[] = {&csv};
     run_pipeline(s, sinks);
     csv.commit();
@@ -329,7 +329,7 @@ TEST(MovesCsv, AFileIsWrittenWholeOrNotAtAll) {
   while (std::getline(in, line)) ++n;
   EXPECT_EQ(n, 3u);  // header + 2 moves
   std::filesystem::remove_all(dir);
-  EXPECT_THROW(MovesCsvFile("/nonexistent-dir/x/moves.csv"), Error);
+  EXPECT_THROW(MovesFile("/nonexistent-dir/x/moves.csv"), Error);
 }
 
 }  // namespace

@@ -334,7 +334,7 @@ TEST(Steps, CsvWrittenWholeOrNotAtAll) {
   const std::string path = std::string(AMCTL_BINARY_DIR) + "/steppers_test_steps.csv";
   std::remove(path.c_str());
   {
-    StepsCsvFile f(path, {"stepper_x"});
+    StepsFile f(path, {"stepper_x"});
     const Step s{0.5, 0, 1};
     f.write(std::span<const Step>(&s, 1));
   }  // no commit: nothing left
@@ -342,7 +342,7 @@ TEST(Steps, CsvWrittenWholeOrNotAtAll) {
   EXPECT_EQ(probe, nullptr);
   if (probe) std::fclose(probe);
   {
-    StepsCsvFile f(path, {"stepper_x"});
+    StepsFile f(path, {"stepper_x"});
     const Step s[2] = {{0.5, 0, 1}, {0.75, 0, -1}};
     f.write(s);
     f.commit();

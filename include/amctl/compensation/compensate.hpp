@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "amctl/core/json.hpp"
+#include "amctl/compensation/command_table.hpp"
 #include "amctl/core/output.hpp"
 #include "amctl/dynamics/model.hpp"
 #include "amctl/machine/machine.hpp"
@@ -174,16 +175,16 @@ CompensationResult compensate_file(const plan::GcodeInput& input, const machine:
                                    const CompensationOptions& options);
 
 /// LPFBF over the plan stream of `path` in bounded memory: the command and its check written
-/// progressively to `csv_path` (the CSV columns of write_csv) through amctl::OutputFile (a
-/// regular file appears at the end, whole or not at all; the OutputFile form leaves commit()
-/// to the caller). The result's sample arrays stay empty (see `samples`); the
+/// progressively to `csv_path` (the command table, command_table.hpp: CSV, or .npy by the
+/// name) through amctl::OutputFile (a regular file appears at the end, whole or not at all;
+/// the CommandTable form leaves commit() to the caller). The result's sample arrays stay empty (see `samples`); the
 /// check simulates the plant exactly for the command linear between samples, and the
 /// uncompensated error is that of the plan sampled on the same grid.
 CompensationResult compensate_file_streaming(const std::string& path, const machine::Machine& machine,
                                              const CompensationOptions& options,
                                              const std::string& csv_path);
 CompensationResult compensate_file_streaming(const plan::GcodeInput& input, const machine::Machine& machine,
-                                             const CompensationOptions& options, OutputFile& csv);
+                                             const CompensationOptions& options, CommandTable& csv);
 
 /// Simulates a sampled XY command (uniform step, linear between samples: constant-velocity
 /// moves through dynamics::Simulator) on the plant and returns the nozzle at the sample times.
@@ -203,10 +204,12 @@ void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector
 /// The summary as JSON (no sample arrays). Non-finite numbers are null.
 Json to_json(const CompensationResult& r);
 
-/// time_s,x_cmd_mm,y_cmd_mm,x_des_mm,y_des_mm,x_sim_mm,y_sim_mm, through amctl::OutputFile
-/// (a regular file whole or not at all). The OutputFile form leaves commit() to the caller.
+/// The command table (command_table.hpp: time_s, x_cmd_mm, y_cmd_mm, x_des_mm, y_des_mm,
+/// x_sim_mm, y_sim_mm, and the command's accelerations when the method has them) as CSV, or as
+/// .npy for a path ending in ".npy", through amctl::OutputFile (a regular file whole or not at
+/// all). write_table leaves commit() to the caller.
 void write_csv(const CompensationResult& r, const std::string& path);
-void write_csv(const CompensationResult& r, OutputFile& out);
+void write_table(const CompensationResult& r, CommandTable& out);
 
 /// The command as dense G-code for firmware without shaping (docs/compensation.md, "Dense
 /// G-code"): one G1 per sample step (X, Y from the command, Z and E from the plan, relative E,

@@ -71,6 +71,10 @@ class OutputFile {
   std::ostream& stream();
   /// Flushes; for a regular file also fsync and rename over the target. Throws amctl::Error.
   void commit();
+  /// Replaces bytes already written, at `offset` from the start (a header whose counts are
+  /// known only at the end, as in a .npy file). Only for a regular file (not streamed()); the
+  /// range must lie within bytes(). Throws amctl::Error on a write error.
+  void overwrite_at(std::uint64_t offset, std::string_view replacement);
 
   /// The path as given.
   [[nodiscard]] const std::string& path() const { return path_; }

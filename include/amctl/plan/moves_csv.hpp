@@ -1,5 +1,5 @@
 #pragma once
-// The planned moves as CSV, one row per move, as a sink of the plan stream (`amctl plan`).
+// The planned moves as CSV (or numpy's .npy), one row per move, as a sink of the plan stream (`amctl plan`).
 // Numbers are written in the shortest form that reads back to the same double, so a script
 // that loads the CSV (numpy, pandas, MATLAB) sees exactly the planner's values.
 //
@@ -10,10 +10,12 @@
 // (x1 = x0 + axes_r[0] distance_mm, ...; e of an extrude-only move is along axes_r[3].)
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <string>
 
 #include "amctl/core/output.hpp"
+#include "amctl/core/table_output.hpp"
 #include "amctl/plan/stream.hpp"
 
 namespace amctl::plan {
@@ -35,20 +37,31 @@ class MovesCsvSink final : public Sink {
   std::uint64_t rows_ = 0;
 };
 
-/// Writes the moves CSV through amctl::OutputFile: a regular file appears at commit() (call it
-/// after the pipeline ran) whole or not at all, so an error never leaves half a CSV behind;
-/// "-", a device or a FIFO is streamed.
-class MovesCsvFile final : public Sink {
+/// Widest feature name a .npy moves table holds [bytes] (slicers' names are under 40).
+inline constexpr std::size_t kMovesNpyFeatureBytes = 64;
+
+/// Writes the moves table through amctl::OutputFile: a regular file appears at commit() (call
+/// it after the pipeline ran) whole or not at all, so an error never leaves half a table
+/// behind; "-", a device or a FIFO is streamed (CSV only). A path ending in ".npy" is written
+/// as numpy's .npy format (core/table_output.hpp): one record per move with the CSV's columns
+/// as fields, with the names and types of the Python package's MOVE_DTYPE except `feature` and
+/// `profile`, which are bytes here (line uint64, layer int32, extrude_only bool); a feature name
+/// longer than kMovesNpyFeatureBytes is an error naming its line (never cut).
+class MovesFile final : public Sink {
  public:
-  explicit MovesCsvFile(std::string path, OutputOptions options = {});
-  MovesCsvFile(const MovesCsvFile&) = delete;
-  MovesCsvFile& operator=(const MovesCsvFile&) = delete;
+  explicit MovesFile(std::string path, OutputOptions options = {});
+  MovesFile(const MovesFile&) = delete;
+  MovesFile& operator=(const MovesFile&) = delete;
   void consume(const PlanBatch& batch) override;
   void commit();
+  [[nodiscard]] TableFormat format() const { return format_; }
   [[nodiscard]] std::uint64_t rows() const { return rows_; }
 
  private:
-  OutputFile out_;
+  TableFormat format_;
+  std::optional<OutputFile> csv_;
+  std::optional<NpyTable> npy_;
+  std::string path_;
   std::uint64_t rows_ = 0;
 };
 

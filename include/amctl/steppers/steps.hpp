@@ -14,12 +14,14 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "amctl/core/output.hpp"
+#include "amctl/core/table_output.hpp"
 #include "amctl/core/json.hpp"
 #include "amctl/kinematics/kinematics.hpp"
 #include "amctl/machine/machine.hpp"
@@ -156,21 +158,27 @@ class StepSink final : public plan::Sink {
   double end_time_s_ = 0.0;
 };
 
-/// The steps CSV (header `stepper,time_s,direction`) through amctl::OutputFile: a regular file
-/// appears at commit() whole or not at all; a device, FIFO or "-" is streamed.
-class StepsCsvFile {
+/// The steps table through amctl::OutputFile: CSV (header `stepper,time_s,direction`), or for
+/// a path ending in ".npy" numpy's .npy format, one record per step with the fields `stepper`
+/// (the stepper's name, |S bytes), `time_s` (<f8, the same double the CSV prints) and
+/// `direction` (|i1, +1 or -1) (core/table_output.hpp). A regular file appears at commit()
+/// whole or not at all; a device, FIFO or "-" is streamed (CSV only).
+class StepsFile {
  public:
-  StepsCsvFile(std::string path, std::vector<std::string> names, OutputOptions options = {});
-  StepsCsvFile(const StepsCsvFile&) = delete;
-  StepsCsvFile& operator=(const StepsCsvFile&) = delete;
+  StepsFile(std::string path, std::vector<std::string> names, OutputOptions options = {});
+  StepsFile(const StepsFile&) = delete;
+  StepsFile& operator=(const StepsFile&) = delete;
   void write(std::span<const Step> steps);
   void commit();
+  [[nodiscard]] TableFormat format() const { return format_; }
   [[nodiscard]] std::uint64_t rows() const { return rows_; }
   [[nodiscard]] std::uint64_t bytes() const { return bytes_; }  ///< header and rows so far
 
  private:
   void flush();
-  OutputFile out_;
+  TableFormat format_;
+  std::optional<OutputFile> csv_;
+  std::optional<NpyTable> npy_;
   std::vector<std::string> names_;
   std::string buf_;
   std::uint64_t rows_ = 0;
