@@ -85,6 +85,13 @@ std::vector<RefineZone> part_zones(const ScenarioConfig& c) {
   m.depth_m = c.refine_depth_m;
   m.level = c.part_level;
   if (c.measurement.kind == TopWeight::Kind::spot) z.push_back(m);
+  // Uniform refinements: every zone one level finer per refinement, and every cell at least
+  // that level (a zone over the whole bed, all the way down).
+  if (c.global_refinements > 0) {
+    for (RefineZone& zone : z) zone.level += c.global_refinements;
+    z.push_back(RefineZone{RefineZone::Shape::annulus, 0, 0, 0, 0, 0, 0.0, 2.0 * c.disc_radius_m, 1e9,
+                           c.global_refinements});
+  }
   return z;
 }
 
@@ -249,7 +256,8 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
         std::vector<RefineZone> z = zones;
         for (const LaserPass& lp : in.passes)
           z.push_back(RefineZone{RefineZone::Shape::capsule, lp.x0_m, lp.y0_m, lp.x1_m, lp.y1_m,
-                                 3.0 * c.spot_radius_m, 0, 0, c.refine_depth_m, c.laser_level});
+                                 3.0 * c.spot_radius_m, 0, 0, c.refine_depth_m,
+                                 c.laser_level + c.global_refinements});
         r.energy.remesh_j += plant->remesh(z).enthalpy_change_j;
       }
       const StepReport sr = plant->step(in);

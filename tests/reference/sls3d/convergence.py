@@ -17,13 +17,13 @@ Studies (all on one rank, each a few CPU seconds to a minute):
   slab-time-be   the same, 64 cells, backward Euler at dt 40, 20, 10, 5, 2.5 ms
   slab-time-cn   the same, 64 cells, Crank-Nicolson at dt 40, 20, 10, 5, 2.5 ms
   ms-space       moving Gaussian source, Peclet 5 (P 1 W, W 0.1 mm, v 14.4 mm/s, PA12): peak
-                 rise and the rise one radius behind the beam, 2, 4, 8 cells per radius at
-                 16 steps per radius (Crank-Nicolson)
+                 rise, the rise one radius behind the beam and half a radius below it,
+                 2, 4, 8, 16 cells per radius at 16 steps per radius (Crank-Nicolson)
   ms-time        the same at 4 cells per radius, 2, 4, 8, 16 steps per radius
   scen-space     the reduced scenario (tests/sls3d/small_scenario.toml: two layers, the ring
                  exposed with the part-scale source, melting, losses, the PI on the measured
-                 top): coarse cells 2, 1, 0.5 mm with 1, 2, 4 cells per layer (h halves in the
-                 plane and at the top), dt 0.1 s
+                 top): 0, 1, 2 uniform refinements of its mesh (numerics.global_refinements:
+                 every cell halved in every direction, the refined zones with them), dt 0.1 s
   scen-time      the same at coarse cells 2 mm, 1 cell per layer, dt 0.1, 0.05, 0.025,
                  0.0125, 0.00625 s (the second layer spread at 0.4 s at every dt)
 
@@ -128,7 +128,7 @@ def moving_reference(r):
 
 
 def study_ms_space(amctl):
-    levels = (2, 4, 8)
+    levels = (2, 4, 8, 16)
     rs = [moving(amctl, c, 16) for c in levels]
     for c, r in zip(levels, rs):
         print(f"  (cells per radius {c}: {r['mesh']['cells']} cells, {r['mesh']['dofs']} dofs, {r['steps']} steps,"
@@ -188,16 +188,15 @@ def exposure_end(amctl, base, workdir):
 
 def study_scen_space(amctl, source_dir, workdir):
     base = small_base(source_dir)
-    levels = ((2.0, 1), (1.0, 2), (0.5, 4))
+    levels = (0, 1, 2)
     rs = []
-    for cell, per_layer in levels:
-        r = scenario(amctl, base, {"numerics": {"coarse_cell_mm": cell, "cells_per_layer": per_layer}}, workdir,
-                     f"space_{per_layer}")
-        print(f"  (coarse {cell} mm, {per_layer} per layer: {r['mesh']['max_cells']} cells, {r['mesh']['max_dofs']}"
-              f" dofs, {r['steps']} steps, {r['_cpu_s']:.1f} CPU s)", file=sys.stderr)
+    for g in levels:
+        r = scenario(amctl, base, {"numerics": {"global_refinements": g}}, workdir, f"space_{g}")
+        print(f"  (global refinements {g}: {r['mesh']['max_cells']} cells, {r['mesh']['max_dofs']} dofs,"
+              f" {r['steps']} steps, {r['_cpu_s']:.1f} CPU s)", file=sys.stderr)
         rs.append(r)
-    return report("scen-space (reduced scenario, dt 0.1 s)", "coarse cell mm / cells per layer",
-                  [f"{c} / {n}" for c, n in levels], scenario_quantities(rs))
+    return report("scen-space (reduced scenario, dt 0.1 s)", "uniform refinements (h = 2 mm / 2^g in the plane)",
+                  list(levels), scenario_quantities(rs))
 
 
 def study_scen_time(amctl, source_dir, workdir):
