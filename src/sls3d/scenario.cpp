@@ -206,6 +206,13 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
     r.energy.remesh_j += plant->remesh(zones).enthalpy_change_j;
     for (int n = 0; n <= steps; ++n) {
       const double t = n * c.dt_s;
+      // Snapshots first: an instant at which a layer is spread shows the bed as the step
+      // before left it (the paper's 15.1 s: the first layer just sintered, before the next
+      // powder covers it).
+      while (next_snap < snap_times.size() && on_step(snap_times[next_snap], n)) {
+        take_snapshot(snap_times[next_snap]);  // the requested instant (n dt up to rounding)
+        ++next_snap;
+      }
       // Spreading.
       while (next_layer < schedule.size() && on_step(schedule[next_layer].spread_s, n)) {
         const LayerReport lr = plant->add_layer(c.fresh_powder_temp_c);
@@ -223,10 +230,6 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
         r.layers.push_back(rec);
         ++next_layer;
         track_mesh();
-      }
-      while (next_snap < snap_times.size() && on_step(snap_times[next_snap], n)) {
-        take_snapshot(snap_times[next_snap]);  // the requested instant (n dt up to rounding)
-        ++next_snap;
       }
       if (n == steps) break;
       // The controller samples y at t and holds U over the step.
