@@ -154,6 +154,11 @@ StepReport FePlant::step(const StepInput& in) {
   // At T^n: v_h, v_k (and the Jacobian, unless the iteration starts at the predictor).
   // b = M H(T^n) - (1 - theta) dt (K T^n + L^n) + dt (S + U).
   const Sums old = assemble(t_, theta * dt, vh, vk, !predict);
+  // The nodal enthalpies at T^n, for the energy the step moves (the balance's scale); vh holds
+  // them at the current temperatures whenever vh_at_t.
+  Vec h_start(owned_, comm_);
+  h_start = vh;
+  bool vh_at_t = true;
   Timer input_timer;
   const auto [laser_rate, flux_rate] = assemble_inputs(in, inputs);
   t_inputs_ += input_timer.wall_time();
@@ -191,10 +196,12 @@ StepReport FePlant::step(const StepInput& in) {
     if (std::isfinite(predicted) && predicted < norm) {
       t_ = t_try;
       now = at;
+      vh_at_t = true;
       norm = predicted;
       ++n_predicted_;
     } else {
       norm = r.residual_initial;  // the loop assembles at T^n with the Jacobian
+      vh_at_t = false;  // vh holds the rejected prediction; T is still T^n
     }
   }
   // Energy scale of the step: what enters and leaves. The step has converged when |R| is
@@ -227,6 +234,7 @@ StepReport FePlant::step(const StepInput& in) {
     if (!have_matrix) {
       now = assemble(t_, theta * dt, vh, vk, true);
       norm = form_residual();
+      vh_at_t = true;
     }
     if (it == 0) {
       eta = last_contraction_ > 0 ? 0.9 * last_contraction_ * last_contraction_ : 0.0;
@@ -281,6 +289,7 @@ StepReport FePlant::step(const StepInput& in) {
       fail(os.str());
     }
     t_ = t_try;
+    vh_at_t = true;
     if (trace)
       std::fprintf(stderr, "  step %d newton %d: |R| %.3e -> %.3e (lambda %g, eta %.1e, %d CG total)\n", step_count_,
                    it, norm, next, lambda, eta, r.linear_iterations);
@@ -301,11 +310,18 @@ StepReport FePlant::step(const StepInput& in) {
   r.convection_j = dt * (theta * now.convection + (1 - theta) * old.convection);
   const double losses = r.radiation_j + r.convection_j;
   r.balance_error_j = r.enthalpy_change_j - (r.laser_j + r.top_flux_j - losses);
-  // Relative to the energy that moved in the step; when next to nothing moves (a flux through
-  // zero), to the rounding of the stored enthalpy (the balance cannot be closer than that).
-  const double scale = std::max(std::abs(r.enthalpy_change_j) + std::abs(r.laser_j) +
-                                    std::abs(r.top_flux_j) + std::abs(losses),
-                                1e-12 * std::abs(old.enthalpy));
+  // Relative to the energy that moved in the step: what entered and left, and the enthalpy
+  // moved from node to node, sum_i |m_i (H_i(T) - H_i(T^n))| (a step without inputs still
+  // conducts heat: its net change is zero to rounding, its gross change is not); when next to
+  // nothing moves, to the rounding of the stored enthalpy (the balance cannot be closer).
+  double moved = 0.0;  // T is still T^n when vh does not hold it
+  if (vh_at_t) {
+    h_start.sadd(-1.0, 1.0, vh);
+    moved = h_start.l1_norm();
+  }
+  const double inputs_j = std::abs(r.laser_j) + std::abs(r.top_flux_j) + std::abs(losses);
+  const double scale = std::max({std::abs(r.enthalpy_change_j) + inputs_j, moved + inputs_j,
+                                 1e-12 * std::abs(old.enthalpy)});
   r.balance_rel_error = scale > 0 ? std::abs(r.balance_error_j) / scale : 0.0;
   const auto [changed, de] = update_states();
   r.cells_consolidated = changed;
