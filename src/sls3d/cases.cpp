@@ -338,8 +338,10 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
   r.peclet = v * w / (2.0 * a);
   // Extents (docs/sls3d.md, section 4.3): the field decays like exp(-x/l) ahead of the beam and
   // like exp(-r/(2 l))/r across it; the travel brings the transient from the start below 1e-3.
+  // The travel is a whole number of radii, so the beam ends at the same place relative to the
+  // mesh whatever the steps per radius (a time-step study compares like with like).
   const double ahead = 4.0 * w + 8.0 * l, side = 4.0 * w + 14.0 * l;
-  const double travel = 8.0 * w + 24.0 * l;
+  const double travel = std::ceil((8.0 * w + 24.0 * l) / w - 1e-9) * w;
   r.travel_m = travel;
   // Coarse cells twice as wide as tall, a few across the domain; octree levels down to
   // h_fine = W / cells_per_radius in the plane (h_fine / 2 vertically) around the beam.
@@ -355,9 +357,13 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
   p.mesh.coarse_cell_m = h0;
   // Vertically the field near the beam varies over the penetration depth sqrt(a W / v) =
   // W / sqrt(2 Pe): the coarse slices near the top are `aspect` times thinner than wide so
-  // that the finest cells are about a quarter of it, growing to cubes below.
+  // that at 8 cells per radius the finest cells are about a quarter of it, growing to cubes
+  // below. The aspect and the depth of the refined layers are fixed by the Peclet number
+  // alone, so that other cells per radius refine (or coarsen) the same mesh in every
+  // direction: a mesh study halves h in the plane and in depth alike.
   const double penetration = std::sqrt(a * w / v);
-  const int aspect = std::clamp(1 << int(std::ceil(std::log2(std::max(1.0, 4.0 * h_fine / penetration)))), 2, 8);
+  const double h_ref = w / 8.0;
+  const int aspect = std::clamp(1 << int(std::ceil(std::log2(std::max(1.0, 4.0 * h_ref / penetration)))), 2, 8);
   p.mesh.base_slices_m = {0.0};
   double dz = h0 / aspect;
   while (p.mesh.base_slices_m.back() > -side) {
@@ -365,7 +371,7 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
     if (p.mesh.base_slices_m.size() > 2) dz = std::min(h0, 2.0 * dz);
   }
   std::reverse(p.mesh.base_slices_m.begin(), p.mesh.base_slices_m.end());
-  const double h_z = h_fine / aspect;
+  const double h_z_ref = h_ref / aspect;  // the finest vertical size at 8 cells per radius
   p.powder = o.material;
   p.sintered = o.material;
   p.initial_temp_c = 0.0;
@@ -387,7 +393,7 @@ MovingSourceResult run_moving_source(const MovingSourceOptions& o) {
       zn.x0_m = xb - 3.0 * l * grow;
       zn.x1_m = xb + (remesh_every + 1) * v * dt;
       zn.y0_m = zn.y1_m = 0.0;
-      zn.depth_m = 4.0 * h_z * grow + (k + 1 == levels ? side : 0.0);
+      zn.depth_m = 4.0 * h_z_ref * grow + (k + 1 == levels ? side : 0.0);
       zn.level = levels - k;
       zones.push_back(zn);
     }
@@ -476,10 +482,14 @@ LumpingPatchResult run_lumping_patch(const LumpingPatchOptions& o) {
   const double margin = std::max(1e-3, 4.0 * w);
   const ScanPath path = hatch_rectangle(-half, -half, half, half, HatchSettings{o.hatch_m, o.speed_m_s, 0.0});
   r.scan_time_s = path.duration_s();
-  // The comparison instants: on the part-scale grid, after the scan.
+  // The comparison instants: each requested time after the scan, rounded up to the
+  // part-scale step grid (both runs are compared where the part scale has a solution).
+  // Requested times that round to the same step give one row, not a repeated one.
   std::vector<double> times;
-  for (double ta : o.times_after_s)
-    times.push_back(std::ceil((r.scan_time_s + ta) / o.part_scale_dt_s - 1e-9) * o.part_scale_dt_s);
+  for (double ta : o.times_after_s) {
+    const double t = std::ceil((r.scan_time_s + ta) / o.part_scale_dt_s - 1e-9) * o.part_scale_dt_s;
+    if (times.empty() || t > times.back() + 1e-9 * o.part_scale_dt_s) times.push_back(t);
+  }
   const double h_fine = w / 4.0;
   const double extent = half + margin;
   const int levels = std::clamp(int(std::ceil(std::log2(extent / 2.0 / h_fine))), 1, 6);
@@ -556,6 +566,7 @@ LumpingPatchResult run_lumping_patch(const LumpingPatchOptions& o) {
   for (std::size_t k = 0; k < times.size(); ++k) {
     LumpingPatchResult::Row row;
     row.t_s = times[k];
+    row.after_scan_s = times[k] - r.scan_time_s;
     row.fine_mean_c = fine[k].mean;
     row.lumped_mean_c = lumped[k].mean;
     row.fine_max_c = fine[k].max;

@@ -297,6 +297,9 @@ void ScenarioConfig::validate() const {
                         {"numerics.laser_level", laser_level}})
     if (v < 0 || v > 6)
       throw Error(at(key), std::string(key) + " must be in [0, 6], got " + std::to_string(v));
+  if (global_refinements < 0 || global_refinements > 3)
+    throw Error(at("numerics.global_refinements"),
+                "numerics.global_refinements must be in [0, 3], got " + std::to_string(global_refinements));
   positive("numerics.edge_band_mm", edge_band_m * 1e3, "mm");
   positive("numerics.refine_depth_mm", refine_depth_m * 1e3, "mm");
   if (map_pixels < 8 || map_pixels > 2000)
@@ -417,7 +420,7 @@ ScenarioConfig load_scenario_config(const std::string& path) {
     Section s(path, root, "numerics",
               {"source_scale", "dt_s", "scheme", "coarse_cell_mm", "cells_per_layer", "edge_level",
                "edge_band_mm", "part_level", "laser_level", "refine_depth_mm", "preconditioner",
-               "linear_tolerance", "newton_tolerance"}, c);
+               "linear_tolerance", "newton_tolerance", "global_refinements"}, c);
     const std::string scale = s.text("source_scale", "part_scale");
     if (scale == "part_scale") c.source_scale = SourceScale::part_scale;
     else if (scale == "fine") c.source_scale = SourceScale::fine;
@@ -438,6 +441,7 @@ ScenarioConfig load_scenario_config(const std::string& path) {
     s.integer("part_level", c.part_level);
     s.integer("laser_level", c.laser_level);
     s.number("refine_depth_mm", c.refine_depth_m, 1e-3);
+    s.integer("global_refinements", c.global_refinements);
     const std::string pre = s.text("preconditioner", "amg");
     if (pre == "amg") c.solver.preconditioner = SolverSettings::Preconditioner::amg;
     else if (pre == "jacobi") c.solver.preconditioner = SolverSettings::Preconditioner::jacobi;

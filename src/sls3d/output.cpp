@@ -107,6 +107,7 @@ Json to_json(const LumpingPatchResult& r) {
   Json rows = Json::array();
   for (const auto& row : r.rows)
     rows.push_back(Json{{"t_s", json_number(row.t_s)},
+                        {"after_scan_s", json_number(row.after_scan_s)},
                         {"fine_mean_c", json_number(row.fine_mean_c)},
                         {"lumped_mean_c", json_number(row.lumped_mean_c)},
                         {"fine_max_c", json_number(row.fine_max_c)},

@@ -85,6 +85,13 @@ std::vector<RefineZone> part_zones(const ScenarioConfig& c) {
   m.depth_m = c.refine_depth_m;
   m.level = c.part_level;
   if (c.measurement.kind == TopWeight::Kind::spot) z.push_back(m);
+  // Uniform refinements: every zone one level finer per refinement, and every cell at least
+  // that level (a zone over the whole bed, all the way down).
+  if (c.global_refinements > 0) {
+    for (RefineZone& zone : z) zone.level += c.global_refinements;
+    z.push_back(RefineZone{RefineZone::Shape::annulus, 0, 0, 0, 0, 0, 0.0, 2.0 * c.disc_radius_m, 1e9,
+                           c.global_refinements});
+  }
   return z;
 }
 
@@ -199,6 +206,13 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
     r.energy.remesh_j += plant->remesh(zones).enthalpy_change_j;
     for (int n = 0; n <= steps; ++n) {
       const double t = n * c.dt_s;
+      // Snapshots first: an instant at which a layer is spread shows the bed as the step
+      // before left it (the paper's 15.1 s: the first layer just sintered, before the next
+      // powder covers it).
+      while (next_snap < snap_times.size() && on_step(snap_times[next_snap], n)) {
+        take_snapshot(snap_times[next_snap]);  // the requested instant (n dt up to rounding)
+        ++next_snap;
+      }
       // Spreading.
       while (next_layer < schedule.size() && on_step(schedule[next_layer].spread_s, n)) {
         const LayerReport lr = plant->add_layer(c.fresh_powder_temp_c);
@@ -216,10 +230,6 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
         r.layers.push_back(rec);
         ++next_layer;
         track_mesh();
-      }
-      while (next_snap < snap_times.size() && on_step(snap_times[next_snap], n)) {
-        take_snapshot(snap_times[next_snap]);  // the requested instant (n dt up to rounding)
-        ++next_snap;
       }
       if (n == steps) break;
       // The controller samples y at t and holds U over the step.
@@ -249,7 +259,8 @@ ScenarioResult run_scenario(const ScenarioConfig& c, const ScenarioOptions& o) {
         std::vector<RefineZone> z = zones;
         for (const LaserPass& lp : in.passes)
           z.push_back(RefineZone{RefineZone::Shape::capsule, lp.x0_m, lp.y0_m, lp.x1_m, lp.y1_m,
-                                 3.0 * c.spot_radius_m, 0, 0, c.refine_depth_m, c.laser_level});
+                                 3.0 * c.spot_radius_m, 0, 0, c.refine_depth_m,
+                                 c.laser_level + c.global_refinements});
         r.energy.remesh_j += plant->remesh(z).enthalpy_change_j;
       }
       const StepReport sr = plant->step(in);

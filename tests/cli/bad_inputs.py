@@ -329,6 +329,8 @@ CASES = [
          {"s.toml": "[sintered]\ndensity_kg_m3 = nan\n"}, "s.toml:2:17", SLS3D_OUTPUTS),
     case("sls3d_unknown_key", SLS3D_ARGS,
          {"s.toml": "[laser]\npower_watts = 30\n"}, "s.toml:2:1", SLS3D_OUTPUTS),
+    case("sls3d_negative_global_refinements", SLS3D_ARGS,
+         {"s.toml": "[numerics]\nglobal_refinements = -1\n"}, "s.toml:2:22", SLS3D_OUTPUTS),
     # ---- binary G-code (read by content, whatever the name) ----
     case("bgcode_corrupt_crc", ["estimate", "f.bgcode"],
          {"f.bgcode": latin1(bgcode_damaged_byte(GOOD_GCODE)[0])}, "f.bgcode"),

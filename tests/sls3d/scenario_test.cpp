@@ -3,6 +3,7 @@
 // each against a hand calculation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -58,6 +59,15 @@ TEST(Sls3dScenario, ReducedBedClosesItsEnergyAndFollowsThePiLaw) {
   EXPECT_NEAR(r.trace.front().measured_c, c.fresh_powder_temp_c, 1e-6);
   // The maps at the three instants cover the disc.
   for (const Snapshot& s : r.snapshots) EXPECT_EQ(s.map.temp_c.size(), std::size_t(c.map_pixels * c.map_pixels));
+  // The snapshot at 0.4 s, the instant the second layer is spread, shows the bed before the
+  // spreading (the paper's 15.1 s: the first layer sintered): the ring consolidated and hot,
+  // the measured area warmer than the fresh powder that arrives at that instant.
+  ASSERT_NEAR(r.layers[1].spread_s, 0.4, 1e-12);
+  const Snapshot& before = r.snapshots[1];
+  EXPECT_GT(before.measured_c, c.fresh_powder_temp_c + 5.0);
+  float state_max = 0;
+  for (float v : before.map.state) state_max = std::max(state_max, v);
+  EXPECT_GT(state_max, 0.5f);
 }
 
 }  // namespace

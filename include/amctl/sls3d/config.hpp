@@ -73,6 +73,9 @@ struct ScenarioConfig {
   int part_level = 1;          ///< refinement over the part's cross-section and the pyrometer spot
   int laser_level = 3;         ///< around the beam (fine scale)
   double refine_depth_m = 5e-4;  ///< refinement reaches this far below the top
+  /// Uniform refinements on top of all of the above (every cell, every zone's level + this):
+  /// each halves every cell, for mesh-convergence studies.
+  int global_refinements = 0;
   SolverSettings solver{};
   // [output]
   double end_time_s = 28.1;

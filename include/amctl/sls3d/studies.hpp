@@ -144,7 +144,9 @@ struct LumpingPatchOptions {
   double hatch_m = 3e-4;
   Material material{0.1, 450.0, 1928.0};
   double initial_temp_c = 172.0;
-  std::vector<double> times_after_s{0.01, 0.05, 0.2};  ///< after the scan ends
+  /// After the scan ends; each is rounded up to the part-scale step grid (the comparison is
+  /// where both runs have a solution), times that round to the same step giving one row.
+  std::vector<double> times_after_s{0.05, 0.2, 0.5};
   double part_scale_dt_s = 0.1;
   void validate() const;
 };
@@ -153,6 +155,7 @@ struct LumpingPatchResult {
   LumpingPatchOptions options;
   struct Row {
     double t_s = 0;
+    double after_scan_s = 0;                      ///< t_s minus the end of the scan
     double fine_mean_c = 0, lumped_mean_c = 0;    ///< mean over the patch
     double fine_max_c = 0, lumped_max_c = 0;      ///< top maximum
     double rms_difference_k = 0;                  ///< over the patch's top surface
