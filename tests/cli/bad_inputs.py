@@ -1200,6 +1200,14 @@ for i, (section, key, value) in enumerate([
         ("output", "end_time_s", "1e308"), ("output", "end_time_s", "1e6")]):
     R4.append(case(f"sls3d_range_{section}_{key}_{i}", SLS3D_ARGS, {"s.toml": f"[{section}]\n{key} = {value}\n"},
                    f"s.toml:2:{len(key) + 4}", SLS3D_OUTPUTS))
+# The same commands from a printer.cfg macro: at the line that calls it, naming the macro.
+TUNE_CFG = SHAPED_CFG + ("[gcode_macro TUNE]\ngcode:\n  SET_INPUT_SHAPER SHAPER_FREQ_X={params.F}\n"
+                         "  SET_PRESSURE_ADVANCE ADVANCE={params.A|default(0.04)}\n")
+for i, call in enumerate(["TUNE F=1e-300", "TUNE F=40 A=1e6", "TUNE F=nan", "TUNE F=40 A=-1"]):
+    for cmd in ("steps", "estimate"):
+        R4.append(case(f"step_tuning_macro_{cmd}_{i}", [cmd, "f.gcode", "-m", "p.cfg"],
+                       {"f.gcode": "G28\nG90\nM82\nG1 X10 Y10 F6000\n" + call + "\nG1 X30 E3\n", "p.cfg": TUNE_CFG},
+                       "f.gcode:5"))
 # The numerics' users: calibrate-time's durations and prints, resonance calibrate's record.
 TIMINGS = {f"g{i}.gcode": W_FILES[f"g{i}.gcode"] for i in range(1, 5)}
 for i, (rows, where) in enumerate([
