@@ -35,7 +35,7 @@ bench: build
 # stops at the first target with a finding.
 FUZZ_TIME ?= 60
 FUZZ_DIR ?= build/fuzz
-FUZZ_TARGETS ?= gcode machine_toml klipper_cfg accel_csv process_csv process_json stl sls_config macro_expr macro_stmt line_reader bgcode sliced_3mf marlin
+FUZZ_TARGETS ?= gcode machine_toml klipper_cfg accel_csv process_csv process_json stl sls_config macro_expr macro_stmt line_reader bgcode sliced_3mf marlin bed_mesh step_tuning
 fuzz:
 	cmake --preset fuzz
 	cmake --build $(FUZZ_DIR) -j $(JOBS) $(addprefix --target fuzz_,$(FUZZ_TARGETS))

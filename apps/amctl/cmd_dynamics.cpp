@@ -100,6 +100,7 @@ struct SimulateArgs {
   bool compare_shaper = false;
   bool no_shaper = false;
   std::string shaper_firmware;
+  bool shaper_firmware_given = false;  ///< an empty --shaper-firmware "" is refused, not ignored
 };
 
 void print_report(const dy::QualityReport& rep) {
@@ -203,7 +204,7 @@ void do_simulate(const SimulateArgs& a) {
   req.freq_y_hz = a.shaper_freq_y;
   req.damping_ratio = a.shaper_damping;
   req.none = a.no_shaper;
-  if (!a.shaper_firmware.empty()) {
+  if (!a.shaper_firmware.empty() || a.shaper_firmware_given) {
     try {
       req.firmware = shaping::parse_firmware(a.shaper_firmware);
     } catch (const Error& e) {
@@ -298,13 +299,16 @@ void register_dynamics(CLI::App& app) {
   sim->add_option("--shaper-y", a->shaper_y, "input shaper type of Y");
   sim->add_option("--shaper-freq-y-hz", a->shaper_freq_y, "input shaper frequency of Y [Hz]");
   sim->add_option("--shaper-damping-ratio", a->shaper_damping, "damping ratio the shapers are designed for (default 0.1)");
-  sim->add_option("--shaper-firmware", a->shaper_firmware,
+  CLI::Option* shaper_fw = sim->add_option("--shaper-firmware", a->shaper_firmware,
                   "klipper or marlin: whose shaper definitions to apply (marlin: FT_MOTION's, times on "
                   "its 1 kHz grid; default: Klipper's, and Marlin's stepper ZV for M593)");
   sim->add_flag("--no-shaper", a->no_shaper, "ignore the machine's [input_shaper] (and M593): simulate the plan unshaped");
   sim->add_flag("--compare-shaper", a->compare_shaper, "report with and without the shaper (always done when a shaper is given)");
   sim->add_flag("--json", a->json_out, "print one JSON object");
-  sim->callback([a] { do_simulate(*a); });
+  sim->callback([a, shaper_fw] {
+    a->shaper_firmware_given = shaper_fw->count() > 0;
+    do_simulate(*a);
+  });
 
   auto sj = std::make_shared<bool>(false);
   auto scv = std::make_shared<double>(5.0);

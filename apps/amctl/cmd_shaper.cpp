@@ -65,24 +65,12 @@ void register_shaper(CLI::App& app) {
         throw Error(fmt::format("--firmware: {}", e.what()));
       }
     }
-    if (!(std::isfinite(o.marlin_sample_rate_hz) && o.marlin_sample_rate_hz >= 0.0)) {
-      throw Error(fmt::format("--marlin-sample-rate-hz: must be a finite rate >= 0 [Hz] (0: exact "
-                              "times), got {}", o.marlin_sample_rate_hz));
-    }
-    // Each flag under its own name (the library names its parameters).
-    require_range_flag("--freq-hz", kFrequencyRange, o.freq_hz);
-    auto ratio = [](std::string_view flag, double z) {
-      if (!(z >= 0.0 && z < 1.0)) throw Error(fmt::format("{}: must be a damping ratio in [0, 1), got {}", flag, z));
-    };
-    ratio("--damping-ratio", o.damping_ratio);
-    if (test_dr->count() > 0) ratio("--test-damping-ratio", a->test_damping_ratio);
-    for (const double f : o.residual_at_hz) require_range_flag("--residual-at-hz", kFrequencyRange, f);
-    try {  // the type under its flag's name
-      (void)(o.firmware ? shaping::parse_shaper_spec(o.type, *o.firmware, o.marlin_sample_rate_hz)
-                        : shaping::parse_shaper_spec(o.type));
-    } catch (const Error& e) {
-      throw Error(fmt::format("--type: {}", e.what()));
-    }
+    // Each flag under its own name, by the checks Python's amctl.shaper_show makes.
+    shaping::check_report_options(o, [](std::string_view key) {
+      std::string flag = "--" + std::string(key);
+      for (char& c : flag) c = c == '_' ? '-' : c;
+      return flag;
+    });
     const shaping::ShaperReport r = shaping::shaper_report(o);
     if (a->json) {
       std::cout << shaping::to_json(r).dump(2) << "\n";

@@ -18,6 +18,7 @@
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/core/output.hpp"
@@ -202,6 +203,12 @@ void run(const Sls3dArgs& a) {
                         r.saturated_steps, r.energy_balance_rel_error);
     text += fmt::format("  mesh: up to {} cells, {} dofs; {:.3f} s per step, {:.1f} s wall\n", r.max_cells, r.max_dofs,
                         r.seconds_per_step, r.wall_s);
+    if (a.config.empty()) {
+      text += "  configuration: the built-in values (no --config)\n";
+    } else if (!c.defaulted.empty()) {
+      text += fmt::format("  built-in values used for the {} keys {} leaves out: {}\n", c.defaulted.size(), a.config,
+                          fmt::join(c.defaulted, ", "));
+    }
     print(sls3d::to_json(r), a.json_out, text);
   } else {
     throw Error("--case: found '" + k + "', expected scenario, moving-source, slab-flux, slab-pi or lumping-patch");

@@ -12,12 +12,26 @@
 
 #include "amctl/control/pid.hpp"
 #include "amctl/core/error.hpp"
+#include "amctl/thermal/checks.hpp"
 #include "amctl/thermal/studies.hpp"
 #include "commands.hpp"
 
 namespace amctl::cli {
 
 namespace {
+
+/// The flag of a study parameter, given its Python keyword (thermal/checks.hpp).
+std::string flag_name(std::string_view keyword) {
+  static const std::pair<std::string_view, std::string_view> kFlags[] = {
+      {"kp_w_m2k", "--kp"}, {"ti_s", "--ti"}, {"density_kg_m3", "--rho"}, {"specific_heat_j_kgk", "--cp"},
+      {"conductivity_w_mk", "--k"}, {"beta_1_s", "--beta"}, {"target_c", "--target"}, {"noise_k", "--noise"}};
+  for (const auto& [k, f] : kFlags) {
+    if (k == keyword) return std::string(f);
+  }
+  std::string flag = "--" + std::string(keyword);
+  for (char& c : flag) c = c == '_' ? '-' : c;
+  return flag;
+}
 
 struct MarginArgs {
   thermal::MarginStudyOptions study;
@@ -27,21 +41,9 @@ struct MarginArgs {
 };
 
 void run_margins(MarginArgs a) {
-  // Each flag checked under its own name (the study's messages name its parameters).
-  // Physical ranges (commands.hpp): beyond them the modal state space overflows.
-  require_range_flag("--length-mm", PhysicalRange{"powder depth", "mm", 1e-3, 1e4}, a.length_mm);
-  require_range_flag("--kp", kHeatTransferGainRange, a.study.kp_w_m2k);
-  require_range_flag("--ti", kTimeConstantRange, a.study.ti_s);
-  require_range_flag("--rho", kDensityRange, a.study.material.density_kg_m3);
-  require_range_flag("--cp", kSpecificHeatRange, a.study.material.specific_heat_j_kgk);
-  require_range_flag("--k", kConductivityRange, a.study.material.conductivity_w_mk);
-  if (!(a.study.beta_1_s < 0.0)) throw Error(fmt::format("--beta: must be a finite number < 0 [1/s], got {}", a.study.beta_1_s));
-  if (a.study.modes < 1)
-    throw Error("--modes: must be >= 1 (N), got " + std::to_string(a.study.modes));
-  if (a.study.hamiltonian_modes < 1)
-    throw Error("--hamiltonian-modes: must be >= 1, got " +
-                std::to_string(a.study.hamiltonian_modes));
+  // Each flag checked under its own name, by the checks Python's amctl.sls_margins makes.
   a.study.length_m = a.length_mm * 1e-3;
+  thermal::check_margin_study(a.study, flag_name);
   const thermal::MarginStudy study = thermal::run_margin_study(a.study);
   const thermal::MarginReport& r = study.report;
   if (a.json_out) {
@@ -83,9 +85,7 @@ struct SlsArgs {
 void run_sls(const SlsArgs& a) {
   thermal::SlsRunOptions o;
   o.config_path = a.config;
-  if (a.layers && (*a.layers < 0 || *a.layers > thermal::kMaxSlsLayers)) {
-    throw Error(fmt::format("--layers: must be in [0, {}], got {}", thermal::kMaxSlsLayers, *a.layers));
-  }
+  thermal::check_sls_layers(a.layers, flag_name);
   o.layers_added = a.layers.value_or(-1);
   if (!a.anti_windup.empty()) {
     o.anti_windup = control::anti_windup_from_string(a.anti_windup);
@@ -142,33 +142,8 @@ struct HeaterArgs {
 
 void run_heater(HeaterArgs a) {
   using namespace thermal;
-  // Each flag checked under its own name (the study's messages name its parameters).
-  require_range_flag("--target", kTemperatureRange, a.study.target_c);
-  require_range_flag("--noise", PhysicalRange{"temperature noise", "K", 0.0, 100.0}, a.study.sensor_noise_k);
-  if (a.study.cycles < 3 || a.study.cycles > 1000) {
-    throw Error(fmt::format("--cycles: must be in [3, 1000], got {}", a.study.cycles));
-  }
-  const thermal::HeaterPlantParams& p = a.study.plant;
-  require_range_flag("--power-w", kPowerRange, p.heater_power_w);
-  require_range_flag("--capacity-j-k", kHeatCapacityRange, p.block_capacity_j_k);
-  require_range_flag("--loss-w-k", kConductanceRange, p.loss_w_k);
-  if (p.fan_extra_loss_w_k != 0.0) require_range_flag("--fan-loss-w-k", kConductanceRange, p.fan_extra_loss_w_k);
-  require_range_flag("--sensor-tau-s", kTimeConstantRange, p.sensor_time_constant_s);
-  if (p.sensor_delay_s != 0.0) require_range_flag("--sensor-delay-s", kTimeConstantRange, p.sensor_delay_s);
-  if (p.core_capacity_j_k != 0.0) require_range_flag("--core-capacity-j-k", kHeatCapacityRange, p.core_capacity_j_k);
-  require_range_flag("--core-to-block-w-k", kConductanceRange, p.core_to_block_w_k);
-  if (a.study.target_c < p.ambient_c + 20.0) {
-    throw Error(fmt::format("--target: must be at least 20 K above ambient ({:g} C) for the relay test, got {:g}",
-                            p.ambient_c, a.study.target_c));
-  }
-  // The relay test needs a heater that can reach the target: at full power the block settles
-  // at ambient + power / loss (fan off).
-  const double reach_c = p.ambient_c + p.heater_power_w / p.loss_w_k;
-  if (!(reach_c > a.study.target_c + 5.0)) {
-    throw Error(fmt::format("--power-w: must bring the block 5 K above --target {:g} C at full power "
-                            "(ambient {:g} C + power / --loss-w-k {:g} W/K = {:.6g} C), got {:g}",
-                            a.study.target_c, p.ambient_c, p.loss_w_k, reach_c, p.heater_power_w));
-  }
+  // Each flag checked under its own name, by the checks Python's amctl.hotend/bed make.
+  thermal::check_heater_study(a.study, flag_name);
   if (!a.rule.empty()) {
     const auto rule = tuning_rule_from_string(a.rule);
     if (!rule)

@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "amctl/core/quantity.hpp"
+#include "amctl/core/process_ranges.hpp"
 
 namespace amctl::cli {
 // One register function per subcommand family, defined in cmd_<family>.cpp. Each adds its
@@ -65,18 +65,6 @@ void require_mode_frequency_flag(std::string_view flag, double f_hz, double samp
 inline constexpr PhysicalRange kMassRange{"mass", "kg", 1e-6, 1e3};
 inline constexpr PhysicalRange kStiffnessRange{"stiffness", "N/m", 1e-3, 1e12};
 inline constexpr PhysicalRange kViscousDampingRange{"viscous damping", "N s/m", 0.0, 1e9};
-/// Heater models (thermal hotend/bed): a heater power, a heat capacity, a thermal conductance,
-/// a time constant or delay, a temperature (above absolute zero, below any heater's reach).
-inline constexpr PhysicalRange kPowerRange{"power", "W", 1e-3, 1e6};
-inline constexpr PhysicalRange kHeatCapacityRange{"heat capacity", "J/K", 1e-6, 1e9};
-inline constexpr PhysicalRange kConductanceRange{"thermal conductance", "W/K", 1e-9, 1e6};
-inline constexpr PhysicalRange kTimeConstantRange{"time constant", "s", 1e-6, 1e6};
-inline constexpr PhysicalRange kTemperatureRange{"temperature", "C", -273.15, 3000.0};
-/// The SLS powder bed's PI study: gains, an integral time, a depth, the material's properties.
-inline constexpr PhysicalRange kHeatTransferGainRange{"gain", "W/(m^2 K)", 1e-9, 1e9};
-inline constexpr PhysicalRange kDensityRange{"density", "kg/m^3", 1e-3, 1e5};
-inline constexpr PhysicalRange kSpecificHeatRange{"specific heat", "J/(kg K)", 1e-3, 1e6};
-inline constexpr PhysicalRange kConductivityRange{"conductivity", "W/(m K)", 1e-6, 1e4};
 
 /// A damping ratio of a physical mode: [0, 10] (0 undamped, 1 critical; beyond 10 no belt or
 /// frame is, and the model's poles spread over six decades).

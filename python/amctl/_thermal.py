@@ -60,8 +60,7 @@ def sls_build(config=None, *, layers=None, anti_windup=None, trace=True):
             'conditional_integration' (overrides the configuration).
         trace: keep the time trace.
     """
-    n = _args.optional_integer(layers, "layers")
-    return _amctl._sls_build(_args.optional_path(config, "config"), -1 if n is None else n,
+    return _amctl._sls_build(_args.optional_path(config, "config"), _args.optional_integer(layers, "layers"),
                              _args.optional_text(anti_windup, "anti_windup"), _args.boolean(trace, "trace"))
 
 

@@ -34,16 +34,14 @@ py::object shaper_show(const std::string& type, double freq_hz, double damping_r
       throw Error(std::string("firmware: ") + e.what());
     }
   }
-  if (!(std::isfinite(marlin_sample_rate_hz) && marlin_sample_rate_hz >= 0.0)) {
-    throw Error("marlin_sample_rate_hz must be a finite rate >= 0 [Hz] (0: exact times), got " +
-                std::to_string(marlin_sample_rate_hz));
-  }
   o.marlin_sample_rate_hz = marlin_sample_rate_hz;
   o.type = type;
   o.freq_hz = freq_hz;
   o.damping_ratio = damping_ratio;
   o.residual_at_hz = residual_at_hz;
   o.test_damping_ratio = test_damping_ratio;
+  // The checks of `amctl shaper show`, named by keyword.
+  shaping::check_report_options(o, [](std::string_view k) { return std::string(k); });
   Json j;
   {
     py::gil_scoped_release nogil;

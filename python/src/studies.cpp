@@ -10,6 +10,7 @@
 #include "amctl/core/error.hpp"
 #include "amctl/process/shrink_model.hpp"
 #include "amctl/process/time_study.hpp"
+#include "amctl/thermal/checks.hpp"
 #include "amctl/thermal/studies.hpp"
 #include "common.hpp"
 
@@ -19,13 +20,12 @@ namespace {
 namespace th = amctl::thermal;
 namespace pr = amctl::process;
 
+/// Errors name a parameter by its keyword, as the user passed it.
+std::string keyword(std::string_view k) { return std::string(k); }
+
 py::object sls_margins(double kp_w_m2k, double ti_s, int modes, double length_mm, double density_kg_m3,
                        double specific_heat_j_kgk, double conductivity_w_mk, double beta_1_s,
                        int hamiltonian_modes) {
-  // The checks `thermal sls-margins` makes before calling the study, named as in Python.
-  require_positive("length_mm (powder depth l)", length_mm);
-  if (modes < 1) throw Error(fmt::format("modes (N) must be >= 1, got {}", modes));
-  if (hamiltonian_modes < 1) throw Error(fmt::format("hamiltonian_modes must be >= 1, got {}", hamiltonian_modes));
   th::MarginStudyOptions o;
   o.kp_w_m2k = kp_w_m2k;
   o.ti_s = ti_s;
@@ -34,6 +34,7 @@ py::object sls_margins(double kp_w_m2k, double ti_s, int modes, double length_mm
   o.material = th::PowderMaterial{density_kg_m3, specific_heat_j_kgk, conductivity_w_mk};
   o.beta_1_s = beta_1_s;
   o.hamiltonian_modes = hamiltonian_modes;
+  th::check_margin_study(o, keyword);  // the checks of `amctl thermal sls-margins`
   Json j;
   {
     py::gil_scoped_release nogil;
@@ -42,10 +43,12 @@ py::object sls_margins(double kp_w_m2k, double ti_s, int modes, double length_mm
   return to_python(j);
 }
 
-py::object sls_build(const std::string& config, int layers, const std::string& anti_windup, bool trace) {
+py::object sls_build(const std::string& config, std::optional<int> layers, const std::string& anti_windup,
+                     bool trace) {
   th::SlsRunOptions o;
   o.config_path = config;
-  o.layers_added = layers;
+  th::check_sls_layers(layers, keyword);  // the checks of `amctl thermal sls`
+  o.layers_added = layers.value_or(-1);
   if (!anti_windup.empty()) {
     o.anti_windup = control::anti_windup_from_string(anti_windup);
     if (!o.anti_windup) {
@@ -126,6 +129,7 @@ py::object heater(bool bed, std::optional<double> target_c, std::optional<double
   if (sensor_delay_s) o.plant.sensor_delay_s = *sensor_delay_s;
   if (core_capacity_j_k) o.plant.core_capacity_j_k = *core_capacity_j_k;
   if (core_to_block_w_k) o.plant.core_to_block_w_k = *core_to_block_w_k;
+  th::check_heater_study(o, keyword);  // the checks of `amctl thermal hotend|bed`
   std::optional<th::HeaterStudy> s;
   {
     py::gil_scoped_release nogil;

@@ -268,3 +268,106 @@ def test_fleet_csv_on_a_full_disk_and_read_only(tmp_path, gfile):
     r = subprocess.run([sys.executable, "-m", "amctl.fleet", str(gfile), "--workers", "0", "--csv", str(ro)],
                        capture_output=True, text=True, env=os.environ)
     assert r.returncode == 2 and "read-only" in r.stderr and ro.read_text() == "keep\n"
+
+
+# ---- round four: one set of checks for the command line and Python (thermal, shaper show),
+# the bed mesh, SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE and the SLS 3D configuration.
+
+@pytest.mark.parametrize("fn,kwargs,name", [
+    (amctl.hotend, {"power_w": 1e19}, "power_w"),
+    (amctl.hotend, {"power_w": 1.0}, "power_w"),  # cannot reach the target
+    (amctl.hotend, {"capacity_j_k": 1e19}, "capacity_j_k"),
+    (amctl.hotend, {"loss_w_k": 1e308}, "loss_w_k"),
+    (amctl.hotend, {"fan_loss_w_k": 1e19}, "fan_loss_w_k"),
+    (amctl.hotend, {"sensor_tau_s": 1e-300}, "sensor_tau_s"),
+    (amctl.hotend, {"sensor_delay_s": 1e308}, "sensor_delay_s"),
+    (amctl.hotend, {"core_capacity_j_k": 1e19}, "core_capacity_j_k"),
+    (amctl.hotend, {"target_c": 1e19}, "target_c"),
+    (amctl.hotend, {"target_c": 30.0}, "target_c"),  # not 20 K above ambient
+    (amctl.hotend, {"noise_k": 1e308}, "noise_k"),
+    (amctl.hotend, {"cycles": 2}, "cycles"),
+    (amctl.bed, {"target_c": 1e308}, "target_c"),
+    (amctl.bed, {"capacity_j_k": 1e19}, "capacity_j_k"),
+    (amctl.sls_margins, {"kp_w_m2k": 1e19}, "kp_w_m2k"),
+    (amctl.sls_margins, {"ti_s": 1e308}, "ti_s"),
+    (amctl.sls_margins, {"length_mm": 1e19}, "length_mm"),
+    (amctl.sls_margins, {"density_kg_m3": 1e308}, "density_kg_m3"),
+    (amctl.sls_margins, {"specific_heat_j_kgk": 1e19}, "specific_heat_j_kgk"),
+    (amctl.sls_margins, {"conductivity_w_mk": 1e308}, "conductivity_w_mk"),
+    (amctl.sls_margins, {"beta_1_s": 0.5}, "beta_1_s"),
+    (amctl.sls_margins, {"modes": 0}, "modes"),
+    (amctl.sls_build, {"layers": -1}, "layers"),
+    (amctl.sls_build, {"layers": 10 ** 6}, "layers"),
+    (amctl.shaper_show, {"type": "zv", "freq_hz": 1e-300}, "freq_hz"),
+    (amctl.shaper_show, {"type": "zv", "freq_hz": 40, "damping_ratio": 1.0}, "damping_ratio"),
+    (amctl.shaper_show, {"type": "zv", "freq_hz": 40, "residual_at_hz": [1e19]}, "residual_at_hz"),
+    (amctl.shaper_show, {"type": "zv", "freq_hz": 40, "test_damping_ratio": -0.1}, "test_damping_ratio"),
+    (amctl.shaper_show, {"type": "zv", "freq_hz": 40, "firmware": "marlin", "marlin_sample_rate_hz": 1e308},
+     "marlin_sample_rate_hz"),
+    (amctl.shaper_show, {"type": "zv", "freq_hz": 40, "firmware": "marlin", "marlin_sample_rate_hz": 10},
+     "freq_hz"),
+    (amctl.shaper_show, {"type": "zvdd", "freq_hz": 40, "firmware": "klipper"}, "type"),
+], ids=lambda v: v if isinstance(v, str) else None)
+def test_the_command_lines_ranges_hold_in_python(fn, kwargs, name):
+    # The same checks as `amctl thermal ...` / `amctl shaper show` (one C++ function), the
+    # parameter named by its keyword.
+    with pytest.raises(amctl.Error) as e:
+        fn(**kwargs)
+    assert str(e.value).startswith(name + ": "), str(e.value)
+
+
+def test_a_marlin_shaper_of_high_damping_finishes():
+    # max_accel's bisection never ended once its bounds were 1e8 apart by less than 1e-8.
+    r = amctl.shaper_show("zv", 40, 0.99, firmware="marlin")
+    assert r["max_accel_mm_s2"] > 0
+
+
+MESH_CFG = (CFG + "[stepper_x]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 200\n"
+            "[stepper_y]\nrotation_distance: 40\nmicrosteps: 16\nposition_max: 200\n"
+            "[stepper_z]\nrotation_distance: 8\nmicrosteps: 16\nposition_max: 200\n"
+            "[bed_mesh]\nmesh_min: 10, 10\nmesh_max: 190, 190\n"
+            "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+            "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n"
+            "#*# [bed_mesh default]\n#*# version = 1\n#*# points =\n"
+            "#*# \t  0.01, -0.02, 0.03\n#*# \t  0.0, 0.015, -0.01\n#*# \t  0.02, 0.005, 0.0\n"
+            "#*# min_x = 10.0\n#*# max_x = 190.0\n#*# min_y = 10.0\n#*# max_y = 190.0\n"
+            "#*# x_count = 3\n#*# y_count = 3\n#*# mesh_x_pps = PPS\n#*# mesh_y_pps = PPS\n"
+            "#*# algo = lagrange\n#*# tension = 0.2\n")
+
+
+def test_a_bed_mesh_too_large_to_upsample_is_an_error_before_allocating(tmp_path):
+    p = tmp_path / "p.cfg"
+    p.write_text(MESH_CFG.replace("PPS", "1500"))
+    g = tmp_path / "f.gcode"
+    g.write_text("SET_KINEMATIC_POSITION X=0 Y=0 Z=0\nBED_MESH_PROFILE LOAD=default\nG1 X100 Y100 Z0.2 F6000\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.estimate(g, p)
+    assert e.value.file.endswith("p.cfg") and e.value.line == 36 and e.value.column == 18
+    assert "expected at most 4096 along an axis" in str(e.value)
+    p.write_text(MESH_CFG.replace("PPS", "2"))
+    assert amctl.estimate(g, p)["moves"] >= 1
+
+
+@pytest.mark.parametrize("line,col", [
+    ("SET_INPUT_SHAPER SHAPER_FREQ_X=1e-300", 32),
+    ("SET_PRESSURE_ADVANCE ADVANCE=1e6", 30),
+    ("BED_MESH_OFFSET X=1e10", 19),
+])
+def test_step_tuning_and_mesh_commands_out_of_range_name_their_place(tmp_path, line, col):
+    p = tmp_path / "p.cfg"
+    p.write_text(MESH_CFG.replace("PPS", "2").replace(
+        "[bed_mesh]", "[extruder]\nrotation_distance: 33.5\nmicrosteps: 16\nnozzle_diameter: 0.4\n"
+        "filament_diameter: 1.75\n[input_shaper]\nshaper_freq_x: 40\nshaper_freq_y: 40\n[bed_mesh]"))
+    g = tmp_path / "f.gcode"
+    g.write_text(GOOD + line + "\nG1 X30 E3\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.steps(g, p)
+    assert e.value.file.endswith("f.gcode") and e.value.line == 7 and e.value.column == col
+
+
+def test_an_empty_sls3d_configuration_is_an_error(tmp_path):
+    c = tmp_path / "s.toml"
+    c.write_text("# nothing here yet\n")
+    with pytest.raises(amctl.Error) as e:
+        amctl.sls3d(c)
+    assert "found no section" in str(e.value)

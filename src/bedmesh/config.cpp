@@ -12,12 +12,14 @@
 
 #include <fmt/format.h>
 
+#include "amctl/core/quantity.hpp"
 #include "amctl/kinematics/klipper_config.hpp"
 
 namespace amctl::bedmesh {
 namespace {
 
 using kinematics::KlipperSection;
+using kinematics::Limits;
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
@@ -47,10 +49,11 @@ std::array<double, 2> read_pair(const KlipperSection& s, std::string_view key, b
     const std::size_t comma = rest.find(',');
     const std::string_view item = trim(rest.substr(0, comma));
     double x = 0.0;
-    if (!parse_double(item, x) || !std::isfinite(x) || (integer && x != std::floor(x))) {
+    if (!parse_double(item, x) || !std::isfinite(x) || std::abs(x) > kLengthRange.max ||
+        (integer && x != std::floor(x))) {
       throw Error(SourceLocation{v->where.file, v->where.line, v->where.column + static_cast<std::uint32_t>(col)},
-                  fmt::format("[{}] {}: expected {} separated by a comma, found '{}'", s.name(), key,
-                              integer ? "integers" : "numbers", v->text));
+                  fmt::format("[{}] {}: expected {} separated by a comma (each within +-{:g}), found '{}'",
+                              s.name(), key, integer ? "integers" : "numbers", kLengthRange.max, v->text));
     }
     out.push_back(x);
     if (comma == std::string_view::npos) break;
@@ -130,14 +133,17 @@ Profile read_profile(const KlipperSection& s, std::string name) {
   }
   const ConfigValue* pts = s.raw("points");
   const auto rows = read_points(s, *pts);
-  m.min_x_mm = s.require_float("min_x");
-  m.max_x_mm = s.require_float("max_x");
-  m.min_y_mm = s.require_float("min_y");
-  m.max_y_mm = s.require_float("max_y");
-  m.x_count = s.require_int("x_count", {.minval = 2});
-  m.y_count = s.require_int("y_count", {.minval = 2});
-  m.mesh_x_pps = s.require_int("mesh_x_pps", {.minval = 0});
-  m.mesh_y_pps = s.require_int("mesh_y_pps", {.minval = 0});
+  // Coordinates of the bed: within amctl's largest machine length (core/quantity.hpp), so
+  // that the spacing of the grid is a finite, non-zero number.
+  const Limits coordinate{.minval = -kLengthRange.max, .maxval = kLengthRange.max};
+  m.min_x_mm = s.require_float("min_x", coordinate);
+  m.max_x_mm = s.require_float("max_x", coordinate);
+  m.min_y_mm = s.require_float("min_y", coordinate);
+  m.max_y_mm = s.require_float("max_y", coordinate);
+  m.x_count = s.require_int("x_count", {.minval = 2, .maxval = kMaxFineCount});
+  m.y_count = s.require_int("y_count", {.minval = 2, .maxval = kMaxFineCount});
+  m.mesh_x_pps = s.require_int("mesh_x_pps", {.minval = 0, .maxval = kMaxFineCount});
+  m.mesh_y_pps = s.require_int("mesh_y_pps", {.minval = 0, .maxval = kMaxFineCount});
   m.tension = s.require_float("tension", {.minval = 0.0, .maxval = 2.0});
   const std::string algo = std::string(trim(s.require_text("algo")));
   if (algo == "lagrange") {
@@ -168,6 +174,21 @@ Profile read_profile(const KlipperSection& s, std::string name) {
                 fmt::format("[{}] algo: bicubic needs at least 3 probed points along each axis, "
                             "found x_count {} and y_count {}",
                             s.name(), m.x_count, m.y_count));
+  }
+  // The upsampled grid is allocated whole: its size is checked before (Klipper has no limit;
+  // a mesh of 15 x 15 probes at 4 points between them is 71 x 71).
+  const bool upsample = m.algo != Algorithm::direct;
+  const std::int64_t fine_x = std::int64_t{m.x_count - 1} * (upsample ? m.mesh_x_pps : 0) + m.x_count;
+  const std::int64_t fine_y = std::int64_t{m.y_count - 1} * (upsample ? m.mesh_y_pps : 0) + m.y_count;
+  if (fine_x > kMaxFineCount || fine_y > kMaxFineCount || fine_x * fine_y > kMaxFinePoints) {
+    const char* key = fine_x > kMaxFineCount || (fine_y <= kMaxFineCount && m.mesh_x_pps > m.mesh_y_pps)
+                          ? "mesh_x_pps" : "mesh_y_pps";
+    throw Error(s.raw(key)->where,
+                fmt::format("[{}] {}: found {} x {} probes with mesh_x_pps {} and mesh_y_pps {}, an "
+                            "upsampled mesh of {} x {} points, expected at most {} along an axis and "
+                            "{} in all",
+                            s.name(), key, m.x_count, m.y_count, m.mesh_x_pps, m.mesh_y_pps, fine_x,
+                            fine_y, kMaxFineCount, kMaxFinePoints));
   }
   if (rows.size() != static_cast<std::size_t>(m.y_count)) {
     throw Error(pts->where, fmt::format("[{}] points: found {} rows, expected y_count = {} rows of "

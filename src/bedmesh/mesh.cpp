@@ -39,6 +39,43 @@ ZMesh::ZMesh(const Profile& p) : name_(p.name) {
   const bool upsample = m.algo != Algorithm::direct;
   const int x_pps = upsample ? m.mesh_x_pps : 0;
   const int y_pps = upsample ? m.mesh_y_pps : 0;
+  // What the printer.cfg reader checks at each key, again for a profile made in code.
+  const auto refuse = [&](const std::string& what) {
+    throw Error(p.where, fmt::format("bed mesh profile '{}': {}", p.name, what));
+  };
+  if (m.x_count < 2 || m.y_count < 2 || m.x_count > kMaxFineCount || m.y_count > kMaxFineCount) {
+    refuse(fmt::format("found {} x {} probes, expected 2 to {} along each axis", m.x_count, m.y_count,
+                       kMaxFineCount));
+  }
+  if (x_pps < 0 || y_pps < 0 || x_pps > kMaxFineCount || y_pps > kMaxFineCount) {
+    refuse(fmt::format("found mesh_x_pps {} and mesh_y_pps {}, expected 0 to {}", x_pps, y_pps, kMaxFineCount));
+  }
+  const std::int64_t fine_x = std::int64_t{m.x_count - 1} * x_pps + m.x_count;
+  const std::int64_t fine_y = std::int64_t{m.y_count - 1} * y_pps + m.y_count;
+  if (fine_x > kMaxFineCount || fine_y > kMaxFineCount || fine_x * fine_y > kMaxFinePoints) {
+    refuse(fmt::format("found an upsampled mesh of {} x {} points, expected at most {} along an axis and "
+                       "{} in all",
+                       fine_x, fine_y, kMaxFineCount, kMaxFinePoints));
+  }
+  if (p.points_mm.size() != static_cast<std::size_t>(m.x_count) * static_cast<std::size_t>(m.y_count)) {
+    refuse(fmt::format("found {} probed points, expected x_count * y_count = {}", p.points_mm.size(),
+                       static_cast<std::size_t>(m.x_count) * static_cast<std::size_t>(m.y_count)));
+  }
+  for (const double z : p.points_mm) {
+    if (!std::isfinite(z)) refuse(fmt::format("found a probed z of {}, expected a finite number", z));
+  }
+  if (!(m.max_x_mm > m.min_x_mm && m.max_y_mm > m.min_y_mm && std::isfinite(m.max_x_mm - m.min_x_mm) &&
+        std::isfinite(m.max_y_mm - m.min_y_mm))) {
+    refuse(fmt::format("found x {}..{}, y {}..{} mm, expected finite extents with min below max",
+                       m.min_x_mm, m.max_x_mm, m.min_y_mm, m.max_y_mm));
+  }
+  if (m.algo == Algorithm::bicubic && (x_pps > 0 || y_pps > 0) && std::min(m.x_count, m.y_count) < 3) {
+    refuse(fmt::format("bicubic needs at least 3 probed points along each axis, found {} x {}", m.x_count,
+                       m.y_count));
+  }
+  if (m.algo == Algorithm::bicubic && !(m.tension >= 0.0 && m.tension <= 2.0)) {
+    refuse(fmt::format("found tension {}, expected 0 to 2", m.tension));
+  }
   x_.count = (m.x_count - 1) * x_pps + m.x_count;
   y_.count = (m.y_count - 1) * y_pps + m.y_count;
   x_mult_ = x_pps + 1;

@@ -9,7 +9,7 @@
 namespace amctl {
 
 std::optional<PhysicalRange> range_for_unit(std::string_view unit) {
-  for (const PhysicalRange& r : {kSpeedRange, kAccelRange, kJerkRange, kLengthRange}) {
+  for (const PhysicalRange& r : {kSpeedRange, kAccelRange, kJerkRange, kLengthRange, kFrequencyRange}) {
     if (r.unit == unit) return r;
   }
   return std::nullopt;

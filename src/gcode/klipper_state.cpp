@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "amctl/core/quantity.hpp"
 #include "amctl/gcode/interpreter.hpp"
 #include "internal.hpp"
 
@@ -706,7 +707,12 @@ void Interpreter::handle_bed_mesh(const Command& cmd, std::uint64_t line_no, Eve
       if (!t) return std::nullopt;
       double v = 0.0;
       if (parse_float_value(*t, v) != t->size() || t->empty() || !std::isfinite(v)) {
-        fail(line_no, col, fmt::format("BED_MESH_OFFSET {}= expects a number, found '{}'", key, *t));
+        fail(line_no, col, fmt::format("BED_MESH_OFFSET {}=: found '{}', expected a finite number [mm]", key, *t));
+      }
+      // An offset on the bed, in mm: no machine is larger than amctl's largest length.
+      if (std::abs(v) > kLengthRange.max) {
+        fail(line_no, col, fmt::format("BED_MESH_OFFSET {}= must be a length within +-{:g} mm, found '{}'",
+                                       key, kLengthRange.max, *t));
       }
       return v;
     };
@@ -725,7 +731,8 @@ void Interpreter::handle_bed_mesh(const Command& cmd, std::uint64_t line_no, Eve
     const auto t = text_arg(cmd, key, &col);
     if (!t) continue;
     if (t->find_first_not_of(" \t") == std::string::npos) {
-      fail(line_no, col, fmt::format("BED_MESH_PROFILE: Value for parameter '{}' must be specified", key));
+      fail(line_no, col, fmt::format("BED_MESH_PROFILE {}=: found an empty name, expected a profile's name "
+                                     "(Klipper: \"Value for parameter '{}' must be specified\")", key, key));
     }
     if (kind == BedMeshCommand::Kind::save && *t == "default") {
       note_ignored(cmd.name);  // "Profile 'default' is reserved": a message, no effect

@@ -309,6 +309,9 @@ bool parse_params(const Command& cmd, Params& out, ParseIssue& issue) {
 
 bool find_extended_arg(const Command& cmd, std::string_view key, std::string_view& value_text,
                        std::uint32_t& column) {
+  // A key given twice takes its last value, as Klipper's dict of the parameters does
+  // (gcode.py: {k.upper(): v for k, v in eparams}).
+  bool found = false;
   std::string_view a = cmd.args;
   std::size_t i = 0;
   while (i < a.size()) {
@@ -331,14 +334,14 @@ bool find_extended_arg(const Command& cmd, std::string_view key, std::string_vie
       if (match) {
         value_text = a.substr(v, e - v);
         column = static_cast<std::uint32_t>(cmd.args_column + v);
-        return true;
+        found = true;
       }
       i = e;
     } else {
       i = k;
     }
   }
-  return false;
+  return found;
 }
 
 }  // namespace amctl::gcode

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 
+#include "amctl/core/process_ranges.hpp"
 #include "amctl/gcode/interpreter.hpp"
 #include "internal.hpp"
 
@@ -35,8 +37,10 @@ bool Interpreter::handle_step_tuning(const Command& cmd, std::uint64_t line_no, 
     if (!find_extended_arg(cmd, key, text, col)) return false;
     double v = 0.0;
     const std::size_t used = parse_float_value(text, v);
-    if (used == 0 || used != text.size() || !std::isfinite(v)) {
-      fail(line_no, col, fmt::format("{} {}= expects a number, found '{}'", cmd.name, key, text));
+    // A subnormal number is no setting a printer has (it passes ">= 0" and divides to inf).
+    if (used == 0 || used != text.size() || !std::isfinite(v) ||
+        (v != 0.0 && std::abs(v) < std::numeric_limits<double>::min())) {
+      fail(line_no, col, fmt::format("{} {}=: found '{}', expected a finite number", cmd.name, key, text));
     }
     if (v < 0.0) {
       fail(line_no, col, fmt::format("{} {}= must be at least 0 (Klipper's minimum), found {}",
@@ -78,7 +82,14 @@ bool Interpreter::handle_step_tuning(const Command& cmd, std::uint64_t line_no, 
       if (find_extended_arg(cmd, fmt::format("DAMPING_RATIO_{}", axis), text, col)) {
         c.damping_column[a] = col;
       }
-      number(fmt::format("SHAPER_FREQ_{}", axis), s.freq_hz);
+      if (number(fmt::format("SHAPER_FREQ_{}", axis), s.freq_hz) && s.freq_hz != 0.0 &&
+          !in_range(kFrequencyRange, s.freq_hz)) {
+        // 0 turns the axis' shaper off; 1e-300 Hz would delay every move by 1e300 s.
+        find_extended_arg(cmd, fmt::format("SHAPER_FREQ_{}", axis), text, col);
+        fail(line_no, col,
+             fmt::format("SET_INPUT_SHAPER SHAPER_FREQ_{}= must be 0 (no shaper) or {}, found '{}'", axis,
+                         describe(kFrequencyRange), text));
+      }
     }
     c.shapers = st.shapers;
     c.flush = true;  // _update_input_shaping: toolhead.flush_step_generation()
@@ -107,8 +118,12 @@ bool Interpreter::handle_step_tuning(const Command& cmd, std::uint64_t line_no, 
                      who, names, who));
   }
   const double old_pa = it->pressure_advance_s, old_st = it->smooth_time_s;
-  number("ADVANCE", it->pressure_advance_s);
   std::string_view text;
+  if (number("ADVANCE", it->pressure_advance_s) && !in_range(kPressureAdvanceRange, it->pressure_advance_s)) {
+    find_extended_arg(cmd, "ADVANCE", text, col);
+    fail(line_no, col, fmt::format("SET_PRESSURE_ADVANCE ADVANCE= must be {}, found '{}'",
+                                   describe(kPressureAdvanceRange), text));
+  }
   if (number("SMOOTH_TIME", it->smooth_time_s) && it->smooth_time_s > kMaxSmoothTimeS) {
     find_extended_arg(cmd, "SMOOTH_TIME", text, col);
     fail(line_no, col,

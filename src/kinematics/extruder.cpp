@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/process_ranges.hpp"
 
 namespace amctl::kinematics {
 
@@ -29,7 +30,7 @@ Extruder Extruder::from_klipper(const KlipperConfig& cfg) {
   // ExtruderStepper (extruder.py): pressure_advance (0, >= 0), pressure_advance_smooth_time
   // (0.040, (0, 0.2]); read only with a stepper, as Klipper does.
   if (ex.has("step_pin") || ex.has("dir_pin") || ex.has("rotation_distance")) {
-    e.pressure_advance_s = ex.get_float("pressure_advance", 0.0, {.minval = 0.0});
+    e.pressure_advance_s = ex.get_float("pressure_advance", 0.0, {.minval = 0.0, .maxval = kPressureAdvanceRange.max});
     e.pressure_advance_smooth_time_s = ex.get_float(
         "pressure_advance_smooth_time", 0.040, {.maxval = kMaxPressureAdvanceSmoothTimeS, .above = 0.0});
   }
@@ -88,6 +89,10 @@ void Extruder::check() const {
     throw Error(fmt::format("extruder.pressure_advance_smooth_time must be at most {} s (Klipper's "
                             "limit), got {}",
                             kMaxPressureAdvanceSmoothTimeS, pressure_advance_smooth_time_s));
+  }
+  if (!in_range(kPressureAdvanceRange, pressure_advance_s)) {
+    throw Error(fmt::format("extruder.pressure_advance must be {}, got {}", describe(kPressureAdvanceRange),
+                            pressure_advance_s));
   }
 }
 

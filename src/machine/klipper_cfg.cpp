@@ -408,11 +408,11 @@ Machine to_machine(CfgDoc& doc, const std::string& source_name) {
     in.shaper_type_x = shaper_type(sh, "shaper_type_x", both);
     in.shaper_type_y = shaper_type(sh, "shaper_type_y", both);
     in.shaper_type_z = shaper_type(sh, "shaper_type_z", both);
-    in.shaper_freq_x_hz = sh.get_float("shaper_freq_x", 0.0, {.minval = 0.0});
-    in.shaper_freq_y_hz = sh.get_float("shaper_freq_y", 0.0, {.minval = 0.0});
+    in.shaper_freq_x_hz = sh.get_float("shaper_freq_x", 0.0, {.minval = 0.0, .physical = kFrequencyRange});
+    in.shaper_freq_y_hz = sh.get_float("shaper_freq_y", 0.0, {.minval = 0.0, .physical = kFrequencyRange});
     in.damping_ratio_x = sh.get_float("damping_ratio_x", 0.1, {.minval = 0.0, .below = 1.0});
     in.damping_ratio_y = sh.get_float("damping_ratio_y", 0.1, {.minval = 0.0, .below = 1.0});
-    in.shaper_freq_z_hz = sh.get_float("shaper_freq_z", 0.0, {.minval = 0.0});
+    in.shaper_freq_z_hz = sh.get_float("shaper_freq_z", 0.0, {.minval = 0.0, .physical = kFrequencyRange});
     in.damping_ratio_z = sh.get_float("damping_ratio_z", 0.1, {.minval = 0.0, .below = 1.0});
   }
   // The kinematics' own options of [printer] and of its sections, then each of its motors'
@@ -538,6 +538,11 @@ Machine parse_klipper_cfg(std::string_view text, const std::string& source_name)
     padded += autosave;
     CfgReader(saved).parse(padded, source_name);
     for (CfgSection& s : saved.sections) {
+      // The block was read without each line's "#*# ": columns count it again.
+      if (s.where.column > 0) s.where.column += 4;
+      for (auto& [key, value] : s.options) {
+        if (value.where.column > 0) value.where.column += 4;
+      }
       CfgSection& target = doc.get_or_add(s.name, s.where);
       for (auto& [key, value] : s.options) target.options.emplace(key, value);  // regular wins
     }

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/plan/estimate.hpp"
 
 namespace amctl::process {
@@ -52,8 +53,11 @@ std::vector<PrintTiming> read_print_timings(const CsvTable& t) {
     if (g.is_relative()) g = base / g;
     p.gcode_path = g.string();
     const double d = t.number(r, *dc);
-    if (!(d > 0.0)) {
-      throw Error(t.where(r, *dc), fmt::format("measured duration must be > 0, got {}", d));
+    // A print of 1 ms to 116 days (the duration range): 1e-300 s or 1e308 s is a typo, not
+    // a timing the fit should bend to.
+    if (!(d * scale >= 1e-3 && d * scale <= kDurationRange.max)) {
+      throw Error(t.where(r, *dc), fmt::format("measured duration must be in [0.001, {:g}] s, got {}",
+                                               kDurationRange.max, d * scale));
     }
     p.duration_s = d * scale;
     if (lc) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "amctl/core/error.hpp"
 #include "amctl/machine/loader.hpp"
@@ -213,6 +214,16 @@ TimeCalibration calibrate_planner_time(const PlannerCalibrationRequest& q) {
   const auto names = q.limits.empty() ? default_limits_for(q.machine) : q.limits;
   c.start = limit_parameters(q.machine, names);
   const auto est = planner_duration_estimator(q.machine, names, c.timings, q.file_limits);
+  // Repeated timings of one print are one equation: as many different prints (or layers) as
+  // parameters are needed, however often each was timed.
+  std::set<std::pair<std::string, long>> distinct;
+  for (const auto& t : c.timings) distinct.emplace(t.gcode_path, t.layer.value_or(-1));
+  if (c.timings.size() >= c.start.size() && distinct.size() < c.start.size()) {
+    throw Error(SourceLocation{q.timings_csv, 0, 0},
+                fmt::format("found {} timing(s) of {} different print(s), expected at least {} different "
+                            "prints (one per fitted parameter: {}); time more prints or fit fewer parameters",
+                            c.timings.size(), distinct.size(), c.start.size(), fmt::join(names, ", ")));
+  }
   CalibrationOptions co;
   co.relative = !q.absolute;
   c.planner = calibrate_durations(est, c.measured_s, c.start, co);

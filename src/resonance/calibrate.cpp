@@ -308,6 +308,24 @@ CalibrationReport calibrate(const AccelFile& file, const std::string& source,
     r.identification = identify_sweep(file.record, options.axis, *options.sweep, options.modes);
   }
   normalize_to_frequencies(r.psd);
+  {
+    // A record without vibration on the axis asked about (a constant column: the sensor was
+    // on another axis, or not read) has a spectrum of zeros, and every shaper fits it
+    // "perfectly": that is no recommendation.
+    const std::vector<double>& psd = options.axis == 'x' ? r.psd.psd_x : options.axis == 'y' ? r.psd.psd_y
+                                                                                            : r.psd.psd_xyz;
+    double top = 0.0;
+    for (std::size_t i = 0; i < psd.size() && i < r.psd.freq_hz.size(); ++i) {
+      if (r.psd.freq_hz[i] <= options.klipper.max_freq_hz) top = std::max(top, psd[i]);
+    }
+    if (!psd.empty() && !(top > 0.0)) {
+      throw Error(SourceLocation{source, 0, 0},
+                  fmt::format("found no vibration on {} (its spectrum is 0 up to {:g} Hz: every sample the "
+                              "same), expected the record of a resonance test",
+                              options.axis == 'x' ? "x" : options.axis == 'y' ? "y" : "any axis",
+                              options.klipper.max_freq_hz));
+    }
+  }
   r.sources = table_names(file, source);
   r.klipper = klipper_calibrate(fit_tables(file, r), options.klipper);
   const double fmax = options.klipper.max_freq_hz;

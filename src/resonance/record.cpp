@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 #include "amctl/core/input.hpp"
 #include "amctl/resonance/calibrate.hpp"
 
@@ -116,6 +117,12 @@ double parse_number(std::string_view field, std::string_view column, std::size_t
     throw Error(SourceLocation{source, line, 0},
                 fmt::format("column {} ({}) is '{}', expected a finite number", col_index + 1,
                             column, shorten(field)));
+  }
+  // An acceleration no accelerometer reads (1e308 squares to inf in the spectrum).
+  if (column.rfind("accel", 0) == 0 && std::abs(v) > kAccelRange.max) {
+    throw Error(SourceLocation{source, line, 0},
+                fmt::format("column {} ({}) is '{}', expected an acceleration within +-{:g} mm/s^2",
+                            col_index + 1, column, shorten(field), kAccelRange.max));
   }
   return v;
 }

@@ -53,6 +53,9 @@ double max_accel_mm_s2(const Shaper& shaper, double scv_mm_s, double target_smoo
   }
   while (right - left > 1e-8) {
     const double middle = (left + right) * 0.5;
+    // Above about 1e8 mm/s^2 no double lies between left and right while they are still 1e-8
+    // apart (Klipper's loop would not end either): the answer is as close as doubles get.
+    if (middle == left || middle == right) break;
     if (ok(middle)) {
       left = middle;
     } else {

@@ -8,8 +8,39 @@
 #include <fmt/format.h>
 
 #include "amctl/core/error.hpp"
+#include "amctl/core/quantity.hpp"
 
 namespace amctl::shaping {
+
+void check_report_options(const ShaperReportOptions& o, const std::function<std::string(std::string_view)>& name) {
+  if (o.marlin_sample_rate_hz != 0.0 && !in_range(kSampleRateRange, o.marlin_sample_rate_hz)) {
+    throw Error(fmt::format("{}: must be 0 (exact times) or {}, got {}", name("marlin_sample_rate_hz"),
+                            describe(kSampleRateRange), o.marlin_sample_rate_hz));
+  }
+  const auto frequency = [&](std::string_view key, double f) {
+    if (!in_range(kFrequencyRange, f)) throw Error(fmt::format("{}: must be {}, got {}", name(key), describe(kFrequencyRange), f));
+  };
+  const auto ratio = [&](std::string_view key, double z) {
+    if (!(z >= 0.0 && z < 1.0)) throw Error(fmt::format("{}: must be a damping ratio in [0, 1), got {}", name(key), z));
+  };
+  frequency("freq_hz", o.freq_hz);
+  ratio("damping_ratio", o.damping_ratio);
+  if (o.test_damping_ratio) ratio("test_damping_ratio", *o.test_damping_ratio);
+  for (const double f : o.residual_at_hz) frequency("residual_at_hz", f);
+  ShaperSpec spec;
+  try {  // the type under its parameter's name
+    spec = o.firmware ? parse_shaper_spec(o.type, *o.firmware, o.marlin_sample_rate_hz) : parse_shaper_spec(o.type);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", name("type"), e.what()));
+  }
+  try {  // Marlin's grid: the frequency's message names freq_hz
+    (void)make_shaper(spec, o.freq_hz, o.damping_ratio);
+  } catch (const Error& e) {
+    const std::string_view m = e.what();
+    if (m.rfind("freq_hz: ", 0) == 0) throw Error(fmt::format("{}: {}", name("freq_hz"), m.substr(9)));
+    throw;
+  }
+}
 
 ShaperReport shaper_report(const ShaperReportOptions& o) {
   ShaperReport r;

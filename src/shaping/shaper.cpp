@@ -225,9 +225,11 @@ void marlin(const ShaperSpec& spec, const Damped& dm, Shaper& s) {
   if (spec.sample_rate_hz > 0.0) {
     const double samples = std::round(step_s * spec.sample_rate_hz);
     if (samples < 1.0) {
-      throw Error(fmt::format("freq_hz: {:g} Hz puts Marlin's first echo {:.3g} ms late, under one "
-                              "sample of its {:g} Hz trajectory rate",
-                              s.freq_hz, step_s * 1e3, spec.sample_rate_hz));
+      // round(base t_d FS) >= 1 needs base t_d FS >= 0.5, t_d = 1 / (f sqrt(1 - zeta^2)).
+      throw Error(fmt::format("freq_hz: found {:g} Hz, which puts Marlin's first echo {:.3g} ms late, "
+                              "under one sample of its {:g} Hz trajectory rate; expected at most {:.6g} Hz",
+                              s.freq_hz, step_s * 1e3, spec.sample_rate_hz,
+                              2.0 * base * spec.sample_rate_hz / dm.d));
     }
     step_s = samples / spec.sample_rate_hz;
   }

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "amctl/core/input.hpp"
+#include "amctl/core/process_ranges.hpp"
 #include "amctl/sls3d/scan.hpp"
 
 #include <fmt/format.h>
@@ -47,6 +48,7 @@ class Section {
   const toml::node* node(const char* key) {
     const toml::node* n = tbl_ ? tbl_->get(key) : nullptr;
     if (n) c_.where[name_ + "." + key] = place(path_, n->source());
+    else c_.defaulted.push_back(name_ + "." + key);
     return n;
   }
   void number(const char* key, double& out, double scale = 1.0) {
@@ -172,6 +174,34 @@ void ScenarioConfig::validate() const {
     if (!(v >= 0) || !std::isfinite(v))
       throw Error(at(key), std::string(key) + " (" + what + ") must be >= 0, got " + g(v));
   };
+  // Physical ranges (sizes and rates checked before anything is allocated or run): a build
+  // platform of at most 10 m, a time step of at least 1 us, at most 10^6 steps and 10^6 coarse
+  // columns, a laser of a machine (core/quantity.hpp).
+  auto within = [&](const char* key, double v, double lo, double hi, const char* what) {
+    if (!(v >= lo && v <= hi))
+      throw Error(at(key), std::string(key) + " (" + what + ") must be in [" + g(lo) + ", " + g(hi) + "], got " + g(v));
+  };
+  within("bed.disc_radius_mm", disc_radius_m * 1e3, 1e-3, 1e4, "radius of the build platform, mm");
+  within("bed.base_depth_mm", base_depth_m * 1e3, 1e-3, 1e4, "powder below the first layer, mm");
+  within("bed.layer_thickness_mm", layer_thickness_m * 1e3, 1e-3, 1e3, "layer thickness, mm");
+  if (layers > 100000) throw Error(at("bed.layers"), "bed.layers must be in [1, 100000], got " + std::to_string(layers));
+  within("laser.power_w", laser_power_w, kPowerRange.min, kPowerRange.max, "W");
+  within("laser.speed_mm_s", scan_speed_m_s * 1e3, kSpeedRange.min, kSpeedRange.max, "mm/s");
+  within("laser.hatch_mm", hatch_m * 1e3, 1e-4, 1e4, "mm");
+  within("laser.spot_radius_mm", spot_radius_m * 1e3, 1e-4, 1e4, "1/e^2 radius, mm");
+  within("laser.field_radius_mm", field_radius_m * 1e3, 1e-3, 1e5, "mm");
+  within("numerics.coarse_cell_mm", coarse_cell_m * 1e3, 1e-3, 1e4, "in-plane size of the coarse cells, mm");
+  within("numerics.dt_s", dt_s, 1e-6, 1e6, "time step, s");
+  within("output.end_time_s", end_time_s, 1e-6, 1e7, "s");
+  if (end_time_s / dt_s > 1e6)
+    throw Error(at(where.count("output.end_time_s") ? "output.end_time_s" : "numerics.dt_s"),
+                "the run to " + g(end_time_s) + " s in steps of " + g(dt_s) + " s: found " + g(end_time_s / dt_s) +
+                    " steps, expected at most 1e6 (output.end_time_s / numerics.dt_s)");
+  const double columns = std::pow(2.0 * disc_radius_m / coarse_cell_m, 2.0);
+  if (columns > 1e6)
+    throw Error(at(where.count("numerics.coarse_cell_mm") ? "numerics.coarse_cell_mm" : "bed.disc_radius_mm"),
+                "a disc of radius " + g(disc_radius_m * 1e3) + " mm in coarse cells of " + g(coarse_cell_m * 1e3) +
+                    " mm: found " + g(columns) + " columns of cells, expected at most 1e6");
   positive("bed.disc_radius_mm", disc_radius_m * 1e3, "radius of the build platform, mm");
   positive("bed.base_depth_mm", base_depth_m * 1e3, "powder below the first layer, mm");
   positive("bed.layer_thickness_mm", layer_thickness_m * 1e3, "layer thickness, mm");
@@ -201,7 +231,8 @@ void ScenarioConfig::validate() const {
                                                 g(part_inner_radius_m * 1e3) + ", got " +
                                                 g(part_outer_radius_m * 1e3));
   if (!(part_outer_radius_m < disc_radius_m))
-    throw Error(at("part.outer_radius_mm"),
+    throw Error(at(where.count("part.outer_radius_mm") || !where.count("bed.disc_radius_mm") ? "part.outer_radius_mm"
+                                                                                            : "bed.disc_radius_mm"),
                 "the part does not fit the disc: found outer radius " + g(part_outer_radius_m * 1e3) +
                     " mm, expected < the disc radius " + g(disc_radius_m * 1e3) + " mm");
   positive("laser.power_w", laser_power_w, "W");
@@ -321,6 +352,13 @@ ScenarioConfig load_scenario_config(const std::string& path) {
   }
   const std::set<std::string> sections{"bed", "part", "powder", "sintered", "melting", "losses",
                                        "laser", "controller", "measurement", "numerics", "output"};
+  // An empty file (or one of comments only) is a mistake, not a request for the defaults:
+  // those run without --config.
+  if (root.empty())
+    throw Error(SourceLocation{path, 1, 1},
+                "found no section (the file is empty or holds only comments), expected at least one of "
+                "[bed], [part], [powder], [sintered], [melting], [losses], [laser], [controller], "
+                "[measurement], [numerics] or [output] (without --config the built-in values run)");
   for (const auto& [k, v] : root)
     if (!sections.count(std::string(k.str())))
       throw Error(place(path, v.source()),

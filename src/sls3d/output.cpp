@@ -164,6 +164,7 @@ Json to_json(const ScenarioResult& r, bool with_trace) {
   }
   Json j{{"case", "scenario"},
          {"config", c.source.empty() ? Json(nullptr) : Json(c.source)},
+         {"config_defaults", c.source.empty() ? Json(nullptr) : Json(c.defaulted)},
          {"end_time_s", json_number(c.end_time_s)},
          {"dt_s", json_number(c.dt_s)},
          {"source_scale", c.source_scale == SourceScale::fine ? "fine" : "part_scale"},

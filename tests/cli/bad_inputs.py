@@ -816,12 +816,12 @@ CASES += [
          {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg([MESH_ROWS[0], "0.000000, 0.015000", MESH_ROWS[2]])},
          "p.cfg:32:8"),
     case("bed_mesh_missing_row", ["machine", "show", "p.cfg"],
-         {"p.cfg": mesh_cfg(MESH_ROWS[:2])}, "p.cfg:30:9"),
+         {"p.cfg": mesh_cfg(MESH_ROWS[:2])}, "p.cfg:30:13"),
     case("bed_mesh_nan_point", ["estimate", "f.gcode", "-m", "p.cfg"],
          {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg([MESH_ROWS[0], "0.000000, nan, -0.010000", MESH_ROWS[2]])},
          "p.cfg:32:18"),
     case("bed_mesh_missing_key", ["steps", "f.gcode", "-m", "p.cfg", "--csv", "o.csv"],
-         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg(drop="x_count")}, "p.cfg:28:1", ["o.csv"]),
+         {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg(drop="x_count")}, "p.cfg:28:5", ["o.csv"]),
     case("bed_mesh_unknown_profile", ["estimate", "f.gcode", "-m", "p.cfg"],
          {"f.gcode": MESH_GCODE.replace("LOAD=default", "LOAD=first_layer"), "p.cfg": mesh_cfg()},
          "f.gcode:2:23"),
@@ -1053,6 +1053,192 @@ R3 += [
          {"f.gcode": GOOD_GCODE, "p.cfg": "[mcu]\nserial: /dev/x\n"}, "p.cfg"),
 ]
 CASES += R3
+
+
+# ---- round four (2026-11-26): what landed after round three. The bed mesh's saved profiles
+# and [bed_mesh] keys, BED_MESH_* in the G-code, SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE (in
+# the G-code and the machine), Marlin's FT_MOTION shapers, the SLS 3D configuration.
+R4 = []
+# A saved profile's keys (lines 34-43 of mesh_cfg; the value after "#*# KEY = " counts the
+# "#*# " the SAVE_CONFIG block writes).
+MESH_KEY_LINES = {"min_x": 34, "max_x": 35, "min_y": 36, "max_y": 37, "x_count": 38, "y_count": 39,
+                  "mesh_x_pps": 40, "mesh_y_pps": 41, "algo": 42, "tension": 43}
+MESH_DEFAULTS = {"min_x": "10.0", "max_x": "190.0", "min_y": "10.0", "max_y": "190.0", "x_count": "3",
+                 "y_count": "3", "mesh_x_pps": "2", "mesh_y_pps": "2", "algo": "lagrange", "tension": "0.2"}
+
+
+def mesh_key(key, value):
+    return mesh_cfg().replace(f"#*# {key} = {MESH_DEFAULTS[key]}\n", f"#*# {key} = {value}\n")
+
+
+MESH_BAD = {
+    "min_x": ["nan", "inf", "1e308", "-1e10", "abc", "1e400"],
+    "max_x": ["nan", "-inf", "1e10", "0x10", "1,2"],
+    "min_y": ["nan", "inf", "-1e308", "ten"],
+    "max_y": ["nan", "1e10", "1e400", "190mm"],
+    "x_count": ["0", "1", "-3", "2.5", "5000", "1e9", "abc", "2147483648"],
+    "y_count": ["0", "1", "3.0", "5000", "nan"],
+    "mesh_x_pps": ["-1", "3000", "1e9", "2147483648", "two"],
+    "mesh_y_pps": ["-1", "3000", "1.5"],
+    "tension": ["-0.1", "2.5", "nan", "inf", "abc"],
+    "algo": ["foo", "LAGRANGE", "bilinear"],
+}
+for key, values in MESH_BAD.items():
+    for i, v in enumerate(values):
+        for cmd in (["machine", "show", "p.cfg"],) if i % 2 else (["estimate", "f.gcode", "-m", "p.cfg"],):
+            R4.append(case(f"bed_mesh_profile_{key}_{i}", cmd, {"f.gcode": MESH_GCODE, "p.cfg": mesh_key(key, v)},
+                           f"p.cfg:{MESH_KEY_LINES[key]}:{len(key) + 8}"))
+# Both axes upsampled so that the whole grid (3003 x 3003 points) is beyond the bound.
+R4.append(case("bed_mesh_profile_grid_too_large", ["machine", "show", "p.cfg"],
+               {"p.cfg": mesh_cfg().replace("mesh_x_pps = 2", "mesh_x_pps = 1500").replace(
+                   "mesh_y_pps = 2", "mesh_y_pps = 1500")}, "p.cfg:41:18"))
+# A key of every saved profile missing: at the profile's header (column 5, after "#*# ").
+for key in ("points", "min_x", "max_y", "y_count", "mesh_x_pps", "mesh_y_pps", "algo", "tension"):
+    cfg = mesh_cfg(drop=key) if key != "points" else mesh_cfg().replace("#*# points =\n", "").replace(
+        "".join(f"#*# \t  {r}\n" for r in MESH_ROWS), "")
+    R4.append(case(f"bed_mesh_profile_missing_{key}", ["machine", "show", "p.cfg"], {"p.cfg": cfg}, "p.cfg:28:5"))
+R4 += [
+    case("bed_mesh_profile_version_not_a_number", ["machine", "show", "p.cfg"],
+         {"p.cfg": mesh_cfg().replace("version = 1", "version = one")}, "p.cfg:29:15"),
+    case("bed_mesh_profile_version_fraction", ["machine", "show", "p.cfg"],
+         {"p.cfg": mesh_cfg().replace("version = 1", "version = 1.5")}, "p.cfg:29:15"),
+]
+# The probed points: each a finite number.
+for i, bad in enumerate(["inf", "1e400", "-nan", "0x1", "1;2", "", "1e"]):
+    row = f"0.000000, {bad}, -0.010000"
+    R4.append(case(f"bed_mesh_points_{i}", ["estimate", "f.gcode", "-m", "p.cfg"],
+                   {"f.gcode": MESH_GCODE, "p.cfg": mesh_cfg([MESH_ROWS[0], row, MESH_ROWS[2]])},
+                   "p.cfg:32:18"))
+# [bed_mesh] itself (lines 22-24; an added key is line 25).
+for i, (key, value) in enumerate([("fade_start", "nan"), ("fade_end", "inf"), ("fade_target", "nan"),
+                                  ("split_delta_z", "0.001"), ("move_check_distance", "1"),
+                                  ("algorithm", "foo"), ("bicubic_tension", "3"), ("probe_count", "2, 3"),
+                                  ("probe_count", "3.5, 3"), ("probe_count", "abc"), ("mesh_radius", "-1")]):
+    R4.append(case(f"bed_mesh_section_{key}_{i}", ["machine", "show", "p.cfg"],
+                   {"p.cfg": mesh_cfg(bed_mesh=f"{key}: {value}\n")}, f"p.cfg:25:{len(key) + 3}"))
+for i, (key, value, line) in enumerate([("mesh_min", "nan, 10", 23), ("mesh_min", "1e10, 10", 23),
+                                        ("mesh_max", "190, 1e308", 24), ("mesh_max", "190", 24),
+                                        ("mesh_max", "5, 5", 24)]):
+    cfg = mesh_cfg().replace(f"{key}: {'10, 10' if key == 'mesh_min' else '190, 190'}", f"{key}: {value}")
+    col = len(key) + 3 + (value.index(",") + 1 if i == 2 else 0)
+    R4.append(case(f"bed_mesh_section_{key}_{i}", ["machine", "show", "p.cfg"], {"p.cfg": cfg}, f"p.cfg:{line}:{col}"))
+R4.append(case("bed_mesh_section_round_probe_count_even", ["machine", "show", "p.cfg"],
+               {"p.cfg": mesh_cfg(bed_mesh="mesh_radius: 50\nround_probe_count: 4\n")}, "p.cfg:26:20"))
+# BED_MESH_* in the G-code: at the value.
+for i, line in enumerate(["BED_MESH_OFFSET X=1e10", "BED_MESH_OFFSET Y=-1e308", "BED_MESH_OFFSET ZFADE=1e308",
+                          "BED_MESH_OFFSET X=inf", "BED_MESH_OFFSET X=", "BED_MESH_OFFSET ZFADE=0x1",
+                          "BED_MESH_PROFILE LOAD=", "BED_MESH_PROFILE REMOVE="]):
+    col = line.index("=") + 2
+    gcode = MESH_GCODE.replace("G1 X100", line + "\nG1 X100")
+    R4.append(case(f"bed_mesh_gcode_{i}", ["estimate", "f.gcode", "-m", "p.cfg"],
+                   {"f.gcode": gcode, "p.cfg": mesh_cfg()}, f"f.gcode:3:{col}"))
+R4.append(case("bed_mesh_gcode_removed_then_loaded", ["estimate", "f.gcode", "-m", "p.cfg"],
+               {"f.gcode": MESH_GCODE.replace("G1 X100", "BED_MESH_PROFILE REMOVE=default\n"
+                                              "BED_MESH_PROFILE LOAD=default\nG1 X100"), "p.cfg": mesh_cfg()},
+               "f.gcode:4:23"))
+
+# SET_INPUT_SHAPER / SET_PRESSURE_ADVANCE: values no printer has (a shaper of 1e-300 Hz
+# delayed every move by 1e300 s; ADVANCE=1e6 never finished), in `steps` and `estimate`.
+for i, line in enumerate(["SET_INPUT_SHAPER SHAPER_FREQ_X=1e-300", "SET_INPUT_SHAPER SHAPER_FREQ_Y=1e-320",
+                          "SET_INPUT_SHAPER SHAPER_FREQ_X=1e7", "SET_INPUT_SHAPER SHAPER_FREQ_Z=0.0001",
+                          "SET_INPUT_SHAPER SHAPER_FREQ_Z=1e-300", "SET_INPUT_SHAPER SHAPER_FREQ_X=nan",
+                          "SET_INPUT_SHAPER DAMPING_RATIO_Z=1e-320", "SET_INPUT_SHAPER SHAPER_FREQ_Y=0x20",
+                          "SET_PRESSURE_ADVANCE ADVANCE=1e6", "SET_PRESSURE_ADVANCE ADVANCE=3",
+                          "SET_PRESSURE_ADVANCE ADVANCE=1e308", "SET_PRESSURE_ADVANCE ADVANCE=1e-320",
+                          "SET_PRESSURE_ADVANCE SMOOTH_TIME=1e-320", "SET_PRESSURE_ADVANCE ADVANCE=.05.1"]):
+    col = line.index("=", line.index(" ")) + 2
+    for cmd in ("steps", "estimate"):
+        R4.append(case(f"step_tuning_r4_{cmd}_{i}", [cmd, "f.gcode", "-m", "p.cfg"],
+                       {"f.gcode": GOOD_GCODE + line + "\nG1 X30 E3\n", "p.cfg": SHAPED_CFG}, f"f.gcode:7:{col}"))
+# The same limits in the machine file: [input_shaper] (Z too) and [extruder] pressure_advance.
+for i, (cfg, line, col) in enumerate([
+        (SHAPED_CFG.replace("shaper_freq_x: 40", "shaper_freq_x: 1e-300"), 23, 16),
+        (SHAPED_CFG + "shaper_freq_z: 1e7\n", 25, 16),
+        (SHAPED_CFG + "shaper_freq_z: 1e-9\n", 25, 16),
+        (STEPPER_CFG + "pressure_advance: 3\n", 22, 19),
+        (STEPPER_CFG + "pressure_advance: 1e308\n", 22, 19)]):
+    R4.append(case(f"machine_step_tuning_{i}", ["steps", "f.gcode", "-m", "p.cfg", "--csv", "o.csv"],
+                   {"f.gcode": GOOD_GCODE, "p.cfg": cfg}, f"p.cfg:{line}:{col}", ["o.csv"]))
+
+# Marlin's FT_MOTION shapers: the trajectory rate and a shaper its grid cannot hold.
+SHOW = ["shaper", "show", "--type", "zv", "--freq-hz", "40", "--damping-ratio", "0.1", "--firmware", "marlin"]
+for i, (extra, where) in enumerate([(["--marlin-sample-rate-hz", "1e-300"], "--marlin-sample-rate-hz"),
+                                    (["--marlin-sample-rate-hz", "1e308"], "--marlin-sample-rate-hz"),
+                                    (["--marlin-sample-rate-hz", "-1000"], "--marlin-sample-rate-hz"),
+                                    (["--marlin-sample-rate-hz", "0.5"], "--marlin-sample-rate-hz"),
+                                    (["--marlin-sample-rate-hz", "10"], "--freq-hz"),
+                                    (["--firmware", "FT_MOTION"], "--firmware")]):
+    args = list(SHOW)
+    if extra[0] in args:
+        args[args.index(extra[0]) + 1] = extra[1]
+    else:
+        args += extra
+    R4.append(case(f"marlin_shaper_{i}", args, {}, where))
+R4 += [
+    case("marlin_shaper_freq_beyond_the_grid", SHOW[:5] + ["9e5"] + SHOW[6:], {}, "--freq-hz"),
+    case("marlin_shaper_klipper_type_parameters", ["shaper", "show", "--type", "mzv(n=4,t=0.9)", "--freq-hz", "40",
+                                                   "--damping-ratio", "0.1", "--firmware", "marlin"], {}, "--type"),
+    case("simulate_shaper_firmware_unknown", ["simulate", "f.gcode", "--natural-frequency-hz", "40",
+                                              "--shaper", "zv", "--shaper-freq-hz", "40",
+                                              "--shaper-firmware", "reprap"], {"f.gcode": GOOD_GCODE},
+         "--shaper-firmware"),
+    case("simulate_shaper_firmware_empty", ["simulate", "f.gcode", "--natural-frequency-hz", "40",
+                                            "--shaper-firmware", ""], {"f.gcode": GOOD_GCODE}, "--shaper-firmware"),
+]
+
+# The SLS 3D configuration: an empty file is a mistake (the defaults run without --config);
+# sizes and rates a machine cannot have are refused before anything is allocated.
+R4 += [
+    case("sls3d_empty_config", SLS3D_ARGS, {"s.toml": ""}, "s.toml:1:1", SLS3D_OUTPUTS),
+    case("sls3d_only_comments", SLS3D_ARGS, {"s.toml": "# my scenario\n\n# nothing yet\n"}, "s.toml:1:1",
+         SLS3D_OUTPUTS),
+    case("sls3d_only_blank_lines", SLS3D_ARGS, {"s.toml": "\n \n\t\n"}, "s.toml:1:1", SLS3D_OUTPUTS),
+    case("sls3d_utf16", SLS3D_ARGS, {"s.toml": latin1("[bed]\nlayers = 3\n".encode("utf-16"))}, "s.toml:1:1",
+         SLS3D_OUTPUTS),
+]
+for i, (section, key, value) in enumerate([
+        ("bed", "disc_radius_mm", "1e308"), ("bed", "disc_radius_mm", "1e-300"), ("bed", "base_depth_mm", "1e9"),
+        ("bed", "layer_thickness_mm", "1e-9"), ("bed", "layers", "2000000000"), ("laser", "power_w", "1e308"),
+        ("laser", "power_w", "1e-9"), ("laser", "speed_mm_s", "1e-300"), ("laser", "speed_mm_s", "1e308"),
+        ("laser", "hatch_mm", "1e-9"), ("laser", "spot_radius_mm", "1e-300"), ("laser", "field_radius_mm", "1e9"),
+        ("numerics", "coarse_cell_mm", "1e-6"), ("numerics", "dt_s", "1e-300"), ("numerics", "dt_s", "1e-9"),
+        ("output", "end_time_s", "1e308"), ("output", "end_time_s", "1e6")]):
+    R4.append(case(f"sls3d_range_{section}_{key}_{i}", SLS3D_ARGS, {"s.toml": f"[{section}]\n{key} = {value}\n"},
+                   f"s.toml:2:{len(key) + 4}", SLS3D_OUTPUTS))
+# The same commands from a printer.cfg macro: at the line that calls it, naming the macro.
+TUNE_CFG = SHAPED_CFG + ("[gcode_macro TUNE]\ngcode:\n  SET_INPUT_SHAPER SHAPER_FREQ_X={params.F}\n"
+                         "  SET_PRESSURE_ADVANCE ADVANCE={params.A|default(0.04)}\n")
+for i, call in enumerate(["TUNE F=1e-300", "TUNE F=40 A=1e6", "TUNE F=nan", "TUNE F=40 A=-1"]):
+    for cmd in ("steps", "estimate"):
+        R4.append(case(f"step_tuning_macro_{cmd}_{i}", [cmd, "f.gcode", "-m", "p.cfg"],
+                       {"f.gcode": "G28\nG90\nM82\nG1 X10 Y10 F6000\n" + call + "\nG1 X30 E3\n", "p.cfg": TUNE_CFG},
+                       "f.gcode:5"))
+# The numerics' users: calibrate-time's durations and prints, resonance calibrate's record.
+TIMINGS = {f"g{i}.gcode": W_FILES[f"g{i}.gcode"] for i in range(1, 5)}
+for i, (rows, where) in enumerate([
+        ("g1.gcode,1e308\ng2.gcode,12\ng3.gcode,19\ng4.gcode,26\n", "t.csv:2:10"),
+        ("g1.gcode,1e-300\ng2.gcode,12\ng3.gcode,19\ng4.gcode,26\n", "t.csv:2:10"),
+        ("g1.gcode,5\ng2.gcode,2e7\ng3.gcode,19\ng4.gcode,26\n", "t.csv:3:10"),
+        ("g1.gcode,5\ng1.gcode,5\ng1.gcode,6\ng1.gcode,5\n", "t.csv"),
+        ("g1.gcode,5\ng2.gcode,12\ng1.gcode,5\ng2.gcode,12\n", "t.csv")]):
+    R4.append(case(f"calibrate_time_r4_{i}", ["calibrate-time", "t.csv", "--save", "o.toml"],
+                   dict(TIMINGS, **{"t.csv": "gcode,duration_s\n" + rows}), where, ["o.toml"]))
+R4.append(case("calibrate_time_minutes_beyond_the_range", ["calibrate-time", "t.csv"],
+               dict(TIMINGS, **{"t.csv": "gcode,duration_min\ng1.gcode,1e6\ng2.gcode,2\ng3.gcode,3\n"
+                                         "g4.gcode,4\n"}), "t.csv:2:10"))
+ACCEL = RAW_HEADER + RAW_ROWS
+R4 += [
+    case("resonance_constant_axis", ["resonance", "calibrate", "a.csv", "--axis", "x", "--csv", "o.csv"],
+         {"a.csv": RAW_HEADER + "".join(f"{i / 1000:.3f},0,{(i % 3) - 1},9800\n" for i in range(2000))}, "a.csv",
+         ["o.csv"]),
+    case("resonance_constant_axis_y", ["resonance", "calibrate", "a.csv", "--axis", "y"],
+         {"a.csv": RAW_HEADER + "".join(f"{i / 1000:.3f},{(i % 5) - 2},7,9800\n" for i in range(2000))}, "a.csv"),
+    case("resonance_acceleration_1e308", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": ACCEL.replace("\n0.005,", "\n0.005,1e308,0,0\n0.0051,", 1)}, "a.csv:7"),
+    case("resonance_acceleration_beyond_any_sensor", ["resonance", "calibrate", "a.csv", "--axis", "x"],
+         {"a.csv": ACCEL.replace("\n0.010,", "\n0.010,-1e12,0,0\n0.0101,", 1)}, "a.csv:12"),
+]
+CASES += R4
 
 
 def says_found_and_expected(message):

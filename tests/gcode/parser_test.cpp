@@ -95,6 +95,16 @@ TEST(Parser, ReadsSubcodesAndKlipperExtendedCommands) {
   EXPECT_FALSE(find_extended_arg(k, "VELOCITY", v, col));
 }
 
+TEST(Parser, AnExtendedParameterGivenTwiceTakesItsLastValueAsKlipperDoes) {
+  // gcode.py builds a dict of the parameters: the later KEY=value replaces the earlier one.
+  Command k = parse("SET_INPUT_SHAPER SHAPER_FREQ_X=40 shaper_freq_x=50");
+  std::string_view v;
+  std::uint32_t col = 0;
+  ASSERT_TRUE(find_extended_arg(k, "SHAPER_FREQ_X", v, col));
+  EXPECT_EQ(v, "50");
+  EXPECT_EQ(col, 49u);  // 1-based: "SET_INPUT_SHAPER SHAPER_FREQ_X=40 shaper_freq_x=" is 48 characters
+}
+
 TEST(Parser, ReportsMalformedNumbersWithTheirColumn) {
   Command c = parse("G1 X1.2.3");
   Params p;

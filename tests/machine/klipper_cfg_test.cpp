@@ -324,7 +324,8 @@ TEST(KlipperCfg, SaveConfigErrorsPointAtTheirLineInTheFile) {
                       "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
                       "#*# [printer]\n"
                       "#*# square_corner_velocity = -1\n"),
-            "printer.cfg:7:26: [printer] square_corner_velocity: must be at least 0, got -1");
+            // Column 30: the value's column in the file, "#*# " counted.
+            "printer.cfg:7:30: [printer] square_corner_velocity: must be at least 0, got -1");
 }
 
 TEST(KlipperCfg, IncludesResolveRelativeToTheFileWithGlobsAndLaterOverrides) {

@@ -348,7 +348,7 @@ TEST(TunedSteps, BadValuesStopAtTheirPlace) {
   fails("SET_PRESSURE_ADVANCE ADVANCE=-0.1", "at least 0");
   fails("SET_PRESSURE_ADVANCE SMOOTH_TIME=0.3", "at most 0.2");
   fails("SET_PRESSURE_ADVANCE EXTRUDER=extruder1 ADVANCE=0.1", "'extruder1'");
-  fails("SET_PRESSURE_ADVANCE ADVANCE=abc", "expects a number");
+  fails("SET_PRESSURE_ADVANCE ADVANCE=abc", "expected a finite number");
 }
 
 }  // namespace

@@ -17,6 +17,11 @@ enum class Algorithm : std::uint8_t { lagrange, bicubic, direct };
 
 [[nodiscard]] const char* name(Algorithm a);
 
+/// Largest upsampled mesh amctl builds: points along one axis, and in all (8 bytes each). A
+/// profile beyond them is refused where it is read, before anything is allocated.
+inline constexpr int kMaxFineCount = 4096;
+inline constexpr std::int64_t kMaxFinePoints = std::int64_t{1} << 22;
+
 /// A profile's grid as saved by SAVE_CONFIG (`[bed_mesh NAME]`).
 struct MeshParams {
   double min_x_mm = 0.0, max_x_mm = 0.0, min_y_mm = 0.0, max_y_mm = 0.0;
@@ -39,7 +44,9 @@ struct Profile {
 class ZMesh {
  public:
   /// Builds the fine grid. Throws amctl::Error at `profile.where` when the profile cannot be
-  /// upsampled (too few points for its algorithm).
+  /// upsampled (too few points for its algorithm, a grid beyond kMaxFineCount /
+  /// kMaxFinePoints, points that do not fill the grid, extents that are not finite and
+  /// increasing).
   explicit ZMesh(const Profile& profile);
 
   /// z offset [mm] at (x, y): bilinear on the fine grid, clamped to the mesh's edges (a point

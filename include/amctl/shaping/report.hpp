@@ -5,6 +5,7 @@
 //   smoothing_mm, smoothing_accel_mm_s2, scv_mm_s, max_accel_mm_s2, target_smoothing_mm,
 //   test_damping_ratio, residual_at_hz, residual_vibration, klipper_max_damping_ratio,
 //   firmware, sample_rate_hz, residual_at_design, compared_with.
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -62,6 +63,13 @@ struct ShaperReport {
 /// Builds the shaper and its figures. Throws amctl::Error naming the parameter on bad input
 /// (type, freq_hz, damping_ratio, residual_at_hz, test_damping_ratio).
 [[nodiscard]] ShaperReport shaper_report(const ShaperReportOptions& options);
+/// The checks of `amctl shaper show` and amctl.shaper_show, one set for both: freq_hz and
+/// residual_at_hz frequencies (core/quantity.hpp), damping_ratio and test_damping_ratio in
+/// [0, 1), marlin_sample_rate_hz 0 or a sample rate, the type, and a Marlin shaper whose first
+/// echo falls on its trajectory grid. Throws amctl::Error "NAME: ..." where NAME is `name` of
+/// the parameter's Python keyword ("freq_hz" -> "--freq-hz" on the command line).
+void check_report_options(const ShaperReportOptions& options,
+                          const std::function<std::string(std::string_view)>& name);
 
 /// The report as one JSON object (keys above; every double via json_number).
 [[nodiscard]] Json to_json(const ShaperReport& report);

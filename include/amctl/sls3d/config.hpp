@@ -84,6 +84,9 @@ struct ScenarioConfig {
 
   /// Where each key was set ("laser.power_w" -> file:line:col), for messages.
   std::map<std::string, SourceLocation> where;
+  /// "section.key" of every key the file left to its built-in value, in reading order (the
+  /// output lists them, so a misspelt section is seen; empty without a file).
+  std::vector<std::string> defaulted;
   std::string source;  ///< the file read ("" for the built-in defaults)
 
   /// Throws amctl::Error naming the key (at its place in the file) for a value the model
