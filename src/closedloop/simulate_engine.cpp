@@ -415,7 +415,7 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       v = std::copysign(vmax, v);
       ++r.res.step_rate_limited_periods;
     }
-    if (r.observer) {
+    if (r.observer && r.res.slips_inferred == 0) {
       // The rotor's dynamic bound: the command stays within (r / p) d_max - s / 2 of the rotor
       // the observer predicts at the period's end (inertia, belt and feedback all in it).
       const double y_mid = measured + now[i].vel_mm_s * (r.latency_s - 0.5 * T);
@@ -439,6 +439,9 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       }
       r.observer->commit(pr);
     }
+    // After a slip the observer has lost the rotor (the plant slipped where the model did not,
+    // or differently): the bound would hold the command to a rotor that is not there, so it
+    // stops, and the fall-back (section 3.1) runs open loop's command.
     if (r.limited) ++r.res.governor_limited_periods;
     r.res.peak_step_rate_hz = std::max(r.res.peak_step_rate_hz, std::abs(v) / step);
     r.period_v = v;
