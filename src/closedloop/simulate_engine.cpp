@@ -73,6 +73,7 @@ struct AxisRun {
   As5311Encoder encoder;
   std::optional<CommandGovernor> governor;
   std::optional<RotorObserver> observer;  // the rotor's dynamic bound (governed runs)
+  bool observer_lost = false;             // the bound stopped (see tick)
   double rotor_hold_until_s = -1.0, rotor_hold_s = 0.0;       // degraded until then: the bound held the command
   CommandLimiter limiter;
   MoveLimits limits;
@@ -415,7 +416,7 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       v = std::copysign(vmax, v);
       ++r.res.step_rate_limited_periods;
     }
-    if (r.observer && r.res.slips_inferred == 0) {
+    if (r.observer && r.res.slips_inferred == 0 && !r.observer_lost) {
       // The rotor's dynamic bound: the command stays within (r / p) d_max - s / 2 of the rotor
       // the observer predicts at the period's end (inertia, belt and feedback all in it).
       const double y_mid = measured + now[i].vel_mm_s * (r.latency_s - 0.5 * T);
@@ -424,7 +425,14 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       RotorObserver::Prediction pr =
           r.observer->predict(c0, c1, y_mid, now[i].vel_mm_s, r.state.current_a, T);
       const double lim = r.observer->max_lead_mm();
-      const double cc = std::clamp(c1, pr.q_mm - lim, pr.q_mm + lim);
+      double cc = std::clamp(c1, pr.q_mm - lim, pr.q_mm + lim);
+      if (cc != c1 && std::abs(cc - next[i].pos_mm) > 4.0 * r.hold_lead_mm) {
+        // Held further from the plan than four times any lead belt and rotor hold: the
+        // observer has lost the rotor (a slip the guard did not see, a rotor the model cannot
+        // drive at this speed). The bound stops on this axis; open loop's command is kept.
+        r.observer_lost = true;
+        cc = c1;
+      }
       if (cc != c1) {
         if (!sequenced) r.limiter.take_back(cc - c1);
         r.limited = true;
