@@ -116,6 +116,7 @@ def main():
                                  "step_rate_limited_periods": x["step_rate_limited_periods"],
                                  "degraded_moves": x["degraded_moves"],
                                  "lead_capped_periods": x.get("lead_capped_periods", 0),
+                                 "rotor_capped_periods": x.get("rotor_capped_periods", 0),
                                  "motor": x["motor"]["name"],
                                  "wall_s": round(r["wall_s"], 2)})
                     if open_r is None or "error" in open_r:

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <deque>
 #include <limits>
 #include <vector>
@@ -436,7 +437,19 @@ LoopAnalysis analyse_loop(ControllerKind kind, const ControllerParameters& p,
   Eigen::EigenSolver<Eigen::MatrixXd> es(M, false);
   LoopAnalysis out;
   out.states = n;
-  for (int i = 0; i < n; ++i) out.spectral_radius = std::max(out.spectral_radius, std::abs(es.eigenvalues()(i)));
+  const double arg_min = 2.0 * std::numbers::pi * 5.0 * p.period_s;
+  if (!M.allFinite() || es.info() != Eigen::Success) {
+    // No eigenvalues to trust (a gain overflowing the loop matrix): not a stable loop.
+    out.spectral_radius = out.oscillatory_radius = std::numeric_limits<double>::infinity();
+    return out;
+  }
+  for (int i = 0; i < n; ++i) {
+    const std::complex<double> l = es.eigenvalues()(i);
+    // A NaN (an overflowing gain, 1e308) is no radius below 1.
+    const double m = std::isfinite(std::abs(l)) ? std::abs(l) : std::numeric_limits<double>::infinity();
+    out.spectral_radius = std::max(out.spectral_radius, m);
+    if (std::abs(std::arg(l)) > arg_min) out.oscillatory_radius = std::max(out.oscillatory_radius, std::abs(l));
+  }
   out.stable = std::isfinite(out.spectral_radius) && out.spectral_radius < 1.0;
   return out;
 }
@@ -475,6 +488,12 @@ ControllerParameters fit_default_gains(ControllerKind kind, const ControllerPara
     for (const StepperAxisModel& plant : plants) {
       for (double angle : {0.0, design_load_angle_rad}) {
         if (analyse_loop(kind, g2, plant, angle).spectral_radius >= 0.9995) return false;
+        // Never ringing longer than open loop: at the gains themselves the loop's oscillatory
+        // modes (the belt's, the rotor's) die away at least as fast as open loop's do.
+        if (analyse_loop(kind, g2, plant, angle).oscillatory_radius >
+            analyse_loop(ControllerKind::open, g, plant, angle).oscillatory_radius + 1e-12) {
+          return false;
+        }
       }
     }
     return true;

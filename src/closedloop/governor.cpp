@@ -26,6 +26,14 @@ void GovernorParameters::validate() const {
                             "the acceleration lead rings the belt more than open loop)",
                             belt_phase_limit));
   }
+  if (!(rotor_angle_limit_deg > 0.0 && rotor_angle_limit_deg <= 90.0)) {
+    throw Error(fmt::format("governor.rotor_angle_limit_deg = {}: expected a load angle in "
+                            "(0, 90] degrees",
+                            rotor_angle_limit_deg));
+  }
+  if (!(rotor_hold_s >= 0.0 && rotor_hold_s <= 10.0)) {
+    throw Error(fmt::format("governor.rotor_hold_s = {}: expected a time in [0, 10] s", rotor_hold_s));
+  }
 }
 
 CommandGovernor::CommandGovernor(const StepperAxisModel& model, const GovernorParameters& p,
@@ -208,6 +216,48 @@ CommandLimiter::Out CommandLimiter::next(double lead_mm, double feedback_mm,
   lead_ = d - u_;
   out.correction_mm = d;
   return out;
+}
+
+
+RotorObserver::RotorObserver(const StepperAxisModel& model, double max_angle_deg, double start_mm)
+    : m_(model) {
+  now_.q_mm = start_mm;
+  const double d = max_angle_deg * std::numbers::pi / 180.0;
+  lead_mm_ = std::max(0.0, 1e3 * m_.pulley_radius_m() / m_.motor().pole_pairs() * d -
+                               0.5 * m_.step_distance_mm());
+}
+
+RotorObserver::Prediction RotorObserver::predict(double c0_mm, double c1_mm, double y_mm,
+                                                 double yd_mm_s, double current_a, double T) const {
+  // SI inside: q, y [m], speeds [m/s]. Semi-implicit Euler at 4 substeps a period (the rotor's
+  // magnetic spring, ~2e3 rad/s, times T / 4 = 25 us is 0.05: far inside the stability limit).
+  constexpr int n = 4;
+  const double r = m_.pulley_radius_m(), p = m_.motor().pole_pairs();
+  const double j = m_.inertia_kg_m2(), b = m_.motor().rotor_damping_n_m_s_per_rad;
+  const AxisMechanics& ax = m_.axis();
+  const double k = ax.belt.stiffness_n_per_m, cb = ax.belt.damping_n_s_per_m;
+  const double hb = 0.5 * ax.backlash_mm * 1e-3;
+  double q = now_.q_mm * 1e-3, v = now_.qd_mm_s * 1e-3;
+  const double y = y_mm * 1e-3, yd = yd_mm_s * 1e-3;
+  // The torque available at the period's speed (the current falls with the back-EMF).
+  const double tpo = m_.pull_out_torque_at_n_m(std::abs(v) / r, current_a);
+  const double h = T / n;
+  for (int i = 0; i < n; ++i) {
+    const double c = 1e-3 * (c0_mm + (c1_mm - c0_mm) * (i + 0.5) / n);
+    const double s = q - y;
+    double f = 0.0;
+    if (hb == 0.0) {
+      f = k * s + cb * (v - yd);
+    } else if (s > hb) {
+      f = std::max(0.0, k * (s - hb) + cb * (v - yd));
+    } else if (s < -hb) {
+      f = std::min(0.0, k * (s + hb) + cb * (v - yd));
+    }
+    const double tau = tpo * std::sin(p * (c - q) / r) - r * f - b * v / r;
+    v += h * r * tau / j;
+    q += h * v;
+  }
+  return {q * 1e3, v * 1e3};
 }
 
 }  // namespace amctl::closedloop

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <numbers>
 #include <optional>
 #include <variant>
@@ -610,6 +611,78 @@ SimulationResult stepper_simulate(const machine::Machine& m, const SimulateReque
     if (*v) require_non_negative(flag, **v);
   }
   if (a.speed_change_mm_s) require_positive("--speed-change-mm-s", *a.speed_change_mm_s);
+  // A controller's own parameters given to a controller that has no use for them are refused
+  // (a value the run would silently ignore, 1e308 included), and the used ones must be
+  // physical: the loop analysis below checks the gains, these the rest.
+  {
+    const ControllerKind k = o.controller;
+    const bool pid_like = k == ControllerKind::pid || k == ControllerKind::feedforward;
+    const bool speed_law = k == ControllerKind::encoder_sequenced || k == ControllerKind::speed_tracking;
+    const bool ff = k == ControllerKind::feedforward;
+    const std::tuple<const char*, bool, bool, const char*> own[] = {
+        {"--kp", a.kp.has_value(), pid_like, "pid, feedforward"},
+        {"--ki", a.ki_per_s.has_value(), pid_like, "pid, feedforward"},
+        {"--kd", a.kd_s.has_value(), pid_like, "pid, feedforward"},
+        {"--alpha", a.alpha_per_s.has_value(), speed_law, "encoder-sequenced, speed-tracking"},
+        {"--speed-change-mm-s", a.speed_change_mm_s.has_value(), speed_law,
+         "encoder-sequenced, speed-tracking"},
+        {"--drag-gain", a.drag_gain_per_s.has_value(), ff, "feedforward"},
+        {"--load-angle-deg", a.load_angle_deg.has_value(), ff, "feedforward"},
+        {"--model-mass-scale", a.model_mass_scale.has_value(), ff, "feedforward"},
+        {"--model-stiffness-scale", a.model_stiffness_scale.has_value(), ff, "feedforward"}};
+    for (const auto& [flag, given_flag, used, users] : own) {
+      if (given_flag && !used) {
+        throw Error(fmt::format("{}: the {} controller does not use it (only {} do): expected "
+                                "it left out",
+                                flag, to_string(k), users));
+      }
+    }
+    // The learned drag moves k I T gain into D each period: above 1 / T it overshoots in one
+    // period.
+    const double period = a.encoder_rate_hz ? 1.0 / *a.encoder_rate_hz : o.gains.period_s;
+    if (a.drag_gain_per_s && *a.drag_gain_per_s > 1.0 / period) {
+      throw Error(fmt::format("--drag-gain: {} /s: the learned drag would overshoot within one "
+                              "control period of {} us: expected at most {} /s",
+                              *a.drag_gain_per_s, period * 1e6, 1.0 / period));
+    }
+    if (a.load_angle_deg && !(*a.load_angle_deg > 0.0 && *a.load_angle_deg < 90.0)) {
+      throw Error(fmt::format("--load-angle-deg: {} deg: the design load angle of the current "
+                              "scaling must be below pull-out: expected (0, 90)",
+                              *a.load_angle_deg));
+    }
+    for (const auto& [flag, v] : {std::pair{"--model-mass-scale", a.model_mass_scale},
+                                  std::pair{"--model-stiffness-scale", a.model_stiffness_scale}}) {
+      if (v && *v > 10.0) {
+        throw Error(fmt::format("{}: {}: expected a model error factor in (0, 10]", flag, *v));
+      }
+    }
+    // Gains far beyond any stable 10 kHz loop (the stability check below refuses what is
+    // unstable; these bounds keep its arithmetic finite: 1e308 overflows the loop matrix).
+    const std::tuple<const char*, const std::optional<double>*, double, const char*> gain_range[] = {
+        {"--kp", &a.kp, 1e3, ""}, {"--ki", &a.ki_per_s, 1e7, " /s"},
+        {"--kd", &a.kd_s, 10.0, " s"}, {"--alpha", &a.alpha_per_s, 1e4, " /s"}};
+    for (const auto& [flag, v, hi, unit] : gain_range) {
+      if (*v && **v > hi) {
+        throw Error(fmt::format("{}: {}{}: far beyond any stable loop at the control rate: "
+                                "expected at most {}{}",
+                                flag, **v, unit, hi, unit));
+      }
+    }
+    // Loads and backlash: what a printer's axis can meet, not 1e308.
+    const std::tuple<const char*, const std::optional<double>*, double, const char*> phys[] = {
+        {"--drag-n", &a.drag_force_n, 1e4, "N"},
+        {"--bump-n", &a.bump_force_n, 1e4, "N"},
+        {"--drag-n-s-per-m", &a.drag_n_s_per_m, 1e5, "N s/m"},
+        {"--end-load-n-per-mm", &a.end_load_n_per_mm, 1e4, "N/mm"},
+        {"--backlash-mm", &a.backlash_mm, 10.0, "mm"}};
+    for (const auto& [flag, v, hi, unit] : phys) {
+      if (*v && **v > hi) {
+        throw Error(fmt::format("{}: {} {}: not a load or play a printer's axis meets: expected "
+                                "at most {} {}",
+                                flag, **v, unit, hi, unit));
+      }
+    }
+  }
   if (a.run_current_a) require_positive("--run-current-a", *a.run_current_a);
   if (a.max_current_a) require_positive("--max-current-a", *a.max_current_a);
   if (a.model_mass_scale) require_positive("--model-mass-scale", *a.model_mass_scale);
@@ -839,6 +912,7 @@ Json axis_json(const AxisResult& a) {
   x["load_limited_periods"] = a.load_limited_periods;
   x["slips_inferred"] = a.slips_inferred;
   x["lead_capped_periods"] = a.lead_capped_periods;
+  x["rotor_capped_periods"] = a.rotor_capped_periods;
   if (a.fall_back_time_s >= 0.0) x["fall_back_time_s"] = json_number(a.fall_back_time_s);
   x["commands_reached"] = a.commands_reached;
   x["commands_left"] = a.commands_left;

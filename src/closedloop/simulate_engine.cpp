@@ -72,6 +72,9 @@ struct AxisRun {
   std::unique_ptr<Controller> controller;
   As5311Encoder encoder;
   std::optional<CommandGovernor> governor;
+  std::optional<RotorObserver> observer;  // the rotor's dynamic bound (governed runs)
+  bool observer_lost = false;             // the bound stopped (see tick)
+  double rotor_hold_until_s = -1.0, rotor_hold_s = 0.0;       // degraded until then: the bound held the command
   CommandLimiter limiter;
   MoveLimits limits;
   std::uint64_t move = static_cast<std::uint64_t>(-1);
@@ -154,6 +157,8 @@ ClosedLoopSimulator::ClosedLoopSimulator(std::vector<AxisSetup> axes,
                                  : axes[i].drive.current_amplitude_a;
       run.governor.emplace(run.model, options.governor, current);
       run.limits = run.governor->limits(0.0, 0.0);
+      run.rotor_hold_s = options.governor.rotor_hold_s;
+      run.observer.emplace(run.model, options.governor.rotor_angle_limit_deg, start_mm[i]);
     }
     run.coeffs = run.model.substep(options.substep_s);
     run.sequenced = run.controller->sequenced();
@@ -251,6 +256,14 @@ void enter_move_checked(AxisRun& r, const RefSample& ref) {
   }
 }
 
+// The machine could not follow (the rotor's dynamic bound held the command): degrade until
+// `hold_until_s`, the correction brought back to open loop's command within the budgets.
+void degrade_now(AxisRun& r) {
+  r.limits.feasible = false;
+  r.limits.accel_lead = false;
+  r.limits.max_feedback_mm = 0.0;
+}
+
 }  // namespace
 
 void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const RefSample> next) {
@@ -309,6 +322,7 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
     const double measured = (s.feedback || s.csv) ? r.encoder.read(r.x_hist[r.hist_at]) : r.x_hist[r.hist_at];
     const bool sequenced = r.sequenced;
     if (r.governor && !sequenced && now[i].move != r.move) enter_move_checked(r, now[i]);
+    if (r.governor && !sequenced && t < r.rotor_hold_until_s && r.limits.feasible) degrade_now(r);
     // The slip guard: a lead of the command over the encoder larger than the belt and the rotor
     // can hold (the belt stretched at the pull-out force, the rotor at 180 deg, the backlash,
     // the latency's motion) means the rotor has slipped a whole electrical cycle. The loss is
@@ -396,13 +410,47 @@ void ClosedLoopSimulator::tick(std::span<const RefSample> now, std::span<const R
       }
       v = (c - r.command_mm) / T;
     }
-    if (r.limited) ++r.res.governor_limited_periods;
     const double step = r.model.step_distance_mm();
     const double vmax = r.setup.drive.max_step_rate_hz * step;
     if (std::abs(v) > vmax) {
       v = std::copysign(vmax, v);
       ++r.res.step_rate_limited_periods;
     }
+    if (r.observer && r.res.slips_inferred == 0 && !r.observer_lost) {
+      // The rotor's dynamic bound: the command stays within (r / p) d_max - s / 2 of the rotor
+      // the observer predicts at the period's end (inertia, belt and feedback all in it).
+      const double y_mid = measured + now[i].vel_mm_s * (r.latency_s - 0.5 * T);
+      const double c0 = r.command_mm;
+      double c1 = c0 + v * T;
+      RotorObserver::Prediction pr =
+          r.observer->predict(c0, c1, y_mid, now[i].vel_mm_s, r.state.current_a, T);
+      const double lim = r.observer->max_lead_mm();
+      double cc = std::clamp(c1, pr.q_mm - lim, pr.q_mm + lim);
+      if (cc != c1 && std::abs(cc - next[i].pos_mm) > 4.0 * r.hold_lead_mm) {
+        // Held further from the plan than four times any lead belt and rotor hold: the
+        // observer has lost the rotor (a slip the guard did not see, a rotor the model cannot
+        // drive at this speed). The bound stops on this axis; open loop's command is kept.
+        r.observer_lost = true;
+        cc = c1;
+      }
+      if (cc != c1) {
+        if (!sequenced) r.limiter.take_back(cc - c1);
+        r.limited = true;
+        ++r.res.rotor_capped_periods;
+        if (!sequenced) {
+          r.rotor_hold_until_s = t + r.rotor_hold_s;
+          degrade_now(r);
+        }
+        c1 = cc;
+        pr = r.observer->predict(c0, c1, y_mid, now[i].vel_mm_s, r.state.current_a, T);
+        v = (c1 - c0) / T;
+      }
+      r.observer->commit(pr);
+    }
+    // After a slip the observer has lost the rotor (the plant slipped where the model did not,
+    // or differently): the bound would hold the command to a rotor that is not there, so it
+    // stops, and the fall-back (section 3.1) runs open loop's command.
+    if (r.limited) ++r.res.governor_limited_periods;
     r.res.peak_step_rate_hz = std::max(r.res.peak_step_rate_hz, std::abs(v) / step);
     r.period_v = v;
     r.measured_now = measured;

@@ -4,6 +4,7 @@
 // loop analysis with the rotor's spring softened at a load angle.
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
@@ -235,6 +236,63 @@ TEST(CommandGovernor, TheLeadCapHoldsTheRotorAtOrBelowTheDesignAngle) {
   EXPECT_NEAR(m.load_angle_rad(st), lo, 2e-3);
   EXPECT_LE(m.load_angle_rad(st), kPi / 3 + 2e-3);
   EXPECT_GT(m.load_angle_rad(st), kPi / 3 - 0.05);  // the cap is not needlessly tight
+}
+
+}  // namespace
+}  // namespace amctl::closedloop
+
+namespace amctl::closedloop {
+namespace {
+
+// The rotor observer (section 3.2) against closed forms: with the carriage held and the
+// command held, the rotor settles where the motor's torque balances the belt,
+//   Kt I sin(p (c - q) / r) = r k (q - y)          (at rest T_po = Kt I),
+// solved here by bisection; and about that balance the rotor rings on the motor's and the
+// belt's springs in parallel, w^2 = (p Kt I / r + r k) r / J.
+TEST(RotorObserver, SettlesAtTheStaticBalanceOfMotorAndBelt) {
+  const StepperAxisModel m(MotorParameters{}, DriveParameters{}, AxisMechanics{});
+  RotorObserver obs(m, 70.0, 0.0);
+  const double c = 0.1, y = 0.0, i_a = 1.7, T = 1e-4;  // 45 deg of command lead at q = 0
+  for (int k = 0; k < 20000; ++k) obs.commit(obs.predict(c, c, y, 0.0, i_a, T));
+  const double r = m.pulley_radius_m(), p = m.motor().pole_pairs();
+  const double kt = m.motor().torque_constant_n_m_per_a(), kb = m.axis().belt.stiffness_n_per_m;
+  double lo = 0.0, hi = c * 1e-3;  // q in metres between the carriage and the command
+  for (int k = 0; k < 200; ++k) {
+    const double q = 0.5 * (lo + hi);
+    const double f = kt * i_a * std::sin(p * (c * 1e-3 - q) / r) - r * kb * (q - y);
+    (f > 0.0 ? lo : hi) = q;
+  }
+  EXPECT_NEAR(obs.state().q_mm, 0.5 * (lo + hi) * 1e3, 1e-6);
+  EXPECT_NEAR(obs.state().qd_mm_s, 0.0, 1e-6);
+  // The largest lead over the rotor: (r / p) 70 deg less half a microstep.
+  EXPECT_NEAR(obs.max_lead_mm(), 1e3 * r / p * 70.0 * kPi / 180.0 - 0.5 * m.step_distance_mm(), 1e-12);
+}
+
+TEST(RotorObserver, RingsAtTheRotorsFrequencyOnMotorAndBeltSprings) {
+  // Small signal about the balance at c = y = 0: J q'' / r = -(p Kt I / r + r k) q, so
+  // w = sqrt((p Kt I / r + r k) r / J). A 1 um step of the command, carriage held; the
+  // observer's rotor crosses its new balance every half period.
+  const StepperAxisModel m(MotorParameters{}, DriveParameters{}, AxisMechanics{});
+  RotorObserver obs(m, 70.0, 0.0);
+  const double r = m.pulley_radius_m(), p = m.motor().pole_pairs(), j = m.inertia_kg_m2();
+  const double kt = m.motor().torque_constant_n_m_per_a(), kb = m.axis().belt.stiffness_n_per_m;
+  const double w = std::sqrt((p * kt * 1.7 / r + r * kb) * r / j);
+  const double c = 1e-3, q_eq = c * (p * kt * 1.7 / r) / (p * kt * 1.7 / r + r * kb);
+  const double T = 1e-5;  // fine periods for timing the crossings
+  double t = 0.0, prev = obs.state().q_mm - q_eq;
+  std::vector<double> crossings;
+  while (crossings.size() < 5 && t < 0.1) {
+    obs.commit(obs.predict(c, c, 0.0, 0.0, 1.7, T));
+    t += T;
+    const double e = obs.state().q_mm - q_eq;
+    if ((e > 0.0) != (prev > 0.0)) crossings.push_back(t - T * e / (e - prev));
+    prev = e;
+  }
+  ASSERT_EQ(crossings.size(), 5u);
+  const double period = 0.5 * (crossings[4] - crossings[0]);
+  // Damped by the rotor's b and the belt's damping (ratio ~0.1 here): the damped period is
+  // longer by 1 / sqrt(1 - zeta^2), under 1 %.
+  EXPECT_NEAR(period, 2.0 * kPi / w, 0.01 * 2.0 * kPi / w);
 }
 
 }  // namespace

@@ -160,6 +160,9 @@ class Controller {
 /// (dp = p - p*, p* constant within the command): the same loop as speed-tracking's.
 struct LoopAnalysis {
   double spectral_radius = 0.0;   ///< max |eigenvalue| of the discrete closed loop
+  /// max |eigenvalue| over its oscillatory modes (|arg| above 2 pi 5 Hz T): how slowly the
+  /// loop's slowest ringing (the belt's, the rotor's) dies away.
+  double oscillatory_radius = 0.0;
   bool stable = false;            ///< spectral_radius < 1
   int states = 0;
 };

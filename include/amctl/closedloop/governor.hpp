@@ -46,6 +46,13 @@ struct GovernorParameters {
   /// Largest x = w_b t_r / 2 at which the acceleration lead is used (0.8: residual ringing
   /// 0.75 of open loop's; 1.166 is where it would equal open loop's).
   double belt_phase_limit = 0.8;
+  /// The rotor's dynamic bound (RotorObserver): the largest load angle the observed rotor may
+  /// be commanded to, (0, 90]; above the design angle by what the observer's model may be off
+  /// (20 % in the belt's force is 10-12 deg near 60).
+  double rotor_angle_limit_deg = 70.0;
+  /// After the bound held the command, the axis runs open loop's command (degraded) this long:
+  /// two periods of a 40 Hz belt mode, so a swing the machine cannot follow is not restarted.
+  double rotor_hold_s = 0.05;
   void validate() const;
 };
 
@@ -136,6 +143,40 @@ class CommandLimiter {
 
  private:
   double lead_ = 0.0, smooth_ = 0.0, rate_ = 0.0, u_ = 0.0;
+};
+
+
+/// The rotor's dynamic bound (docs/closedloop.md, section 3.2). The lead cap above balances the
+/// rotor and the belt statically; at the belt mode (65-80 Hz swings of the command) the torque
+/// the rotor's own inertia takes, J th'', is as large as the belt's. This observer integrates the
+/// rotor from what the drive knows, the command c and the encoder's carriage y:
+///   J th'' = T_po(w, I) sin(p (c / r - th)) - r F - b w,   F = k dz(r th - y) + c_b (r w - y')
+/// (dz the backlash's deadband, the contact push-only), so its load angle counts the torque
+/// available at speed minus the torque that accelerates the rotor and the torque the belt
+/// takes, the feedback's share included (the command is the sum). Every period the command is
+/// kept within (r / p) d_lim - s / 2 of the rotor predicted at the period's end: the load angle
+/// stays below d_lim (the motor then gives at most T_po sin(d_lim)); where the belt asks more,
+/// the command is pulled back with the rotor instead of slipping.
+class RotorObserver {
+ public:
+  struct Prediction {
+    double q_mm = 0.0;      ///< the rotor's position as belt travel, r th [mm]
+    double qd_mm_s = 0.0;   ///< its speed [mm/s]
+  };
+  RotorObserver(const StepperAxisModel& model, double max_angle_deg, double start_mm);
+  /// The rotor at the end of a period of length T whose command ramps from c0 to c1, the
+  /// carriage at y (mid-period estimate) moving at yd, phase current amplitude I.
+  [[nodiscard]] Prediction predict(double c0_mm, double c1_mm, double y_mm, double yd_mm_s,
+                                   double current_a, double period_s) const;
+  void commit(const Prediction& p) { now_ = p; }
+  /// The largest lead of the command over the rotor: (r / p) d_lim - s / 2 [mm].
+  [[nodiscard]] double max_lead_mm() const { return lead_mm_; }
+  [[nodiscard]] const Prediction& state() const { return now_; }
+
+ private:
+  StepperAxisModel m_;
+  Prediction now_;
+  double lead_mm_ = 0.0;
 };
 
 }  // namespace amctl::closedloop

@@ -110,6 +110,8 @@ struct AxisResult {
   /// Periods in which the lead cap held the command back (its lead over the carriage at what
   /// the rotor and the belt hold at the design angle).
   std::uint64_t lead_capped_periods = 0;
+  /// Periods the rotor's dynamic bound (RotorObserver) held the command to the rotor.
+  std::uint64_t rotor_capped_periods = 0;
   /// When the axis fell back to open loop's command for the rest of the run (a slip on a move
   /// the governor found feasible); negative: never.
   double fall_back_time_s = -1.0;
