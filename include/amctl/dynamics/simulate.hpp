@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "amctl/dynamics/model.hpp"
+#include "amctl/dynamics/plant.hpp"
 #include "amctl/dynamics/propagator.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
@@ -100,14 +101,12 @@ class Simulator {
   [[nodiscard]] std::span<const double> modal_state() const { return modal_state_; }
   /// Axis (0 or 1) of each mode in modal_state() order.
   [[nodiscard]] std::vector<int> mode_axes() const;
-  struct Run;
 
  private:
   SimulationOptions opt_;
   double h_ = 0.0, settle_ = 0.0, t0_ = 0.0, motion_end_ = 0.0;
   bool started_ = false;
-  std::vector<Run> runs_;
-  std::vector<ModePropagator> sub_;
+  ModalPlant plant_;
   std::size_t k_ = 0;
   double v_left_[2] = {0.0, 0.0};
   bool have_left_ = false;
