@@ -100,10 +100,12 @@ void ModalPlant::modal_state(int terms, const InputTerms& u, std::span<double> o
 
 // ------------------------------------------------------------------------- PieceSimulator
 
-PieceSimulator::PieceSimulator(const AxisModel& m0, const AxisModel& m1, double rate_hz, double grid_t0)
+PieceSimulator::PieceSimulator(const AxisModel& m0, const AxisModel& m1, double rate_hz, double grid_t0,
+                               long long grid_index0)
     : plant_((require_above_nyquist(rate_hz, {&m0, &m1}), m0), m1, 1.0 / rate_hz),
       h_(1.0 / rate_hz),
-      grid_t0_(grid_t0) {
+      grid_t0_(grid_t0),
+      grid_index0_(grid_index0) {
   require_finite("grid_t0_s", grid_t0);
 }
 
@@ -149,7 +151,7 @@ void PieceSimulator::push(const CommandPiece& p, const Sink& sink) {
     terms_ = 0;
     for (auto& ua : u_) std::fill(std::begin(ua), std::end(ua), 0.0);
     for (;; ++k_) {
-      const double tk = grid_t0_ + static_cast<double>(k_) * h_;
+      const double tk = time(k_);
       if (tk >= p.t0_s - 1e-12 * std::max(1.0, std::abs(tk))) break;
       s.t_s = tk;
       s.cmd_mm = {p.c[0][0], p.c[1][0]};
@@ -162,7 +164,7 @@ void PieceSimulator::push(const CommandPiece& p, const Sink& sink) {
   const double t_end = p.t0_s + p.duration_s;
   PlantSample at;
   for (;; ++k_) {
-    const double tk = grid_t0_ + static_cast<double>(k_) * h_;
+    const double tk = time(k_);
     const double tol = 1e-12 * std::max(1.0, std::abs(tk));
     if (tk >= t_end - tol) break;
     if (tk > t_) {
@@ -207,7 +209,7 @@ void PieceSimulator::rest_until(std::size_t last_k, const Sink& sink) {
   for (auto& ua : u_) std::fill(std::begin(ua), std::end(ua), 0.0);
   PlantSample s;
   for (; k_ <= last_k; ++k_) {
-    const double tk = grid_t0_ + static_cast<double>(k_) * h_;
+    const double tk = time(k_);
     const double tol = 1e-12 * std::max(1.0, std::abs(tk));
     if (tk > t_) {
       const double dt = tk - t_;

@@ -215,6 +215,12 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   }
 }
 
+double settle_time_s(const SimulationOptions& opt, const AxisModel& m0, const AxisModel& m1) {
+  double settle = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
+  if (opt.extra_settle_s > 0.0) settle += opt.extra_settle_s;
+  return settle;
+}
+
 SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,
                          const AxisModel& m1, const SimulationOptions& opt,
                          const SampleSink& sink, const MoveEndSink& move_end) {

@@ -94,7 +94,7 @@ struct PlantSample {
 
 /// Drives a ModalPlant from command pieces (time order, each starting where the last ended;
 /// the plant at rest on the command before the first) and reports the exact response at
-/// t_k = grid_t0_s + k / sample_rate_hz. A sample on a piece boundary belongs to the piece
+/// t_k = grid_t0_s + (grid_index0 + k) / sample_rate_hz. A sample on a piece boundary belongs to the piece
 /// that starts there. Between pieces the command's position is taken as continuous: a
 /// position jump (a G92 absorbed upstream) moves the command, not the plant's state.
 class PieceSimulator {
@@ -103,7 +103,7 @@ class PieceSimulator {
   using Sink = std::function<void(const PlantSample&)>;
   /// Throws amctl::Error for a sample rate at or below the models' Nyquist limit.
   PieceSimulator(const AxisModel& model_0, const AxisModel& model_1, double sample_rate_hz,
-                 double grid_t0_s);
+                 double grid_t0_s, long long grid_index0 = 0);
   /// Reports the samples before the piece's end and advances the state to its end.
   void push(const CommandPiece& piece, const Sink& sink);
   /// After the last piece the command rests where it ended: reports every sample with
@@ -123,8 +123,12 @@ class PieceSimulator {
  private:
   /// Fills u_, terms_ and the command at tau on `c`.
   void load(const CommandPiece& p, double tau, PlantSample& s);
+  [[nodiscard]] double time(std::size_t k) const {
+    return grid_t0_ + static_cast<double>(grid_index0_ + static_cast<long long>(k)) * h_;
+  }
   ModalPlant plant_;
   double h_ = 0.0, grid_t0_ = 0.0;
+  long long grid_index0_ = 0;
   std::size_t k_ = 0;
   bool started_ = false;
   double t_ = 0.0;                   ///< the time the state is at

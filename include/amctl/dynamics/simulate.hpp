@@ -115,6 +115,12 @@ class Simulator {
   std::vector<double> modal_state_;
 };
 
+/// The settle time a simulation with these options runs after motion end [s]: settle_s, or
+/// when it is < 0, 5 time constants of the slowest-decaying mode clamped to [0.05, 1] s
+/// (0 for rigid models); plus extra_settle_s.
+[[nodiscard]] double settle_time_s(const SimulationOptions& options, const AxisModel& model_0,
+                                   const AxisModel& model_1);
+
 /// Simulates the moves (time-ordered) from the first move's start, the nozzle at rest on
 /// the commanded path, and passes every sample at t0 + k / sample_rate_hz to `sink`.
 /// Memory use is O(modes), independent of the number of moves or samples.
