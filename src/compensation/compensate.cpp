@@ -1,4 +1,5 @@
 #include "amctl/compensation/compensate.hpp"
+#include "amctl/dynamics/metrics.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -68,36 +69,6 @@ double slowest_decay_rate_per_s(const dynamics::AxisModel& m) {
     r = std::min(r, z <= 1.0 ? z * w : w * (z - std::sqrt(z * z - 1.0)));
   }
   return r;
-}
-
-std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves) {
-  std::vector<Segment> s;
-  s.reserve(moves.size());
-  for (const plan::PlannedMove& m : moves) {
-    Segment g;
-    g.x0 = m.start_mm[0];
-    g.y0 = m.start_mm[1];
-    g.x1 = m.start_mm[0] + m.axes_r[0] * m.distance_mm;
-    g.y1 = m.start_mm[1] + m.axes_r[1] * m.distance_mm;
-    s.push_back(g);
-  }
-  return s;
-}
-
-double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y) {
-  if (segs.empty()) return 0.0;
-  const std::size_t lo = around > 64 ? around - 64 : 0;
-  const std::size_t hi = std::min(segs.size(), around + 65);
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t i = lo; i < hi; ++i) {
-    const Segment& g = segs[i];
-    const double dx = g.x1 - g.x0, dy = g.y1 - g.y0;
-    const double l2 = dx * dx + dy * dy;
-    double u = l2 > 0.0 ? ((x - g.x0) * dx + (y - g.y0) * dy) / l2 : 0.0;
-    u = std::clamp(u, 0.0, 1.0);
-    best = std::min(best, std::hypot(x - (g.x0 + u * dx), y - (g.y0 + u * dy)));
-  }
-  return best;
 }
 
 }  // namespace detail
@@ -340,7 +311,9 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     }
   }
 
-  const std::vector<detail::Segment> segs = detail::xy_segments(moves);
+  // Contour error: dynamics::distance_to_path, the one definition simulate, compare and the
+  // report use (the nozzle's distance to the planned XY path near its move, searched along the
+  // path within 2 x tracking error + 0.05 mm).
   trajectory::Cursor cur(moves);
   double sum2 = 0.0;
   for (std::size_t k = 0; k < r.t_s.size(); ++k) {
@@ -349,8 +322,10 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     r.max_tracking_error_mm = std::max(r.max_tracking_error_mm, e);
     sum2 += e * e;
     const std::size_t mi = cur.locate(r.t_s[k]).move_index;
-    r.max_contour_error_mm =
-        std::max(r.max_contour_error_mm, detail::contour_distance_mm(segs, mi, r.x_sim_mm[k], r.y_sim_mm[k]));
+    if (std::isfinite(e)) {
+      r.max_contour_error_mm = std::max(
+          r.max_contour_error_mm, dynamics::distance_to_path(moves, mi, r.x_sim_mm[k], r.y_sim_mm[k], 2.0 * e + 0.05));
+    }
   }
   r.rms_tracking_error_mm = r.t_s.empty() ? 0.0 : std::sqrt(sum2 / static_cast<double>(r.t_s.size()));
 
@@ -359,11 +334,11 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   so.sample_rate_hz = options.sample_rate_hz;
   so.settle_s = std::max(0.0, r.t_s.empty() ? 0.0 : r.t_s.back() - t_end);
   dynamics::simulate(moves, options.plant_x, options.plant_y, so, [&](const dynamics::SimSample& s) {
-    r.uncompensated_max_tracking_error_mm = std::max(
-        r.uncompensated_max_tracking_error_mm, std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]));
-    r.uncompensated_max_contour_error_mm = std::max(
-        r.uncompensated_max_contour_error_mm,
-        detail::contour_distance_mm(segs, s.move_index, s.sim_mm[0], s.sim_mm[1]));
+    const double e = std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]);
+    r.uncompensated_max_tracking_error_mm = std::max(r.uncompensated_max_tracking_error_mm, e);
+    r.uncompensated_max_contour_error_mm =
+        std::max(r.uncompensated_max_contour_error_mm,
+                 dynamics::distance_to_path(moves, s.move_index, s.sim_mm[0], s.sim_mm[1], 2.0 * e + 0.05));
   });
   return r;
 }
