@@ -167,7 +167,7 @@ void PieceSimulator::push(const CommandPiece& p, const Sink& sink) {
     const double tk = time(k_);
     const double tol = 1e-12 * std::max(1.0, std::abs(tk));
     if (tk >= t_end - tol) break;
-    if (tk > t_) {
+    if (tk > t_ + tol) {
       load(p, t_ - p.t0_s, at);
       const double dt = tk - t_;
       if (std::abs(dt - h_) <= tol) {
@@ -176,20 +176,26 @@ void PieceSimulator::push(const CommandPiece& p, const Sink& sink) {
         plant_.advance(dt, terms_, u_);
       }
       updates_ += plant_.modes();
-      t_ = tk;
     }
+    t_ = std::max(t_, tk);  // within round-off of a sample: the state is taken as there
     s.t_s = tk;
     load(p, tk - p.t0_s, s);
     const auto d = plant_.deflection_mm();
     s.sim_mm = {s.cmd_mm[0] + d[0], s.cmd_mm[1] + d[1]};
     sink(s);
   }
-  if (t_end > t_) {
+  const double tol_end = 1e-12 * std::max(1.0, std::abs(t_end));
+  if (t_end > t_ + tol_end) {
     load(p, t_ - p.t0_s, at);
-    plant_.advance(t_end - t_, terms_, u_);
+    const double dt = t_end - t_;
+    if (std::abs(dt - h_) <= tol_end) {
+      plant_.step(terms_, u_);  // a piece one output step long, starting on a sample
+    } else {
+      plant_.advance(dt, terms_, u_);
+    }
     updates_ += plant_.modes();
-    t_ = t_end;
   }
+  t_ = std::max(t_, t_end);
   // The command at the piece's end (Horner) and its velocity.
   for (std::size_t a = 0; a < 2; ++a) {
     double x = 0.0, v = 0.0;
@@ -211,7 +217,7 @@ void PieceSimulator::rest_until(std::size_t last_k, const Sink& sink) {
   for (; k_ <= last_k; ++k_) {
     const double tk = time(k_);
     const double tol = 1e-12 * std::max(1.0, std::abs(tk));
-    if (tk > t_) {
+    if (tk > t_ + tol) {
       const double dt = tk - t_;
       if (std::abs(dt - h_) <= tol) {
         plant_.step(0, u_);
@@ -219,8 +225,8 @@ void PieceSimulator::rest_until(std::size_t last_k, const Sink& sink) {
         plant_.advance(dt, 0, u_);
       }
       updates_ += plant_.modes();
-      t_ = tk;
     }
+    t_ = std::max(t_, tk);
     s.t_s = tk;
     s.cmd_mm = end_pos_;
     const auto d = plant_.deflection_mm();
