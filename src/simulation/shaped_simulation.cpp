@@ -16,6 +16,8 @@ namespace amctl::simulation {
 namespace dy = amctl::dynamics;
 
 namespace {
+constexpr std::size_t kFeedPieces = 64;     // shaped pieces simulated at once
+constexpr std::size_t kEmitSamples = 2048;  // samples measured at once (plus the look-ahead)
 constexpr std::array<std::array<double, 3>, 2> kIdentityRows{{{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}}};
 
 shaping::AxisShapers axis_shapers(const std::optional<shaping::Shaper>& x, const std::optional<shaping::Shaper>& y) {
@@ -228,7 +230,13 @@ void ShapedStreamingSimulation::push(const plan::PlannedMove& m) {
   buf_.push_back(m);
   offsets_.push_back({shaped_.offset_mm()[0], shaped_.offset_mm()[1]});
   max_buffer_ = std::max(max_buffer_, buf_.size());
-  if (buf_.size() < 3 * window_) return;
+  if (buf_.size() < 3 * window_) {
+    // Simulate as the pieces come and measure every few thousand samples, so that the samples
+    // held do not grow with the time the window's moves take.
+    if (pieces_.size() >= kFeedPieces) feed(false);
+    if (pending_.size() >= kEmitSamples + lookahead_) emit(false);
+    return;
+  }
   feed(false);
   emit(false);
   // Keep the moves of the pending samples (and what the shaped command still looks back at),
