@@ -28,7 +28,7 @@ const std::vector<plan::PlannedMove>& shaped_bench_print() {
   return moves;
 }
 
-void run(benchmark::State& state, const std::vector<simulation::CommandTap>& taps) {
+void run(benchmark::State& state, const std::optional<shaping::Shaper>& shaper) {
   const auto& moves = shaped_bench_print();
   const dynamics::AxisModel m = dynamics::AxisModel::belt(40.0, 0.1);
   dynamics::SimulationOptions o;
@@ -36,7 +36,7 @@ void run(benchmark::State& state, const std::vector<simulation::CommandTap>& tap
   dynamics::MetricsOptions mo;
   mo.keep_per_move = false;
   for (auto _ : state) {
-    simulation::ShapedStreamingSimulation s(m, m, o, mo, taps);
+    simulation::ShapedStreamingSimulation s(m, m, o, mo, shaper, shaper);
     for (const auto& mv : moves) s.push(mv);
     const auto r = s.finish();
     benchmark::DoNotOptimize(r.max_contour_error_mm);
@@ -51,7 +51,7 @@ void run(benchmark::State& state, const std::vector<simulation::CommandTap>& tap
 
 void BM_ShapedSimulationTwoHourPrint(benchmark::State& state, const char* type) {
   const auto shaper = shaping::make_shaper(type, 40.0, 0.1);
-  run(state, simulation::command_taps(shaper, shaper, false));
+  run(state, shaper);
 }
 BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, zv, "zv")->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, mzv, "mzv")->Unit(benchmark::kMillisecond)->Iterations(1);
@@ -59,7 +59,7 @@ BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, ei, "ei")->Unit(benchmark::kM
 BENCHMARK_CAPTURE(BM_ShapedSimulationTwoHourPrint, 3hump_ei, "3hump_ei")->Unit(benchmark::kMillisecond)->Iterations(1);
 
 void BM_UnshapedSimulationTwoHourPrint(benchmark::State& state) {
-  run(state, simulation::command_taps(std::nullopt, std::nullopt, false));
+  run(state, std::nullopt);
 }
 BENCHMARK(BM_UnshapedSimulationTwoHourPrint)->Unit(benchmark::kMillisecond)->Iterations(1);
 

@@ -137,9 +137,9 @@ void do_shaped(const SimulateArgs& a, const machine::Machine& mach, const dy::Ax
     return fmt::format("{} {} {:g} Hz damping {:g} ({}{}; {:.1f} ms)", name, shaping::to_string(s->spec),
                        s->freq_hz, s->damping_ratio, set->source, whose, 1e3 * s->duration_s());
   };
-  std::cout << fmt::format("input shaper: {}; {} ({} simulators, measured against the planned path)\n",
-                           axis("X", r.shaper_x, r.settings.x), axis("Y", r.shaper_y, r.settings.y),
-                           r.simulators);
+  std::cout << fmt::format("input shaper: {}; {} (the shaped pieces through the plant engine, measured "
+                           "against the planned path)\n",
+                           axis("X", r.shaper_x, r.settings.x), axis("Y", r.shaper_y, r.settings.y));
   for (const auto& w : r.warnings) std::cout << "warning: " << w << "\n";
   std::cout << "with the shaper:\n";
   print_report(rep);

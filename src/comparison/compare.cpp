@@ -155,7 +155,7 @@ ComparisonRow span_simulation_row(std::span<const plan::PlannedMove> moves, cons
   dynamics::QualityReport rep;
   if (shaper) {
     simulation::ShapedStreamingSimulation sim(plant, plant, o.simulation, o.metrics,
-                                              simulation::command_taps(shaper, shaper, false));
+                                              shaper, shaper);
     for (const auto& m : moves) sim.push(m);
     rep = sim.finish();
     row.kind = "shaper";

@@ -1,5 +1,7 @@
 #include "amctl/compensation/command_table.hpp"
 #include "amctl/compensation/compensate.hpp"
+#include "amctl/dynamics/metrics.hpp"
+#include "amctl/dynamics/plant.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -71,36 +73,6 @@ double slowest_decay_rate_per_s(const dynamics::AxisModel& m) {
   return r;
 }
 
-std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves) {
-  std::vector<Segment> s;
-  s.reserve(moves.size());
-  for (const plan::PlannedMove& m : moves) {
-    Segment g;
-    g.x0 = m.start_mm[0];
-    g.y0 = m.start_mm[1];
-    g.x1 = m.start_mm[0] + m.axes_r[0] * m.distance_mm;
-    g.y1 = m.start_mm[1] + m.axes_r[1] * m.distance_mm;
-    s.push_back(g);
-  }
-  return s;
-}
-
-double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y) {
-  if (segs.empty()) return 0.0;
-  const std::size_t lo = around > 64 ? around - 64 : 0;
-  const std::size_t hi = std::min(segs.size(), around + 65);
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t i = lo; i < hi; ++i) {
-    const Segment& g = segs[i];
-    const double dx = g.x1 - g.x0, dy = g.y1 - g.y0;
-    const double l2 = dx * dx + dy * dy;
-    double u = l2 > 0.0 ? ((x - g.x0) * dx + (y - g.y0) * dy) / l2 : 0.0;
-    u = std::clamp(u, 0.0, 1.0);
-    best = std::min(best, std::hypot(x - (g.x0 + u * dx), y - (g.y0 + u * dy)));
-  }
-  return best;
-}
-
 }  // namespace detail
 
 void simulate_command(const std::vector<double>& t_s, const std::vector<double>& x_cmd_mm,
@@ -111,66 +83,73 @@ void simulate_command(const std::vector<double>& t_s, const std::vector<double>&
   x_sim_mm.assign(x_cmd_mm.begin(), x_cmd_mm.end());
   y_sim_mm.assign(y_cmd_mm.begin(), y_cmd_mm.end());
   if (n < 2) return;
-  const double h = 1.0 / sample_rate_hz;
-  // The command, linear between samples, as constant-velocity moves (a still interval is a
-  // gap: the simulator holds the command there). Velocity steps at the junctions are applied
-  // exactly by the simulator.
-  std::vector<plan::PlannedMove> moves;
-  moves.reserve(n);
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    const double dx = x_cmd_mm[k + 1] - x_cmd_mm[k], dy = y_cmd_mm[k + 1] - y_cmd_mm[k];
-    const double d = std::hypot(dx, dy);
-    if (!(d > 0.0)) continue;
-    plan::PlannedMove m;
-    m.start_time_s = t_s[k];
-    m.start_mm = {x_cmd_mm[k], y_cmd_mm[k], 0.0, 0.0};
-    m.axes_r = {dx / d, dy / d, 0.0, 0.0};
-    m.distance_mm = d;
-    m.start_v_mm_s = m.cruise_v_mm_s = m.end_v_mm_s = d / h;
-    m.accel_mm_s2 = 1.0;
-    m.cruise_t_s = h;
-    m.line = k + 1;
-    moves.push_back(m);
-  }
-  if (moves.empty()) return;
-  dynamics::SimulationOptions o;
-  o.sample_rate_hz = sample_rate_hz;
-  o.settle_s = std::max(0.0, t_s.back() - moves.back().end_time_s()) + h;
-  // Start one step before the first segment, at rest: the simulator then applies the first
-  // segment's velocity step (starting on it would start the nozzle moving with it).
-  o.grid_offset_s = -h;
-  dynamics::simulate(moves, plant_x, plant_y, o, [&](const dynamics::SimSample& s) {
+  // The command, linear between samples, as one command piece per sample step through the
+  // plant engine (dynamics/plant.hpp): the velocity steps at the samples are applied exactly;
+  // at rest on the first sample before it.
+  dynamics::PieceSimulator sim(plant_x, plant_y, sample_rate_hz, t_s.front());
+  const auto sink = [&](const dynamics::PlantSample& s) {
     const long k = std::lround((s.t_s - t_s.front()) * sample_rate_hz);
     if (k < 0 || static_cast<std::size_t>(k) >= n) return;
-    x_sim_mm[static_cast<std::size_t>(k)] = s.sim_mm[0];
-    y_sim_mm[static_cast<std::size_t>(k)] = s.sim_mm[1];
-  });
+    const auto i = static_cast<std::size_t>(k);
+    x_sim_mm[i] = x_cmd_mm[i] + (s.sim_mm[0] - s.cmd_mm[0]);
+    y_sim_mm[i] = y_cmd_mm[i] + (s.sim_mm[1] - s.cmd_mm[1]);
+  };
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    dynamics::CommandPiece p;
+    p.t0_s = t_s[k];
+    p.duration_s = t_s[k + 1] - t_s[k];
+    p.c[0][0] = x_cmd_mm[k];
+    p.c[1][0] = y_cmd_mm[k];
+    if (p.duration_s > 0.0) {
+      p.c[0][1] = (x_cmd_mm[k + 1] - x_cmd_mm[k]) / p.duration_s;
+      p.c[1][1] = (y_cmd_mm[k + 1] - y_cmd_mm[k]) / p.duration_s;
+    }
+    sim.push(p, sink);
+  }
+  sim.rest_until(n - 1, sink);
 }
 
 void simulate_command_foh(const std::vector<double>& x_cmd_mm, const std::vector<double>& y_cmd_mm,
                           const std::vector<double>& x_acc_mm_s2, const std::vector<double>& y_acc_mm_s2,
                           const dynamics::AxisModel& plant_x, const dynamics::AxisModel& plant_y,
                           double sample_rate_hz, std::vector<double>& x_sim_mm, std::vector<double>& y_sim_mm) {
+  x_sim_mm.assign(x_cmd_mm.begin(), x_cmd_mm.end());
+  y_sim_mm.assign(y_cmd_mm.begin(), y_cmd_mm.end());
+  const std::size_t n = std::min(x_cmd_mm.size(), y_cmd_mm.size());
+  if (n < 2) return;
+  // The command's acceleration linear between samples: on each step a cubic
+  //   x(tau) = x_k + v_k tau + a_k tau^2 / 2 + (a_{k+1} - a_k) tau^3 / (6 h),
+  // v continuous from rest (v_0 = 0, v_{k+1} the cubic's end velocity), through the plant
+  // engine. The deflection depends on x'' alone; the nozzle is the given command plus it.
+  const double h = 1.0 / sample_rate_hz;
+  dynamics::PieceSimulator sim(plant_x, plant_y, sample_rate_hz, 0.0);
   const std::vector<double>* cmd[2] = {&x_cmd_mm, &y_cmd_mm};
   const std::vector<double>* acc[2] = {&x_acc_mm_s2, &y_acc_mm_s2};
-  const dynamics::AxisModel* plant[2] = {&plant_x, &plant_y};
-  std::vector<double>* sim[2] = {&x_sim_mm, &y_sim_mm};
-  for (int a = 0; a < 2; ++a) {
-    sim[a]->assign(cmd[a]->begin(), cmd[a]->end());
-    if (plant[a]->is_rigid() || cmd[a]->empty()) continue;
-    const control::Discretization d = control::discretize_foh(
-        control::StateSpace::siso(plant[a]->A(), plant[a]->B(), plant[a]->C()), 1.0 / sample_rate_hz);
-    const Eigen::VectorXd g0 = d.Gamma0.col(0), g1 = d.Gamma1.col(0);
-    const Eigen::RowVectorXd C = d.C.row(0);
-    Eigen::VectorXd s = Eigen::VectorXd::Zero(d.Phi.rows());
-    for (std::size_t k = 0; k < cmd[a]->size(); ++k) {
-      (*sim[a])[k] += C.dot(s);
-      if (k + 1 < cmd[a]->size()) {
-        const double u0 = (*acc[a])[k], u1 = (*acc[a])[k + 1];
-        s = d.Phi * s + g0 * u0 + g1 * (u1 - u0);
-      }
+  std::vector<double>* out[2] = {&x_sim_mm, &y_sim_mm};
+  const auto sink = [&](const dynamics::PlantSample& s) {
+    const long k = std::lround(s.t_s * sample_rate_hz);
+    if (k < 0 || static_cast<std::size_t>(k) >= n) return;
+    for (std::size_t a = 0; a < 2; ++a) {
+      (*out[a])[static_cast<std::size_t>(k)] = (*cmd[a])[static_cast<std::size_t>(k)] + (s.sim_mm[a] - s.cmd_mm[a]);
     }
+  };
+  double v[2] = {0.0, 0.0};
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    dynamics::CommandPiece p;
+    p.t0_s = static_cast<double>(k) * h;
+    p.duration_s = h;
+    for (std::size_t a = 0; a < 2; ++a) {
+      const double a0 = (*acc[a])[k], a1 = (*acc[a])[k + 1];
+      p.c[a][0] = (*cmd[a])[k];
+      p.c[a][1] = v[a];
+      p.c[a][2] = 0.5 * a0;
+      p.c[a][3] = (a1 - a0) / (6.0 * h);
+      // The end velocity as the engine evaluates it (Horner), so no spurious jump.
+      v[a] = (3.0 * p.c[a][3] * h + 2.0 * p.c[a][2]) * h + p.c[a][1];
+    }
+    sim.push(p, sink);
   }
+  sim.rest_until(n - 1, sink);
 }
 
 namespace detail {
@@ -332,7 +311,9 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     }
   }
 
-  const std::vector<detail::Segment> segs = detail::xy_segments(moves);
+  // Contour error: dynamics::distance_to_path, the one definition simulate, compare and the
+  // report use (the nozzle's distance to the planned XY path near its move, searched along the
+  // path within 2 x tracking error + 0.05 mm).
   trajectory::Cursor cur(moves);
   double sum2 = 0.0;
   for (std::size_t k = 0; k < r.t_s.size(); ++k) {
@@ -341,8 +322,10 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
     r.max_tracking_error_mm = std::max(r.max_tracking_error_mm, e);
     sum2 += e * e;
     const std::size_t mi = cur.locate(r.t_s[k]).move_index;
-    r.max_contour_error_mm =
-        std::max(r.max_contour_error_mm, detail::contour_distance_mm(segs, mi, r.x_sim_mm[k], r.y_sim_mm[k]));
+    if (std::isfinite(e)) {
+      r.max_contour_error_mm = std::max(
+          r.max_contour_error_mm, dynamics::distance_to_path(moves, mi, r.x_sim_mm[k], r.y_sim_mm[k], 2.0 * e + 0.05));
+    }
   }
   r.rms_tracking_error_mm = r.t_s.empty() ? 0.0 : std::sqrt(sum2 / static_cast<double>(r.t_s.size()));
 
@@ -351,11 +334,11 @@ CompensationResult compensate(std::span<const plan::PlannedMove> all_moves,
   so.sample_rate_hz = options.sample_rate_hz;
   so.settle_s = std::max(0.0, r.t_s.empty() ? 0.0 : r.t_s.back() - t_end);
   dynamics::simulate(moves, options.plant_x, options.plant_y, so, [&](const dynamics::SimSample& s) {
-    r.uncompensated_max_tracking_error_mm = std::max(
-        r.uncompensated_max_tracking_error_mm, std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]));
-    r.uncompensated_max_contour_error_mm = std::max(
-        r.uncompensated_max_contour_error_mm,
-        detail::contour_distance_mm(segs, s.move_index, s.sim_mm[0], s.sim_mm[1]));
+    const double e = std::hypot(s.sim_mm[0] - s.cmd_mm[0], s.sim_mm[1] - s.cmd_mm[1]);
+    r.uncompensated_max_tracking_error_mm = std::max(r.uncompensated_max_tracking_error_mm, e);
+    r.uncompensated_max_contour_error_mm =
+        std::max(r.uncompensated_max_contour_error_mm,
+                 dynamics::distance_to_path(moves, s.move_index, s.sim_mm[0], s.sim_mm[1], 2.0 * e + 0.05));
   });
   return r;
 }

@@ -25,9 +25,6 @@ struct Grid {
 struct Segment {
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
 };
-std::vector<Segment> xy_segments(std::span<const plan::PlannedMove> moves);
-/// Distance from (x, y) to the moves' XY polyline, searched 64 moves either side of `around`.
-double contour_distance_mm(const std::vector<Segment>& segs, std::size_t around, double x, double y);
 /// Throws amctl::Error for bad options (naming them).
 void validate_options(const CompensationOptions& o);
 /// CompensationOptions::judge_machine_accel: the machine's acceleration limit into `r` and,

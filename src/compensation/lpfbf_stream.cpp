@@ -16,6 +16,7 @@
 
 #include "amctl/compensation/command_table.hpp"
 #include "amctl/compensation/compensate.hpp"
+#include "amctl/dynamics/metrics.hpp"
 #include "amctl/control/discretize.hpp"
 #include "amctl/core/error.hpp"
 #include "amctl/plan/stream.hpp"
@@ -173,22 +174,26 @@ class LpfbfStream final : public plan::Sink {
       if (!std::isfinite(e) || !std::isfinite(cmd_[0]) || !std::isfinite(cmdy_[0])) non_finite_ = true;
       r_.max_tracking_error_mm = std::max(r_.max_tracking_error_mm, e);
       sum2_ += e * e;
-      // Contour: the held moves within 64 of the move at t. The desired point lies on the
-      // current move, so the distance to the path is at most the tracking error: a sample
-      // whose tracking error does not exceed the running maximum cannot raise it (exact).
+      // Contour: dynamics::distance_to_segments on the held moves (the definition simulate,
+      // compare and the report use: searched along the path within 2 e + 0.05 mm of the move
+      // at t). The desired point lies on the current move, so the distance is at most the
+      // tracking error: a sample whose tracking error does not exceed the running maximum
+      // cannot raise it (exact).
       while (cur_ + 1 < moves_.size() && moves_[cur_ + 1].start_s <= t) ++cur_;
       const double eu = std::sqrt((xu - xd) * (xu - xd) + (yu - yd) * (yu - yd));
       r_.uncompensated_max_tracking_error_mm = std::max(r_.uncompensated_max_tracking_error_mm, eu);
-      const bool need_c = e > r_.max_contour_error_mm, need_u = eu > r_.uncompensated_max_contour_error_mm;
-      if (need_c || need_u) {
-        const std::size_t lo = cur_ > 64 ? cur_ - 64 : 0, hi = std::min(moves_.size(), cur_ + 65);
-        double dc = std::numeric_limits<double>::infinity(), du = dc;
-        for (std::size_t i = lo; i < hi; ++i) {
-          if (need_c) dc = std::min(dc, distance2(moves_[i].seg, xs, ys));
-          if (need_u) du = std::min(du, distance2(moves_[i].seg, xu, yu));
-        }
-        if (need_c) r_.max_contour_error_mm = std::max(r_.max_contour_error_mm, std::sqrt(dc));
-        if (need_u) r_.uncompensated_max_contour_error_mm = std::max(r_.uncompensated_max_contour_error_mm, std::sqrt(du));
+      const auto segment = [this](std::size_t i) {
+        const detail::Segment& g = moves_[i].seg;
+        return dynamics::PathSegment{g.x0, g.y0, g.x1, g.y1};
+      };
+      if (e > r_.max_contour_error_mm) {
+        r_.max_contour_error_mm = std::max(
+            r_.max_contour_error_mm, dynamics::distance_to_segments(segment, moves_.size(), cur_, xs, ys, 2.0 * e + 0.05));
+      }
+      if (eu > r_.uncompensated_max_contour_error_mm) {
+        r_.uncompensated_max_contour_error_mm =
+            std::max(r_.uncompensated_max_contour_error_mm,
+                     dynamics::distance_to_segments(segment, moves_.size(), cur_, xu, yu, 2.0 * eu + 0.05));
       }
       f_.add(CommandSample{t, cmd_[0], cmdy_[0], xd, yd, xs, ys});
       ++written_;
@@ -201,15 +206,6 @@ class LpfbfStream final : public plan::Sink {
       moves_.pop_front();
       --cur_;
     }
-  }
-
-  /// Squared distance from (x, y) to the segment.
-  static double distance2(const detail::Segment& g, double x, double y) {
-    const double dx = g.x1 - g.x0, dy = g.y1 - g.y0;
-    const double l2 = dx * dx + dy * dy;
-    const double u = std::clamp(l2 > 0.0 ? ((x - g.x0) * dx + (y - g.y0) * dy) / l2 : 0.0, 0.0, 1.0);
-    const double ex = x - (g.x0 + u * dx), ey = y - (g.y0 + u * dy);
-    return ex * ex + ey * ey;
   }
 
   struct Pending {

@@ -20,15 +20,6 @@ Seg xy_segment(const plan::PlannedMove& m) {
   return {ax, ay, bx, by, std::sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay))};
 }
 
-double point_segment_distance2(const Seg& s, double x, double y) {
-  const double dx = s.bx - s.ax, dy = s.by - s.ay;
-  const double l2 = dx * dx + dy * dy;
-  double u = 0.0;
-  if (l2 > 0.0) u = std::clamp(((x - s.ax) * dx + (y - s.ay) * dy) / l2, 0.0, 1.0);
-  const double ex = x - (s.ax + u * dx), ey = y - (s.ay + u * dy);
-  return ex * ex + ey * ey;  // squared
-}
-
 void accumulate(GroupMetrics& g, const MoveMetrics& m) {
   g.max_contour_error_mm = std::max(g.max_contour_error_mm, m.max_contour_error_mm);
   // rms_contour_error_mm holds the running sum of squares until finalise().
@@ -44,26 +35,13 @@ void finalise(GroupMetrics& g) {
 
 double distance_to_path(std::span<const plan::PlannedMove> moves, std::size_t center, double x,
                         double y, double radius) {
-  if (moves.empty()) return 0.0;
-  center = std::min(center, moves.size() - 1);
-  Seg s = xy_segment(moves[center]);
-  double best = point_segment_distance2(s, x, y);
-  constexpr std::size_t kMaxMoves = 64;
-  double along = 0.0;
-  for (std::size_t k = 1; k <= kMaxMoves && k <= center; ++k) {
-    const Seg sk = xy_segment(moves[center - k]);
-    best = std::min(best, point_segment_distance2(sk, x, y));
-    along += sk.len;
-    if (along > radius) break;
-  }
-  along = 0.0;
-  for (std::size_t k = 1; k <= kMaxMoves && center + k < moves.size(); ++k) {
-    const Seg sk = xy_segment(moves[center + k]);
-    best = std::min(best, point_segment_distance2(sk, x, y));
-    along += sk.len;
-    if (along > radius) break;
-  }
-  return std::sqrt(best);
+  return distance_to_segments(
+      [moves](std::size_t i) {
+        const plan::PlannedMove& m = moves[i];
+        const double ax = m.start_mm[0], ay = m.start_mm[1];
+        return PathSegment{ax, ay, ax + m.axes_r[0] * m.distance_mm, ay + m.axes_r[1] * m.distance_mm};
+      },
+      moves.size(), center, x, y, radius);
 }
 
 QualityMeter::QualityMeter(MetricsOptions options) : opt_(options) { ring_.reserve(1024); }

@@ -13,16 +13,7 @@
 
 namespace amctl::dynamics {
 
-struct Simulator::Run {
-  int axis = 0;
-  Mode mode;
-  ModePropagator step;  // for the full output step h
-  double e = 0.0;       // modal deflection [mm]
-  double q = 0.0;       // deflection rate / w [mm]
-};
-
 namespace {
-using Run = Simulator::Run;
 
 double auto_settle_s(const AxisModel& a, const AxisModel& b) {
   double slowest = std::numeric_limits<double>::infinity();
@@ -39,40 +30,10 @@ double auto_settle_s(const AxisModel& a, const AxisModel& b) {
   return std::clamp(5.0 / slowest, 0.05, 1.0);
 }
 
-// Advances every run over tau with the input derivatives u[axis][j].
-inline void advance_runs(std::vector<Run>& runs, const ModePropagator* props, int terms,
-                    const double (&u)[2][kMaxInputTerms]) {
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    Run& run = runs[r];
-    const ModePropagator& p = props ? props[r] : run.step;
-    double e = p.phi[0][0] * run.e + p.phi[0][1] * run.q;
-    double q = p.phi[1][0] * run.e + p.phi[1][1] * run.q;
-    const double* ua = u[run.axis];
-    for (int j = 0; j < terms; ++j) {
-      e += p.psi[0][j] * ua[j];
-      q += p.psi[1][j] * ua[j];
-    }
-    run.e = e;
-    run.q = q;
-  }
-}
-
-// A jump dv of the commanded axis velocity (a corner taken at non-zero junction speed)
-// is an impulse of commanded acceleration: the carriage velocity x' stays continuous, so the
-// error rate e' = x' - x_b' jumps by -g dv, i.e. q = e'/w by -g dv / w.
-inline void apply_velocity_jump(std::vector<Run>& runs, double dv0, double dv1) {
-  if (dv0 == 0.0 && dv1 == 0.0) return;
-  for (Run& r : runs) {
-    const double w = 2.0 * std::numbers::pi * r.mode.natural_frequency_hz;
-    r.q -= r.mode.participation * (r.axis == 0 ? dv0 : dv1) / w;
-  }
-}
-
 }  // namespace
 
 Simulator::Simulator(const AxisModel& m0, const AxisModel& m1, const SimulationOptions& opt)
-    : opt_(opt) {
-  require_above_nyquist(opt.sample_rate_hz, {&m0, &m1});
+    : opt_(opt), plant_((require_above_nyquist(opt.sample_rate_hz, {&m0, &m1}), m0), m1, 1.0 / opt.sample_rate_hz) {
   h_ = 1.0 / opt.sample_rate_hz;
   settle_ = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
   require_finite("settle_s", settle_);
@@ -81,26 +42,12 @@ Simulator::Simulator(const AxisModel& m0, const AxisModel& m1, const SimulationO
   if (opt.grid_offset_s > 0.0) throw Error("grid_offset_s must be <= 0");
   if (opt.extra_settle_s < 0.0) throw Error("extra_settle_s must be >= 0");
   if (opt.extra_settle_s > 0.0) settle_ += opt.extra_settle_s;
-  for (int axis = 0; axis < 2; ++axis) {
-    for (const Mode& mode : (axis == 0 ? m0 : m1).modes()) {
-      Run r;
-      r.axis = axis;
-      r.mode = mode;
-      r.step = mode_propagator(mode, h_, kMaxInputTerms);
-      runs_.push_back(r);
-    }
-  }
-  sub_.resize(runs_.size());
-  if (opt.modal_state_per_sample) modal_state_.assign(2 * runs_.size(), 0.0);
+  if (opt.modal_state_per_sample) modal_state_.assign(2 * plant_.modes(), 0.0);
 }
 
 Simulator::~Simulator() = default;
 
-std::vector<int> Simulator::mode_axes() const {
-  std::vector<int> a;
-  for (const Run& r : runs_) a.push_back(r.axis);
-  return a;
-}
+std::vector<int> Simulator::mode_axes() const { return plant_.mode_axes(); }
 
 void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t base,
                         double t_stop, bool final, const SampleSink& sink,
@@ -108,8 +55,7 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   if (moves.empty()) return;
   const SimulationOptions& opt = opt_;
   const double h = h_;
-  std::vector<Run>& runs = runs_;
-  std::vector<ModePropagator>& sub = sub_;
+  ModalPlant& plant = plant_;
   SimulationStats& stats = stats_;
   if (!started_) {
     started_ = true;
@@ -174,21 +120,7 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
   double (&v_left)[2] = v_left_;
   bool& have_left = have_left_;
   // Free-vibration amplitude per axis for the current state and input u (terms used).
-  // Only the acceleration term of the particular solution is used: the higher terms are
-  // exact for long pieces but blow up for the very short, very steep ramps planners emit
-  // (a Bezier ramp of 1e-4 mm/s has d^4a/dt^4 ~ 1e30), where "free vibration" means nothing.
-  auto vibration = [&](int terms) {
-    double vib2[2] = {0.0, 0.0};
-    for (const Run& r : runs) {
-      double pe = 0.0, pq = 0.0;
-      if (terms > 0) {
-        pe = r.step.pi[0][0] * u[r.axis][0];
-        pq = r.step.pi[1][0] * u[r.axis][0];
-      }
-      vib2[r.axis] += (r.e - pe) * (r.e - pe) + (r.q - pq) * (r.q - pq);
-    }
-    return std::array<double, 2>{std::sqrt(vib2[0]), std::sqrt(vib2[1])};
-  };
+  auto vibration = [&](int terms) { return plant.vibration_mm(terms, u); };
   // Reports every move that has ended by the location `l` at time t.
   std::size_t& next_end = next_end_;
   auto report_ends = [&](const trajectory::Cursor::Location& l, double t, int terms) {
@@ -209,7 +141,7 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
     if (have_left) {  // the last step ended exactly on a piece boundary
       double vr[2];
       axis_velocity(loc, t, vr);
-      apply_velocity_jump(runs, vr[0] - v_left[0], vr[1] - v_left[1]);
+      plant.velocity_jump(vr[0] - v_left[0], vr[1] - v_left[1]);
       have_left = false;
       report_ends(loc, t, terms);
     }
@@ -222,21 +154,13 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
     s.holding = loc.holding;
     for (int i = 0; i < 3; ++i) s.cmd_mm[static_cast<std::size_t>(i)] = mv.start_mm[static_cast<std::size_t>(i)] + mv.axes_r[static_cast<std::size_t>(i)] * d[0];
     s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};
-    double err[2] = {0.0, 0.0};
-    for (const Run& r : runs) err[r.axis] += r.e;
+    const std::array<double, 2> err = plant.deflection_mm();
     const double c0 = motor(row0, s.cmd_mm);
     const double c1 = motor(row1, s.cmd_mm);
     const auto xy = tool_xy(c0 + err[0], c1 + err[1], s.cmd_mm[2]);
     s.sim_mm = {xy[0], xy[1]};
     if (opt.vibration_per_sample) s.vibration_mm = vibration(terms);
-    if (opt.modal_state_per_sample) {
-      for (std::size_t r = 0; r < runs.size(); ++r) {
-        const Run& rr = runs[r];
-        const double a = terms > 0 ? u[rr.axis][0] : 0.0;
-        modal_state_[2 * r] = rr.e - rr.step.pi[0][0] * a;
-        modal_state_[2 * r + 1] = rr.q - rr.step.pi[1][0] * a;
-      }
-    }
+    if (opt.modal_state_per_sample) plant.modal_state(terms, u, modal_state_);
     sink(s);
     ++stats.samples;
     if (final && k >= n_steps) {
@@ -249,10 +173,10 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
     // ---- advance to t + h
     const double t_next = t0 + static_cast<double>(k + 1) * h;
     const double tol = 1e-12 * std::max(1.0, std::abs(t_next));
-    if (runs.empty()) continue;
+    if (plant.empty()) continue;
     if (loc.piece_end_s >= t_next - tol) {
-      advance_runs(runs, nullptr, terms, u);
-      stats.axis_state_updates += runs.size();
+      plant.step(terms, u);
+      stats.axis_state_updates += plant.modes();
       if (loc.piece_end_s <= t_next + tol) {
         axis_velocity(loc, t_next, v_left);
         have_left = true;
@@ -271,16 +195,8 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
       }
       const double dt = end - tc;
       if (dt > 0.0) {
-        const int nt = std::max(1, tm);
-        for (std::size_t r = 0; r < runs.size(); ++r) {
-          const Mode& md = runs[r].mode;
-          const bool same = r > 0 && md.natural_frequency_hz == runs[r - 1].mode.natural_frequency_hz &&
-                            md.damping_ratio == runs[r - 1].mode.damping_ratio &&
-                            md.participation == runs[r - 1].mode.participation;
-          sub[r] = same ? sub[r - 1] : mode_propagator(md, dt, nt);
-        }
-        advance_runs(runs, sub.data(), tm, u);
-        stats.axis_state_updates += runs.size();
+        plant.advance(dt, tm, u);
+        stats.axis_state_updates += plant.modes();
       }
       tc = end;
       if (tc >= t_next - tol) break;
@@ -293,10 +209,16 @@ void Simulator::advance(std::span<const plan::PlannedMove> moves, std::size_t ba
       lp = &nl;
       double vr[2];
       axis_velocity(nl, tc, vr);
-      apply_velocity_jump(runs, vr[0] - vl[0], vr[1] - vl[1]);
+      plant.velocity_jump(vr[0] - vl[0], vr[1] - vl[1]);
       report_ends(nl, tc, tm);
     }
   }
+}
+
+double settle_time_s(const SimulationOptions& opt, const AxisModel& m0, const AxisModel& m1) {
+  double settle = opt.settle_s >= 0.0 ? opt.settle_s : auto_settle_s(m0, m1);
+  if (opt.extra_settle_s > 0.0) settle += opt.extra_settle_s;
+  return settle;
 }
 
 SimulationStats simulate(std::span<const plan::PlannedMove> moves, const AxisModel& m0,

@@ -245,7 +245,7 @@ Json report_data(const std::string& path, const machine::Machine& machine,
       if (shapers.y) shaper_y = simulation::make_axis_shaper(*shapers.y, options.sample_rate_hz, shapers.names_y);
       shaper_warnings = shapers.warnings;
       shaped_stream = std::make_unique<simulation::ShapedStreamingSimulation>(
-          *model, *model, sim_o, met_o, simulation::command_taps(shaper_x, shaper_y, false), rows);
+          *model, *model, sim_o, met_o, shaper_x, shaper_y, rows);
       shaped = std::make_unique<simulation::ShapedSimulationSink>(*shaped_stream, shaper_warnings, false);
       sinks.push_back(shaped.get());
     } else {

@@ -208,7 +208,6 @@ ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input, const mac
   r.settings = shapers;
   if (shapers.x) r.shaper_x = make_axis_shaper(*shapers.x, rate, shapers.names_x);
   if (shapers.y) r.shaper_y = make_axis_shaper(*shapers.y, rate, shapers.names_y);
-  const std::vector<CommandTap> taps = command_taps(r.shaper_x, r.shaper_y, options.simulation.motor_space);
 
   std::unique_ptr<dy::SampleCsvFile> csv;
   if (!options.csv_path.empty()) {
@@ -228,7 +227,7 @@ ShapedPrintResult simulate_shaped_print(const plan::GcodeInput& input, const mac
   dy::SimulationOptions plain_opt = options.simulation;
   plain_opt.vibration_per_sample = false;
   dy::SimulationSink plain(model_x, model_y, plain_opt, options.metrics);
-  ShapedStreamingSimulation stream(model_x, model_y, options.simulation, options.metrics, taps,
+  ShapedStreamingSimulation stream(model_x, model_y, options.simulation, options.metrics, r.shaper_x, r.shaper_y,
                                    std::move(rows));
   if (csv) csv->set_first_step(stream.grid_start_steps());
   r.warnings = shapers.warnings;

@@ -15,136 +15,56 @@ namespace amctl::simulation {
 
 namespace dy = amctl::dynamics;
 
-std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
-                                     const std::optional<shaping::Shaper>& y, bool motor_space) {
-  if (motor_space) {
-    const bool same = x.has_value() == y.has_value() &&
-                      (!x || (x->amplitudes == y->amplitudes && x->times_s == y->times_s));
-    if (!same) return split_command_taps(x, y);
-  }
-  std::vector<CommandTap> taps;
-  auto tap_at = [&](double d) -> CommandTap& {
-    for (CommandTap& t : taps) {
-      if (t.delay_s == d) return t;
-    }
-    taps.push_back(CommandTap{d, {0.0, 0.0}});
-    return taps.back();
-  };
-  const std::optional<shaping::Shaper>* axes[2] = {&x, &y};
-  for (std::size_t a = 0; a < 2; ++a) {
-    if (!axes[a]->has_value()) {
-      tap_at(0.0).weight[a] += 1.0;
-      continue;
-    }
-    const shaping::AppliedPulses p = shaping::applied_pulses(**axes[a]);
-    for (std::size_t i = 0; i < p.weights.size(); ++i) tap_at(p.delays_s[i]).weight[a] += p.weights[i];
-  }
-  std::sort(taps.begin(), taps.end(),
-            [](const CommandTap& a, const CommandTap& b) { return a.delay_s < b.delay_s; });
-  return taps;
-}
-
-std::vector<CommandTap> split_command_taps(const std::optional<shaping::Shaper>& x,
-                                           const std::optional<shaping::Shaper>& y) {
-  std::vector<CommandTap> taps;
-  const std::optional<shaping::Shaper>* axes[2] = {&x, &y};
-  for (int a = 0; a < 2; ++a) {
-    std::vector<CommandTap> part;
-    auto add = [&](double d, double w) {
-      for (CommandTap& t : part) {
-        if (t.delay_s == d) {
-          t.weight[0] += w;
-          t.weight[1] += w;
-          return;
-        }
-      }
-      part.push_back(CommandTap{d, {w, w}, a});
-    };
-    if (!axes[a]->has_value()) {
-      add(0.0, 1.0);
-    } else {
-      const shaping::AppliedPulses p = shaping::applied_pulses(**axes[a]);
-      for (std::size_t i = 0; i < p.weights.size(); ++i) add(p.delays_s[i], p.weights[i]);
-    }
-    std::sort(part.begin(), part.end(),
-              [](const CommandTap& l, const CommandTap& r) { return l.delay_s < r.delay_s; });
-    taps.insert(taps.end(), part.begin(), part.end());
-  }
-  return taps;
-}
-
 namespace {
-/// The move with only its cartesian `axis` part: the other axis' start and direction set to 0
-/// (Z and E kept: the simulated axes are X and Y, or the motors made of them).
-plan::PlannedMove plan_part(plan::PlannedMove m, int axis) {
-  const std::size_t other = axis == 0 ? 1 : 0;
-  m.start_mm[other] = 0.0;
-  m.axes_r[other] = 0.0;
-  return m;
+constexpr std::size_t kFeedPieces = 64;     // shaped pieces simulated at once
+constexpr std::size_t kEmitSamples = 2048;  // samples measured at once (plus the look-ahead)
+constexpr std::array<std::array<double, 3>, 2> kIdentityRows{{{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}}};
+
+shaping::AxisShapers axis_shapers(const std::optional<shaping::Shaper>& x, const std::optional<shaping::Shaper>& y) {
+  shaping::AxisShapers a;
+  a.xyz[0] = x;
+  a.xyz[1] = y;
+  return a;
+}
+
+// Axis a of the shaped piece at tau (Horner).
+double piece_value(const shaping::AxisPiece& p, std::size_t a, double tau) {
+  double x = 0.0;
+  for (int k = shaping::kAxisPieceCoeffs - 1; k >= 0; --k) x = x * tau + p.c[a][static_cast<std::size_t>(k)];
+  return x;
 }
 }  // namespace
 
-// ------------------------------------------------------------------------------ streaming
-struct ShapedStreamingSimulation::Tap {
-  Tap(const CommandTap& t, const dy::AxisModel& m0, const dy::AxisModel& m1,
-      const dy::SimulationOptions& o)
-      : tap(t), sim(m0, m1, o) {}
-  CommandTap tap;
-  dy::Simulator sim;
-  std::size_t next_k = 0;  // combined index of this simulator's next sample
-};
-
-struct ShapedStreamingSimulation::Pending {
-  std::array<double, 2> sim_mm{};    // shaped nozzle
-  std::array<double, 2> cmd_mm{};    // shaped command
-  std::array<double, 2> vib_mm{};    // free vibration of the shaped nozzle per axis
-  std::size_t count = 0;             // simulators that contributed
-};
-
-namespace {
-constexpr double kChunkS = 0.25;  // lockstep chunk: bounds the samples held per simulator
-}
-
 ShapedStreamingSimulation::ShapedStreamingSimulation(const dy::AxisModel& m0, const dy::AxisModel& m1,
-                                                     const dy::SimulationOptions& so,
-                                                     dy::MetricsOptions mo, std::vector<CommandTap> taps,
+                                                     const dy::SimulationOptions& so, dy::MetricsOptions mo,
+                                                     const std::optional<shaping::Shaper>& shaper_x,
+                                                     const std::optional<shaping::Shaper>& shaper_y,
                                                      RowSink rows, std::size_t window_moves)
-    : metrics_opt_(mo), meter_(mo), rows_(std::move(rows)),
-      window_(std::max<std::size_t>(window_moves, 80)) {
-  AMCTL_CHECK(!taps.empty(), "a shaped simulation needs at least one tap");
+    : metrics_opt_(mo), sim_opt_(so), model_0_(m0), model_1_(m1), shaped_(axis_shapers(shaper_x, shaper_y)),
+      meter_(mo), rows_(std::move(rows)), window_(std::max<std::size_t>(window_moves, 80)) {
   dy::require_above_nyquist(so.sample_rate_hz, {&m0, &m1});
   h_ = 1.0 / so.sample_rate_hz;
-  min_delay_s_ = std::numeric_limits<double>::infinity();
-  max_delay_s_ = -std::numeric_limits<double>::infinity();
-  for (const CommandTap& t : taps) {
-    min_delay_s_ = std::min(min_delay_s_, t.delay_s);
-    max_delay_s_ = std::max(max_delay_s_, t.delay_s);
-  }
-  // The combined grid starts at a whole number of steps at or before the earliest moment the
-  // shaped command moves (t0 + min_delay), so every simulator starts at or before t0 (at rest).
+  dy::SimulationOptions plain = so;
+  plain.extra_settle_s = 0.0;
+  settle_s_ = dy::settle_time_s(plain, m0, m1);
+  require_finite("settle_s", settle_s_);
+  min_delay_s_ = shaped_.min_delay_s();
+  max_delay_s_ = shaped_.max_delay_s();
+  // The grid starts at a whole number of steps at or before the earliest moment the shaped
+  // command moves (t0 + min_delay).
   k_start_ = static_cast<long long>(std::floor(min_delay_s_ / h_ + 1e-9));
   k_start_ = std::min<long long>(k_start_, 0);
   lookahead_ = max_delay_s_ > 0.0 ? static_cast<std::size_t>(std::ceil(max_delay_s_ / h_ - 1e-9)) : 0;
-  for (const CommandTap& t : taps) {
-    AMCTL_CHECK(t.plan_axis >= -1 && t.plan_axis <= 1, "a tap's plan_axis is -1, 0 or 1");
-    if (t.plan_axis >= 0) split_ = true;
-    dy::SimulationOptions o = so;
-    o.vibration_per_sample = false;
-    o.modal_state_per_sample = true;
-    o.grid_offset_s = std::min(0.0, static_cast<double>(k_start_) * h_ - t.delay_s);
-    o.extra_settle_s = max_delay_s_ - t.delay_s + h_;
-    taps_.push_back(std::make_unique<Tap>(t, m0, m1, o));
+  rows_map_ = so.motor_space ? so.motor_rows : kIdentityRows;
+  det_ = rows_map_[0][0] * rows_map_[1][1] - rows_map_[0][1] * rows_map_[1][0];
+  if (rows_map_ != kIdentityRows && !(std::abs(det_) > 0.0)) {
+    throw Error("the two motors of the motor-space simulation do not determine X and Y");
   }
-  mode_axes_ = taps_.front()->sim.mode_axes();
   buf_.reserve(3 * window_ + 1);
-  if (split_) {
-    for (auto& b : part_buf_) b.reserve(3 * window_ + 1);
-  }
+  offsets_.reserve(3 * window_ + 1);
 }
 
 ShapedStreamingSimulation::~ShapedStreamingSimulation() = default;
-
-std::size_t ShapedStreamingSimulation::simulators() const { return taps_.size(); }
 
 dy::SimulationStats ShapedStreamingSimulation::stats() const {
   dy::SimulationStats s;
@@ -152,65 +72,103 @@ dy::SimulationStats ShapedStreamingSimulation::stats() const {
   s.start_time_s = t0_ + static_cast<double>(k_start_) * h_;
   s.end_time_s = last_t_;
   s.motion_end_time_s = motion_end_s_;
-  for (const auto& t : taps_) {
-    s.axis_state_updates += t->sim.stats().axis_state_updates;
-    s.split_steps += t->sim.stats().split_steps;
+  if (engine_) {
+    s.axis_state_updates = engine_->state_updates();
+    s.split_steps = engine_->pieces();
   }
   return s;
 }
 
-void ShapedStreamingSimulation::contribute(std::size_t i, const dy::SimSample& s,
-                                           std::span<const double> modal) {
-  Tap& tap = *taps_[i];
-  const std::size_t k = tap.next_k++;
-  AMCTL_CHECK(k >= front_k_, "shaped sample already emitted");
-  const std::size_t idx = k - front_k_;
-  const std::size_t nm = modal.size();
-  while (pending_.size() <= idx) {
-    pending_.emplace_back();
-    pending_modal_.insert(pending_modal_.end(), nm, 0.0);
-  }
-  Pending& p = pending_[idx];
-  const auto& w = tap.tap.weight;
-  for (std::size_t a = 0; a < 2; ++a) {
-    p.sim_mm[a] += w[a] * s.sim_mm[a];
-    p.cmd_mm[a] += w[a] * s.cmd_mm[a];
-  }
-  const std::size_t off = idx * nm;
-  for (std::size_t r = 0; r < nm; ++r) {
-    pending_modal_[off + r] += w[static_cast<std::size_t>(mode_axes_[r / 2])] * modal[r];
-  }
-  if (++p.count == taps_.size()) {
-    double v2[2] = {0.0, 0.0};
-    for (std::size_t r = 0; r < nm; ++r) {
-      const double m = pending_modal_[off + r];
-      v2[mode_axes_[r / 2]] += m * m;
+void ShapedStreamingSimulation::on_sample(const dy::PlantSample& s) {
+  Pending p;
+  p.t_s = s.t_s;
+  // The shaped toolhead at t: on the piece being simulated, or at rest where the stream
+  // started (before its first piece) or ended.
+  double xyz[3];
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (piece_ != nullptr) {
+      xyz[a] = piece_value(*piece_, a, std::max(0.0, s.t_s - piece_->t0_s));
+    } else if (have_last_piece_) {
+      xyz[a] = piece_value(last_piece_, a, last_piece_.duration_s);
+    } else {
+      xyz[a] = pieces_.empty() ? 0.0 : pieces_.front().c[a][0];
     }
-    p.vib_mm = {std::sqrt(v2[0]), std::sqrt(v2[1])};
+  }
+  p.cmd_mm = {xyz[0], xyz[1]};
+  // The nozzle: the command plus the motors' deflections mapped back to X, Y (the inverse of
+  // the rows' X, Y part; identity without motor space).
+  const double d0 = s.sim_mm[0] - s.cmd_mm[0], d1 = s.sim_mm[1] - s.cmd_mm[1];
+  if (rows_map_ == kIdentityRows) {
+    p.sim_mm = {xyz[0] + d0, xyz[1] + d1};
+  } else {
+    const auto& r0 = rows_map_[0];
+    const auto& r1 = rows_map_[1];
+    p.sim_mm = {xyz[0] + (r1[1] * d0 - r0[1] * d1) / det_, xyz[1] + (r0[0] * d1 - r1[0] * d0) / det_};
+  }
+  p.vib_mm = engine_->plant().vibration_mm(engine_->input_terms(), engine_->input());
+  pending_.push_back(p);
+}
+
+void ShapedStreamingSimulation::feed(bool final) {
+  if (!engine_) {
+    if (pieces_.empty()) return;
+    engine_.emplace(model_0_, model_1_, sim_opt_.sample_rate_hz, t0_, k_start_);
+  }
+  const auto sink = [this](const dy::PlantSample& s) { on_sample(s); };
+  const auto& r0 = rows_map_[0];
+  const auto& r1 = rows_map_[1];
+  for (const shaping::AxisPiece& ap : pieces_) {
+    dy::CommandPiece cp;
+    cp.t0_s = ap.t0_s;
+    cp.duration_s = ap.duration_s;
+    for (std::size_t k = 0; k < static_cast<std::size_t>(dy::kCommandPieceCoeffs); ++k) {
+      const double x = ap.c[0][k], y = ap.c[1][k], z = ap.c[2][k];
+      cp.c[0][k] = r0[2] != 0.0 ? r0[0] * x + r0[1] * y + r0[2] * z : r0[0] * x + r0[1] * y;
+      cp.c[1][k] = r1[2] != 0.0 ? r1[0] * x + r1[1] * y + r1[2] * z : r1[0] * x + r1[1] * y;
+    }
+    for (std::size_t k = static_cast<std::size_t>(dy::kCommandPieceCoeffs); k < shaping::kAxisPieceCoeffs; ++k) {
+      AMCTL_CHECK(ap.c[0][k] == 0.0 && ap.c[1][k] == 0.0 && ap.c[2][k] == 0.0,
+                  "a shaped XY piece above the plant engine's degree");
+    }
+    piece_ = &ap;
+    engine_->push(cp, sink);
+    last_piece_ = ap;
+    have_last_piece_ = true;
+  }
+  piece_ = nullptr;
+  pieces_.clear();
+  if (final) {
+    // Through motion end + the longest delay (the shaped command's end) + the settle time.
+    const double t_first = t0_ + static_cast<double>(k_start_) * h_;
+    const double t_final = motion_end_s_ + max_delay_s_ + settle_s_ + h_;
+    const auto last_k = static_cast<std::size_t>(std::ceil((t_final - t_first) / h_ - 1e-9));
+    engine_->rest_until(last_k, sink);
   }
 }
 
-void ShapedStreamingSimulation::emit(trajectory::Cursor& plan_cursor, bool flush) {
-  const std::size_t nm = 2 * mode_axes_.size();
-  const std::size_t ntaps = taps_.size();
-  std::size_t complete = 0;
-  while (complete < pending_.size() && pending_[complete].count == ntaps) ++complete;
+void ShapedStreamingSimulation::emit(bool flush) {
+  if (buf_.empty()) return;
+  meter_.set_window(buf_, base_);
+  trajectory::Cursor plan_cursor(buf_);
   std::array<double, plan::kMaxPieceDegree + 1> d{};
-  while (!pending_.empty() && pending_.front().count == ntaps) {
+  while (!pending_.empty()) {
     std::size_t vib_at = lookahead_;
-    if (vib_at >= complete) {
+    if (vib_at >= pending_.size()) {
       if (!flush) break;
-      vib_at = complete - 1;
+      vib_at = pending_.size() - 1;
     }
     const Pending& p = pending_.front();
     dy::SimSample s;
-    s.t_s = t0_ + static_cast<double>(k_start_ + static_cast<long long>(front_k_)) * h_;
+    s.t_s = p.t_s;
     const trajectory::Cursor::Location& loc = plan_cursor.locate(s.t_s);
     trajectory::Cursor::path_derivatives(loc, s.t_s, d);
     const plan::PlannedMove& mv = buf_[loc.move_index];
     for (std::size_t a = 0; a < 3; ++a) s.cmd_mm[a] = mv.start_mm[a] + mv.axes_r[a] * d[0];
     s.cmd_vel_mm_s = {mv.axes_r[0] * d[1], mv.axes_r[1] * d[1]};
-    s.sim_mm = p.sim_mm;
+    // The stream's coordinates back to the plan's (an XY jump of G92 is absorbed there).
+    const std::array<double, 2>& off = offsets_[loc.move_index];
+    const std::array<double, 2> cmd_s{p.cmd_mm[0] - off[0], p.cmd_mm[1] - off[1]};
+    s.sim_mm = {p.sim_mm[0] - off[0], p.sim_mm[1] - off[1]};
     s.vibration_mm = pending_[vib_at].vib_mm;
     s.move_index = base_ + loc.move_index;
     s.line = mv.line;
@@ -227,8 +185,8 @@ void ShapedStreamingSimulation::emit(trajectory::Cursor& plan_cursor, bool flush
     // The shaped command against the plan (the same measuring range as the nozzle: e is NaN
     // outside it), searched along the path as the meter does.
     if (!std::isnan(e)) {
-      const double lx = p.cmd_mm[0] - s.cmd_mm[0], ly = p.cmd_mm[1] - s.cmd_mm[1];
-      const double dc = dy::distance_to_path(buf_, loc.move_index, p.cmd_mm[0], p.cmd_mm[1],
+      const double lx = cmd_s[0] - s.cmd_mm[0], ly = cmd_s[1] - s.cmd_mm[1];
+      const double dc = dy::distance_to_path(buf_, loc.move_index, cmd_s[0], cmd_s[1],
                                              2.0 * std::sqrt(lx * lx + ly * ly) + 0.05);
       smoothing_.max_mm = std::max(smoothing_.max_mm, dc);
       sum_sq_smoothing_ += dc * dc;
@@ -243,41 +201,14 @@ void ShapedStreamingSimulation::emit(trajectory::Cursor& plan_cursor, bool flush
     last_t_ = s.t_s;
     ++emitted_;
     pending_.pop_front();
-    pending_modal_.erase(pending_modal_.begin(), pending_modal_.begin() + static_cast<std::ptrdiff_t>(nm));
     ++front_k_;
-    --complete;
   }
-}
-
-void ShapedStreamingSimulation::run(double t_stop, bool final) {
-  if (buf_.empty()) return;
-  meter_.set_window(buf_, base_);
-  trajectory::Cursor plan_cursor(buf_);
-  auto advance_all = [&](double tc, bool fin) {
-    for (std::size_t i = 0; i < taps_.size(); ++i) {
-      Tap& tap = *taps_[i];
-      const std::vector<plan::PlannedMove>& moves =
-          tap.tap.plan_axis < 0 ? buf_ : part_buf_[static_cast<std::size_t>(tap.tap.plan_axis)];
-      tap.sim.advance(moves, base_, tc - tap.tap.delay_s, fin,
-                      [&, i](const dy::SimSample& s) { contribute(i, s, taps_[i]->sim.modal_state()); });
-    }
-    emit(plan_cursor, fin);
-  };
-  const double limit = final ? motion_end_s_ + max_delay_s_ : t_stop;
-  double tc = t_done_;
-  while (tc < limit) {
-    tc = std::min(tc + kChunkS, limit);
-    advance_all(tc, false);
-  }
-  t_done_ = std::max(t_done_, tc);
-  if (final) advance_all(std::numeric_limits<double>::infinity(), true);
 }
 
 void ShapedStreamingSimulation::push(const plan::PlannedMove& m) {
   if (!started_) {
     started_ = true;
     t0_ = m.start_time_s;
-    t_done_ = t0_ + static_cast<double>(k_start_) * h_;
     motion_end_s_ = t0_;
   }
   motion_end_s_ = std::max(motion_end_s_, m.end_time_s());
@@ -295,22 +226,23 @@ void ShapedStreamingSimulation::push(const plan::PlannedMove& m) {
     last_dir_[0] = dir[0];
     last_dir_[1] = dir[1];
   }
+  shaped_.push(m, pieces_);
   buf_.push_back(m);
-  if (split_) {
-    part_buf_[0].push_back(plan_part(m, 0));
-    part_buf_[1].push_back(plan_part(m, 1));
-  }
+  offsets_.push_back({shaped_.offset_mm()[0], shaped_.offset_mm()[1]});
   max_buffer_ = std::max(max_buffer_, buf_.size());
-  if (buf_.size() < 3 * window_) return;
-  // Every simulator needs the plan up to its own time t - d_i + one step: stop where the
-  // most look-ahead still lies before the last known move's start.
-  const double t_stop = std::min(buf_[buf_.size() - window_].start_time_s,
-                                 buf_.back().start_time_s + min_delay_s_ - 2.0 * h_);
-  if (t_stop > t_done_) run(t_stop, false);
-  // Keep what the simulators still look back at (t - max_delay), the pending samples, and
-  // 64 moves before them for the contour search.
-  const double oldest_pending = t0_ + static_cast<double>(k_start_ + static_cast<long long>(front_k_)) * h_;
-  const double keep_from = std::min(oldest_pending, t_done_) - max_delay_s_ - 4.0 * h_;
+  if (buf_.size() < 3 * window_) {
+    // Simulate as the pieces come and measure every few thousand samples, so that the samples
+    // held do not grow with the time the window's moves take.
+    if (pieces_.size() >= kFeedPieces) feed(false);
+    if (pending_.size() >= kEmitSamples + lookahead_) emit(false);
+    return;
+  }
+  feed(false);
+  emit(false);
+  // Keep the moves of the pending samples (and what the shaped command still looks back at),
+  // and 64 moves before them for the contour search.
+  const double oldest = pending_.empty() ? (buf_.back().start_time_s + min_delay_s_) : pending_.front().t_s;
+  const double keep_from = oldest - max_delay_s_ - 4.0 * h_;
   std::size_t by_time = 0;
   while (by_time < buf_.size() && buf_[by_time].end_time_s() < keep_from) ++by_time;
   const std::size_t drop = std::min(buf_.size() - 2 * window_, by_time > 64 ? by_time - 64 : 0);
@@ -322,14 +254,16 @@ void ShapedStreamingSimulation::push(const plan::PlannedMove& m) {
     return;
   }
   buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(drop));
-  if (split_) {
-    for (auto& b : part_buf_) b.erase(b.begin(), b.begin() + static_cast<std::ptrdiff_t>(drop));
-  }
+  offsets_.erase(offsets_.begin(), offsets_.begin() + static_cast<std::ptrdiff_t>(drop));
   base_ += drop;
 }
 
 dy::QualityReport ShapedStreamingSimulation::finish() {
-  run(std::numeric_limits<double>::infinity(), true);
+  if (started_) {
+    shaped_.finish(pieces_);
+    feed(true);
+    emit(true);
+  }
   smoothing_.rms_mm =
       smoothing_.samples ? std::sqrt(sum_sq_smoothing_ / static_cast<double>(smoothing_.samples)) : 0.0;
   return meter_.finish();

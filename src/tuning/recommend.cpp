@@ -80,7 +80,7 @@ class Evaluator {
       ++evaluations_;
     }
     simulation::ShapedStreamingSimulation s(model_, model_, sim_, metrics_,
-                                            simulation::command_taps(shaper, shaper, false));
+                                            shaper, shaper);
     for (const plan::PlannedMove& mv : moves_) s.push(mv);
     const dy::QualityReport q = s.finish();
     c.contour_error_mm = q.max_contour_error_printing_mm;

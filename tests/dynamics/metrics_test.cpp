@@ -42,6 +42,31 @@ TEST(Metrics, LagAlongAStraightLineIsNotContourError) {
   EXPECT_LT(r.max_contour_error_mm, 1e-12);
 }
 
+// The contour error is the distance to the nozzle's own wall, not to the next perimeter: a
+// square loop, then a second loop 0.45 mm inside it (as a slicer's perimeters). A nozzle
+// 0.35 mm inside the first wall, mid-way along its first side (commanded point (5, 0)), is
+// 0.35 mm off its contour by hand, although the inner wall at y = 0.45 is only 0.10 mm away.
+// (The definition compensation used before searched 64 moves either side without the
+// along-path radius and gave 0.10.)
+TEST(Metrics, ContourErrorIsToTheOwnWallNotTheNextPerimeter) {
+  const std::vector<MoveSpec> specs{{{10, 0, 0, 0}, 100.0, 0.0, 1},     {{10, 10, 0, 0}, 100.0, 0.0, 2},
+                                    {{0, 10, 0, 0}, 100.0, 0.0, 3},     {{0, 0.45, 0, 0}, 100.0, 0.0, 4},
+                                    {{9.55, 0.45, 0, 0}, 100.0, 0.0, 5}, {{9.55, 9.55, 0, 0}, 100.0, 0.0, 6}};
+  const auto moves = trajectory::chain_moves({0, 0, 0, 0}, specs, 3000.0, VP::trapezoid);
+  const double lag = 0.35;  // |nozzle - command|
+  EXPECT_NEAR(distance_to_path(moves, 0, 5.0, 0.35, 2.0 * lag + 0.05), 0.35, 1e-12);
+  // Searched without the radius (all 64 neighbours), the inner wall would be found.
+  EXPECT_NEAR(distance_to_path(moves, 0, 5.0, 0.35, 1e9), 0.10, 1e-12);
+  // The same through the segment form (a caller's own window of the path).
+  const auto seg = [&](std::size_t i) {
+    const auto& m = moves[i];
+    return PathSegment{m.start_mm[0], m.start_mm[1], m.start_mm[0] + m.axes_r[0] * m.distance_mm,
+                       m.start_mm[1] + m.axes_r[1] * m.distance_mm};
+  };
+  EXPECT_EQ(distance_to_segments(seg, moves.size(), 0, 5.0, 0.35, 2.0 * lag + 0.05),
+            distance_to_path(moves, 0, 5.0, 0.35, 2.0 * lag + 0.05));
+}
+
 TEST(Metrics, SeedCornerOvershootMatchesScipyAndBoundsContourError) {
   // tests/reference/dynamics_reference.py: max x past the corner = 0.463612915 mm.
   const std::vector<MoveSpec> specs{{{10, 0, 0, 0}, 100.0, 0.0, 1}, {{10, 10, 0, 0}, 100.0, 0.0, 2}};

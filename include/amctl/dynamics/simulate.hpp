@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "amctl/dynamics/model.hpp"
+#include "amctl/dynamics/plant.hpp"
 #include "amctl/dynamics/propagator.hpp"
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
@@ -100,14 +101,12 @@ class Simulator {
   [[nodiscard]] std::span<const double> modal_state() const { return modal_state_; }
   /// Axis (0 or 1) of each mode in modal_state() order.
   [[nodiscard]] std::vector<int> mode_axes() const;
-  struct Run;
 
  private:
   SimulationOptions opt_;
   double h_ = 0.0, settle_ = 0.0, t0_ = 0.0, motion_end_ = 0.0;
   bool started_ = false;
-  std::vector<Run> runs_;
-  std::vector<ModePropagator> sub_;
+  ModalPlant plant_;
   std::size_t k_ = 0;
   double v_left_[2] = {0.0, 0.0};
   bool have_left_ = false;
@@ -115,6 +114,12 @@ class Simulator {
   SimulationStats stats_;
   std::vector<double> modal_state_;
 };
+
+/// The settle time a simulation with these options runs after motion end [s]: settle_s, or
+/// when it is < 0, 5 time constants of the slowest-decaying mode clamped to [0.05, 1] s
+/// (0 for rigid models); plus extra_settle_s.
+[[nodiscard]] double settle_time_s(const SimulationOptions& options, const AxisModel& model_0,
+                                   const AxisModel& model_1);
 
 /// Simulates the moves (time-ordered) from the first move's start, the nozzle at rest on
 /// the commanded path, and passes every sample at t0 + k / sample_rate_hz to `sink`.

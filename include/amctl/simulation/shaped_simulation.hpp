@@ -2,18 +2,14 @@
 // The belt dynamics driven by an input-shaped command, exactly (docs/dynamics.md, "Input
 // shaping").
 //
-// The belt model is linear and time invariant and starts at rest on the commanded path. The
-// shaped command of an axis is x_s(t) = sum_i a_i x(t - d_i) (shaping::applied_pulses: weights
-// sum to 1, centred delays), so the shaped nozzle position is the same weighted sum of the
-// unshaped responses at shifted times:
-//   y_s(t) = sum_i a_i y(t - d_i).
-// One dynamics::Simulator per distinct delay runs over the same plan with its sample grid
-// shifted by -d_i (SimulationOptions::grid_offset_s), the simulators advance in lockstep (in
-// chunks of 0.25 s) and their samples are combined with per-axis weights (an axis without a
-// shaper: weight 1 at delay 0). Every simulator is exact at its sample times (simulate.hpp),
-// so the combination is exact too: no resampling. In corexy motor space with different X and
-// Y shapers, one simulator per (axis, delay) runs on the plan's X or Y part instead
-// (split_command_taps), and the same sum holds by linearity.
+// The shaped command of an axis is x_s(t) = sum_i a_i x(t - d_i) (Klipper's input shaper:
+// weights summing to 1, delays centred), a piecewise polynomial again: the plan's breaks
+// shifted by every delay. shaping::ShapedPieceStream builds those pieces exactly, the same
+// stream `amctl steps` feeds the motors; the motors' commands are the linear motor map of the
+// shaped toolhead (X, Y, and Z where the map has it), and one dynamics::PieceSimulator (the
+// plant engine, plant.hpp) propagates the modes exactly across every piece. So the shaped
+// simulation is exact at the sample times, with one plant state whatever the number of
+// impulses, and in motor space with a different shaper per axis too.
 //
 // The quality meter sees the PLANNED path (the G-code path) as the command and the shaped
 // nozzle as the simulated position, so the shaper's smoothing counts as contour error. The
@@ -37,35 +33,12 @@
 #include "amctl/machine/machine.hpp"
 #include "amctl/plan/planned_move.hpp"
 #include "amctl/plan/stream.hpp"
+#include "amctl/dynamics/plant.hpp"
+#include "amctl/shaping/shaped_pieces.hpp"
 #include "amctl/shaping/shaper.hpp"
 #include "amctl/trajectory/trajectory.hpp"
 
 namespace amctl::simulation {
-
-/// One delay of the shaped command with its weight on each simulated axis (0: X or motor A,
-/// 1: Y or motor B; 0 where the axis has no impulse at this delay), and the part of the plan
-/// its simulator runs on: the whole plan (-1), or only its X (0) or Y (1) part, the other
-/// cartesian axis held at 0 (the motor-space split of docs/dynamics.md section 7).
-struct CommandTap {
-  double delay_s = 0.0;
-  std::array<double, 2> weight{};
-  int plan_axis = -1;
-};
-
-/// The taps of a shaper per axis (nullopt: the axis follows the plan), merged by delay. In
-/// motor space (corexy A, B) with the same shaper (or none) on both axes, the same; with a
-/// different shaper per axis, split_command_taps.
-[[nodiscard]] std::vector<CommandTap> command_taps(const std::optional<shaping::Shaper>& x,
-                                                   const std::optional<shaping::Shaper>& y,
-                                                   bool motor_space);
-
-/// The shaped command split by cartesian axis: for X, a tap per delay d_i of its shaper
-/// (weight a_i on both simulated axes) running on the plan's X part; for Y the same with its
-/// own shaper on the Y part (an unshaped axis: weight 1 at delay 0). Exact for any linear
-/// motor map (corexy: the motors' commands A = X_s + Y_s, B = X_s - Y_s hold both shapers),
-/// at the cost of one simulator per (axis, delay) pair.
-[[nodiscard]] std::vector<CommandTap> split_command_taps(const std::optional<shaping::Shaper>& x,
-                                                         const std::optional<shaping::Shaper>& y);
 
 /// The shaped command's own deviation from the plan.
 struct SmoothingFigures {
@@ -78,17 +51,21 @@ struct SmoothingFigures {
 };
 
 /// Simulation and metrics of a move stream with a shaped command, in bounded memory: like
-/// dynamics::StreamingSimulation, moves are pushed one by one and a window of moves is kept
-/// that covers [t - max_delay, t - min_delay] around the simulated time plus the metrics'
-/// neighbours. Residual vibration of a move is the free vibration of the shaped nozzle at the
+/// dynamics::StreamingSimulation, moves are pushed one by one; the shaped pieces go to the
+/// plant engine as they are completed, and a window of moves is kept for the metrics (the
+/// planned path around the simulated time plus the contour search's neighbours). Residual vibration of a move is the free vibration of the shaped nozzle at the
 /// first sample at or after (move end + max delay), when the shaped command has left the
 /// move (with a single tap at delay 0: at the first sample at or after the move end).
 class ShapedStreamingSimulation {
  public:
   using RowSink = dynamics::StreamingSimulation::RowSink;
+  /// shaper_x, shaper_y: the shaper of each cartesian axis (nullopt: the axis follows the
+  /// plan). The simulated axes are X and Y, or with sim_options.motor_space the two motors.
   ShapedStreamingSimulation(const dynamics::AxisModel& model_0, const dynamics::AxisModel& model_1,
                             const dynamics::SimulationOptions& sim_options,
-                            dynamics::MetricsOptions metrics_options, std::vector<CommandTap> taps,
+                            dynamics::MetricsOptions metrics_options,
+                            const std::optional<shaping::Shaper>& shaper_x,
+                            const std::optional<shaping::Shaper>& shaper_y,
                             RowSink rows = nullptr, std::size_t window_moves = 256);
   ~ShapedStreamingSimulation();
   ShapedStreamingSimulation(const ShapedStreamingSimulation&) = delete;
@@ -99,44 +76,55 @@ class ShapedStreamingSimulation {
   [[nodiscard]] dynamics::QualityReport finish();
   /// After finish(): the shaped command against the plan.
   [[nodiscard]] const SmoothingFigures& smoothing() const { return smoothing_; }
-  /// samples: combined samples; axis_state_updates: summed over the simulators.
+  /// samples; axis_state_updates: the plant engine's mode-block updates; split_steps: the
+  /// shaped pieces simulated.
   [[nodiscard]] dynamics::SimulationStats stats() const;
   [[nodiscard]] std::size_t max_window_moves() const { return max_buffer_; }
-  [[nodiscard]] std::size_t simulators() const;
+  /// Plant engines run: 1 (the shaped command is one piece stream).
+  [[nodiscard]] std::size_t simulators() const { return 1; }
   /// The first combined sample is this many steps from the first move's start (<= 0): the
   /// shaped command starts moving min_delay early.
   [[nodiscard]] long long grid_start_steps() const { return k_start_; }
 
  private:
-  struct Tap;
-  struct Pending;
-  void run(double t_stop, bool final);
-  void contribute(std::size_t tap, const dynamics::SimSample& s, std::span<const double> modal);
-  void emit(trajectory::Cursor& plan_cursor, bool flush);
+  struct Pending {
+    double t_s = 0.0;
+    std::array<double, 2> sim_mm{};  // shaped nozzle (stream coordinates)
+    std::array<double, 2> cmd_mm{};  // shaped command (stream coordinates)
+    std::array<double, 2> vib_mm{};  // free vibration of the shaped nozzle per simulated axis
+  };
+  void feed(bool final);
+  void on_sample(const dynamics::PlantSample& s);
+  void emit(bool flush);
 
   dynamics::MetricsOptions metrics_opt_;
-  std::vector<std::unique_ptr<Tap>> taps_;
-  std::vector<int> mode_axes_;
+  dynamics::SimulationOptions sim_opt_;
+  const dynamics::AxisModel model_0_, model_1_;
+  shaping::ShapedPieceStream shaped_;
+  std::optional<dynamics::PieceSimulator> engine_;
+  std::vector<shaping::AxisPiece> pieces_;  // completed, not yet simulated
+  const shaping::AxisPiece* piece_ = nullptr;  // the piece being simulated (nullptr: at rest)
+  shaping::AxisPiece last_piece_;
+  bool have_last_piece_ = false;
+  std::array<std::array<double, 3>, 2> rows_map_{};  // motor rows (identity: X, Y)
+  double det_ = 1.0;
   dynamics::QualityMeter meter_;
   RowSink rows_;
   std::size_t window_;
   double h_ = 0.0;
+  double settle_s_ = 0.0;
   double max_delay_s_ = 0.0, min_delay_s_ = 0.0;
-  long long k_start_ = 0;       // combined sample k is at t0 + (k_start_ + k) h
+  long long k_start_ = 0;       // sample k is at t0 + (k_start_ + k) h
   std::size_t lookahead_ = 0;   // samples from a sample to the one its residual is read at
   std::vector<plan::PlannedMove> buf_;
-  /// With split taps: buf_'s moves with only their X (0) or Y (1) part, else empty.
-  std::array<std::vector<plan::PlannedMove>, 2> part_buf_;
-  bool split_ = false;
+  std::vector<std::array<double, 2>> offsets_;  // per buf_ move: the stream's XY offset (G92)
   std::size_t base_ = 0;
   std::size_t max_buffer_ = 0;
   bool started_ = false;
   double t0_ = 0.0;             // first move's start
   double motion_end_s_ = 0.0;
-  double t_done_ = 0.0;         // combined time every simulator has reached
   std::deque<Pending> pending_;
-  std::deque<double> pending_modal_;  // 2 x modes per pending sample
-  std::size_t front_k_ = 0;     // combined index of pending_.front()
+  std::size_t front_k_ = 0;     // index of pending_.front()
   std::size_t emitted_ = 0;
   std::size_t next_end_ = 0;    // first move whose residual has not been reported
   double last_t_ = 0.0;
