@@ -1,7 +1,7 @@
 #!/bin/sh
-# Seed 004 Table 4 on a modern toolchain: coins of 25, 50 and 100 mm diameter (3 mm thick),
+# Table 4 of the UTFPR process-planning study on a modern toolchain: coins of 25, 50 and 100 mm diameter (3 mm thick),
 # sliced by Debian's prusa-slicer with 100 % rectilinear infill at raster angles 0/45/90/135,
-# then timed by the empirical model (seed preset and calibrated) and by the look-ahead planner.
+# then timed by the empirical model (the study's uncalibrated speeds and calibrated) and by the look-ahead planner.
 # Usage: examples/04_coins.sh [AMCTL] [WORKDIR]      (see docs/process.md for the results)
 set -eu
 AMCTL=${1:-build/release/apps/amctl/amctl}
@@ -38,17 +38,17 @@ done
   --params "$HERE/04_empirical_start.json" --fix wipe_s --fix fixed_s --fix layer_change_s \
   --fix retract_s --fix travel_pace=0.00769 \
   --save "$WORK/empirical_fit.json" --json > "$WORK/empirical_fit_report.json"
-echo "diameter_mm,angle_deg,planner_s,slicer_s,empirical_seed_s,empirical_fit_s" > "$WORK/table4.csv"
+echo "diameter_mm,angle_deg,planner_s,slicer_s,empirical_uncalibrated_s,empirical_fit_s" > "$WORK/table4.csv"
 for d in 25 50 100; do
   for a in 0 45 90 135; do
     g="$WORK/coin${d}_a$a.gcode"
     p=$(grep "^coin${d}_a$a.gcode," "$WORK/planner_times.csv" | cut -d, -f2)
-    "$AMCTL" estimate "$g" --mode empirical --json > "$WORK/seed.json"
+    "$AMCTL" estimate "$g" --mode empirical --json > "$WORK/uncalibrated.json"
     "$AMCTL" estimate "$g" --mode empirical --params "$WORK/empirical_fit.json" --json > "$WORK/fit.json"
-    /usr/bin/python3 - "$d" "$a" "$p" "$WORK/seed.json" "$WORK/fit.json" >> "$WORK/table4.csv" <<'PY'
+    /usr/bin/python3 - "$d" "$a" "$p" "$WORK/uncalibrated.json" "$WORK/fit.json" >> "$WORK/table4.csv" <<'PY'
 import json, sys
-d, a, p, seed, fit = sys.argv[1:]
-s = json.load(open(seed)); f = json.load(open(fit))
+d, a, p, uncal, fit = sys.argv[1:]
+s = json.load(open(uncal)); f = json.load(open(fit))
 print("%s,%s,%.1f,%s,%.1f,%.1f" % (d, a, float(p), s["slicer_estimate_s"], s["total_time_s"], f["total_time_s"]))
 PY
   done

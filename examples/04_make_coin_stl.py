@@ -2,7 +2,7 @@
 """Writes a closed, outward-oriented cylinder ("coin") as an ASCII or binary STL.
 
 Usage: 04_make_coin_stl.py DIAMETER_MM HEIGHT_MM OUT.stl [--segments N] [--ascii]
-Used for the seed 004 Table 4 coins (25, 50, 100 mm); see docs/process.md.
+Used for the coins of Table 4 of the UTFPR process-planning study (25, 50, 100 mm); see docs/process.md.
 """
 import math
 import struct

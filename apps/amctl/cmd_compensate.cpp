@@ -1,5 +1,5 @@
 // `amctl compensate FILE --machine M --method invert|fbf|lpfbf|rfbf|collocation --natural-frequency-hz F
-//  --damping-ratio Z [--mode F,Z[,G] ...] [--plant-natural-frequency-hz F2 --plant-damping-ratio Z2]
+//  --damping-ratio Z [--natural-frequency-y-hz FY --damping-ratio-y ZY] [--mode F,Z[,G] ...] [--plant-natural-frequency-hz F2 --plant-damping-ratio Z2]
 //  [--knot-spacing-s T --degree D] [--sample-rate-hz R] --csv OUT.csv [--json]`:
 // feedforward compensation of the belt model (compensation::compensate_file,
 // docs/compensation.md).
@@ -29,6 +29,7 @@ struct CompensateArgs {
   MachineOptions machine;
   std::string method = "invert";
   std::optional<double> f_hz, zeta, plant_f_hz, plant_zeta;
+  std::optional<double> f_hz_y, zeta_y;  ///< Y's model where it differs from X's (as in simulate)
   std::vector<std::string> modes;
   std::optional<double> knot_spacing_s;
   int degree = 3;
@@ -49,7 +50,8 @@ void run_compensate(const CompensateArgs& a) {
   cp::CompensationOptions o;
   o.method = cp::parse_method(a.method);
   if (!a.modes.empty()) {
-    if (a.f_hz) throw Error("--mode replaces --natural-frequency-hz; give one or the other");
+    if (a.f_hz || a.f_hz_y || a.zeta_y)
+      throw Error("--mode replaces --natural-frequency-hz; give one or the other");
     std::vector<dynamics::Mode> modes;
     for (const auto& t : a.modes) modes.push_back(dynamics::parse_mode_spec(t));
     o.model_x = o.model_y = dynamics::AxisModel::from_modes(modes);
@@ -60,6 +62,11 @@ void run_compensate(const CompensateArgs& a) {
     const double z = a.zeta.value_or(0.1);
     require_damping_ratio_flag("--damping-ratio", z);
     o.model_x = o.model_y = dynamics::AxisModel::belt(*a.f_hz, z);
+    if (a.f_hz_y || a.zeta_y) {
+      if (a.f_hz_y) require_mode_frequency_flag("--natural-frequency-y-hz", *a.f_hz_y, a.rate_hz);
+      if (a.zeta_y) require_damping_ratio_flag("--damping-ratio-y", *a.zeta_y);
+      o.model_y = dynamics::AxisModel::belt(a.f_hz_y.value_or(*a.f_hz), a.zeta_y.value_or(z));
+    }
   }
   o.plant_x = o.model_x;
   o.plant_y = o.model_y;
@@ -69,6 +76,9 @@ void run_compensate(const CompensateArgs& a) {
     if (a.plant_zeta) require_damping_ratio_flag("--plant-damping-ratio", *a.plant_zeta);
     if (o.model_x.modes().size() != 1)
       throw Error("--plant-natural-frequency-hz needs a one-mode model (--natural-frequency-hz)");
+    if (a.f_hz_y || a.zeta_y)
+      throw Error("--plant-natural-frequency-hz and --plant-damping-ratio set the plant of both "
+                  "axes; give them without --natural-frequency-y-hz / --damping-ratio-y");
     const dynamics::Mode& m = o.model_x.modes()[0];
     o.plant_x = o.plant_y = dynamics::AxisModel::belt(a.plant_f_hz.value_or(m.natural_frequency_hz),
                                                       a.plant_zeta.value_or(m.damping_ratio));
@@ -168,6 +178,8 @@ void register_compensate(CLI::App& app) {
                   "collocation (Hermite-Simpson with IPOPT, base acceleration bound enforced)");
   sub->add_option("--natural-frequency-hz", a->f_hz, "model natural frequency of X and Y [Hz]");
   sub->add_option("--damping-ratio", a->zeta, "model damping ratio of X and Y (default 0.1)");
+  sub->add_option("--natural-frequency-y-hz", a->f_hz_y, "model natural frequency of Y if different [Hz]");
+  sub->add_option("--damping-ratio-y", a->zeta_y, "model damping ratio of Y if different");
   sub->add_option("--mode", a->modes, "model mode F,Z[,G] (repeatable) instead of the belt flags");
   sub->add_option("--plant-natural-frequency-hz", a->plant_f_hz,
                   "plant simulated to check the command [Hz] (default: the model)");

@@ -127,9 +127,11 @@ void register_stepper(CLI::App& app) {
   sim->add_option("--controller", a->req.controller,
                   "open, encoder-sequenced (the closed-loop stepper paper's law as published), "
                   "speed-tracking (that law against the time-based reference), pid, feedforward "
-                  "(model feed-forward with current scaling); default open");
+                  "(model feed-forward with current scaling); default open. Old names, accepted until the "
+                  "next release: seed003 = speed-tracking, best = feedforward");
   sim->add_option("--scenario", a->req.scenario,
-                  "reversing-strokes: the closed-loop stepper paper's X and Y strokes 0 -> -30 -> 0 mm");
+                  "reversing-strokes: the closed-loop stepper paper's X and Y strokes 0 -> -30 -> 0 mm "
+                  "(old name, accepted until the next release: seed003)");
   sim->add_option("--speed-mm-s", a->req.speed_mm_s, "scenario speed [mm/s] (default 90)");
   sim->add_option("--drag-n", a->req.drag_force_n, "scenario load: drag force opposing motion [N]");
   sim->add_option("--end-load-n-per-mm", a->req.end_load_n_per_mm, "scenario load: stiffness of the cable pulled taut beyond -25 mm [N/mm]");

@@ -4,7 +4,7 @@
   boxboss.stl  a 20 x 20 x 8 mm block with a 12 mm diameter, 12 mm tall round boss on top:
                straight walls, a curved wall and a top surface, so the sliced file has
                corners, short curve segments and infill.
-(The seed 004 coins come from examples/04_make_coin_stl.py.)
+(The process-planning study's coins come from examples/04_make_coin_stl.py.)
 Usage: make_models.py OUTDIR
 """
 import math

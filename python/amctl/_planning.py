@@ -25,9 +25,11 @@ def estimate(path, machine=None, set=None, *, lenient=False, mode="planner", par
                  (None: the 'default' preset).
         set:     {"section.key": value} overrides, as ``--set`` (units in docs/machine.md).
         lenient: skip malformed lines (counted in ``skipped_lines``) instead of raising.
-        mode:    "planner" (default) or "empirical": the seed-004 average-speed model, the
+        mode:    "planner" (default) or "empirical": the process-planning study's
+                 average-speed model, the
                  dict of ``amctl estimate --mode empirical --json`` (see estimate_empirical).
-        params:  empirical mode only: parameter file (JSON), None for the seed's values.
+        params:  empirical mode only: parameter file (JSON), None for the study's FDM 2000 speeds
+                 (uncalibrated for your printer).
         file_limits: the file's own limits commands (M204, SET_VELOCITY_LIMIT, M201, M203,
                  M205, M566), as ``--file-limits``: "keep" (default, as the firmware does:
                  they override the machine's), "ignore" (the machine's limits alone) or "cap"

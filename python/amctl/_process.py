@@ -18,8 +18,8 @@ def shrink_fit(csv_path, *, axis=None, average=False, ranges=1, breaks_mm=None, 
     Args:
         csv_path: CSV with header nominal_mm,measured_mm[,axis,...] (lengths in mm).
         axis: fit only 'X', 'Y' or 'Z' (None: every axis in the file).
-        average: fit the mean error at each nominal value (the seed's procedure) instead of
-            every repeated measurement.
+        average: fit the mean error at each nominal value (the process-planning study's
+            procedure) instead of every repeated measurement.
         ranges: number of ranges (int >= 1) with breakpoints found from the data, or "auto"
             (1..3 chosen by the Bayesian information criterion).
         breaks_mm: breakpoints [mm], strictly increasing (replaces ranges).
@@ -55,7 +55,8 @@ def shrink_fit(csv_path, *, axis=None, average=False, ranges=1, breaks_mm=None, 
 
 
 def estimate_empirical(path, *, params=None):
-    """Seed 004's empirical build-time model: scanned path lengths over average speeds.
+    """The process-planning study's empirical build-time model: scanned path lengths over
+    average speeds.
 
     The dict of ``amctl estimate FILE --mode empirical --json``
     (``process::estimate_empirical``): ``total_time_s`` [s] and its parts, the scanned
@@ -64,6 +65,6 @@ def estimate_empirical(path, *, params=None):
     Args:
         path: G-code file.
         params: parameter file (JSON of ``calibrate-time --mode empirical --save``); None:
-            the seed's FDM 2000 speeds.
+            the study's FDM 2000 speeds (uncalibrated for your printer).
     """
     return _amctl._estimate_empirical(_args.path(path, "path"), _args.optional_path(params, "params"))

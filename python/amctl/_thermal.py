@@ -8,11 +8,12 @@ from . import _args
 def sls_margins(*, kp_w_m2k=None, ti_s=None, modes=1, length_mm=0.1, density_kg_m3=None,
                 specific_heat_j_kgk=None, conductivity_w_mk=None, beta_1_s=None,
                 hamiltonian_modes=60, kp=None, ti=None, rho=None, cp=None, k=None, beta=None):
-    """Additive-uncertainty margins of a PI on the SLS powder bed (seed 002, section 4).
+    """Additive-uncertainty margins of a PI on the SLS powder bed (the SLS temperature-control
+    paper, 2018, section 4).
 
     The dict of ``amctl thermal sls-margins --json`` (``thermal::run_margin_study``):
-    ``hinf_g_minus_gn``, ``margin_on_gn_sweep``, ``margin_on_g_sweep``, the Hamiltonian
-    margins, Theorem 2, closed-loop stability and the Hankel bound (docs/thermal.md).
+    ``margin_on_GN``, ``margin_on_G``, ``hinf_G_minus_GN``, the Hamiltonian margins, Theorem 2,
+    closed-loop stability and the Hankel bound (docs/thermal.md).
 
     Args:
         kp_w_m2k:  PI gain kp [W/(m^2 K)] (default 0.3).

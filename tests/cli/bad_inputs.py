@@ -759,7 +759,10 @@ FLAG_CASES = [
     ("shrink_apply", ["shrink", "apply", "--gcode", "f.gcode", "--factors", "x=1.01", "-o", "o.gcode",
                       "--origin", "nan,0,0"], "--origin"),
     ("shrink_apply", ["shrink", "apply", "--model", "m.stl", "--factors", "x=1.01", "-o", "o.stl",
-                      "--layer-mm", "-0.2"], "--layer-mm"),
+                      "--layer-mm", "-0.2"], "--layer-mm"),    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--damping-ratio-y", "-0.5",
+                    "--csv", "o.csv"], "--damping-ratio-y"),
+    ("compensate", ["compensate", "f.gcode", "--natural-frequency-hz", "40", "--natural-frequency-y-hz", "0",
+                    "--csv", "o.csv"], "--natural-frequency-y-hz"),
 ]
 for i, (name, args, where) in enumerate(FLAG_CASES):
     R2.append(case(f"flag_{name}_{i}", args,
