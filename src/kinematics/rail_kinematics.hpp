@@ -25,7 +25,7 @@ template <class P>
 concept HasDualCarriage = requires(P p) { p.dual_carriage; };
 
 template <class P>
-class RailKinematics final : public Kinematics {
+class RailKinematics : public Kinematics {
  public:
   RailKinematics(const P& p, const Context& ctx, const MotorRows& rows)
       : p_(p), th_(ctx.toolhead), rows_(rows) {
@@ -59,7 +59,7 @@ class RailKinematics final : public Kinematics {
     return linear_map_of(motors({"x", "y", "z"}, missing));
   }
 
- private:
+ protected:  // the limited kinematics add their speed limits
   P p_;
   Toolhead th_;
   MotorRows rows_;

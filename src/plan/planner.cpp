@@ -35,7 +35,7 @@ constexpr double kExtrudeOnlyAccel = 99999999.9;  // Klipper: extrude-only moves
     limit_speed(z_velocity_mm_s_ * z_ratio, z_accel_mm_s2_ * z_ratio);
   }
   // Delta, deltesian, polar, rotary delta: their own limits (one flag on the hot path).
-  if (special_kin_ && m.kinematic) [[unlikely]] special_move_limits(r, d, o, velocity, accel);
+  if (kin_limits_ && m.kinematic) [[unlikely]] special_move_limits(r, d, o, velocity, accel);
   // Extruder: extrude-only and retraction moves get the extruder's own limits.
   if (d[3] != 0.0) {
     const auto& ex = machine_.extruder;
@@ -65,6 +65,8 @@ void PlannerCore::special_move_limits(const gcode::MoveRequest& r, const std::ar
   g.end = r.end_mm;
   g.d = d;
   g.distance_mm = o.distance_mm;
+  g.toolhead_velocity_mm_s = lim_.max_velocity_mm_s;
+  g.toolhead_accel_mm_s2 = lim_.accel_mm_s2;
   kinematics_->limit_move(g, velocity, accel);
 }
 

@@ -85,6 +85,7 @@ class PlannerCore {
   // The kinematics' own checks (Klipper check_move beyond the Z limit and the axis ranges:
   // delta, deltesian, polar, rotary delta): one flag on the hot path.
   bool special_kin_ = false;
+  bool kin_limits_ = false;  // the kinematics' limit_move runs (special, or its own speed limits)
   bool no_extruder_ = false;  // Klipper printer.cfg without [extruder]: a move that extrudes stops
   /// The special kinematics' range check and speed limits (off the hot path).
   void special_range(const gcode::MoveRequest& r);

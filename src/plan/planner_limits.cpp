@@ -83,6 +83,7 @@ PlannerCore::PlannerCore(const machine::Machine& m, PlanSink& sink, PlannerOptio
     z_velocity_mm_s_ = rules.z_velocity_mm_s.value_or(std::numeric_limits<double>::infinity());
     z_accel_mm_s2_ = rules.z_accel_mm_s2.value_or(std::numeric_limits<double>::infinity());
     special_kin_ = rules.special;
+    kin_limits_ = rules.special || rules.limits_speed;
     range_active_ = range_active_ || rules.special;
     // No [extruder]: Klipper's toolhead has a dummy extruder whose check_move refuses a move
     // that extrudes (checked with the ranges, off the hot path).

@@ -69,7 +69,7 @@ void ShapedPieceStream::append_rest(double t0, double t1) {
   s.degree = 0;
   for (std::size_t a = 0; a < 4; ++a) s.c[a][0] = end_mm_[a];
   s.e_pa[0] = end_mm_[3];
-  s.line = sources_.empty() ? 0 : sources_.back().line;
+  s.line = sources_.size() == head_ ? 0 : sources_.back().line;
   sources_.push_back(s);
 }
 
@@ -142,7 +142,7 @@ void ShapedPieceStream::finish(std::vector<AxisPiece>& out) {
 }
 
 void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
-  const std::size_t end_index = base_ + sources_.size();
+  const std::size_t end_index = base_ + (sources_.size() - head_);
   while (true) {
     double next = std::numeric_limits<double>::infinity();
     bool all_rest = true;
@@ -158,7 +158,7 @@ void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
     if (final && all_rest) break;
     if (!std::isfinite(next)) break;
     if (next > out_t_s_) {
-      AxisPiece piece;
+      AxisPiece& piece = out.emplace_back();  // built in place
       piece.t0_s = out_t_s_;
       piece.duration_s = next - out_t_s_;
       std::array<double, kAxisPieceCoeffs> shifted{};
@@ -174,6 +174,14 @@ void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
             piece.c[a][0] += w * s.c[a][0];
             continue;
           }
+          if (s.degree == 2) {  // the trapezoid's pieces: taylor_shift's operations, inline
+            const double* c = s.c[a].data();
+            const double c1 = c[1] + h * c[2];
+            piece.c[a][0] += w * (c[0] + h * c1);
+            piece.c[a][1] += w * (c1 + h * c[2]);
+            piece.c[a][2] += w * c[2];
+            continue;
+          }
           taylor_shift(s.c[a].data(), s.degree, h, shifted.data());
           for (int k = 0; k <= s.degree; ++k) {
             piece.c[a][static_cast<std::size_t>(k)] += w * shifted[static_cast<std::size_t>(k)];
@@ -185,14 +193,17 @@ void ShapedPieceStream::generate(std::vector<AxisPiece>& out, bool final) {
         smoothed_extruder(out_t_s_, piece.c[3].data(), deg);
         piece.degree = std::max(piece.degree, deg);
       }
-      out.push_back(piece);
     }
     out_t_s_ = next;
     std::size_t lowest = end_index;
     for (const Tap& tap : taps_) lowest = std::min(lowest, tap.index);
-    while (base_ < lowest) {
-      sources_.pop_front();
-      ++base_;
+    if (base_ < lowest) {
+      head_ += lowest - base_;
+      base_ = lowest;
+      if (head_ >= 32 && 2 * head_ >= sources_.size()) {
+        sources_.erase(sources_.begin(), sources_.begin() + static_cast<std::ptrdiff_t>(head_));
+        head_ = 0;
+      }
     }
   }
 }
@@ -221,39 +232,43 @@ void ShapedPieceStream::smoothed_extruder(double u0, double* out, int& degree) {
     return;
   }
   std::array<double, N> P{}, Q0{}, Q1{}, tmp{}, D0{}, D1{};
-  // Q(l0 + l1 sigma) as a polynomial in sigma (l1 is 0 or 1).
+  // Only the first qdeg + 1 coefficients of each array are written and read: every loop stops
+  // at the degree at hand (the terms above it are zeros).
+  // Q(l0 + l1 sigma) as a polynomial in sigma (l1 is 0 or 1), coefficients 0..qdeg.
   const auto at = [&](const std::array<double, N>& Q, int qdeg, double l0, double l1,
                       std::array<double, N>& r) {
     if (l1 == 0.0) {
       double v = 0.0;
       for (int k = qdeg; k >= 0; --k) v = v * l0 + Q[static_cast<std::size_t>(k)];
-      r.fill(0.0);
+      for (int k = 1; k <= qdeg; ++k) r[static_cast<std::size_t>(k)] = 0.0;
       r[0] = v;
     } else {
       taylor_shift(Q.data(), qdeg, l0, r.data());
-      for (int k = qdeg + 1; k < N; ++k) r[static_cast<std::size_t>(k)] = 0.0;
     }
   };
   // One half of the kernel over source j between the limits (a0 + a1 sigma, b0 + b1 sigma).
   const auto half = [&](const Source& s, double a0, double a1, double b0, double b1, bool left) {
     const int d = s.e_degree;
+    const int m = std::min(d + 3, N);  // coefficients of this half's terms: degree d + 2
     taylor_shift(s.e_pa.data(), d, a0 - s.t0_s, P.data());  // y = x - a0
-    Q0.fill(0.0);
-    Q1.fill(0.0);
+    Q0[0] = 0.0;
+    Q1[0] = 0.0;
+    Q1[1] = 0.0;
     for (int k = 0; k <= d; ++k) {
       Q0[static_cast<std::size_t>(k + 1)] = P[static_cast<std::size_t>(k)] / (k + 1);
       Q1[static_cast<std::size_t>(k + 2)] = P[static_cast<std::size_t>(k)] / (k + 2);
     }
     at(Q0, d + 1, b0 - a0, b1, D0);
     at(Q0, d + 1, 0.0, a1, tmp);
-    for (int k = 0; k < N; ++k) D0[static_cast<std::size_t>(k)] -= tmp[static_cast<std::size_t>(k)];
+    for (int k = 0; k <= d + 1; ++k) D0[static_cast<std::size_t>(k)] -= tmp[static_cast<std::size_t>(k)];
+    D0[static_cast<std::size_t>(d + 2)] = 0.0;
     at(Q1, d + 2, b0 - a0, b1, D1);
     at(Q1, d + 2, 0.0, a1, tmp);
-    for (int k = 0; k < N; ++k) D1[static_cast<std::size_t>(k)] -= tmp[static_cast<std::size_t>(k)];
+    for (int k = 0; k < m; ++k) D1[static_cast<std::size_t>(k)] -= tmp[static_cast<std::size_t>(k)];
     // left: weight x - t + h = y + (cL - sigma); right: t + h - x = -y + (cR + sigma).
     const double sign = left ? 1.0 : -1.0;
     const double c = left ? a0 - u0 + h : u0 + h - a0;
-    for (int k = 0; k < N; ++k) {
+    for (int k = 0; k < m; ++k) {
       const auto kk = static_cast<std::size_t>(k);
       out[k] += sign * D1[kk] + c * D0[kk] - (k > 0 ? sign * D0[kk - 1] : 0.0);
     }

@@ -35,9 +35,9 @@ double peval_d(const double* c, int deg, double x, double& d) {
 }
 
 /// The root of c in [a, b] where it changes sign (fa = c(a), fa * c(b) < 0): safeguarded
-/// Newton, to round-off.
-double bracket_root(const double* c, int deg, double a, double b, double fa) {
-  double x = 0.5 * (a + b);
+/// Newton from x (in (a, b); the midpoint when it is not), to round-off.
+double bracket_root(const double* c, int deg, double a, double b, double fa, double x) {
+  if (!(x > a && x < b)) x = 0.5 * (a + b);
   for (int it = 0; it < 200; ++it) {
     double d = 0.0;
     const double f = peval_d(c, deg, x, d);
@@ -84,14 +84,17 @@ void roots_rec(const double* c, int deg, double a, double b, double* out, int& n
     const double y = i < m ? crit[i] : b;
     const double fy = peval(c, deg, y);
     if (fx == 0.0 && x > a) out[n++] = x;
-    else if ((fx < 0.0 && fy > 0.0) || (fx > 0.0 && fy < 0.0)) out[n++] = bracket_root(c, deg, x, y, fx);
+    else if ((fx < 0.0 && fy > 0.0) || (fx > 0.0 && fy < 0.0)) {
+      out[n++] = bracket_root(c, deg, x, y, fx, 0.5 * (x + y));
+    }
     x = y;
     fx = fy;
   }
 }
 
-/// tau in [lo, b] where the polynomial (monotone there, in direction dir) reaches `level`.
-double crossing(const double* p, int deg, double lo, double b, double level, int dir) {
+/// tau in [lo, b] where the polynomial (monotone there, in direction dir) reaches `level`;
+/// pb = p(b).
+double crossing(const double* p, int deg, double lo, double b, double pb, double level, int dir) {
   double tau = lo;
   if (deg <= 0) return lo;
   if (deg == 1) {
@@ -109,10 +112,20 @@ double crossing(const double* p, int deg, double lo, double b, double level, int
     double g[kMaxDegree + 1];
     for (int k = 0; k <= deg; ++k) g[k] = p[k];
     g[0] -= level;
-    const double ga = peval(g, deg, lo);
+    // g, g' and g''/2 at lo in one Horner pass.
+    double ga = 0.0, g1 = 0.0, g2 = 0.0;
+    for (int k = deg; k >= 0; --k) {
+      g2 = g2 * lo + g1;
+      g1 = g1 * lo + ga;
+      ga = ga * lo + g[k];
+    }
     if (dir * ga >= 0.0) return lo;
-    if (dir * peval(g, deg, b) <= 0.0) return b;
-    tau = bracket_root(g, deg, lo, b, ga);
+    if (dir * (pb - level) <= 0.0) return b;
+    // Steps are close together: the root of g's quadratic Taylor polynomial at lo (the
+    // cancellation-free form of the degree-2 case) starts Newton next to the root.
+    const double B = dir * g1, A = dir * g2, D = -dir * ga;
+    const double den = B + std::sqrt(std::max(0.0, B * B + 4.0 * A * D));
+    tau = bracket_root(g, deg, lo, b, ga, den > 0.0 ? lo + 2.0 * D / den : b);
   }
   return std::clamp(tau, lo, b);
 }
@@ -342,6 +355,18 @@ void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) 
   if (deg == 0) return;
   const double L = piece.duration_s;
   const double step = motor.step_distance.value;
+  {
+    // Most shaped pieces are short: when the motor cannot reach the next half-step level
+    // either way (|p(tau) - p(0)| <= sum |c_k| L^k), it takes no step on this piece.
+    double reach = 0.0, Lk = 1.0;
+    for (int k = 1; k <= deg; ++k) {
+      Lk *= L;
+      reach += std::abs(p[k]) * Lk;
+    }
+    const double at0 = (p[0] - st.origin) / step, span = reach / step;
+    const double n = static_cast<double>(st.n), margin = 1e-6;
+    if (at0 + span + margin < n + 0.5 && at0 - span - margin > n - 0.5) return;
+  }
   bounds_.assign(1, 0.0);
   double d[kMaxDegree];
   for (int k = 0; k < deg; ++k) d[k] = (k + 1) * p[k + 1];
@@ -349,16 +374,17 @@ void ShapedStepGenerator::linear_piece(std::uint32_t c, const AxisPiece& piece) 
   bounds_.push_back(L);
   for (std::size_t i = 0; i + 1 < bounds_.size(); ++i) {
     const double a = bounds_[i], b = bounds_[i + 1];
-    const double ub = (peval(p, deg, b) - st.origin) / step;
+    const double pb = peval(p, deg, b);
+    const double ub = (pb - st.origin) / step;
     double lo = a;
     while (static_cast<double>(st.n) + 0.5 <= ub) {
       const double level = st.origin + (static_cast<double>(st.n) + 0.5) * step;
-      lo = crossing(p, deg, lo, b, level, 1);
+      lo = crossing(p, deg, lo, b, pb, level, 1);
       record(c, piece.t0_s + lo, 1);
     }
     while (static_cast<double>(st.n) - 0.5 >= ub) {
       const double level = st.origin + (static_cast<double>(st.n) - 0.5) * step;
-      lo = crossing(p, deg, lo, b, level, -1);
+      lo = crossing(p, deg, lo, b, pb, level, -1);
       record(c, piece.t0_s + lo, -1);
     }
   }

@@ -95,7 +95,8 @@ TEST(MachineToml, UnsupportedKinematicsSaysSo) {
   EXPECT_EQ(parse_error("[printer]\nkinematics = \"polr\"\n"),
             "m.toml:2:14: printer.kinematics: found 'polr', expected one of cartesian, corexy, "
             "corexz, hybrid_corexy, hybrid_corexz, delta, none, winch, deltesian, "
-            "generic_cartesian, polar, rotary_delta; did you mean 'polar'?");
+            "generic_cartesian, polar, rotary_delta, limited_cartesian, limited_corexy, "
+            "limited_corexz; did you mean 'polar'?");
   EXPECT_EQ(parse_error("[printer]\nfirmware = \"marlinn\"\n"),
             "m.toml:2:12: printer.firmware: found 'marlinn', expected one of klipper, marlin, "
             "reprap; did you mean 'marlin'?");

@@ -18,6 +18,7 @@
 #include "amctl/steppers/shaped_steps.hpp"
 #include "amctl/steppers/steps.hpp"
 #include "amctl/trajectory/trajectory.hpp"
+#include "pressure_advance_reference.hpp"
 #include "step_run.hpp"
 
 namespace amctl::steppers {
@@ -152,44 +153,10 @@ void check_against_sampling(const ShapedRun& r, const Machine& m, const shaping:
   }
 }
 
-// Pressure advance's extruder position by quadrature: the triangle-weighted mean of
-// e + pa v_e (pa only on moves extruding while moving in X or Y) over [t - h, t + h], each
-// stretch between the plan's piece breaks integrated by 5-point Gauss-Legendre (exact for
-// the polynomial degrees of the plan), the plan read through trajectory::Trajectory.
+// Pressure advance's extruder position by quadrature (pressure_advance_reference.hpp), with
+// one advance for every move.
 double extruder_by_quadrature(const trajectory::Trajectory& traj, double pa, double h, double t) {
-  std::vector<double> br{t - h, t, t + h};
-  std::array<plan::PathPiece, 7> pieces{};
-  for (const plan::PlannedMove& mv : traj.moves()) {
-    if (mv.end_time_s() < t - h || mv.start_time_s > t + h) continue;
-    double at = mv.start_time_s;
-    br.push_back(at);
-    const std::size_t n = trajectory::move_pieces(mv, pieces);
-    for (std::size_t i = 0; i < n; ++i) br.push_back(at += pieces[i].duration_s);
-  }
-  std::sort(br.begin(), br.end());
-  const double x5[] = {0.0, -0.5384693101056831, 0.5384693101056831, -0.9061798459386640,
-                       0.9061798459386640};
-  const double w5[] = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665,
-                       0.2369268850561891, 0.2369268850561891};
-  double sum = 0.0;
-  for (std::size_t i = 0; i + 1 < br.size(); ++i) {
-    const double a = std::max(br[i], t - h), b = std::min(br[i + 1], t + h);
-    if (!(b > a)) continue;
-    const double mid = 0.5 * (a + b);
-    bool advance = false;
-    for (const plan::PlannedMove& mv : traj.moves()) {
-      if (mv.start_time_s <= mid && mid < mv.end_time_s()) {
-        advance = !mv.extrude_only && mv.axes_r[3] > 0.0 && (mv.axes_r[0] != 0.0 || mv.axes_r[1] != 0.0);
-      }
-    }
-    for (int k = 0; k < 5; ++k) {
-      const double x = mid + 0.5 * (b - a) * x5[k];
-      const trajectory::AxisState st = traj.evaluate(x);
-      const double e = st.pos_mm[3] + (advance ? pa * st.vel_mm_s[3] : 0.0);
-      sum += 0.5 * (b - a) * w5[k] * (h - std::abs(x - t)) * e;
-    }
-  }
-  return sum / (h * h);
+  return test::extruder_by_quadrature(traj, traj.moves(), [pa](std::size_t) { return pa; }, h, t);
 }
 
 // The extruder's steps on their levels of the quadrature, and its step count at samples.

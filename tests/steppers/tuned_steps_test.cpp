@@ -25,6 +25,7 @@
 #include "amctl/shaping/shaper.hpp"
 #include "amctl/steppers/shaped_steps.hpp"
 #include "amctl/trajectory/trajectory.hpp"
+#include "pressure_advance_reference.hpp"
 
 namespace amctl::steppers {
 namespace {
@@ -103,43 +104,11 @@ double motor_at(std::uint32_t c, const std::array<double, 4>& p) {
   return p[c];
 }
 
-// The extruder of stretch s at t by quadrature between the plan's breaks.
+// The extruder of stretch s at t by quadrature (pressure_advance_reference.hpp), each move
+// with the advance it was queued under.
 double extruder_at(const Stretch& s, const trajectory::Trajectory& traj, double t) {
-  const double h = s.half_smooth_s;
-  if (h == 0.0) return traj.evaluate(t).pos_mm[3];
-  std::vector<double> br{t - h, t, t + h};
-  std::array<plan::PathPiece, 7> pieces{};
-  for (const plan::PlannedMove& mv : s.moves) {
-    double at = mv.start_time_s;
-    br.push_back(at);
-    const std::size_t n = trajectory::move_pieces(mv, pieces);
-    for (std::size_t i = 0; i < n; ++i) br.push_back(at += pieces[i].duration_s);
-  }
-  std::sort(br.begin(), br.end());
-  const double x5[] = {0.0, -0.5384693101056831, 0.5384693101056831, -0.9061798459386640,
-                       0.9061798459386640};
-  const double w5[] = {0.5688888888888889, 0.4786286704993665, 0.4786286704993665,
-                       0.2369268850561891, 0.2369268850561891};
-  double sum = 0.0;
-  for (std::size_t i = 0; i + 1 < br.size(); ++i) {
-    const double a = std::max(br[i], t - h), b = std::min(br[i + 1], t + h);
-    if (!(b > a)) continue;
-    const double mid = 0.5 * (a + b);
-    double pa = 0.0;
-    for (std::size_t j = 0; j < s.moves.size(); ++j) {
-      const plan::PlannedMove& mv = s.moves[j];
-      if (mv.start_time_s <= mid && mid < mv.end_time_s() && !mv.extrude_only &&
-          mv.axes_r[3] > 0.0 && (mv.axes_r[0] != 0.0 || mv.axes_r[1] != 0.0)) {
-        pa = s.advance[j];
-      }
-    }
-    for (int k = 0; k < 5; ++k) {
-      const double x = mid + 0.5 * (b - a) * x5[k];
-      const trajectory::AxisState st = traj.evaluate(x);
-      sum += 0.5 * (b - a) * w5[k] * (h - std::abs(x - t)) * (st.pos_mm[3] + pa * st.vel_mm_s[3]);
-    }
-  }
-  return sum / (h * h);
+  return test::extruder_by_quadrature(traj, s.moves, [&s](std::size_t j) { return s.advance[j]; },
+                                      s.half_smooth_s, t);
 }
 
 // Splits the run at its flush events, with the settings each stretch had (written out from

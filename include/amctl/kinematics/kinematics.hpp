@@ -108,6 +108,9 @@ struct Context {
 struct MoveGeometry {
   std::array<double, 4> start{}, end{}, d{};
   double distance_mm = 0.0;
+  /// The toolhead's limits in force (Klipper's toolhead.get_max_velocity(): max_velocity and
+  /// max_accel as SET_VELOCITY_LIMIT and M204 left them).
+  double toolhead_velocity_mm_s = 0.0, toolhead_accel_mm_s2 = 0.0;
 };
 
 /// The first place a move leaves the build volume (Klipper: "Move out of range").
@@ -128,6 +131,9 @@ struct MoveRules {
   /// The kinematics checks moves itself (check_range, limit_move): delta, deltesian, polar,
   /// rotary delta.
   bool special = false;
+  /// The kinematics lowers each kinematic move's velocity and accel itself (limit_move) while
+  /// its ranges stay the inline ones above: the per-axis limits of the limited kinematics.
+  bool limits_speed = false;
 };
 
 /// Where G28 leaves the toolhead.

@@ -15,6 +15,9 @@
 #include "amctl/kinematics/generic_cartesian.hpp"
 #include "amctl/kinematics/hybrid_corexy.hpp"
 #include "amctl/kinematics/hybrid_corexz.hpp"
+#include "amctl/kinematics/limited_cartesian.hpp"
+#include "amctl/kinematics/limited_corexy.hpp"
+#include "amctl/kinematics/limited_corexz.hpp"
 #include "amctl/kinematics/none.hpp"
 #include "amctl/kinematics/polar.hpp"
 #include "amctl/kinematics/rotary_delta.hpp"
@@ -24,7 +27,8 @@ namespace amctl::kinematics {
 
 /// Every kinematics, in the order amctl lists them.
 using Params = std::variant<Cartesian, CoreXY, CoreXZ, HybridCoreXY, HybridCoreXZ, Delta, None,
-                            Winch, Deltesian, GenericCartesian, Polar, RotaryDelta>;
+                            Winch, Deltesian, GenericCartesian, Polar, RotaryDelta,
+                            LimitedCartesian, LimitedCoreXY, LimitedCoreXZ>;
 
 /// Klipper's name of the kinematics held.
 [[nodiscard]] std::string_view name_of(const Params& p);

@@ -22,7 +22,6 @@
 // absorbs it per motor.
 #include <array>
 #include <cstddef>
-#include <deque>
 #include <limits>
 #include <vector>
 
@@ -95,7 +94,9 @@ class ShapedPieceStream {
   void generate(std::vector<AxisPiece>& out, bool final);
   /// Pressure advance's extruder over the piece starting at u0 (coefficients in tau).
   void smoothed_extruder(double u0, double* out, int& degree);
-  [[nodiscard]] const Source& source(std::size_t index) const { return sources_[index - base_]; }
+  [[nodiscard]] const Source& source(std::size_t index) const {
+    return sources_[head_ + (index - base_)];
+  }
 
   std::vector<Tap> taps_;
   PressureAdvance pa_;
@@ -112,8 +113,11 @@ class ShapedPieceStream {
   } smooth_cache_;
   double max_delay_s_ = 0.0;
   double min_delay_s_ = 0.0;
-  std::deque<Source> sources_;
-  std::size_t base_ = 0;     ///< absolute index of sources_.front()
+  /// The sources still read, from sources_[head_] on (a queue over a vector: the front is
+  /// dropped by moving head_, and the dropped ones erased once they are half of it).
+  std::vector<Source> sources_;
+  std::size_t head_ = 0;
+  std::size_t base_ = 0;     ///< absolute index of sources_[head_]
   bool started_ = false;
   double out_t_s_ = 0.0;     ///< start of the next shaped piece
   std::array<double, 4> offset_mm_{};
