@@ -44,7 +44,7 @@ const std::vector<KeyDef>& key_table() {
         list += i == 0 ? "" : i + 1 == names.size() ? " or " : ", ";
         list += names[i];
       }
-      return list + " (Klipper's kinematics of those names; per-axis limits apply to X, Y, Z, E "
+      return list + " (Klipper's kinematics of those names, the limited_* ones Kalico's; per-axis limits apply to X, Y, Z, E "
                     "of the tool).";
     }();
     add({"printer", "kinematics", Kind::kinematics, Bound::finite, "", kinematics_doc});
