@@ -4,6 +4,8 @@
 // move reaches v; see kinematics_test.cpp). The printer.cfg options and their checks.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -115,8 +117,18 @@ TEST(LimitedCoreXZ, PerAxisLimitsWithToolheadDefaults) {
   EXPECT_NEAR(time_of(m, "G1 Z20 F6000\n"), trapezoid_s(20, 10, 100), 1e-9);
 }
 
-std::string write_cfg(const std::string& name, const std::string& printer_extra) {
-  const auto path = std::filesystem::temp_directory_path() / ("amctl_" + name + ".cfg");
+// A printer.cfg of the named kinematics, loaded from a file of this process (tests run in
+// parallel) that is removed once read.
+machine::Machine load_cfg(const std::string& name, const std::string& printer_extra) {
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("amctl_limited_test_" + std::to_string(::getpid()) + "_" + name + ".cfg");
+  struct Remove {
+    std::filesystem::path p;
+    ~Remove() {
+      std::error_code ec;
+      std::filesystem::remove(p, ec);
+    }
+  } remove{path};
   std::ofstream(path) << "[printer]\nkinematics: " << name
                       << "\nmax_velocity: 200\nmax_accel: 3000\n" << printer_extra
                       << "\n[stepper_x]\nstep_pin: a\ndir_pin: b\nrotation_distance: 40\n"
@@ -125,17 +137,17 @@ std::string write_cfg(const std::string& name, const std::string& printer_extra)
                          "microsteps: 16\nposition_endstop: 0\nposition_max: 200\n"
                          "[stepper_z]\nstep_pin: a\ndir_pin: b\nrotation_distance: 8\n"
                          "microsteps: 16\nposition_endstop: 0\nposition_max: 200\n";
-  return path.string();
+  return machine::load_machine(path.string());
 }
 
 TEST(LimitedKinematics, ReadFromPrinterCfg) {
-  const auto m = machine::load_machine(write_cfg(
+  const auto m = load_cfg(
       "limited_cartesian", "max_x_velocity: 100\nmax_y_velocity: 50\nmax_x_accel: 2000\n"
-                           "max_y_accel: 1000\nscale_xy_accel: False\nminimum_cruise_ratio: 0.5"));
+                           "max_y_accel: 1000\nscale_xy_accel: False\nminimum_cruise_ratio: 0.5");
   EXPECT_NEAR(time_of(m, "G28\nG1 X100 Y100 F12000\n"),
               trapezoid_s(100 * std::sqrt(2.0), 50 * std::sqrt(2.0), 1000 * std::sqrt(2.0)), 1e-9);
-  const auto xy = machine::load_machine(
-      write_cfg("limited_corexy", "max_x_accel: 2000\nmax_y_accel: 1000\nscale_xy_accel: true"));
+  const auto xy =
+      load_cfg("limited_corexy", "max_x_accel: 2000\nmax_y_accel: 1000\nscale_xy_accel: true");
   const double d = 100 * std::sqrt(2.0);
   EXPECT_NEAR(time_of(xy, "G28\nG1 X100 Y100 F12000\n"), trapezoid_s(d, d, 10 * d), 1e-9);
 }
@@ -143,19 +155,17 @@ TEST(LimitedKinematics, ReadFromPrinterCfg) {
 TEST(LimitedKinematics, BadOptionsNameTheirPlace) {
   // limited_cartesian refuses a velocity above max_velocity (Kalico's maxval).
   try {
-    (void)machine::load_machine(write_cfg("limited_cartesian", "max_x_velocity: 250"));
+    (void)load_cfg("limited_cartesian", "max_x_velocity: 250");
     FAIL() << "accepted";
   } catch (const Error& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(":5:"), std::string::npos) << what;
     EXPECT_NE(what.find("max_x_velocity"), std::string::npos) << what;
   }
-  EXPECT_THROW((void)machine::load_machine(write_cfg("limited_corexy", "max_x_accel: -1")), Error);
-  EXPECT_THROW((void)machine::load_machine(write_cfg("limited_corexy", "scale_xy_accel: maybe")),
-               Error);
+  EXPECT_THROW((void)load_cfg("limited_corexy", "max_x_accel: -1"), Error);
+  EXPECT_THROW((void)load_cfg("limited_corexy", "scale_xy_accel: maybe"), Error);
   // limited_corexy has no per-axis velocity: an unknown option as in Kalico.
-  EXPECT_THROW((void)machine::load_machine(write_cfg("limited_corexy", "max_x_velocity: 100")),
-               Error);
+  EXPECT_THROW((void)load_cfg("limited_corexy", "max_x_velocity: 100"), Error);
 }
 
 }  // namespace
