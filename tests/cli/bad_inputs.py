@@ -1272,6 +1272,15 @@ R4 += [
 ]
 CASES += R4
 
+# Motor datasheet keys: a physical range per unit (core/quantity.cpp), so 1e308 or 1e-300 (a typo,
+# a unit mix-up) is refused at its key, not simulated.
+for key in ("run_current", "supply_voltage", "holding_torque", "rated_current", "phase_resistance",
+            "phase_inductance", "rotor_inertia", "detent_torque"):
+    for value in ("1e308", "1e-300"):
+        CASES.append(case(f"toml_motor_{key}_{value}", ["machine", "show", "m.toml"],
+                          {"m.toml": f"[stepper_x]\n{key} = {value}\n"},
+                          f"m.toml:2:{len(key) + 4}"))
+
 
 def says_found_and_expected(message):
     """'..., expected ...' or '... must be ..., got/found ...'."""
