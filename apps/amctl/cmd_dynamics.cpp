@@ -281,7 +281,9 @@ void register_dynamics(CLI::App& app) {
   sim->add_option("--mode", a->model.modes,
                   "a vibration mode 'f_hz,damping_ratio[,participation]' of X and Y (repeatable; replaces the belt flags)");
   sim->add_option("--sample-rate-hz", a->rate_hz, "simulation output rate [Hz] (default 1000)");
-  sim->add_option("--csv", a->csv, "write commanded and simulated path to this CSV file");
+  sim->add_option("--csv", a->csv,
+                  "write commanded and simulated path to this CSV file (a name ending in .npy: "
+                  "numpy's binary format, the same columns at full precision)");
   sim->add_option("--csv-rate-hz", a->csv_rate_hz, "CSV row rate [Hz]; must divide the sample rate");
   sim->add_option("--t-begin", a->t_begin, "only measure/write from this print time [s]");
   sim->add_option("--t-end", a->t_end, "only measure/write up to this print time [s]");

@@ -67,6 +67,21 @@ def test_compensate_npy_holds_the_csv_to_its_nine_decimals(cli, source_dir, tmp_
         assert np.max(np.abs(arr[name] - df[name].to_numpy())) <= 5.1e-10, name
 
 
+def test_simulate_npy_holds_the_csv_to_its_printed_digits(cli, source_dir, tmp_path):
+    df, arr = _both(cli, tmp_path, ["simulate", source_dir / "examples" / "30_belt_corner.gcode",
+                                    "--machine", source_dir / "examples" / "30_belt_corner_printer.cfg",
+                                    "--natural-frequency-hz", "40"], "--csv")
+    assert list(arr.dtype.names) == list(df.columns)
+    assert len(arr) == len(df) > 100
+    assert np.array_equal(arr["line"], df["line"].to_numpy().astype(np.uint64))
+    # The CSV prints 6 decimals (z 4); the contour error and vibration 6 significant digits.
+    for name in ("t_s", "cmd_x_mm", "cmd_y_mm", "sim_x_mm", "sim_y_mm"):
+        assert np.max(np.abs(arr[name] - df[name].to_numpy())) <= 5.1e-7, name
+    assert np.max(np.abs(arr["cmd_z_mm"] - df["cmd_z_mm"].to_numpy())) <= 5.1e-5
+    for name in ("contour_error_mm", "vibration_mm"):
+        assert np.allclose(arr[name], df[name].to_numpy(), rtol=5e-6, atol=1e-12), name
+
+
 def test_a_pipe_is_refused_for_npy_and_nothing_is_written(source_dir, tmp_path):
     import os
     exe = os.environ.get("AMCTL_CLI", str(source_dir / "build" / "release" / "apps" / "amctl" / "amctl"))

@@ -3,12 +3,15 @@
 //   t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,sim_x_mm,sim_y_mm,contour_error_mm,vibration_mm,line
 // one row every `decimation`-th sample inside the measured range, written through
 // amctl::OutputFile: a regular file appears at commit() whole or not at all (an error never
-// leaves half a CSV behind); "-", a device or a FIFO is streamed.
+// leaves half a CSV behind); "-", a device or a FIFO is streamed. A path ending in ".npy" is
+// written as numpy's .npy format instead (core/table_output.hpp): the same columns as fields,
+// float64 at full precision, `line` uint64.
 #include <cstddef>
 #include <optional>
 #include <string>
 
 #include "amctl/core/output.hpp"
+#include "amctl/core/table_output.hpp"
 #include "amctl/dynamics/simulate.hpp"
 
 namespace amctl::dynamics {
@@ -33,7 +36,8 @@ class SampleCsvFile {
   void commit();
 
  private:
-  OutputFile out_;
+  std::optional<OutputFile> csv_;
+  std::optional<NpyTable> npy_;
   std::size_t decimation_;
   std::size_t k_ = 0;
 };
