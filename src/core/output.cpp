@@ -310,8 +310,12 @@ void OutputFile::fail(const std::string& what, int err) {
 
 void OutputFile::write_fd(const char* data, std::size_t n) {
   if (stdout_) std::fflush(stdout);  // what std::cout/printf wrote comes first
+  write_all(data, n, -1);
+}
+
+void OutputFile::write_all(const char* data, std::size_t n, long long at) {
   while (n > 0) {
-    const ssize_t w = ::write(fd_, data, n);
+    const ssize_t w = at < 0 ? ::write(fd_, data, n) : ::pwrite(fd_, data, n, static_cast<off_t>(at));
     if (w < 0) {
       if (errno == EINTR) continue;
       fail("writing", errno);
@@ -319,7 +323,11 @@ void OutputFile::write_fd(const char* data, std::size_t n) {
     if (w == 0) fail("writing", EIO);
     data += w;
     n -= static_cast<std::size_t>(w);
-    flushed_ += static_cast<std::uint64_t>(w);
+    if (at < 0) {
+      flushed_ += static_cast<std::uint64_t>(w);
+    } else {
+      at += w;
+    }
   }
 }
 
@@ -355,20 +363,7 @@ void OutputFile::overwrite_at(std::uint64_t offset, std::string_view replacement
               "OutputFile::overwrite_at on a streamed, committed or failed output");
   AMCTL_CHECK(offset + replacement.size() <= bytes(), "OutputFile::overwrite_at past the end");
   flush();
-  const char* data = replacement.data();
-  std::size_t n = replacement.size();
-  auto at = static_cast<off_t>(offset);
-  while (n > 0) {
-    const ssize_t w = ::pwrite(fd_, data, n, at);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      fail("writing", errno);
-    }
-    if (w == 0) fail("writing", EIO);
-    data += w;
-    n -= static_cast<std::size_t>(w);
-    at += w;
-  }
+  write_all(replacement.data(), replacement.size(), static_cast<long long>(offset));
 }
 
 void OutputFile::commit() {

@@ -88,6 +88,8 @@ class OutputFile {
   void write_slow(std::string_view bytes);
   void flush();
   void write_fd(const char* data, std::size_t n);
+  /// Writes all n bytes at the file's position (at < 0; counted in bytes()) or at offset `at`.
+  void write_all(const char* data, std::size_t n, long long at);
   [[noreturn]] void fail(const std::string& what, int err);
   void discard() noexcept;
 
